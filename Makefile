@@ -1,0 +1,38 @@
+# Everything needs only CPython (>= 3.11) and pip: the first target that needs the
+# environment creates .venv and installs the project into it.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: setup audit test test-thorough lesson bench lint clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+audit: $(STAMP)          ## the main job: audit models/arm7.xml (the lesson's six tables first)
+	$(BIN)/redundancy audit
+
+test: $(STAMP)           ## the default (fast) suite, as CI runs it
+	$(BIN)/python -m pytest
+
+test-thorough: $(STAMP)  ## >= 1000 hypothesis examples per property, plus the slow sweeps
+	HYPOTHESIS_PROFILE=thorough REDUNDANCY_SLOW=1 $(BIN)/python -m pytest -m "slow or not slow"
+
+lesson: $(STAMP)
+	$(BIN)/python scripts/l5_2_seven_dof.py
+
+bench: $(STAMP)
+	$(BIN)/python scripts/bench.py
+
+lint: $(STAMP)
+	$(BIN)/ruff check src tests scripts
+	$(BIN)/ruff format --check src tests scripts
+
+clean:
+	rm -rf $(VENV) build dist .pytest_cache .hypothesis

@@ -1,0 +1,57 @@
+"""redundancy: analysis of redundant (7-DOF) arms, every number from MuJoCo and Pinocchio.
+
+Example:
+    >>> import redundancy as rd
+    >>> arm = rd.load(rd.model_path("arm7"), site="ee")
+    >>> arm.svd(arm.keyframe("zero")).rank
+    3
+"""
+
+from __future__ import annotations
+
+from .arm import Arm, Bridge, load, load_string
+from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
+from .equivalence import Difference, EquivalenceReport, compare_models
+from .errors import (
+    MissingDependencyError,
+    ModelError,
+    OutOfRangeError,
+    PoseError,
+    RedundancyError,
+    UnknownNameError,
+    UnsupportedFeatureError,
+)
+from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
+from .linalg import JacobianSVD, Manipulability
+from .models import model_path
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "TOLERANCES",
+    "Agreement",
+    "Arm",
+    "Bridge",
+    "CrossCheckReport",
+    "Difference",
+    "EquivalenceReport",
+    "JacobianSVD",
+    "Manipulability",
+    "MissingDependencyError",
+    "ModelError",
+    "OutOfRangeError",
+    "PoseError",
+    "RedundancyError",
+    "UnknownNameError",
+    "UnsupportedFeatureError",
+    "__version__",
+    "compare_models",
+    "crosscheck",
+    "load",
+    "load_string",
+    "max_stable_kd",
+    "max_stable_timestep",
+    "model_path",
+    "reflected_inertia",
+    "rotor_inertia",
+]

@@ -1,0 +1,386 @@
+"""Loading one MJCF file into both engines, and the :class:`Arm` that holds them.
+
+The loader refuses what the two engines cannot be shown to agree on (see
+:func:`check_supported`) and bridges what Pinocchio's MJCF parser does not read, recording
+each bridge so that reports can say so.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import linalg
+from .errors import ModelError, OutOfRangeError, PoseError, UnknownNameError, UnsupportedFeatureError
+from .mujoco_engine import MujocoEngine, actuator_armature, joint_force_limits
+from .pinocchio_engine import PinocchioEngine, joint_kind
+
+Array = NDArray[np.float64]
+EngineName = Literal["mujoco", "pinocchio"]
+ENGINES: tuple[EngineName, ...] = ("mujoco", "pinocchio")
+
+_JOINT_TYPES = {
+    mujoco.mjtJoint.mjJNT_HINGE: "hinge",
+    mujoco.mjtJoint.mjJNT_SLIDE: "slide",
+    mujoco.mjtJoint.mjJNT_BALL: "ball",
+    mujoco.mjtJoint.mjJNT_FREE: "free",
+}
+
+
+@dataclass(frozen=True)
+class Bridge:
+    """A value Pinocchio's MJCF parser does not read, copied from MuJoCo's compiled model.
+
+    Attributes:
+        quantity: What was bridged, e.g. ``"effort limit"``.
+        joint: Joint it applies to.
+        value: The value given to Pinocchio [N m, kg m^2...].
+        source: Where in MuJoCo's model it came from.
+    """
+
+    quantity: str
+    joint: str
+    value: float
+    source: str
+
+
+def _names(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int) -> list[str]:
+    return [mujoco.mj_id2name(model, obj, i) or "" for i in range(n)]
+
+
+def check_supported(model: mujoco.MjModel, xml_root: ET.Element | None = None) -> None:
+    """Raise :class:`UnsupportedFeatureError` for anything the engines may not agree on.
+
+    Supported: one fixed-base serial or branching tree of named hinge and slide joints, one
+    joint per body, primitive geoms, sites, actuators on joints (bridged), keyframes.
+
+    Args:
+        model: MuJoCo's compiled model.
+        xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
+    """
+    if model.njnt == 0:
+        raise UnsupportedFeatureError("no joints", "model", "an arm needs at least one hinge or slide joint")
+    names = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    for j in range(model.njnt):
+        kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
+        where = f"joint {names[j]!r}" if names[j] else f"joint #{j}"
+        if kind in ("ball", "free"):
+            raise UnsupportedFeatureError(
+                f"{kind} joint", where, "only hinge and slide joints are supported (a fixed-base arm)"
+            )
+        if not names[j]:
+            raise UnsupportedFeatureError(
+                "unnamed joint", where, "joints are matched across engines by name; name every joint"
+            )
+    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    for b in range(model.nbody):
+        if model.body_jntnum[b] > 1:
+            raise UnsupportedFeatureError(
+                "several joints in one body",
+                f"body {bodies[b]!r}",
+                "Pinocchio's MJCF parser merges them into one joint; give each joint its own body",
+            )
+    roots = {int(model.body_rootid[model.jnt_bodyid[j]]) for j in range(model.njnt)}
+    if len(roots) > 1:
+        raise UnsupportedFeatureError(
+            "several kinematic trees",
+            "bodies " + ", ".join(repr(bodies[r]) for r in sorted(roots)),
+            "the library handles one arm: a single root body carrying all joints",
+        )
+    for what, count in (("tendon", model.ntendon), ("equality constraint", model.neq)):
+        if count:
+            raise UnsupportedFeatureError(
+                what, f"{count} in the model", "Pinocchio's MJCF parser does not read it"
+            )
+    for g in range(model.ngeom):
+        if model.geom_type[g] in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF, mujoco.mjtGeom.mjGEOM_HFIELD):
+            gname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
+            raise UnsupportedFeatureError(
+                "mesh, sdf or height-field geom",
+                f"geom {gname!r}",
+                "Pinocchio's MJCF parser gives meshes a placeholder inertia; use primitive geoms",
+            )
+    if xml_root is not None and xml_root.find(".//frame") is not None:
+        raise UnsupportedFeatureError(
+            "<frame> element", "worldbody", "Pinocchio's MJCF parser drops the contents of <frame>"
+        )
+
+
+class Arm:
+    """One MJCF arm loaded into MuJoCo and Pinocchio, with joints matched by name.
+
+    Build it with :func:`load` or :func:`load_string`. Joint order is MuJoCo's.
+
+    Attributes:
+        mujoco: The MuJoCo engine wrapper.
+        pinocchio: The Pinocchio engine wrapper (with bridged effort limits and armature).
+        site: Name of the tool site.
+        joint_names: Joint names, in order.
+        joint_types: ``"hinge"`` or ``"slide"`` per joint.
+        lower: Lower joint limits (``-inf`` where unlimited) [rad or m].
+        upper: Upper joint limits (``inf`` where unlimited) [rad or m].
+        effort_limit: Motor limit per joint from MuJoCo's actuators [N m or N].
+        bridges: What was copied from MuJoCo into Pinocchio, one entry per value.
+        source: The file the model came from, or ``"<string>"``.
+    """
+
+    def __init__(
+        self,
+        mj_model: mujoco.MjModel,
+        pin_model: object,
+        site: str,
+        source: str,
+    ) -> None:
+        sites = _names(mj_model, mujoco.mjtObj.mjOBJ_SITE, mj_model.nsite)
+        if site not in sites:
+            raise UnknownNameError("site", site, [s for s in sites if s])
+        self.source = source
+        self.site = site
+        self.joint_names = tuple(_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT, mj_model.njnt))
+        self.joint_types = tuple(_JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type)
+        self.nq = mj_model.nq
+        limited = mj_model.jnt_limited.astype(bool)
+        self.lower = np.where(limited, mj_model.jnt_range[:, 0], -np.inf)
+        self.upper = np.where(limited, mj_model.jnt_range[:, 1], np.inf)
+        self.effort_limit = joint_force_limits(mj_model)
+        self.mujoco = MujocoEngine(mj_model, site)
+        self._check_pinocchio(pin_model)
+        self.bridges = self._bridge(pin_model, mj_model)
+        self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names)  # type: ignore[arg-type]
+
+    # -- construction helpers ------------------------------------------------------------
+    def _check_pinocchio(self, pm: object) -> None:
+        import pinocchio as pin
+
+        assert isinstance(pm, pin.Model)
+        pin_joints = [pm.names[j] for j in range(1, pm.njoints)]
+        missing = [n for n in self.joint_names if n not in pin_joints]
+        if missing or pm.nq != self.nq or pm.nv != self.nq:
+            raise UnsupportedFeatureError(
+                "joint structure Pinocchio reads differently",
+                f"MuJoCo joints {list(self.joint_names)}, Pinocchio joints {pin_joints} "
+                f"(nq {pm.nq}, nv {pm.nv})",
+                "the engines must see the same joints",
+            )
+        if self.site not in [f.name for f in pm.frames]:
+            raise UnsupportedFeatureError(
+                "site Pinocchio does not read", f"site {self.site!r}", "Pinocchio has no frame of that name"
+            )
+        for n in self.joint_names:
+            kind = joint_kind(pm.joints[pm.getJointId(n)])
+            if kind not in ("hinge", "slide"):
+                raise UnsupportedFeatureError(
+                    f"Pinocchio joint type {kind}", f"joint {n!r}", "expected a 1-dof revolute or prismatic joint"
+                )
+
+    def _bridge(self, pm: object, mm: mujoco.MjModel) -> tuple[Bridge, ...]:
+        """Copy what Pinocchio's MJCF parser leaves out from MuJoCo's compiled model."""
+        bridges: list[Bridge] = []
+        extra = actuator_armature(mm)
+        for i, name in enumerate(self.joint_names):
+            k = pm.joints[pm.getJointId(name)].idx_v  # type: ignore[attr-defined]
+            if np.isfinite(self.effort_limit[i]):
+                pm.effortLimit[k] = self.effort_limit[i]  # type: ignore[attr-defined]
+                bridges.append(Bridge("effort limit", name, float(self.effort_limit[i]), "actuator ctrlrange/forcerange x gear"))
+            if extra[i] != 0.0:
+                pm.armature[k] += extra[i]  # type: ignore[attr-defined]
+                bridges.append(Bridge("actuator armature", name, float(extra[i]), "gear^2 x actuator armature"))
+        return tuple(bridges)
+
+    # -- names, keyframes and poses --------------------------------------------------------
+    @property
+    def mj_model(self) -> mujoco.MjModel:
+        """MuJoCo's compiled model (shared, do not modify)."""
+        return self.mujoco.model
+
+    @property
+    def keyframes(self) -> dict[str, Array]:
+        """Keyframe name -> joint configuration [rad or m]."""
+        m = self.mj_model
+        return {
+            (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) or f"key{k}"): m.key_qpos[k].copy()
+            for k in range(m.nkey)
+        }
+
+    def keyframe(self, name: str) -> Array:
+        """Joint configuration of a named keyframe [rad or m]."""
+        keys = self.keyframes
+        if name not in keys:
+            raise UnknownNameError("keyframe", name, list(keys))
+        return keys[name]
+
+    def joint_index(self, name: str) -> int:
+        """Index of a joint in the library's order."""
+        if name not in self.joint_names:
+            raise UnknownNameError("joint", name, self.joint_names)
+        return self.joint_names.index(name)
+
+    def engine(self, name: EngineName) -> MujocoEngine | PinocchioEngine:
+        """The wrapper of one engine, by name."""
+        if name == "mujoco":
+            return self.mujoco
+        if name == "pinocchio":
+            return self.pinocchio
+        raise UnknownNameError("engine", str(name), ENGINES)
+
+    def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
+        """Validate a joint configuration and return it as a float64 array of shape (nq,).
+
+        Args:
+            q: Joint values in the order of :attr:`joint_names` [rad or m].
+            check_range: Also require every value inside its joint's range (within ``tol``).
+            tol: Slack on the range check [rad or m].
+
+        Raises:
+            PoseError: Wrong shape or type, NaN or infinite values.
+            OutOfRangeError: A value outside its range (only with ``check_range``).
+        """
+        try:
+            arr = np.asarray(q, dtype=np.float64)
+        except (TypeError, ValueError) as err:
+            raise PoseError(f"pose must be numeric, got {type(q).__name__}: {err}") from err
+        if arr.shape != (self.nq,):
+            raise PoseError(
+                f"pose must have shape ({self.nq},) for joints {list(self.joint_names)}, got shape {arr.shape}"
+            )
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            which = [f"{self.joint_names[i]}={arr[i]}" for i in np.flatnonzero(bad)]
+            raise PoseError(f"pose has non-finite values: {', '.join(which)}")
+        if check_range:
+            for i in range(self.nq):
+                if not (self.lower[i] - tol <= arr[i] <= self.upper[i] + tol):
+                    raise OutOfRangeError(self.joint_names[i], float(arr[i]), float(self.lower[i]), float(self.upper[i]))
+        return arr
+
+    # -- quantities, from either engine -----------------------------------------------------
+    def site_pose(self, q: ArrayLike, engine: EngineName = "mujoco") -> tuple[Array, Array]:
+        """Tool site position [m] and rotation matrix, world frame."""
+        return self.engine(engine).site_pose(self.pose(q))
+
+    def jacobian(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
+        """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
+        return self.engine(engine).site_jacobian(self.pose(q))
+
+    def svd(self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL) -> linalg.JacobianSVD:
+        """SVD of the site Jacobian, with rank, lost directions and condition number."""
+        return linalg.jacobian_svd(self.jacobian(q, engine), rtol)
+
+    def manipulability(self, q: ArrayLike, length: float = 1.0, engine: EngineName = "mujoco") -> linalg.Manipulability:
+        """Yoshikawa's measure of J, its position and orientation blocks, and J scaled by ``length`` [m]."""
+        return linalg.manipulability(self.jacobian(q, engine), length)
+
+    def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
+        """d sqrt(det(J J^T)) / dq from the engine's second-order kinematics, shape (nq,)."""
+        q = self.pose(q)
+        eng = self.engine(engine)
+        return linalg.manipulability_gradient(eng.site_jacobian(q), eng.jacobian_derivatives(q))
+
+    def nullspace_projector(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
+        """N = I - J^+ J at ``q``, shape (nq, nq)."""
+        return linalg.nullspace_projector(self.jacobian(q, engine))
+
+    def nullspace_basis(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
+        """Orthonormal basis of J's null space at ``q``, shape (nq, nq - rank)."""
+        return linalg.nullspace_basis(self.jacobian(q, engine))
+
+    def mass_matrix(self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco") -> Array:
+        """Joint-space mass matrix [kg m^2], with or without armature."""
+        return self.engine(engine).mass_matrix(self.pose(q), armature)
+
+    def gravity(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
+        """Gravity torque the motors must supply to hold ``q`` [N m or N]."""
+        return self.engine(engine).gravity(self.pose(q))
+
+    def armature(self, engine: EngineName = "mujoco") -> Array:
+        """Armature per joint as the engine's mass matrix sees it [kg m^2]."""
+        if engine == "pinocchio":
+            return np.asarray(self.pinocchio.model.armature)[self.pinocchio.perm].copy()
+        return self.engine(engine).armature.copy()  # type: ignore[union-attr]
+
+    def damping(self) -> Array:
+        """Joint damping b per joint (MuJoCo's dof_damping) [N m s/rad]."""
+        return self.mj_model.dof_damping.copy()
+
+    def __repr__(self) -> str:
+        return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"
+
+
+def _read_mujoco(xml: str | None, path: Path | None) -> mujoco.MjModel:
+    try:
+        if path is not None:
+            return mujoco.MjModel.from_xml_path(str(path))
+        return mujoco.MjModel.from_xml_string(xml or "")
+    except (ValueError, TypeError) as err:
+        raise ModelError(f"MuJoCo could not compile the model: {err}") from err
+
+
+def _read_pinocchio(path: Path) -> object:
+    import pinocchio as pin
+
+    try:
+        return pin.buildModelFromMJCF(str(path))
+    except Exception as err:  # Pinocchio raises bare RuntimeError/ValueError from C++.
+        raise ModelError(f"Pinocchio could not read the model: {err}") from err
+
+
+def _xml_root(text: str) -> ET.Element:
+    try:
+        return ET.fromstring(text)
+    except ET.ParseError as err:
+        raise ModelError(f"not well-formed XML: {err}") from err
+
+
+def load(path: str | os.PathLike[str], site: str = "ee") -> Arm:
+    """Load an MJCF file into MuJoCo and Pinocchio.
+
+    Args:
+        path: MJCF file.
+        site: Name of the tool site.
+
+    Raises:
+        ModelError: The file is missing, not XML, or an engine cannot compile it.
+        UnsupportedFeatureError: The model uses something the engines may not agree on.
+        UnknownNameError: ``site`` is not a site of the model (the message lists them).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"MJCF file not found: {str(p)!r}")
+    root = _xml_root(p.read_text())
+    if root.find(".//include") is not None:
+        raise UnsupportedFeatureError(
+            "<include> element", str(p), "Pinocchio's MJCF parser does not follow includes; inline the file"
+        )
+    mj = _read_mujoco(None, p)
+    check_supported(mj, root)
+    return Arm(mj, _read_pinocchio(p), site, str(p))
+
+
+def load_string(xml: str, site: str = "ee") -> Arm:
+    """Load MJCF text into MuJoCo and Pinocchio (see :func:`load`).
+
+    The text is written to a temporary file for Pinocchio, whose parser reads files, so it
+    must not refer to other files (meshes, includes) by relative path.
+    """
+    if not isinstance(xml, str):
+        raise ModelError(f"MJCF text must be a str, got {type(xml).__name__}")
+    root = _xml_root(xml)
+    if root.find(".//include") is not None:
+        raise UnsupportedFeatureError(
+            "<include> element", "<string>", "Pinocchio's MJCF parser does not follow includes; inline the file"
+        )
+    mj = _read_mujoco(xml, None)
+    check_supported(mj, root)
+    with tempfile.TemporaryDirectory() as tmp:
+        p = Path(tmp) / "model.xml"
+        p.write_text(xml)
+        pm = _read_pinocchio(p)
+    return Arm(mj, pm, site, "<string>")

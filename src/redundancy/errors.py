@@ -1,0 +1,95 @@
+"""The library's exceptions: one root, subclasses that carry the offending values.
+
+Every error a user can trigger with a model, a name or a pose is a :class:`RedundancyError`,
+so ``except RedundancyError`` is enough; engine exceptions are re-raised as one of these with
+the original kept as ``__cause__``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+
+class RedundancyError(Exception):
+    """Root of every exception raised by this library."""
+
+
+class ModelError(RedundancyError):
+    """The MJCF could not be read or compiled (malformed XML, missing file, bad values)."""
+
+
+class UnsupportedFeatureError(ModelError):
+    """The model uses a feature that the two engines cannot be shown to agree on.
+
+    Attributes:
+        feature: Short name of the feature, e.g. ``"ball joint"``.
+        where: The element that uses it, e.g. ``"joint 'shoulder'"``.
+    """
+
+    def __init__(self, feature: str, where: str, why: str) -> None:
+        self.feature = feature
+        self.where = where
+        super().__init__(f"unsupported feature: {feature} ({where}): {why}")
+
+
+class UnknownNameError(RedundancyError, KeyError):
+    """A site, joint, body, geom or keyframe name that the model does not have.
+
+    Attributes:
+        kind: What was looked up (``"site"``, ``"joint"``...).
+        name: The name asked for.
+        valid: The names the model has, in model order.
+    """
+
+    def __init__(self, kind: str, name: str, valid: Sequence[str]) -> None:
+        self.kind = kind
+        self.name = name
+        self.valid = tuple(valid)
+        super().__init__(kind, name)
+
+    def __str__(self) -> str:
+        choices = ", ".join(repr(v) for v in self.valid) if self.valid else "none"
+        return f"unknown {self.kind} {self.name!r}; valid {self.kind} names: [{choices}]"
+
+
+class PoseError(RedundancyError, ValueError):
+    """A joint configuration of the wrong shape or type, or with NaN or infinite values."""
+
+
+class OutOfRangeError(PoseError):
+    """A joint value outside the joint's range.
+
+    Attributes:
+        joint: Joint name.
+        value: The offending value [rad or m].
+        lower: Lower limit [rad or m].
+        upper: Upper limit [rad or m].
+    """
+
+    def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
+        self.joint = joint
+        self.value = value
+        self.lower = lower
+        self.upper = upper
+        super().__init__(
+            f"joint {joint!r} = {value:.6g} is outside its range [{lower:.6g}, {upper:.6g}]"
+        )
+
+
+class MissingDependencyError(RedundancyError, ImportError):
+    """An optional dependency is not installed; the message says how to install it."""
+
+    def __init__(self, module: str, extra: str) -> None:
+        self.module = module
+        self.extra = extra
+        super().__init__(
+            f"{module} is required for this feature; install it with "
+            f"`pip install 'redundancy[{extra}]'`"
+        )
+
+
+def closest(name: str, valid: Iterable[str]) -> list[str]:
+    """Return the valid names closest to ``name`` (for "did you mean" hints)."""
+    import difflib
+
+    return difflib.get_close_matches(name, list(valid), n=3)

@@ -1,0 +1,197 @@
+"""Engine-agnostic maths on a Jacobian or a mass matrix: SVD, manipulability, null spaces.
+
+Nothing here knows about MuJoCo or Pinocchio; every function takes plain arrays, so the
+same code serves both engines and users' own matrices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+#: Relative tolerance for the numerical rank: sigma_i counts when sigma_i > RANK_RTOL * sigma_max.
+RANK_RTOL = 1e-9
+
+#: Names of the six rows of a site Jacobian (linear, then angular, world axes).
+TOOL_DIRECTIONS = (
+    "translation x",
+    "translation y",
+    "translation z",
+    "rotation x",
+    "rotation y",
+    "rotation z",
+)
+
+
+@dataclass(frozen=True)
+class JacobianSVD:
+    """Singular value decomposition J = U diag(sigma) V^T of a 6 x n site Jacobian.
+
+    Attributes:
+        sigma: Singular values, descending, shape (6,) [mixed units: m/rad and rad/rad].
+        U: Tool directions, columns, shape (6, 6).
+        V: Joint directions, columns, shape (n, n).
+        rank: Number of sigma_i > rtol * sigma_max.
+        rtol: Relative tolerance used for the rank.
+    """
+
+    sigma: Array
+    U: Array
+    V: Array
+    rank: int
+    rtol: float
+
+    @property
+    def condition(self) -> float:
+        """sigma_max / sigma_min (``inf`` at a singular pose)."""
+        return float(self.sigma[0] / self.sigma[-1]) if self.sigma[-1] > 0 else float("inf")
+
+    @property
+    def manipulability(self) -> float:
+        """Yoshikawa's measure, the product of the singular values."""
+        return float(np.prod(self.sigma))
+
+    @property
+    def lost_directions(self) -> Array:
+        """Tool directions the arm cannot move along: columns of U past the rank, shape (6, k)."""
+        return self.U[:, self.rank :]
+
+    def lost_direction_names(self, atol: float = 1e-6) -> list[str]:
+        """Name the lost tool directions when they span coordinate axes (as at arm7's zero pose).
+
+        A coordinate direction e_i is lost when it lies in the span of the lost columns of U
+        (its projection onto that span has unit norm to ``atol``).
+
+        Returns:
+            The names from :data:`TOOL_DIRECTIONS` that are lost, in row order.
+        """
+        lost = self.lost_directions
+        return [
+            TOOL_DIRECTIONS[i]
+            for i in range(lost.shape[0])
+            if abs(np.linalg.norm(lost[i]) - 1.0) < atol
+        ]
+
+
+def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
+    """SVD of a Jacobian with its numerical rank.
+
+    Args:
+        J: Jacobian, shape (m, n).
+        rtol: Relative rank tolerance (singular values below ``rtol * sigma_max`` are zero).
+    """
+    U, s, Vt = np.linalg.svd(J)
+    rank = int(np.sum(s > rtol * s[0])) if s[0] > 0 else 0
+    return JacobianSVD(sigma=s, U=U, V=Vt.T, rank=rank, rtol=rtol)
+
+
+@dataclass(frozen=True)
+class Manipulability:
+    """Yoshikawa's manipulability sqrt(det(J J^T)) of the whole Jacobian and of its blocks.
+
+    Singular values of the full J mix m/rad and rad/rad, so ``full`` depends on the unit of
+    length; ``position`` and ``orientation`` do not mix units, and ``scaled`` divides the
+    position rows by a characteristic length of the task, making every row rad/rad.
+
+    Attributes:
+        full: sqrt(det(J J^T)) of the 6 x n Jacobian [mixed units].
+        position: Same for the 3 linear rows [m^3/rad^3].
+        orientation: Same for the 3 angular rows [dimensionless].
+        scaled: Same for J with its linear rows divided by ``length`` [dimensionless].
+        length: The characteristic length used for ``scaled`` [m].
+    """
+
+    full: float
+    position: float
+    orientation: float
+    scaled: float
+    length: float
+
+
+def yoshikawa(J: Array) -> float:
+    """sqrt(det(J J^T)), computed as the product of singular values (exact 0 when rank-deficient)."""
+    return float(np.prod(np.linalg.svd(J, compute_uv=False)))
+
+
+def manipulability(J: Array, length: float = 1.0) -> Manipulability:
+    """Yoshikawa's measure for the full Jacobian, its blocks and a length-scaled J.
+
+    Args:
+        J: Site Jacobian, shape (6, n): linear rows first.
+        length: Characteristic length [m] that turns m/rad into rad/rad.
+    """
+    if not length > 0:
+        from .errors import RedundancyError
+
+        raise RedundancyError(f"characteristic length must be > 0 m, got {length!r}")
+    scaled = np.vstack([J[:3] / length, J[3:]])
+    return Manipulability(
+        full=yoshikawa(J),
+        position=yoshikawa(J[:3]),
+        orientation=yoshikawa(J[3:]),
+        scaled=yoshikawa(scaled),
+        length=float(length),
+    )
+
+
+def manipulability_gradient(J: Array, dJ: Array) -> Array:
+    """Gradient of w = sqrt(det(J J^T)) with respect to q.
+
+    d w / d q_k = w * trace((J J^T)^-1 (dJ_k J^T)), with dJ_k = dJ/dq_k; zero where w = 0
+    (the measure is not differentiable through rank loss).
+
+    Args:
+        J: Jacobian, shape (m, n), full row rank for a non-zero gradient.
+        dJ: Its partial derivatives, shape (n, m, n): dJ[k] = dJ/dq_k.
+
+    Returns:
+        Gradient, shape (n,).
+    """
+    A = J @ J.T
+    w = yoshikawa(J)
+    if w == 0.0 or np.linalg.cond(A) > 1e14:
+        return np.zeros(J.shape[1])
+    X = np.linalg.solve(A, J)  # (J J^T)^-1 J
+    return w * np.einsum("kmn,mn->k", dJ, X)
+
+
+def nullspace_projector(J: Array, rtol: float = RANK_RTOL) -> Array:
+    """Orthogonal projector onto the null space of J: N = I - J^+ J (symmetric, idempotent)."""
+    return np.eye(J.shape[1]) - np.linalg.pinv(J, rcond=rtol) @ J
+
+
+def nullspace_basis(J: Array, rtol: float = RANK_RTOL) -> Array:
+    """Orthonormal basis of the null space of J, columns, shape (n, n - rank)."""
+    s = jacobian_svd(J, rtol)
+    return s.V[:, s.rank :]
+
+
+def damped_pinv(J: Array, damping: float) -> Array:
+    """Damped least-squares inverse J^T (J J^T + lambda^2 I)^-1, bounded near singular poses.
+
+    Args:
+        J: Jacobian, shape (m, n).
+        damping: lambda [same unit as the singular values]; 0 gives the plain pseudo-inverse
+            of a full-row-rank J.
+    """
+    m = J.shape[0]
+    return J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(m), np.eye(m))
+
+
+def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
+    """Dynamically consistent null-space projector N = I - J_bar J (Khatib), J_bar = M^-1 J^T Lambda.
+
+    Torques projected by N^T produce no tool acceleration. Requires J of full row rank.
+
+    Args:
+        J: Jacobian, shape (m, n).
+        M: Joint-space mass matrix, shape (n, n), symmetric positive definite.
+    """
+    Minv_Jt = np.linalg.solve(M, J.T)
+    Lambda = np.linalg.inv(J @ Minv_Jt)
+    J_bar = Minv_Jt @ Lambda
+    return np.eye(J.shape[1]) - J_bar @ J
