@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import linalg
 from .errors import ModelError, OutOfRangeError, PoseError, UnknownNameError, UnsupportedFeatureError
-from .mujoco_engine import MujocoEngine, actuator_armature, joint_force_limits
+from .mujoco_engine import MujocoEngine, actuator_armature, actuator_damping, joint_force_limits
 from .pinocchio_engine import PinocchioEngine, joint_kind
 
 Array = NDArray[np.float64]
@@ -48,15 +48,24 @@ class Bridge:
 
     quantity: str
     joint: str
-    value: float
+    value: float | tuple[float, ...]
     source: str
+
+    @property
+    def value_text(self) -> str:
+        """The value, formatted compactly."""
+        if isinstance(self.value, tuple):
+            return "(" + ", ".join(f"{v:g}" for v in self.value) + ")"
+        return f"{self.value:g}"
 
 
 def _names(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int) -> list[str]:
     return [mujoco.mj_id2name(model, obj, i) or "" for i in range(n)]
 
 
-def check_supported(model: mujoco.MjModel, xml_root: ET.Element | None = None) -> None:
+def check_supported(
+    model: mujoco.MjModel, xml_root: ET.Element | None = None, strict: bool = True
+) -> None:
     """Raise :class:`UnsupportedFeatureError` for anything the engines may not agree on.
 
     Supported: one fixed-base serial or branching tree of named hinge and slide joints, one
@@ -65,6 +74,10 @@ def check_supported(model: mujoco.MjModel, xml_root: ET.Element | None = None) -
     Args:
         model: MuJoCo's compiled model.
         xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
+        strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed
+            fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle). With
+            ``strict=False`` such a model loads and :func:`redundancy.compare_models` shows
+            the differences; what Pinocchio cannot represent at all is refused either way.
     """
     if model.njnt == 0:
         raise UnsupportedFeatureError("no joints", "model", "an arm needs at least one hinge or slide joint")
@@ -100,6 +113,24 @@ def check_supported(model: mujoco.MjModel, xml_root: ET.Element | None = None) -
             raise UnsupportedFeatureError(
                 what, f"{count} in the model", "Pinocchio's MJCF parser does not read it"
             )
+    root_bodies = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
+    if len(root_bodies) > 1:
+        raise UnsupportedFeatureError(
+            "several root bodies",
+            "bodies " + ", ".join(repr(bodies[r]) for r in root_bodies),
+            "Pinocchio's MJCF parser reads only the first body in <worldbody>; nest them in one body",
+        )
+    if not strict:
+        return
+    root = root_bodies[0]
+    posed = np.any(model.body_pos[root] != 0) or np.any(model.body_quat[root] != [1, 0, 0, 0])
+    if model.body_jntnum[root] == 0 and posed:
+        raise UnsupportedFeatureError(
+            "fixed root body with a pose",
+            f"body {bodies[root]!r}",
+            "Pinocchio's MJCF parser drops the pose of a root body without joints; move its pos/quat "
+            "to its children",
+        )
     for g in range(model.ngeom):
         if model.geom_type[g] in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF, mujoco.mjtGeom.mjGEOM_HFIELD):
             gname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
@@ -108,7 +139,32 @@ def check_supported(model: mujoco.MjModel, xml_root: ET.Element | None = None) -
                 f"geom {gname!r}",
                 "Pinocchio's MJCF parser gives meshes a placeholder inertia; use primitive geoms",
             )
-    if xml_root is not None and xml_root.find(".//frame") is not None:
+    if xml_root is not None:
+        _check_xml(xml_root)
+
+
+def _check_xml(root: ET.Element) -> None:
+    """Refuse MJCF spellings that Pinocchio's parser reads differently from MuJoCo."""
+    compiler = root.find("compiler")
+    seq = compiler.get("eulerseq", "xyz") if compiler is not None else "xyz"
+    if seq != seq.lower():
+        raise UnsupportedFeatureError(
+            "extrinsic eulerseq", f"<compiler eulerseq={seq!r}>", "Pinocchio's MJCF parser reads it as intrinsic"
+        )
+    for el in root.iter():
+        aa = el.get("axisangle")
+        if aa is not None:
+            try:
+                axis = np.array([float(x) for x in aa.split()[:3]])
+            except ValueError:
+                continue  # MuJoCo has already rejected it
+            if abs(np.linalg.norm(axis) - 1.0) > 1e-9:
+                raise UnsupportedFeatureError(
+                    "axisangle with a non-unit axis",
+                    f"<{el.tag} name={el.get('name', '')!r} axisangle={aa!r}>",
+                    "Pinocchio's MJCF parser does not normalise the axis; write a unit axis",
+                )
+    if root.find(".//frame") is not None:
         raise UnsupportedFeatureError(
             "<frame> element", "worldbody", "Pinocchio's MJCF parser drops the contents of <frame>"
         )
@@ -182,18 +238,76 @@ class Arm:
                 )
 
     def _bridge(self, pm: object, mm: mujoco.MjModel) -> tuple[Bridge, ...]:
-        """Copy what Pinocchio's MJCF parser leaves out from MuJoCo's compiled model."""
+        """Copy into Pinocchio what its MJCF parser leaves out or reads differently.
+
+        Each value is compared first and copied only when Pinocchio's differs, so the list
+        says exactly where the engines would otherwise have seen different arms.
+        """
+        import pinocchio as pin
+
+        assert isinstance(pm, pin.Model)
         bridges: list[Bridge] = []
-        extra = actuator_armature(mm)
+        armature = mm.dof_armature + actuator_armature(mm)
+        damping = mm.dof_damping + actuator_damping(mm)
         for i, name in enumerate(self.joint_names):
-            k = pm.joints[pm.getJointId(name)].idx_v  # type: ignore[attr-defined]
-            if np.isfinite(self.effort_limit[i]):
-                pm.effortLimit[k] = self.effort_limit[i]  # type: ignore[attr-defined]
-                bridges.append(Bridge("effort limit", name, float(self.effort_limit[i]), "actuator ctrlrange/forcerange x gear"))
-            if extra[i] != 0.0:
-                pm.armature[k] += extra[i]  # type: ignore[attr-defined]
-                bridges.append(Bridge("actuator armature", name, float(extra[i]), "gear^2 x actuator armature"))
+            k = pm.joints[pm.getJointId(name)].idx_v
+            lim = self.effort_limit[i]
+            if pm.effortLimit[k] != lim:
+                pm.effortLimit[k] = lim
+                bridges.append(Bridge("effort limit", name, float(lim), "actuator ctrlrange/forcerange x gear"))
+            if pm.armature[k] != armature[i]:
+                bridges.append(Bridge("armature", name, float(armature[i]), "dof armature + gear^2 x actuator armature"))
+                pm.armature[k] = armature[i]
+            if pm.damping[k] != damping[i]:
+                bridges.append(Bridge("damping", name, float(damping[i]), "dof damping + gear^2 x actuator damping"))
+                pm.damping[k] = damping[i]
+            rng = (float(self.lower[i]), float(self.upper[i]))
+            if (pm.lowerPositionLimit[k], pm.upperPositionLimit[k]) != rng:
+                bridges.append(Bridge("joint range", name, rng, "jnt_range and jnt_limited"))
+                pm.lowerPositionLimit[k], pm.upperPositionLimit[k] = rng
+        g = mm.opt.gravity.copy()
+        if not np.array_equal(pm.gravity.linear, g):
+            bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), "<option gravity>"))
+            pm.gravity = pin.Motion(g, np.zeros(3))
+        bridges += self._bridge_site(pm, mm)
         return tuple(bridges)
+
+    def _bridge_site(self, pm: object, mm: mujoco.MjModel) -> list[Bridge]:
+        """Fix the site frame's placement when only the site itself is misplaced.
+
+        Pinocchio's parser ignores site defaults (``<default><site pos=.../>``). When the
+        site's body sits where MuJoCo puts it but the site does not, the site's placement in
+        its body is copied from MuJoCo; a misplaced body is left alone, for the equivalence
+        report to show.
+        """
+        import pinocchio as pin
+
+        assert isinstance(pm, pin.Model)
+        data = mujoco.MjData(mm)
+        mujoco.mj_kinematics(mm, data)
+        pd = pm.createData()
+        q = np.zeros(pm.nq)
+        for i, name in enumerate(self.joint_names):
+            q[pm.joints[pm.getJointId(name)].idx_q] = mm.qpos0[i]
+        pin.framesForwardKinematics(pm, pd, q)
+        sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, self.site)
+        fid = pm.getFrameId(self.site)
+        site_mj = pin.SE3(data.site_xmat[sid].reshape(3, 3).copy(), data.site_xpos[sid].copy())
+        if np.max(np.abs((site_mj.inverse() * pd.oMf[fid]).homogeneous - np.eye(4))) < 1e-12:
+            return []
+        body = mm.site_bodyid[sid]
+        bname = mujoco.mj_id2name(mm, mujoco.mjtObj.mjOBJ_BODY, body) or ""
+        body_mj = pin.SE3(data.xmat[body].reshape(3, 3).copy(), data.xpos[body].copy())
+        if not pm.existFrame(bname):
+            return []
+        bf = pm.getFrameId(bname)
+        if np.max(np.abs((body_mj.inverse() * pd.oMf[bf]).homogeneous - np.eye(4))) > 1e-12:
+            return []
+        frame = pm.frames[fid]
+        joint_pose = pd.oMi[frame.parentJoint]
+        frame.placement = joint_pose.inverse() * site_mj
+        pm.frames[fid] = frame
+        return [Bridge("site placement", self.site, tuple(float(x) for x in mm.site_pos[sid]), "site_pos and site_quat (site defaults)")]
 
     # -- names, keyframes and poses --------------------------------------------------------
     @property
@@ -307,8 +421,8 @@ class Arm:
         return self.engine(engine).armature.copy()  # type: ignore[union-attr]
 
     def damping(self) -> Array:
-        """Joint damping b per joint (MuJoCo's dof_damping) [N m s/rad]."""
-        return self.mj_model.dof_damping.copy()
+        """Damping b per joint: dof damping plus gear^2 x actuator damping [N m s/rad]."""
+        return self.mj_model.dof_damping + actuator_damping(self.mj_model)
 
     def __repr__(self) -> str:
         return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"
@@ -339,12 +453,13 @@ def _xml_root(text: str) -> ET.Element:
         raise ModelError(f"not well-formed XML: {err}") from err
 
 
-def load(path: str | os.PathLike[str], site: str = "ee") -> Arm:
+def load(path: str | os.PathLike[str], site: str = "ee", strict: bool = True) -> Arm:
     """Load an MJCF file into MuJoCo and Pinocchio.
 
     Args:
         path: MJCF file.
         site: Name of the tool site.
+        strict: Refuse features Pinocchio reads differently (see :func:`check_supported`).
 
     Raises:
         ModelError: The file is missing, not XML, or an engine cannot compile it.
@@ -360,11 +475,11 @@ def load(path: str | os.PathLike[str], site: str = "ee") -> Arm:
             "<include> element", str(p), "Pinocchio's MJCF parser does not follow includes; inline the file"
         )
     mj = _read_mujoco(None, p)
-    check_supported(mj, root)
+    check_supported(mj, root, strict)
     return Arm(mj, _read_pinocchio(p), site, str(p))
 
 
-def load_string(xml: str, site: str = "ee") -> Arm:
+def load_string(xml: str, site: str = "ee", strict: bool = True) -> Arm:
     """Load MJCF text into MuJoCo and Pinocchio (see :func:`load`).
 
     The text is written to a temporary file for Pinocchio, whose parser reads files, so it
@@ -378,7 +493,7 @@ def load_string(xml: str, site: str = "ee") -> Arm:
             "<include> element", "<string>", "Pinocchio's MJCF parser does not follow includes; inline the file"
         )
     mj = _read_mujoco(xml, None)
-    check_supported(mj, root)
+    check_supported(mj, root, strict)
     with tempfile.TemporaryDirectory() as tmp:
         p = Path(tmp) / "model.xml"
         p.write_text(xml)

@@ -79,8 +79,8 @@ class EquivalenceReport:
         for b in self.bridges:
             by_kind.setdefault(b.quantity, []).append(b)
         for kind, items in by_kind.items():
-            vals = ", ".join(f"{b.joint}={b.value:g}" for b in items)
-            out.append(f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does not read it): {vals}")
+            vals = ", ".join(f"{b.joint}={b.value_text}" for b in items)
+            out.append(f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does not read it as MuJoCo does): {vals}")
         return out
 
 
@@ -136,7 +136,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         cmp("joint range", n, np.array([arm.lower[i], arm.upper[i]]), np.array([lo_p[i], hi_p[i]]))
     cmp_vec = [
         ("armature", arm.armature("mujoco"), arm.armature("pinocchio")),
-        ("damping", arm.mj_model.dof_damping, np.asarray(pm.damping)[pn.perm]),
+        ("damping", arm.damping(), np.asarray(pm.damping)[pn.perm]),
         ("effort limit", arm.effort_limit, np.asarray(pm.effortLimit)[pn.perm]),
     ]
     for quantity, a, b in cmp_vec:

@@ -7,6 +7,8 @@ orders coincide).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
@@ -62,6 +64,16 @@ def actuator_armature(model: mujoco.MjModel) -> Array:
         if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
             dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
             extra[dof] += model.actuator_gear[a, 0] ** 2 * model.actuator_armature[a]
+    return extra
+
+
+def actuator_damping(model: mujoco.MjModel) -> Array:
+    """Damping that actuators add to each dof: ``gear^2 * actuator_damping`` [N m s/rad]."""
+    extra = np.zeros(model.nv)
+    for a in range(model.nu):
+        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
+            dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
+            extra[dof] += model.actuator_gear[a, 0] ** 2 * model.actuator_damping[a]
     return extra
 
 
@@ -185,3 +197,71 @@ class MujocoEngine:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
         self._kinematics(q)
         return self.data.xaxis.copy(), self.data.xanchor.copy()
+
+
+def batch(engine: MujocoEngine, fn: str, qs: Array) -> Array:
+    """Evaluate one of the engine's per-pose methods over a stack of poses, shape (n, ...)."""
+    f = getattr(engine, fn)
+    return np.stack([f(q) for q in qs])
+
+
+@dataclass(frozen=True)
+class HoldResult:
+    """Peak joint speeds while a controller holds a pose in simulation.
+
+    Attributes:
+        peak_speed: Largest |qvel| per joint over the run [rad/s or m/s].
+        bad_qacc_warnings: MuJoCo's count of bad-acceleration warnings (NaN/huge qacc, after
+            which it resets the simulation).
+    """
+
+    peak_speed: Array
+    bad_qacc_warnings: int
+
+
+def simulate_hold(
+    model: mujoco.MjModel,
+    target: Array,
+    kp: float,
+    kd: float,
+    seconds: float,
+    nudge: float = 0.01,
+    gravity_compensation: bool = True,
+    record_from: float = 0.0,
+) -> HoldResult:
+    """Hold ``target`` with tau = qfrc_bias + kp (q* - q) - kd qdot, written to ``ctrl``.
+
+    The run starts at ``target`` with every joint speed set to ``nudge``. The controller's
+    torque is clamped by the actuators' ctrlrange, as MuJoCo does.
+
+    Args:
+        model: Model to simulate (its timestep, integrator and flags are used as they are);
+            actuator i must drive dof i with gear 1.
+        target: Pose to hold [rad].
+        kp: Stiffness [N m/rad].
+        kd: Damping gain, applied explicitly through ctrl [N m s/rad].
+        seconds: Duration [s].
+        nudge: Initial joint speed on every joint [rad/s].
+        gravity_compensation: Add qfrc_bias (gravity, Coriolis) to the command.
+        record_from: Fraction of the run after which speeds are recorded (0: every step).
+    """
+    d = mujoco.MjData(model)
+    d.qpos[:] = target
+    d.qvel[:] = nudge
+    n = round(seconds / model.opt.timestep)
+    first = record_from * n if record_from > 0 else -1
+    peak = np.zeros(model.nv)
+    for i in range(n):
+        # mj_step1 runs the position and velocity stages, so qfrc_bias is current for the
+        # state about to be integrated; mj_step2 then applies ctrl and integrates. Together
+        # they are one mj_step, without the extra mj_forward a read-then-step loop needs.
+        mujoco.mj_step1(model, d)
+        tau = d.qfrc_bias.copy() if gravity_compensation else np.zeros(model.nv)
+        if kp or kd:
+            tau += kp * (target - d.qpos) - kd * d.qvel
+        d.ctrl[:] = tau
+        mujoco.mj_step2(model, d)
+        if i > first:
+            np.maximum(peak, np.abs(d.qvel), out=peak)
+    warnings = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
+    return HoldResult(peak, warnings)

@@ -1,0 +1,59 @@
+"""Command line: ``redundancy audit [MODEL.xml]`` and ``redundancy lesson``.
+
+Heavy imports (the engines) happen inside the subcommands, so ``--help`` is instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="redundancy",
+        description="Audit a redundant arm with MuJoCo and Pinocchio, cross-checked.",
+    )
+    sub = p.add_subparsers(dest="command", required=True)
+    a = sub.add_parser("audit", help="audit an MJCF arm (default: the bundled arm7, with lesson 5.2's tables)")
+    a.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
+    a.add_argument("--site", default="ee", help="tool site name (default: ee)")
+    a.add_argument("--poses", type=int, default=10_000, help="random poses for the sweeps (default: 10000)")
+    a.add_argument("--seed", type=int, default=0, help="seed of the random poses (default: 0)")
+    a.add_argument("--json", metavar="FILE", help="also write a machine-readable report ('-' for stdout)")
+    a.add_argument("--no-lesson", action="store_true", help="skip lesson 5.2's tables for arm7")
+    les = sub.add_parser("lesson", help="print lesson 5.2's six tables for arm7")
+    les.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
+    les.add_argument("--poses", type=int, default=10_000, help="random poses for tables (3) and (4)")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``redundancy`` command.
+
+    Returns:
+        0 on success, 1 when the audit has findings, 2 on bad input.
+    """
+    args = _parser().parse_args(argv)
+    from .errors import RedundancyError
+
+    try:
+        if args.command == "lesson":
+            from . import lesson
+            from .arm import load
+            from .models import model_path
+
+            arm = load(args.model or model_path("arm7"), site="ee")
+            lesson.print_tables(arm, n_poses=args.poses)
+            return 0
+        from .audit import run_audit
+
+        return run_audit(args)
+    except RedundancyError as err:
+        print(f"redundancy: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,401 @@
+"""Is a joint-space path free of self-collision? Conservative advancement, never sampling.
+
+A path is a list of waypoints joined by straight joint-space segments
+``q(s) = q_a + s (q_b - q_a)``, ``s`` in [0, 1]. Checking a few samples can step over a
+contact; this module instead takes steps that provably cannot.
+
+**The motion bound.** Along a segment, a point ``p`` of a geom moves, relative to the body
+frame of any geom it could hit, at speed ``|v| = |sum_j J_j(p) qdot_j|``. For a hinge ``j``,
+``|J_j(p)| = |axis_j x (p - a_j)| <= |p - a_j|`` (``a_j`` a point on the axis); for a slide,
+``|J_j(p)| = 1``. The distance between a geom and joint ``j``'s anchor is bounded over every
+configuration by walking the chain of anchors from ``j`` down to the geom: two consecutive
+hinge anchors keep their distance whatever the joints do (a hinge's anchor is fixed in its
+parent's frame as well as in its own body's, so both anchors are fixed in one rigid group), a
+slide in the chain adds its travel, and the last anchor is rigidly attached to the geom, whose
+points lie within its bounding radius of its centre. So ``R_j(g) = sum |a_{k+1} - a_k| + travel + |c_g - a_last| +
+rbound_g`` bounds ``|p - a_j|`` for every point of ``g`` at every pose.
+
+**Only relative motion counts.** The distance between geoms ``g1`` (body ``b1``) and ``g2``
+(body ``b2``) depends only on the joints between their bodies: a joint upstream of both moves
+them together. With ``J(b)`` the joints from the root to ``b``, a straight step of ``ds``
+changes the pair's distance by at most ``ds * sum_j w_j |q_b,j - q_a,j|`` with ``w_j =
+R_j(g1)`` for ``j`` in ``J(b1) - J(b2)``, ``R_j(g2)`` for ``j`` in ``J(b2) - J(b1)``, 0 else.
+
+**The step.** At ``s``, with every pair's clearance ``c_p`` (distance minus contact threshold)
+known to within ``eps`` (the engines' accuracy, :data:`~redundancy.collision.AMBIGUITY_BAND`),
+no pair can reach contact before ``s + min_p (c_p - eps) / rate_p``; the checker jumps there.
+It stops at the first evaluated point whose smallest clearance is below ``tol``: either a
+contact, or a near miss within ``tol`` (it errs on the side of reporting). Since every step
+is at least ``(tol - eps) / max rate``, it always terminates.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .collision import (
+    AMBIGUITY_BAND,
+    DISTANCE_ENGINES,
+    CollisionChecker,
+    DistanceEngine,
+    GeomPair,
+    checker,
+)
+from .errors import PoseError, UnknownNameError, UnsupportedFeatureError
+
+if TYPE_CHECKING:
+    from .arm import Arm
+
+Array = NDArray[np.float64]
+
+#: Default clearance below which a path point is reported [m]: 10 um, ten times the
+#: engines' accuracy, so that steps stay long enough near grazing contacts.
+DEFAULT_TOL = 1e-5
+
+
+# ==========================================================================================
+# Motion bounds from the kinematic chain (MuJoCo's compiled model, at qpos0)
+# ==========================================================================================
+
+
+def _joint_chain(model: mujoco.MjModel, body: int) -> list[int]:
+    """Joints from the root down to ``body`` (inclusive), root first."""
+    chain: list[int] = []
+    b = body
+    while b > 0:
+        adr, num = int(model.body_jntadr[b]), int(model.body_jntnum[b])
+        chain[:0] = list(range(adr, adr + num))
+        b = int(model.body_parentid[b])
+    return chain
+
+
+def _bounding_radius(model: mujoco.MjModel, geom: int) -> float:
+    """Radius of a sphere about the geom's centre that contains the geom [m]."""
+    t = int(model.geom_type[geom])
+    s = model.geom_size[geom]
+    G = mujoco.mjtGeom
+    if t == G.mjGEOM_SPHERE:
+        return float(s[0])
+    if t == G.mjGEOM_CAPSULE:
+        return float(s[0] + s[1])
+    if t == G.mjGEOM_CYLINDER:
+        return float(np.hypot(s[0], s[1]))
+    if t == G.mjGEOM_BOX:
+        return float(np.linalg.norm(s[:3]))
+    if t == G.mjGEOM_ELLIPSOID:
+        return float(np.max(s[:3]))
+    if t == G.mjGEOM_PLANE:
+        return float("inf")
+    return float(model.geom_rbound[geom])
+
+
+def _travel(model: mujoco.MjModel, j: int) -> float:
+    """Largest displacement of a slide joint from its reference position qpos0 [m]."""
+    q0 = float(model.qpos0[model.jnt_qposadr[j]])
+    if not model.jnt_limited[j]:
+        return float("inf")
+    lo, hi = model.jnt_range[j]
+    return float(max(abs(hi - q0), abs(lo - q0)))
+
+
+def reach_bounds(model: mujoco.MjModel, geom: int) -> dict[int, float]:
+    """For every joint moving ``geom``: how fast a point of the geom can move per unit of it.
+
+    For a hinge, a bound on the distance from any point of the geom to the joint's axis,
+    valid at every configuration [m/rad]: the distance to the anchor through the chain (see
+    the module docstring), or, on the joint's own rigid body, the distance to the axis line
+    itself. For a slide, 1 [m/m]. Keys are joint ids.
+
+    Raises:
+        UnsupportedFeatureError: Ball or free joints on the chain (not bounded here).
+    """
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    # mj_kinematics at the reference pose gives the anchors (xanchor) and geom centres; the
+    # distances read from them are the pose-independent lengths of the chain.
+    mujoco.mj_kinematics(model, data)
+    chain = _joint_chain(model, int(model.geom_bodyid[geom]))
+    out: dict[int, float] = {}
+    centre = data.geom_xpos[geom]
+    tail = _bounding_radius(model, geom)
+    reach_prev = 0.0
+    for i in range(len(chain) - 1, -1, -1):
+        j = chain[i]
+        kind = int(model.jnt_type[j])
+        if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            raise UnsupportedFeatureError(
+                "ball or free joint", f"joint #{j}", "path checking bounds hinge and slide chains only"
+            )
+        if i == len(chain) - 1:
+            # The geom is rigid with this joint's body: its points' distance to the axis
+            # line is fixed, at most the centre's distance plus the bounding radius.
+            r = centre - data.xanchor[j]
+            reach = float(np.linalg.norm(r)) + tail
+            speed = float(np.linalg.norm(np.cross(data.xaxis[j], r))) + tail
+        else:
+            nxt = chain[i + 1]
+            link = float(np.linalg.norm(data.xanchor[nxt] - data.xanchor[j]))
+            if model.jnt_type[nxt] == mujoco.mjtJoint.mjJNT_SLIDE:
+                link += _travel(model, nxt)
+            reach = speed = link + reach_prev
+        out[j] = 1.0 if kind == mujoco.mjtJoint.mjJNT_SLIDE else speed
+        reach_prev = reach
+    return out
+
+
+def motion_weights(model: mujoco.MjModel, pairs: tuple[GeomPair, ...]) -> Array:
+    """Per pair, per dof: how fast the pair's distance can shrink per unit joint motion.
+
+    Row ``p`` gives ``w`` such that a straight joint step ``dq`` changes pair ``p``'s distance
+    by at most ``w @ |dq|`` [m per rad or m per m]. Joints upstream of both geoms get 0.
+
+    Raises:
+        UnsupportedFeatureError: A plane that moves relative to the geom it is paired with
+            (a plane has no bounding radius).
+    """
+    W = np.zeros((len(pairs), model.nv))
+    cache: dict[int, dict[int, float]] = {}
+    for k, p in enumerate(pairs):
+        for g in (p.geom1, p.geom2):
+            if g not in cache:
+                cache[g] = reach_bounds(model, g)
+        j1 = set(_joint_chain(model, int(model.geom_bodyid[p.geom1])))
+        j2 = set(_joint_chain(model, int(model.geom_bodyid[p.geom2])))
+        for g, own, other in ((p.geom1, j1, j2), (p.geom2, j2, j1)):
+            for j in own - other:
+                w = cache[g][j]
+                if not np.isfinite(w):
+                    raise UnsupportedFeatureError(
+                        "unbounded geom motion",
+                        f"pair {p.label}",
+                        "a moving plane or an unlimited slide has no motion bound",
+                    )
+                W[k, model.jnt_dofadr[j]] += w
+    return W
+
+
+# ==========================================================================================
+# The path checker
+# ==========================================================================================
+
+
+@dataclass(frozen=True)
+class PathContact:
+    """Where a path first meets a contact (or comes within ``tol`` of one).
+
+    Attributes:
+        segment: Index of the segment (from waypoint ``segment`` to ``segment + 1``).
+        s: Fraction along the segment of the reported point, in [0, 1].
+        q: The pose there [rad or m].
+        pair: The pair with the smallest clearance there.
+        distance: Its signed distance there [m].
+        clear_until: Fraction along the segment before which the path is proven free: the
+            first point found within ``tol`` of contact (``clear_until <= s``).
+    """
+
+    segment: int
+    s: float
+    q: Array
+    pair: GeomPair
+    distance: float
+    clear_until: float
+
+    @property
+    def touching(self) -> bool:
+        """True for a contact (distance below the pair's threshold), False for a near miss."""
+        return self.distance < self.pair.threshold
+
+    @property
+    def path_parameter(self) -> float:
+        """``segment + s``: position along the whole path, in [0, number of segments]."""
+        return self.segment + self.s
+
+
+@dataclass(frozen=True)
+class PathCheck:
+    """Result of :func:`check_path`.
+
+    Attributes:
+        free: True when no point of any segment comes within ``tol`` of a contact.
+        contact: The first contact, or near miss if no contact follows it closely (None when
+            free).
+        evaluations: Poses at which all pair distances were computed.
+        segments: Number of segments checked.
+        tol: Clearance below which a point is reported [m].
+        engine: Distance engine used.
+        min_clearance: Smallest clearance over the evaluated poses [m].
+    """
+
+    free: bool
+    contact: PathContact | None
+    evaluations: int
+    segments: int
+    tol: float
+    engine: str
+    min_clearance: float
+
+    def __str__(self) -> str:
+        if self.free:
+            return (
+                f"free: {self.segments} segments, {self.evaluations} distance evaluations, "
+                f"smallest clearance {self.min_clearance:.4g} m"
+            )
+        c = self.contact
+        assert c is not None
+        what = "contact" if c.touching else f"near miss (within {self.tol:g} m)"
+        return (
+            f"{what} {c.pair.label} at segment {c.segment}, s = {c.s:.4f} "
+            f"(distance {c.distance:.4g} m), after {self.evaluations} distance evaluations"
+        )
+
+
+class PathChecker:
+    """Conservative-advancement path checker for one arm (see the module docstring).
+
+    Args:
+        arm: The arm, or a :class:`~redundancy.collision.CollisionChecker` of it (whose pair
+            set is then used).
+
+    Attributes:
+        weights: Per pair, per dof, the bound on how fast the pair's distance shrinks per unit
+            joint motion, shape (npairs, nq) [m/rad or m/m] (see :func:`motion_weights`).
+    """
+
+    def __init__(self, arm: Arm | CollisionChecker) -> None:
+        self.checker = arm if isinstance(arm, CollisionChecker) else checker(arm)
+        self.arm = self.checker.arm
+        self.pairs = self.checker.pairs
+        self.weights = motion_weights(self.arm.mj_model, self.pairs)
+        self.thresholds = np.array([p.threshold for p in self.pairs])
+
+    def check(
+        self,
+        waypoints: ArrayLike,
+        tol: float = DEFAULT_TOL,
+        engine: DistanceEngine = "coal",
+        max_evaluations: int = 1_000_000,
+    ) -> PathCheck:
+        """Check the straight joint-space segments between consecutive waypoints.
+
+        The segments are advanced by provably safe steps until a point comes within ``tol``
+        of contact (everything before it is free). If that point is a near miss, the
+        checker then walks on in steps that move no geom by more than ``tol``, to report
+        the contact that usually follows; if none follows before the clearance exceeds
+        ``tol`` again, the near miss itself is reported. Either way the path is not free.
+
+        Args:
+            waypoints: Shape (k, nq), k >= 1 [rad or m].
+            tol: A point whose clearance is below this is reported [m]; must exceed the
+                engines' accuracy, :data:`~redundancy.collision.AMBIGUITY_BAND`.
+            engine: Distance engine, ``"coal"`` (fast) or ``"mujoco"``.
+            max_evaluations: Give up (PoseError) after this many distance evaluations.
+
+        Raises:
+            PoseError: Bad waypoints, ``tol`` too small, or the evaluation budget exhausted.
+        """
+        if engine not in DISTANCE_ENGINES:
+            raise UnknownNameError("distance engine", str(engine), DISTANCE_ENGINES)
+        eps = AMBIGUITY_BAND
+        if not tol > eps:
+            raise PoseError(f"tol must exceed the engines' accuracy {eps:g} m, got {tol!r}")
+        Q = np.asarray(waypoints, dtype=float)
+        if Q.ndim != 2 or Q.shape[0] < 1:
+            raise PoseError(
+                f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got {Q.shape}"
+            )
+        Q = np.array([self.arm.pose(q) for q in Q])
+        nseg = max(len(Q) - 1, 1)
+        thr = self.thresholds
+        evals = 0
+        min_clear = np.inf
+
+        def clearance(q: Array) -> Array:
+            nonlocal evals, min_clear
+            evals += 1
+            if evals > max_evaluations:
+                raise PoseError(f"path check gave up after {max_evaluations} distance evaluations")
+            c = self.checker.distance_values(q, engine) - thr
+            min_clear = min(min_clear, float(c.min()))
+            return c
+
+        def report(seg: int, s0: float, c: Array, rate: Array) -> PathCheck:
+            qa, qb = Q[seg], Q[min(seg + 1, len(Q) - 1)]
+            s = s0
+            if c.min() >= 0 and rate.max() > 0:
+                # Near miss: walk on in steps that move every pair by at most tol.
+                h = tol / float(rate.max())
+                cs, ss = c, s
+                while cs.min() < tol and ss < 1.0:
+                    ss = min(1.0, ss + h)
+                    cs = clearance(qa + ss * (qb - qa))
+                    if cs.min() < 0:
+                        c, s = cs, ss
+                        break
+            k = int(np.argmin(c))
+            q = qa + s * (qb - qa)
+            contact = PathContact(seg, s, q, self.pairs[k], float(c[k] + thr[k]), s0)
+            return PathCheck(False, contact, evals, nseg, tol, engine, float(min_clear))
+
+        if not self.pairs:
+            return PathCheck(True, None, 0, nseg, tol, engine, float("inf"))
+        c = clearance(Q[0])
+        if c.min() < tol:
+            dq0 = Q[1] - Q[0] if len(Q) > 1 else np.zeros(self.arm.nq)
+            return report(0, 0.0, c, self.weights @ np.abs(dq0))
+        for seg in range(len(Q) - 1):
+            qa, qb = Q[seg], Q[seg + 1]
+            dq = qb - qa
+            # Largest rate at which each pair's distance can shrink per unit s [m].
+            rate = self.weights @ np.abs(dq)
+            moving = rate > 0
+            s = 0.0
+            while s < 1.0:
+                if not moving.any():
+                    s = 1.0
+                else:
+                    # No pair can lose more than its clearance (less the engines' error)
+                    # before s + step: the largest step that cannot skip a contact.
+                    step = float(np.min((c[moving] - eps) / rate[moving]))
+                    s = min(1.0, s + step)
+                c = clearance(qa + s * dq if s < 1.0 else qb)
+                if c.min() < tol:
+                    return report(seg, s, c, rate)
+        return PathCheck(True, None, evals, nseg, tol, engine, float(min_clear))
+
+
+def check_path(
+    arm: Arm,
+    waypoints: ArrayLike,
+    tol: float = DEFAULT_TOL,
+    engine: DistanceEngine = "coal",
+) -> PathCheck:
+    """Whether the straight joint-space segments between waypoints are free of self-contact.
+
+    Uses the arm's cached pair set (see :class:`PathChecker` for the method and guarantees):
+    a contact anywhere on the path is never missed; the first point reported is at or before
+    the first real contact, and may be a near miss within ``tol`` (``contact.touching`` says).
+
+    Args:
+        arm: The arm.
+        waypoints: Shape (k, nq) [rad or m].
+        tol: Clearance below which a point is reported [m].
+        engine: ``"coal"`` or ``"mujoco"``.
+    """
+    return path_checker(arm).check(waypoints, tol, engine)
+
+
+_PATH_CHECKERS: weakref.WeakKeyDictionary[Arm, PathChecker] = weakref.WeakKeyDictionary()
+
+
+def path_checker(arm: Arm) -> PathChecker:
+    """The :class:`PathChecker` of an arm with its full pair set, built once and cached."""
+    pc = _PATH_CHECKERS.get(arm)
+    if pc is None:
+        pc = _PATH_CHECKERS[arm] = PathChecker(checker(arm))
+    return pc

@@ -1,0 +1,80 @@
+"""Hypothesis strategies and profiles for property tests of an arm, yours or ours.
+
+Example:
+    >>> from hypothesis import given
+    >>> import redundancy as rd
+    >>> from redundancy.testing import poses
+    >>> arm = rd.load("my_arm.xml", site="tool")
+    >>> @given(poses(arm))
+    ... def test_engines_agree(q):
+    ...     assert rd.crosscheck(arm, q).ok
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+try:
+    from hypothesis import HealthCheck, settings
+    from hypothesis import strategies as st
+except ImportError as err:  # pragma: no cover - exercised only without the extra
+    from .errors import MissingDependencyError
+
+    raise MissingDependencyError("hypothesis", "test") from err
+
+from .arm import Arm
+
+#: Profiles: "default" is fast enough for CI; "thorough" runs >= 1000 examples per property.
+PROFILES = {"default": 60, "thorough": 1000}
+
+
+def register_profiles() -> str:
+    """Register the "default" and "thorough" profiles and load the one in $HYPOTHESIS_PROFILE.
+
+    Returns:
+        The name of the loaded profile.
+    """
+    common = {
+        "deadline": None,  # engines warm up their caches on the first call
+        "suppress_health_check": [HealthCheck.too_slow, HealthCheck.differing_executors],
+        "derandomize": False,
+    }
+    for name, n in PROFILES.items():
+        settings.register_profile(name, max_examples=n, **common)
+    name = os.environ.get("HYPOTHESIS_PROFILE", "default")
+    if name not in PROFILES:
+        from .errors import UnknownNameError
+
+        raise UnknownNameError("hypothesis profile", name, list(PROFILES))
+    settings.load_profile(name)
+    return name
+
+
+def poses(arm: Arm, margin: float = 0.0, unlimited: float = np.pi) -> st.SearchStrategy[np.ndarray]:
+    """Joint configurations inside the joint ranges, shape (nq,), float64.
+
+    Each joint is drawn independently, so shrinking moves one joint at a time toward the
+    lower limit (or 0 for unlimited joints).
+
+    Args:
+        arm: The arm whose ranges to use.
+        margin: Keep this far inside each limit [rad or m].
+        unlimited: Half-width of the interval used for unlimited joints [rad or m].
+    """
+    lo = np.where(np.isfinite(arm.lower), arm.lower + margin, -unlimited)
+    hi = np.where(np.isfinite(arm.upper), arm.upper - margin, unlimited)
+    elements = [
+        st.floats(float(a), float(b), allow_nan=False, allow_infinity=False, width=64)
+        for a, b in zip(lo, hi, strict=True)
+    ]
+    return st.tuples(*elements).map(lambda t: np.array(t, dtype=np.float64))
+
+
+def pose_batches(arm: Arm, max_size: int = 8) -> st.SearchStrategy[np.ndarray]:
+    """Stacks of poses, shape (n, nq) with 1 <= n <= max_size."""
+    return st.lists(poses(arm), min_size=1, max_size=max_size).map(np.stack)
+
+
+__all__ = ["PROFILES", "pose_batches", "poses", "register_profiles"]

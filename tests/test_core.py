@@ -1,0 +1,175 @@
+"""The two-engine core: agreement, algebraic laws and finite differences, pose by pose."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import assume, given
+from hypothesis import strategies as st
+
+import redundancy as rd
+from redundancy import linalg
+from redundancy.mujoco_engine import MujocoEngine
+from redundancy.pinocchio_engine import PinocchioEngine
+from redundancy.testing import poses
+
+from .models import SKEW7
+
+ARM7 = rd.load(rd.model_path("arm7"), site="ee")
+SKEW = rd.load_string(SKEW7, site="tool")
+ARMS = {"arm7": ARM7, "skew7": SKEW}
+
+# Tolerances. Engines: both evaluate the same rigid-body algorithms in double precision, so
+# 1e-9 (relative to max(1, |value|)) leaves five orders of magnitude for rounding. Central
+# finite differences with step 1e-6 have truncation error ~ eps^2 * |third derivative| and
+# rounding ~ 1e-16 / eps, so 1e-7 absolute is their floor.
+ENGINE_TOL = 1e-9
+FD_STEP = 1e-6
+FD_TOL = 1e-7
+
+
+def arm_and_pose() -> st.SearchStrategy[tuple[str, np.ndarray]]:
+    return st.sampled_from(sorted(ARMS)).flatmap(lambda n: st.tuples(st.just(n), poses(ARMS[n])))
+
+
+@given(arm_and_pose())
+def test_engines_agree(case):
+    name, q = case
+    report = rd.crosscheck(ARMS[name], q)
+    assert report.ok, "\n".join(report.lines())
+
+
+@given(arm_and_pose(), st.sampled_from(rd.arm.ENGINES))
+def test_jacobian_matches_finite_differences(case, engine):
+    name, q = case
+    arm = ARMS[name]
+    eng = arm.engine(engine)
+    J = eng.site_jacobian(q)
+    fd = np.zeros_like(J)
+    for k in range(arm.nq):
+        dq = np.zeros(arm.nq)
+        dq[k] = FD_STEP
+        p1, R1 = eng.site_pose(eng.integrate(q, dq))
+        p0, R0 = eng.site_pose(eng.integrate(q, -dq))
+        fd[:3, k] = (p1 - p0) / (2 * FD_STEP)
+        fd[3:, k] = pin.log3(R1 @ R0.T) / (2 * FD_STEP)  # world-frame rotation vector
+    assert np.max(np.abs(J - fd)) < FD_TOL
+
+
+@given(arm_and_pose(), st.sampled_from(rd.arm.ENGINES))
+def test_manipulability_gradient_matches_finite_differences(case, engine):
+    name, q = case
+    arm = ARMS[name]
+    # w = prod(sigma) has a kink where a singular value reaches 0 (like |x| at 0): keep the
+    # finite-difference stencil well away from singular poses.
+    assume(linalg.jacobian_svd(arm.jacobian(q)).sigma[-1] > 1e-3)
+    g = arm.manipulability_gradient(q, engine)
+    fd = np.array(
+        [
+            (
+                linalg.yoshikawa(arm.jacobian(q + FD_STEP * e, engine))
+                - linalg.yoshikawa(arm.jacobian(q - FD_STEP * e, engine))
+            )
+            / (2 * FD_STEP)
+            for e in np.eye(arm.nq)
+        ]
+    )
+    assert np.max(np.abs(g - fd)) < FD_TOL
+
+
+@given(arm_and_pose(), st.sampled_from(rd.arm.ENGINES))
+def test_singular_values_and_projector_laws(case, engine):
+    name, q = case
+    J = ARMS[name].jacobian(q, engine)
+    s = linalg.jacobian_svd(J)
+    assert np.all(s.sigma >= 0) and np.all(np.diff(s.sigma) <= 0)
+    # prod(sigma)^2 = det(J J^T); det's rounding error is ~ eps * sigma_max^12, so compare
+    # the squares with an absolute floor on that scale (at singular poses det is pure noise).
+    det = np.linalg.det(J @ J.T)
+    assert np.isclose(np.prod(s.sigma) ** 2, det, rtol=1e-9, atol=1e-13 * s.sigma[0] ** 12)
+    N = linalg.nullspace_projector(J)
+    assert np.max(np.abs(J @ N)) < 1e-12
+    assert np.max(np.abs(N @ N - N)) < 1e-12
+    assert np.max(np.abs(N - N.T)) < 1e-12
+    B = linalg.nullspace_basis(J)
+    assert B.shape[1] == J.shape[1] - s.rank
+    assert np.allclose(B.T @ B, np.eye(B.shape[1]), atol=1e-12)
+    assert np.max(np.abs(J @ B)) < 1e-12
+
+
+@given(arm_and_pose(), st.sampled_from(rd.arm.ENGINES))
+def test_mass_matrix_symmetric_positive_definite(case, engine):
+    name, q = case
+    M = ARMS[name].mass_matrix(q, engine=engine)
+    assert np.array_equal(M, M.T)
+    assert np.linalg.eigvalsh(M)[0] > 0
+
+
+def _without_armature(arm: rd.Arm) -> tuple[MujocoEngine, PinocchioEngine]:
+    """Both engines rebuilt with every armature set to zero in the engine's own model."""
+    mm = copy.copy(arm.mj_model)
+    mm.dof_armature[:] = 0.0
+    mm.actuator_armature[:] = 0.0
+    pm = arm.pinocchio.model.copy()
+    pm.armature[:] = 0.0
+    return MujocoEngine(mm, arm.site), PinocchioEngine(pm, arm.site, arm.joint_names)
+
+
+BARE = {name: _without_armature(a) for name, a in ARMS.items()}
+
+
+@given(arm_and_pose())
+def test_armature_changes_only_the_diagonal_by_its_value(case):
+    name, q = case
+    arm = ARMS[name]
+    for eng, bare in zip((arm.mujoco, arm.pinocchio), BARE[name], strict=True):
+        delta = eng.mass_matrix(q) - bare.mass_matrix(q)
+        assert np.allclose(delta, np.diag(arm.armature("mujoco")), rtol=0, atol=1e-12)
+        assert np.allclose(eng.mass_matrix(q, armature=False), bare.mass_matrix(q), rtol=0, atol=1e-12)
+
+
+def test_arm7_zero_pose_loses_exactly_the_lessons_three_directions():
+    # Lesson 5.2, "Why the straight-up pose has rank 3": translation along y and z and
+    # rotation about x are lost.
+    for engine in rd.arm.ENGINES:
+        s = ARM7.svd(ARM7.keyframe("zero"), engine)
+        assert s.rank == 3
+        assert s.lost_direction_names() == ["translation y", "translation z", "rotation x"]
+        assert s.condition == float("inf")
+        assert s.manipulability == pytest.approx(0.0, abs=1e-15)
+
+
+def test_home_pose_is_full_rank_and_damped_inverse_is_bounded():
+    J = ARM7.jacobian(ARM7.keyframe("home"))
+    assert linalg.jacobian_svd(J).rank == 6
+    J0 = ARM7.jacobian(ARM7.keyframe("zero"))
+    lam = 0.05
+    D = linalg.damped_pinv(J0, lam)
+    # Each singular value s maps to s / (s^2 + lam^2) <= 1 / (2 lam).
+    assert np.linalg.norm(D, 2) <= 1 / (2 * lam) + 1e-12
+    assert np.allclose(linalg.damped_pinv(J, 0.0), np.linalg.pinv(J), atol=1e-10)
+
+
+@given(poses(ARM7))
+def test_dynamically_consistent_nullspace_produces_no_tool_acceleration(q):
+    J, M = ARM7.jacobian(q), ARM7.mass_matrix(q)
+    assume(linalg.jacobian_svd(J).sigma[-1] > 1e-3)  # Lambda is undefined at a singular pose
+    N = linalg.dynamic_nullspace_projector(J, M)
+    tau = np.linspace(-1, 1, 7)
+    # Tool acceleration from torque N^T tau is J M^-1 N^T tau = 0.
+    assert np.max(np.abs(J @ np.linalg.solve(M, N.T @ tau))) < 1e-9 * np.linalg.cond(M)
+
+
+def test_manipulability_blocks_and_scaling():
+    J = ARM7.jacobian(ARM7.keyframe("home"))
+    m = linalg.manipulability(J, length=0.5)
+    assert m.full == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-12)
+    assert m.position == pytest.approx(np.sqrt(np.linalg.det(J[:3] @ J[:3].T)), rel=1e-12)
+    assert m.orientation == pytest.approx(np.sqrt(np.linalg.det(J[3:] @ J[3:].T)), rel=1e-12)
+    # Dividing three rows by L divides the product of singular values by L^3.
+    assert m.scaled == pytest.approx(m.full / 0.5**3, rel=1e-12)
+    mm = linalg.manipulability(np.vstack([J[:3] * 1000, J[3:]]))  # lengths in mm
+    assert mm.full == pytest.approx(m.full * 1000**3, rel=1e-9)

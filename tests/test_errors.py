@@ -1,0 +1,137 @@
+"""Bad input: every case raises the library's own exception with a message naming the cause."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import redundancy as rd
+
+from .models import SKEW7, chain
+
+ARM = rd.load_string(SKEW7, site="tool")
+JOINTS = "['q1', 'q2', 'q3', 'q4', 'q5', 'q6', 'q7']"
+
+
+def test_unknown_site_lists_the_valid_ones():
+    with pytest.raises(rd.UnknownNameError) as exc:
+        rd.load_string(SKEW7, site="flange")
+    assert str(exc.value) == "unknown site 'flange'; valid site names: ['tool']"
+    assert exc.value.valid == ("tool",)
+
+
+def test_unknown_joint_and_keyframe():
+    with pytest.raises(rd.UnknownNameError, match=r"^unknown joint 'j1'; valid joint names: \['q1', 'q2'"):
+        ARM.joint_index("j1")
+    with pytest.raises(rd.UnknownNameError, match=r"^unknown keyframe 'home'; valid keyframe names: \['bent'\]$"):
+        ARM.keyframe("home")
+
+
+def test_unknown_bundled_model():
+    with pytest.raises(rd.UnknownNameError, match=r"^unknown model 'arm8'; valid model names: \["):
+        rd.model_path("arm8")
+
+
+@pytest.mark.parametrize(
+    ("q", "message"),
+    [
+        (np.zeros(6), f"pose must have shape (7,) for joints {JOINTS}, got shape (6,)"),
+        (np.zeros((2, 7)), f"pose must have shape (7,) for joints {JOINTS}, got shape (2, 7)"),
+        ([0, 0, np.nan, 0, 0, 0, 0], "pose has non-finite values: q3=nan"),
+        ([np.inf, 0, 0, 0, 0, 0, -np.inf], "pose has non-finite values: q1=inf, q7=-inf"),
+    ],
+)
+def test_bad_pose_shape_and_values(q, message):
+    for call in (ARM.jacobian, ARM.gravity, ARM.mass_matrix):
+        with pytest.raises(rd.PoseError) as exc:
+            call(q)
+        assert str(exc.value) == message
+
+
+def test_non_numeric_pose():
+    with pytest.raises(rd.PoseError, match=r"^pose must be numeric, got list"):
+        ARM.jacobian(["a"] * 7)
+
+
+def test_out_of_range_pose_when_range_matters():
+    q = np.zeros(7)
+    q[1] = 2.0  # q2 range is +-90 degrees
+    ARM.jacobian(q)  # kinematics is defined outside the range
+    with pytest.raises(rd.OutOfRangeError) as exc:
+        ARM.pose(q, check_range=True)
+    assert str(exc.value) == "joint 'q2' = 2 is outside its range [-1.5708, 1.5708]"
+    assert (exc.value.joint, exc.value.value) == ("q2", 2.0)
+
+
+def test_missing_file():
+    with pytest.raises(rd.ModelError, match=r"^MJCF file not found: '/nonexistent/arm.xml'$"):
+        rd.load("/nonexistent/arm.xml")
+
+
+@pytest.mark.parametrize(
+    ("xml", "match"),
+    [
+        ("not xml at all", r"^not well-formed XML: syntax error: line 1, column 0$"),
+        ("<mujoco><worldbody>", r"^not well-formed XML: no element found: line 1, column 19$"),
+        ("<mujoco><worldbody><body><joint bogus='1'/></body></worldbody></mujoco>",
+         r"^MuJoCo could not compile the model: XML Error: Schema violation: unrecognized attribute: 'bogus'"),
+        (chain(body_extra='<geom size="nan"/>'), r"^MuJoCo could not compile the model: "),
+        (chain(body_extra='<inertial pos="0 0 0" mass="-1" diaginertia="1 1 1"/>'),
+         r"^MuJoCo could not compile the model: .*mass"),
+    ],
+)
+def test_malformed_models(xml, match):
+    with pytest.raises(rd.ModelError, match=match):
+        rd.load_string(xml, site="tip")
+
+
+@pytest.mark.parametrize(
+    ("xml", "message"),
+    [
+        ("<mujoco><worldbody><body><geom size='0.1'/><site name='tip'/></body></worldbody></mujoco>",
+         "unsupported feature: no joints (model): an arm needs at least one hinge or slide joint"),
+        (chain(joints='<joint name="a" type="ball"/>'),
+         "unsupported feature: ball joint (joint 'a'): only hinge and slide joints are supported "
+         "(a fixed-base arm)"),
+        (chain(joints='<freejoint name="a"/>'),
+         "unsupported feature: free joint (joint 'a'): only hinge and slide joints are supported "
+         "(a fixed-base arm)"),
+        (chain(joints='<joint name="a" axis="0 1 0"/><joint name="a2" axis="1 0 0"/>'),
+         "unsupported feature: several joints in one body (body 'l1'): Pinocchio's MJCF parser "
+         "merges them into one joint; give each joint its own body"),
+        (chain(joints='<joint axis="0 1 0"/>'),
+         "unsupported feature: unnamed joint (joint #0): joints are matched across engines by "
+         "name; name every joint"),
+        (chain(extra='<tendon><fixed name="t"><joint joint="a" coef="1"/><joint joint="b" coef="1"/>'
+                     "</fixed></tendon>"),
+         "unsupported feature: tendon (1 in the model): Pinocchio's MJCF parser does not read it"),
+        (chain(extra='<equality><joint joint1="a" joint2="b"/></equality>'),
+         "unsupported feature: equality constraint (1 in the model): Pinocchio's MJCF parser does "
+         "not read it"),
+        (chain(body_extra='<frame pos="0 0 0.1"><geom size="0.02"/></frame>'),
+         "unsupported feature: <frame> element (worldbody): Pinocchio's MJCF parser drops the "
+         "contents of <frame>"),
+        (chain().replace("</worldbody>", '<body name="other"><joint name="c"/><geom size="0.1"/>'
+                                          "</body></worldbody>"),
+         "unsupported feature: several kinematic trees (bodies 'l1', 'other'): the library handles "
+         "one arm: a single root body carrying all joints"),
+        (chain().replace("<mujoco>", '<mujoco><include file="other.xml"/>'),
+         "unsupported feature: <include> element (<string>): Pinocchio's MJCF parser does not "
+         "follow includes; inline the file"),
+    ],
+)
+def test_unsupported_features(xml, message):
+    with pytest.raises(rd.UnsupportedFeatureError) as exc:
+        rd.load_string(xml, site="tip")
+    assert str(exc.value) == message
+
+
+def test_everything_is_a_redundancy_error():
+    for cls in (rd.ModelError, rd.UnsupportedFeatureError, rd.UnknownNameError, rd.PoseError,
+                rd.OutOfRangeError, rd.MissingDependencyError):
+        assert issubclass(cls, rd.RedundancyError)
+
+
+def test_bad_characteristic_length():
+    with pytest.raises(rd.RedundancyError, match=r"^characteristic length must be > 0 m, got 0$"):
+        ARM.manipulability(np.zeros(7), length=0)
