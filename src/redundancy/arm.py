@@ -132,7 +132,8 @@ def check_supported(
             "to its children",
         )
     for g in range(model.ngeom):
-        if model.geom_type[g] in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF, mujoco.mjtGeom.mjGEOM_HFIELD):
+        non_primitive = (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF, mujoco.mjtGeom.mjGEOM_HFIELD)
+        if int(model.geom_type[g]) in {int(t) for t in non_primitive}:
             gname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
             raise UnsupportedFeatureError(
                 "mesh, sdf or height-field geom",

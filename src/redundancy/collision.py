@@ -171,8 +171,6 @@ def _bodies_filtered(model: mujoco.MjModel, b1: int, b2: int) -> bool:
     w1, w2 = int(model.body_weldid[b1]), int(model.body_weldid[b2])
     if w1 == w2:
         return True
-    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
-        return False
     if w1 == 0 or w2 == 0:
         return False
     pw1 = int(model.body_weldid[model.body_parentid[w1]])
@@ -923,9 +921,16 @@ def collision_statistics(
         poses: Explicit poses, shape (n, nq) [rad or m], instead of random ones.
     """
     ch = checker(arm)
-    Q = random_poses(arm, n_poses, seed) if poses is None else np.asarray(poses, dtype=float)
-    if Q.ndim != 2 or Q.shape[1] != arm.nq:
-        raise PoseError(f"poses must have shape (n, {arm.nq}), got {Q.shape}")
+    if poses is None:
+        Q = random_poses(arm, n_poses, seed)
+    else:
+        try:
+            Q = np.asarray(poses, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise PoseError(f"poses must be an array of shape (n, {arm.nq}): {err}") from err
+        if Q.ndim != 2 or Q.shape[1] != arm.nq:
+            raise PoseError(f"poses must have shape (n, {arm.nq}), got {Q.shape}")
+        Q = np.array([arm.pose(q) for q in Q]).reshape(-1, arm.nq)
     if distances is not None and distances not in DISTANCE_ENGINES:
         raise UnknownNameError("distance engine", str(distances), DISTANCE_ENGINES)
     npair = len(ch.pairs)

@@ -233,6 +233,7 @@ class HoldCase:
     peak: float
     joint: str
     warnings: int
+    messages: tuple[str, ...]
 
 
 HOLD_CASES = (
@@ -262,17 +263,21 @@ def hold_table(arm: Arm, key: str = "home", seconds: float = 2.0) -> tuple[HoldC
         m = _variant(arm, arm_value, integ, eulerdamp)
         r = simulate_hold(m, target, KP if pd else 0.0, KD if pd else 0.0, seconds)
         j = int(np.argmax(r.peak_speed))
-        rows.append(HoldCase(label, arm_value, integ, pd, eulerdamp, float(r.peak_speed[j]), arm.joint_names[j], r.bad_qacc_warnings))
+        rows.append(HoldCase(label, arm_value, integ, pd, eulerdamp, float(r.peak_speed[j]), arm.joint_names[j], r.bad_qacc_warnings, r.messages))
     return tuple(rows)
 
 
 def format_hold_table(rows: Sequence[HoldCase]) -> list[str]:
-    """Table (5) lines."""
-    return [
+    """Table (5) lines, then MuJoCo's warnings (captured during the runs)."""
+    out = [
         f"  {r.label:<28} armature {r.armature:<5} {r.integrator:<13} max |qvel| {r.peak:9.3g} rad/s "
         f"at {r.joint}, bad-acceleration warnings {r.warnings}"
         for r in rows
     ]
+    for r in rows:
+        for msg in r.messages:
+            out.append(f"  MuJoCo warned during '{r.label.strip()}': {msg}")
+    return out
 
 
 # -- (6) the bare wrist's stability threshold -------------------------------------------------------

@@ -7,6 +7,8 @@ orders coincide).
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import mujoco
@@ -213,10 +215,12 @@ class HoldResult:
         peak_speed: Largest |qvel| per joint over the run [rad/s or m/s].
         bad_qacc_warnings: MuJoCo's count of bad-acceleration warnings (NaN/huge qacc, after
             which it resets the simulation).
+        messages: MuJoCo's warning texts during the run (captured, not printed).
     """
 
     peak_speed: Array
     bad_qacc_warnings: int
+    messages: tuple[str, ...] = ()
 
 
 def simulate_hold(
@@ -245,6 +249,33 @@ def simulate_hold(
         gravity_compensation: Add qfrc_bias (gravity, Coriolis) to the command.
         record_from: Fraction of the run after which speeds are recorded (0: every step).
     """
+    with captured_warnings() as messages:
+        return _hold(model, target, kp, kd, seconds, nudge, gravity_compensation, record_from, messages)
+
+
+@contextlib.contextmanager
+def captured_warnings() -> Iterator[list[str]]:
+    """Collect MuJoCo's warnings instead of letting it print them and write MUJOCO_LOG.TXT."""
+    messages: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda msg: messages.append(str(msg).strip()))
+    try:
+        yield messages
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _hold(
+    model: mujoco.MjModel,
+    target: Array,
+    kp: float,
+    kd: float,
+    seconds: float,
+    nudge: float,
+    gravity_compensation: bool,
+    record_from: float,
+    messages: list[str],
+) -> HoldResult:
     d = mujoco.MjData(model)
     d.qpos[:] = target
     d.qvel[:] = nudge
@@ -264,4 +295,4 @@ def simulate_hold(
         if i > first:
             np.maximum(peak, np.abs(d.qvel), out=peak)
     warnings = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
-    return HoldResult(peak, warnings)
+    return HoldResult(peak, warnings, tuple(messages))

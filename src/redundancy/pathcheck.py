@@ -304,7 +304,10 @@ class PathChecker:
         eps = AMBIGUITY_BAND
         if not tol > eps:
             raise PoseError(f"tol must exceed the engines' accuracy {eps:g} m, got {tol!r}")
-        Q = np.asarray(waypoints, dtype=float)
+        try:
+            Q = np.asarray(waypoints, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise PoseError(f"waypoints must be an array of shape (k, {self.arm.nq}): {err}") from err
         if Q.ndim != 2 or Q.shape[0] < 1:
             raise PoseError(
                 f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got {Q.shape}"

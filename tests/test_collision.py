@@ -1,0 +1,754 @@
+"""Self-collision: MuJoCo's pair set, coal against MuJoCo, statistics, path checking.
+
+Tolerances (each with its reason):
+
+* ``TIGHT`` 1e-9 m: separated distances of sphere, capsule, box and plane pairs. Both engines
+  compute these in closed form, or their GJK ends exactly on a polytope feature; measured
+  differences are below 1e-11 m.
+* ``ccd_tolerance`` (MuJoCo's ``opt.ccd_tolerance``, 1e-6 m by default): separated distances
+  of pairs with a cylinder or an ellipsoid, curved shapes on which GJK converges only
+  asymptotically. MuJoCo's GJK stops at ``ccd_tolerance``, coal's at a relative duality gap
+  of 1e-9; measured differences are below 1e-7 m.
+* Penetration: equal to ``TIGHT`` only where both engines compute the exact penetration depth
+  in closed form (sphere, capsule and box among themselves except capsule-box, anything
+  against a plane). Elsewhere the engines' depth definitions differ and only the sign is
+  compared: MuJoCo's primitive colliders (capsule-box, sphere-cylinder) report the depth of
+  a contact point along a chosen normal, not the pair's minimum translation distance; coal's
+  EPA computes the latter, and MuJoCo's own EPA stops at a different tolerance (measured
+  differences: up to 8 cm for deep capsule-box overlaps, 1e-4 m for EPA pairs).
+* ``AMBIGUITY_BAND`` 1e-6 m: a pair closer than this to its contact threshold may be
+  reported as touching by one engine and not by the other without either being wrong (each
+  is only that accurate), so it is left out of the exact touching-set comparison.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import mujoco
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import redundancy as rd
+from redundancy import collision as col
+from redundancy import pathcheck as pc
+from redundancy.testing import poses
+
+TIGHT = 1e-9
+BAND = col.AMBIGUITY_BAND
+CURVED = {"cylinder", "ellipsoid"}
+EXACT_DEPTH = {
+    frozenset(t)
+    for t in [
+        ("sphere",),
+        ("sphere", "capsule"),
+        ("capsule",),
+        ("sphere", "box"),
+        ("box",),
+    ]
+}
+
+
+def separated_tol(pair: col.GeomPair, model: mujoco.MjModel) -> float:
+    """Tolerance on a separated distance, by geom types (see the module docstring)."""
+    if "plane" in pair.types or not (pair.types & CURVED):
+        return TIGHT
+    return max(float(model.opt.ccd_tolerance), TIGHT)
+
+
+def exact_depth(pair: col.GeomPair) -> bool:
+    """Both engines compute the exact penetration depth for this pair of types."""
+    return "plane" in pair.types or pair.types in EXACT_DEPTH
+
+
+# ==========================================================================================
+# Models
+# ==========================================================================================
+
+#: Every primitive type, offsets and rotations on geoms and bodies, a welded body, a floor.
+TYPED = """
+<mujoco model="typed">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1" pos="0 0 -0.05"/>
+    <body name="base" pos="0 0 0.1">
+      <joint name="j1" axis="0 0 1" range="-3 3"/>
+      <geom name="base_box" type="box" size="0.08 0.06 0.05"/>
+      <geom name="base_cyl" type="cylinder" size="0.04 0.06" pos="0.1 0 0.05" euler="0 1.2 0"/>
+      <geom name="base_sph" type="sphere" size="0.04" pos="-0.1 0.05 0.06"/>
+      <body name="upper" pos="0 0 0.1">
+        <joint name="j2" axis="0 1 0" range="-2.5 2.5" pos="0 0 -0.02"/>
+        <geom name="upper_cap" type="capsule" fromto="0 0 0 0 0 0.3" size="0.04"/>
+        <body name="bracket" pos="0.05 0 0.15" quat="0.9238795 0 0.3826834 0">
+          <geom name="bracket_ell" type="ellipsoid" size="0.03 0.05 0.02"/>
+        </body>
+        <body name="fore" pos="0 0 0.3">
+          <joint name="j3" axis="1 0 0" range="-2.8 2.8"/>
+          <geom name="fore_cyl" type="cylinder" fromto="0 0 0 0 0.05 0.25" size="0.035"/>
+          <body name="hand" pos="0 0.05 0.25" euler="0.2 0 0">
+            <joint name="j4" axis="0 1 0" range="-2.8 2.8"/>
+            <geom name="hand_sph" type="sphere" size="0.05" pos="0 0 0.06"/>
+            <geom name="hand_box" type="box" size="0.02 0.05 0.03" pos="0 0 0.13" euler="0.3 0.2 0.1"/>
+            <geom name="hand_cap" type="capsule" size="0.02" fromto="-0.05 0 0.1 0.05 0.02 0.1"/>
+            <geom name="hand_cyl" type="cylinder" size="0.03 0.02" pos="0 0.06 0.1" euler="1 0 0"/>
+            <geom name="hand_ell" type="ellipsoid" size="0.02 0.03 0.04" pos="0 -0.06 0.1"/>
+            <site name="ee" pos="0 0 0.16"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+#: A telescoping arm: a slide joint between two hinges, for the path checker's motion bound.
+SLIDER = """
+<mujoco model="slider">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody>
+    <body name="b1">
+      <joint name="h1" axis="0 0 1" range="-3 3"/>
+      <geom name="g1" type="box" size="0.05 0.05 0.1" pos="0 0 0.1"/>
+      <body name="b2" pos="0 0 0.2">
+        <joint name="h2" axis="0 1 0" range="-2.6 2.6"/>
+        <geom name="g2" type="capsule" size="0.03" fromto="0 0 0 0 0 0.15"/>
+        <body name="b3" pos="0 0 0.15">
+          <joint name="s3" type="slide" axis="0 0 1" range="-0.1 0.2"/>
+          <geom name="g3" type="cylinder" size="0.025 0.06" pos="0 0 0.06"/>
+          <body name="b4" pos="0 0 0.12">
+            <joint name="h4" axis="1 0 0" range="-2.8 2.8" pos="0 0 0.01"/>
+            <geom name="g4" type="capsule" size="0.025" fromto="0 0 0 0.05 0 0.15"/>
+            <geom name="g4b" type="sphere" size="0.04" pos="0 0 0.18"/>
+            <site name="ee" pos="0 0 0.2"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def chain(extra: str = "", option: str = "", geom: str = 'type="sphere" size="0.3"') -> str:
+    """Three bodies on hinges, a -> b -> c, overlapping geoms ga, gb, gc."""
+    return f"""
+<mujoco>
+  {option}
+  <worldbody>
+    <body name="a"><joint name="ja" axis="0 0 1"/><geom name="ga" {geom}/>
+      <body name="b" pos="0 0 0.1"><joint name="jb" axis="0 1 0"/><geom name="gb" {geom}/>
+        <body name="c" pos="0 0 0.1"><joint name="jc" axis="0 1 0"/><geom name="gc" {geom}/>
+          <site name="ee"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  {extra}
+</mujoco>
+"""
+
+
+def labels(model: mujoco.MjModel | rd.Arm) -> set[str]:
+    return {p.label for p in col.collision_pairs(model)}
+
+
+def mj(xml: str) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(xml)
+
+
+def mujoco_contact_pairs(m: mujoco.MjModel) -> set[tuple[int, int]]:
+    """Geom pairs in MuJoCo's contact list after mj_forward at qpos0."""
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    return {tuple(sorted(map(int, g))) for g in d.contact.geom[: d.ncon]}
+
+
+@pytest.fixture(scope="module")
+def typed() -> rd.Arm:
+    return rd.load_string(TYPED)
+
+
+@pytest.fixture(scope="module")
+def slider() -> rd.Arm:
+    return rd.load_string(SLIDER)
+
+
+_TYPED = rd.load_string(TYPED)
+_SLIDER = rd.load_string(SLIDER)
+_ARM7 = rd.load(rd.model_path("arm7"), site="ee")
+
+
+# ==========================================================================================
+# The pair set
+# ==========================================================================================
+
+
+def test_parent_filter_on_by_default_and_off_with_the_flag() -> None:
+    assert labels(mj(chain())) == {"ga / gc"}
+    off = mj(chain(option='<option><flag filterparent="disable"/></option>'))
+    assert labels(off) == {"ga / gb", "gb / gc", "ga / gc"}
+    # Both are what MuJoCo itself finds when every geom overlaps every other.
+    for m in (mj(chain()), off):
+        assert mujoco_contact_pairs(m) == {(p.geom1, p.geom2) for p in col.collision_pairs(m)}
+
+
+def test_world_exception_to_the_parent_filter() -> None:
+    xml = """
+<mujoco><worldbody>
+  <geom name="floor" type="plane" size="1 1 0.1"/>
+  <geom name="post" type="sphere" size="0.3"/>
+  <body name="plate"><geom name="plate" type="box" size="0.3 0.3 0.1"/></body>
+  <body name="a"><joint axis="0 0 1"/><geom name="ga" type="sphere" size="0.3"/>
+    <body name="b"><joint axis="0 1 0"/><geom name="gb" type="sphere" size="0.3"/></body>
+  </body>
+</worldbody></mujoco>"""
+    m = mj(xml)
+    got = labels(m)
+    # a's parent is the world, yet a collides with world geoms and with the world-welded
+    # plate (the parent filter never applies to the world's weld group).
+    assert {"floor / ga", "ga / post", "ga / plate"} <= got
+    assert {"floor / gb", "gb / post", "gb / plate"} <= got
+    # Geoms welded to the world never collide with each other (plane-plane has no collider).
+    assert not got & {"floor / post", "floor / plate", "plate / post"}
+    assert "ga / gb" not in got
+    assert mujoco_contact_pairs(m) == {(p.geom1, p.geom2) for p in col.collision_pairs(m)}
+
+
+def test_welded_bodies_and_same_body_geoms_never_collide() -> None:
+    xml = """
+<mujoco><worldbody>
+  <body name="a"><joint axis="0 0 1"/><geom name="a1" size="0.3"/><geom name="a2" size="0.3"/>
+    <body name="w"><geom name="w" size="0.3"/>
+      <body name="c"><joint axis="0 1 0"/><geom name="c" size="0.3"/>
+        <body name="d"><joint axis="1 0 0"/><geom name="d" size="0.3"/></body>
+      </body>
+    </body>
+  </body>
+</worldbody></mujoco>"""
+    m = mj(xml)
+    got = labels(m)
+    # w is welded to a (no joint): no a/w pair; c's parent w is in a's weld group, so the
+    # parent filter removes c against a1, a2 and w alike.
+    assert got == {"a1 / d", "a2 / d", "d / w"}
+    assert mujoco_contact_pairs(m) == {(p.geom1, p.geom2) for p in col.collision_pairs(m)}
+
+
+@pytest.mark.parametrize(
+    ("t1", "a1", "t2", "a2", "tested"),
+    [
+        (1, 1, 1, 1, True),
+        (1, 0, 0, 1, True),  # one-sided match is enough: contype1 & conaffinity2
+        (0, 1, 1, 0, True),
+        (1, 0, 1, 0, False),
+        (2, 2, 1, 1, False),
+        (3, 0, 0, 2, True),
+        (0, 0, 1, 1, False),
+    ],
+)
+def test_bitmasks_are_or_of_the_two_one_sided_matches(t1: int, a1: int, t2: int, a2: int, tested: bool) -> None:
+    xml = chain(geom='type="sphere" size="0.3"').replace(
+        '<geom name="ga" type="sphere" size="0.3"/>',
+        f'<geom name="ga" type="sphere" size="0.3" contype="{t1}" conaffinity="{a1}"/>',
+    ).replace(
+        '<geom name="gc" type="sphere" size="0.3"/>',
+        f'<geom name="gc" type="sphere" size="0.3" contype="{t2}" conaffinity="{a2}"/>',
+    )
+    m = mj(xml)
+    assert ("ga / gc" in labels(m)) is tested
+    assert mujoco_contact_pairs(m) == {(p.geom1, p.geom2) for p in col.collision_pairs(m)}
+
+
+def test_exclude_removes_and_pair_adds_bypassing_every_filter() -> None:
+    extra = """<contact>
+      <exclude body1="c" body2="a"/>
+      <pair geom1="gb" geom2="ga" margin="0.01" gap="0.002"/>
+    </contact>"""
+    m = mj(chain(extra))
+    pairs = col.collision_pairs(m)
+    assert [p.label for p in pairs] == ["ga / gb"]
+    p = pairs[0]
+    assert p.explicit and p.margin == 0.01 and p.gap == 0.002
+    assert p.threshold == pytest.approx(0.012)
+    # An explicit pair even between bitmask-less geoms, and replacing a filtered-in pair.
+    m2 = mj(
+        chain('<contact><pair geom1="gc" geom2="ga"/></contact>', geom='type="sphere" size="0.3" contype="0"')
+    )
+    assert [(q.label, q.explicit) for q in col.collision_pairs(m2)] == [("ga / gc", True)]
+    m3 = mj(chain('<contact><pair geom1="gc" geom2="ga" margin="0.02"/></contact>'))
+    assert [(q.label, q.explicit, q.margin) for q in col.collision_pairs(m3)] == [("ga / gc", True, 0.02)]
+    for model in (m, m2, m3):
+        assert mujoco_contact_pairs(model) == {(q.geom1, q.geom2) for q in col.collision_pairs(model)}
+
+
+@pytest.mark.parametrize("flag", ["contact", "constraint"])
+def test_no_pairs_when_contacts_are_disabled(flag: str) -> None:
+    m = mj(chain('<contact><pair geom1="ga" geom2="gb"/></contact>', option=f'<option><flag {flag}="disable"/></option>'))
+    assert col.collision_pairs(m) == ()
+    assert mujoco_contact_pairs(m) == set()
+
+
+def test_margins_and_gaps_follow_getmargin_and_override() -> None:
+    geom = 'type="sphere" size="0.3" margin="0.01" gap="0.004"'
+    p = col.collision_pairs(mj(chain(geom=geom)))[0]
+    assert (p.margin, p.gap) == (pytest.approx(0.02), pytest.approx(0.008))
+    over = mj(chain(geom=geom, option='<option o_margin="0.05"><flag override="enable"/></option>'))
+    q = col.collision_pairs(over)[0]
+    assert (q.margin, q.gap) == (pytest.approx(0.05), pytest.approx(0.008))
+
+
+def test_contacts_are_listed_below_margin_plus_gap() -> None:
+    """MuJoCo 4 lists a contact when dist < margin + gap; the pair's threshold says so."""
+    xml = """
+<mujoco><worldbody>
+  <body name="a"><joint name="s" type="slide" axis="1 0 0"/>
+    <geom name="ga" size="0.1" margin="0.01" gap="0.005"/><site name="ee"/></body>
+  <body name="b" pos="0.3 0 0"><geom name="gb" size="0.1"/></body>
+</worldbody></mujoco>"""
+    m = mj(xml)
+    (p,) = col.collision_pairs(m)
+    d = mujoco.MjData(m)
+    for gap in np.linspace(-0.02, 0.03, 51):
+        d.qpos[0] = 0.3 - 0.2 - gap
+        mujoco.mj_forward(m, d)
+        if abs(gap - p.threshold) > 1e-9:
+            assert (d.ncon > 0) == (gap < p.threshold), gap
+
+
+@st.composite
+def random_models(draw: st.DrawFn) -> str:
+    """A random tree with random welds, bitmasks, excludes, pairs and filterparent flag."""
+    nbody = draw(st.integers(1, 6))
+    parents = [draw(st.integers(0, i)) for i in range(nbody)]  # body i+1's parent
+    jointed = [draw(st.booleans()) for _ in range(nbody)]
+    bits = st.integers(0, 3)
+    geoms: dict[int, list[tuple[str, int, int]]] = {b: [] for b in range(nbody + 1)}
+    n = 0
+    for b in range(nbody + 1):
+        for _ in range(draw(st.integers(0, 2))):
+            geoms[b].append((f"g{n}", draw(bits), draw(bits)))
+            n += 1
+    world_plane = draw(st.booleans())
+    names = [g[0] for b in geoms for g in geoms[b]]
+    body_names = ["world"] + [f"b{i + 1}" for i in range(nbody)]
+    excludes = draw(st.sets(st.tuples(st.integers(0, nbody), st.integers(0, nbody)), max_size=4))
+    excludes = {tuple(sorted(e)) for e in excludes if e[0] != e[1]}
+    pairs = set()
+    if len(names) >= 2:
+        raw = draw(st.sets(st.tuples(st.sampled_from(names), st.sampled_from(names)), max_size=3))
+        pairs = {tuple(sorted(p)) for p in raw if p[0] != p[1]}
+    filterparent = draw(st.booleans())
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+
+    def geom_xml(b: int) -> str:
+        out = []
+        for name, ct, ca in geoms[b]:
+            pos = " ".join(f"{x:.3f}" for x in rng.uniform(-0.05, 0.05, 3))
+            out.append(f'<geom name="{name}" size="0.5" pos="{pos}" contype="{ct}" conaffinity="{ca}"/>')
+        return "".join(out)
+
+    def body_xml(b: int) -> str:
+        kids = "".join(body_xml(c + 1) for c in range(nbody) if parents[c] == b and c + 1 != b)
+        joint = f'<joint axis="0 0 1" name="j{b}"/>' if jointed[b - 1] else ""
+        inertial = '<inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>'
+        return f'<body name="b{b}" pos="0 0 0.01">{joint}{inertial}{geom_xml(b)}{kids}</body>'
+
+    world = geom_xml(0) + ('<geom name="floor" type="plane" size="1 1 0.1"/>' if world_plane else "")
+    world += "".join(body_xml(c + 1) for c in range(nbody) if parents[c] == 0)
+    contact = "".join(
+        f'<exclude body1="{body_names[a]}" body2="{body_names[b]}"/>' for a, b in sorted(excludes)
+    ) + "".join(f'<pair geom1="{a}" geom2="{b}"/>' for a, b in sorted(pairs))
+    flag = "" if filterparent else '<option><flag filterparent="disable"/></option>'
+    return f"<mujoco>{flag}<worldbody>{world}</worldbody><contact>{contact}</contact></mujoco>"
+
+
+@given(random_models())
+def test_pair_set_is_what_mujoco_tests_on_random_models(xml: str) -> None:
+    """Every geom overlaps every other at qpos0, so MuJoCo's contacts are its tested pairs."""
+    m = mj(xml)
+    ours = {(p.geom1, p.geom2) for p in col.collision_pairs(m)}
+    assert mujoco_contact_pairs(m) == ours, xml
+
+
+def test_arm7_pair_set_is_every_non_adjacent_link_pair(arm7: rd.Arm) -> None:
+    m = arm7.mj_model
+    pairs = col.collision_pairs(arm7)
+    coll = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    bodies = sorted({int(m.geom_bodyid[g]) for g in coll})
+    # One collision geom per moving body, in a chain: every pair but the parent-child ones.
+    assert len(coll) == len(bodies)
+    assert len(pairs) == len(coll) * (len(coll) - 1) // 2 - (len(coll) - 1)
+    for p in pairs:
+        b1, b2 = m.geom_bodyid[p.geom1], m.geom_bodyid[p.geom2]
+        assert m.body_parentid[b1] != b2 and m.body_parentid[b2] != b1
+        assert not p.explicit and p.threshold == 0.0
+    assert "link2 / link4" in {p.label for p in pairs}
+
+
+def test_contact_filter_callback_is_refused() -> None:
+    m = mj(chain())
+    mujoco.set_mjcb_contactfilter(lambda m, d, g1, g2: 0)
+    try:
+        with pytest.raises(rd.UnsupportedFeatureError, match="contact filter callback"):
+            col.collision_pairs(m)
+    finally:
+        mujoco.set_mjcb_contactfilter(None)
+
+
+def test_unknown_pair_lists_the_pairs() -> None:
+    pairs = col.collision_pairs(mj(chain()))
+    with pytest.raises(rd.UnknownNameError) as err:
+        col.find_pair(pairs, "ga", "gb")
+    assert str(err.value) == "unknown geom pair 'ga / gb'; valid geom pair names: ['ga / gc']"
+    assert col.find_pair(pairs, "gc", "ga").label == "ga / gc"
+
+
+# ==========================================================================================
+# Both engines: placements, distances, contacts
+# ==========================================================================================
+
+
+@given(poses(_TYPED))
+def test_pinocchio_places_geoms_where_mujoco_does(q: np.ndarray) -> None:
+    assert col.checker(_TYPED).placement_error(q) < 1e-12
+
+
+@given(poses(_ARM7))
+def test_pinocchio_places_arm7_geoms_where_mujoco_does(q: np.ndarray) -> None:
+    assert col.checker(_ARM7).placement_error(q) < 1e-12
+
+
+def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
+    """coal against mj_geomDistance and against MuJoCo's contact list, at one pose."""
+    ch = col.checker(arm)
+    m = arm.mj_model
+    coal_d = ch.distances(q, "coal")
+    mj_d = ch.distances(q, "mujoco")
+    for c, k in zip(coal_d.pairs, mj_d.pairs, strict=True):
+        p = c.pair
+        if c.distance > BAND and k.distance > BAND:
+            assert abs(c.distance - k.distance) <= separated_tol(p, m), (p.label, c.distance, k.distance)
+            # Nearest points: as far apart as the distance says, for both engines.
+            for e in (c, k):
+                assert np.linalg.norm(e.point2 - e.point1) == pytest.approx(e.distance, abs=1e-6)
+        elif c.distance < -BAND and k.distance < -BAND:
+            if exact_depth(p):
+                assert abs(c.distance - k.distance) <= TIGHT, (p.label, c.distance, k.distance)
+        else:
+            # Opposite signs only inside the band where neither engine can tell.
+            assert abs(c.distance) <= BAND and abs(k.distance) <= BAND, (p.label, c.distance, k.distance)
+    # The touching pairs by coal are exactly the pairs MuJoCo lists contacts for.
+    unclear = {e.pair for e in coal_d.pairs if abs(e.clearance) < BAND}
+    by_coal = {e.pair for e in coal_d.touching} - unclear
+    by_mujoco = ch.contact_pairs(q) - unclear
+    assert by_coal == by_mujoco, (sorted(x.label for x in by_coal), sorted(x.label for x in by_mujoco))
+
+
+@given(poses(_TYPED))
+def test_engines_agree_on_every_primitive_type(q: np.ndarray) -> None:
+    assert_engines_agree(_TYPED, q)
+
+
+@given(poses(_ARM7))
+def test_engines_agree_on_arm7(q: np.ndarray) -> None:
+    """The issue's acceptance property (>= 1000 examples under HYPOTHESIS_PROFILE=thorough)."""
+    assert_engines_agree(_ARM7, q)
+
+
+@given(poses(_ARM7))
+def test_fast_contacts_are_mj_forward_contacts(q: np.ndarray) -> None:
+    """mj_kinematics + mj_collision finds what the lesson's mj_forward finds."""
+    m = _ARM7.mj_model
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    expected = sorted((tuple(sorted(map(int, g))), round(float(x), 12)) for g, x in zip(d.contact.geom[: d.ncon], d.contact.dist[: d.ncon], strict=True))
+    got = sorted(((c.pair.geom1, c.pair.geom2), round(c.distance, 12)) for c in col.contacts(_ARM7, q))
+    assert got == expected
+
+
+def test_contact_normal_points_from_geom1_to_geom2() -> None:
+    # Geom 0 is a capsule (on the world), geom 1 a sphere: MuJoCo lists the sphere first
+    # (it orders a contact's geoms by type).
+    xml = """
+<mujoco><worldbody>
+  <geom name="cap" type="capsule" size="0.1 0.2"/>
+  <body name="a" pos="0.15 0 0"><joint name="j" axis="0 0 1"/><geom name="ball" size="0.1"/><site name="ee"/></body>
+</worldbody></mujoco>"""
+    arm = rd.load_string(xml)
+    (c,) = col.contacts(arm, [0.0])
+    assert (c.pair.name1, c.pair.name2) == ("cap", "ball")
+    np.testing.assert_allclose(c.normal, [1.0, 0.0, 0.0], atol=1e-12)
+    assert c.distance == pytest.approx(-0.05)
+
+
+def test_distances_name_lookup_and_closest(arm7: rd.Arm) -> None:
+    q = arm7.keyframe("home").copy()
+    q[arm7.joint_index("j4")] = 2.9  # the lesson's fully folded elbow
+    d = col.distances(arm7, q)
+    assert d.of("link4", "link2").touching
+    assert d.closest is not None and d.closest.distance == d.values.min()
+    assert not d.free
+    with pytest.raises(rd.UnknownNameError, match="valid geom pair names"):
+        d.of("link1", "link2")  # parent and child: never tested
+    with pytest.raises(rd.UnknownNameError) as err:
+        col.distances(arm7, q, engine="fcl")  # type: ignore[arg-type]
+    assert str(err.value) == "unknown distance engine 'fcl'; valid distance engine names: ['coal', 'mujoco']"
+
+
+def test_unnamed_body_with_geoms_is_refused() -> None:
+    xml = chain().replace('<body name="c" pos="0 0 0.1">', '<body pos="0 0 0.1">')
+    arm = rd.load_string(xml)
+    with pytest.raises(rd.UnsupportedFeatureError, match="name the body"):
+        col.CollisionChecker(arm)
+
+
+def test_placement_mismatch_is_caught() -> None:
+    import pinocchio as pin
+
+    arm = rd.load_string(TYPED)
+    pm = arm.pinocchio.model
+    fid = pm.getFrameId("fore", pin.FrameType.BODY)
+    frame = pm.frames[fid]
+    frame.placement = frame.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, 1e-3]))
+    pm.frames[fid] = frame
+    with pytest.raises(rd.ModelError, match="do not see the same bodies"):
+        col.CollisionChecker(arm)
+
+
+# ==========================================================================================
+# Statistics
+# ==========================================================================================
+
+
+def test_random_poses_are_the_lessons_draws(arm7: rd.Arm) -> None:
+    rng = np.random.default_rng(1)
+    lo, hi = arm7.mj_model.jnt_range[:, 0], arm7.mj_model.jnt_range[:, 1]
+    lesson = np.array([rng.uniform(lo, hi) for _ in range(200)])
+    np.testing.assert_array_equal(col.random_poses(arm7, 200, seed=1), lesson)
+
+
+def test_statistics_count_poses_and_contacts_as_the_lesson_loop(arm7: rd.Arm) -> None:
+    n = 600
+    stats = col.collision_statistics(arm7, n, seed=1, distances="coal")
+    # The lesson's loop (mj_forward per pose), counting both poses and contacts per pair.
+    m = arm7.mj_model
+    d = mujoco.MjData(m)
+    hits, poses_per, contacts_per = 0, {}, {}
+    for q in col.random_poses(arm7, n, seed=1):
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        hits += bool(d.ncon)
+        seen = set()
+        for g1, g2 in d.contact.geom[: d.ncon]:
+            key = " / ".join(sorted((m.geom(int(g1)).name, m.geom(int(g2)).name)))
+            contacts_per[key] = contacts_per.get(key, 0) + 1
+            seen.add(key)
+        for key in seen:
+            poses_per[key] = poses_per.get(key, 0) + 1
+    assert stats.n_poses == n and stats.poses_with_contact == hits
+    assert hits > 0  # the sample does contain self-contacts
+    assert {p.pair.label: p.poses for p in stats.pairs if p.poses} == poses_per
+    assert {p.pair.label: p.contacts for p in stats.pairs if p.contacts} == contacts_per
+    assert all(p.contacts >= p.poses for p in stats.pairs)
+    assert stats.disagreements == 0
+    # Closest approach: negative exactly for the pairs that touched in some pose.
+    for p in stats.pairs:
+        assert (p.closest < 0) == (p.poses > 0), p
+    # The same sweep with MuJoCo's distances: same counts, same closest approach.
+    other = col.collision_statistics(arm7, n, seed=1, distances="mujoco")
+    for a, b in zip(stats.pairs, other.pairs, strict=True):
+        assert (a.poses, a.contacts) == (b.poses, b.contacts)
+        if a.closest > BAND and b.closest > BAND:
+            assert abs(a.closest - b.closest) <= separated_tol(a.pair, m)
+        else:
+            assert np.sign(a.closest) == np.sign(b.closest) or max(abs(a.closest), abs(b.closest)) < BAND
+    # Keyframes: MuJoCo's contact count there.
+    for k in stats.keyframes:
+        d.qpos[:] = k.q
+        mujoco.mj_forward(m, d)
+        assert k.contacts == d.ncon
+        assert k.closest is not None and k.closest.distance == min(col.distances(arm7, k.q).values)
+    text = "\n".join(stats.lines())
+    assert "poses" in text and "contacts" in text
+
+
+def test_statistics_on_given_poses_and_without_distances(arm7: rd.Arm) -> None:
+    q = arm7.keyframe("home").copy()
+    q[arm7.joint_index("j4")] = 2.9
+    stats = col.collision_statistics(arm7, poses=[arm7.keyframe("home"), q], distances=None)
+    assert stats.n_poses == 2 and stats.poses_with_contact == 1 and stats.seed is None
+    assert stats.disagreements == -1 and all(np.isnan(p.closest) for p in stats.pairs)
+    assert stats.share_with_contact == 0.5
+    assert stats.of("link4", "link2").poses == 1
+
+
+def test_unlimited_slide_cannot_be_sampled() -> None:
+    arm = rd.load_string(SLIDER.replace('range="-0.1 0.2"', 'limited="false"'))
+    with pytest.raises(rd.PoseError, match="unlimited slide"):
+        col.random_poses(arm, 3)
+
+
+# ==========================================================================================
+# Path checking
+# ==========================================================================================
+
+
+@st.composite
+def segments(draw: st.DrawFn, arm: rd.Arm) -> tuple[np.ndarray, np.ndarray]:
+    """A start pose and an end pose, from tiny to range-wide steps."""
+    qa = draw(poses(arm))
+    qb = draw(poses(arm))
+    scale = draw(st.sampled_from([1e-3, 1e-2, 0.1, 1.0]))
+    return qa, np.clip(qa + scale * (qb - qa), arm.lower, arm.upper)
+
+
+def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
+    """No pair's distance shrinks faster than the weights allow along a straight step."""
+    ch = col.checker(arm)
+    w = pc.path_checker(arm).weights @ np.abs(qb - qa)
+    da = ch.distance_values(qa)
+    db = ch.distance_values(qb)
+    # The bound is on the true signed distance; where coal's depth (EPA) is only as good as
+    # its sign, max(db, 0) still obeys it: true d(qb) <= 0 there.
+    ok = (da <= 0) | (np.maximum(db, 0.0) >= da - w - BAND)
+    assert ok.all(), [(p.label, a, b, x) for p, a, b, x, o in zip(ch.pairs, da, db, w, ok, strict=True) if not o]
+
+
+@given(segments(_ARM7))
+def test_motion_bound_is_sound_on_arm7(seg: tuple[np.ndarray, np.ndarray]) -> None:
+    assert_motion_bound(_ARM7, *seg)
+
+
+@given(segments(_SLIDER))
+def test_motion_bound_is_sound_with_a_slide(seg: tuple[np.ndarray, np.ndarray]) -> None:
+    assert_motion_bound(_SLIDER, *seg)
+
+
+def first_sampled_contact(arm: rd.Arm, Q: np.ndarray, n: int) -> tuple[int, float] | None:
+    """First (segment, s) among n + 1 samples per segment where MuJoCo lists a contact."""
+    ch = col.checker(arm)
+    for seg in range(max(len(Q) - 1, 1)):
+        qa, qb = Q[seg], Q[min(seg + 1, len(Q) - 1)]
+        for s in np.linspace(0.0, 1.0, n + 1):
+            if ch.contact_pairs(qa + s * (qb - qa)):
+                return seg, float(s)
+    return None
+
+
+def assert_path_check_sound(arm: rd.Arm, Q: np.ndarray, engine: str = "coal") -> pc.PathCheck:
+    result = pc.check_path(arm, Q, engine=engine)  # type: ignore[arg-type]
+    sampled = first_sampled_contact(arm, Q, 300)
+    if sampled is not None:
+        # Never misses what sampling finds, and reports no later than it.
+        assert not result.free, (sampled, str(result))
+        c = result.contact
+        assert c is not None
+        assert (c.segment, c.clear_until) <= sampled
+    if not result.free:
+        c = result.contact
+        assert c is not None and c.clear_until <= c.s
+        # What it reports is real, by MuJoCo's own distance.
+        mj_d = col.checker(arm).distances(c.q, "mujoco").of(*c.pair.names).distance
+        limit = c.pair.threshold + (BAND if c.touching else result.tol + BAND)
+        assert mj_d < limit, (str(result), mj_d)
+    return result
+
+
+@given(st.lists(poses(_ARM7), min_size=2, max_size=3).map(np.stack))
+def test_path_checker_never_misses_what_dense_sampling_finds(Q: np.ndarray) -> None:
+    assert_path_check_sound(_ARM7, Q)
+
+
+@given(st.lists(poses(_SLIDER), min_size=2, max_size=3).map(np.stack))
+def test_path_checker_never_misses_with_a_slide(Q: np.ndarray) -> None:
+    assert_path_check_sound(_SLIDER, Q)
+
+
+def lesson_path(arm: rd.Arm) -> np.ndarray:
+    """From home, fold the elbow to j4 = 2.5 (free), then roll the upper arm (j3) a
+    quarter turn (free again): half-way, the box-shaped upper arm link2 turns its corner
+    toward the folded forearm link4."""
+    home = arm.keyframe("home")
+    folded = home.copy()
+    folded[arm.joint_index("j4")] = 2.5
+    rolled = folded.copy()
+    rolled[arm.joint_index("j3")] = np.pi / 2
+    return np.stack([home, folded, rolled])
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_lesson_path_folds_the_elbow_into_link2_between_free_waypoints(arm7: rd.Arm, engine: str) -> None:
+    Q = lesson_path(arm7)
+    ch = col.checker(arm7)
+    # The premise: every waypoint is free, and dense sampling finds link2 / link4 mid-path.
+    for q in Q:
+        assert not ch.contacts(q)
+    sampled = first_sampled_contact(arm7, Q, 1000)
+    assert sampled is not None and sampled[0] == 1 and 0.0 < sampled[1] < 1.0
+    seg, s = sampled
+    q = Q[1] + s * (Q[2] - Q[1])
+    assert "link2 / link4" in {p.label for p in ch.contact_pairs(q)}
+    result = assert_path_check_sound(arm7, Q, engine)
+    c = result.contact
+    assert c is not None and c.touching
+    assert (c.segment, c.pair.label) == (1, "link2 / link4")
+    assert 0.0 < c.s < 1.0
+    # The first segment alone (folding to 2.5) is free, and said so.
+    assert pc.check_path(arm7, Q[:2], engine=engine).free  # type: ignore[arg-type]
+    assert "contact link2 / link4 at segment 1" in str(result)
+
+
+def test_path_checker_edge_cases(arm7: rd.Arm) -> None:
+    home = arm7.keyframe("home")
+    one = pc.check_path(arm7, [home])
+    assert one.free and one.evaluations == 1
+    q = home.copy()
+    q[arm7.joint_index("j4")] = 2.9
+    start = pc.check_path(arm7, [q, home])
+    assert not start.free and start.contact is not None
+    assert (start.contact.segment, start.contact.s) == (0, 0.0) and start.contact.touching
+    still = pc.check_path(arm7, [home, home])
+    assert still.free and still.evaluations == 2
+    with pytest.raises(rd.PoseError, match="tol must exceed"):
+        pc.check_path(arm7, [home, q], tol=1e-7)
+    with pytest.raises(rd.PoseError, match="waypoints must have shape"):
+        pc.check_path(arm7, home)
+    with pytest.raises(rd.PoseError):
+        pc.check_path(arm7, [home, home[:3]])
+    with pytest.raises(rd.UnknownNameError, match="valid distance engine names"):
+        pc.check_path(arm7, [home, q], engine="fcl")  # type: ignore[arg-type]
+
+
+def test_weights_ignore_joints_upstream_of_both_geoms(arm7: rd.Arm) -> None:
+    w = pc.path_checker(arm7).weights
+    ch = col.checker(arm7)
+    j1, j2, j3 = (arm7.joint_index(n) for n in ("j1", "j2", "j3"))
+    # j1 moves every link together: no pair's distance depends on it.
+    assert not w[:, j1].any()
+    k = ch.pairs.index(ch.pair("link2", "link4"))
+    assert w[k, j2] == 0.0 and w[k, j3] > 0.0
+    assert (w >= 0).all()
+
+
+@pytest.mark.parametrize("arm", [_TYPED, _SLIDER], ids=["typed", "slider"])
+def test_path_checker_finds_a_contact_on_small_arms(arm: rd.Arm) -> None:
+    """A path from a free pose through a colliding one and back to a free one."""
+    Q = col.random_poses(arm, 400, seed=3)
+    ch = col.checker(arm)
+    free = [q for q in Q if not ch.contact_pairs(q)]
+    hit = [q for q in Q if ch.contact_pairs(q)]
+    assert len(free) >= 2 and hit
+    path = np.stack([free[0], hit[0], free[1]])
+    result = assert_path_check_sound(arm, path)
+    assert not result.free and result.contact is not None and result.contact.segment == 0
+
+
+def test_pair_combinations_in_typed_cover_every_type_pair(typed: rd.Arm) -> None:
+    """The TYPED model exercises every pair of primitive types (so the per-type tests bite)."""
+    have = {p.types for p in col.collision_pairs(typed)}
+    kinds = ["sphere", "capsule", "box", "cylinder", "ellipsoid"]
+    want = {frozenset(t) for t in itertools.combinations_with_replacement(kinds, 2)}
+    want |= {frozenset(("plane", k)) for k in kinds}
+    assert want <= have, sorted(map(sorted, want - have))
