@@ -597,11 +597,68 @@ def test_unlimited_slide_cannot_be_sampled() -> None:
 
 @st.composite
 def segments(draw: st.DrawFn, arm: rd.Arm) -> tuple[np.ndarray, np.ndarray]:
-    """A start pose and an end pose, from tiny to range-wide steps."""
+    """A start pose and an end pose: one joint or all moving, tiny to range-wide steps."""
     qa = draw(poses(arm))
     qb = draw(poses(arm))
+    if draw(st.booleans()):
+        k = draw(st.integers(0, arm.nq - 1))
+        qb = np.where(np.arange(arm.nq) == k, qb, qa)
     scale = draw(st.sampled_from([1e-3, 1e-2, 0.1, 1.0]))
     return qa, np.clip(qa + scale * (qb - qa), arm.lower, arm.upper)
+
+
+def geom_points(m: mujoco.MjModel, d: mujoco.MjData, g: int) -> np.ndarray:
+    """World points of a geom that include the farthest ones from any line (extreme points:
+    box corners, cylinder rims, capsule end spheres, densely sampled sphere directions)."""
+    s = m.geom_size[g]
+    t = mujoco.mjtGeom(m.geom_type[g])
+    u = np.random.default_rng(0).normal(size=(400, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    th = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    rim = np.stack([s[0] * np.cos(th), s[0] * np.sin(th), np.zeros_like(th)], axis=1)
+    local = {
+        mujoco.mjtGeom.mjGEOM_SPHERE: s[0] * u,
+        mujoco.mjtGeom.mjGEOM_CAPSULE: np.vstack([s[0] * u + [0, 0, s[1]], s[0] * u - [0, 0, s[1]]]),
+        mujoco.mjtGeom.mjGEOM_CYLINDER: np.vstack([rim + [0, 0, s[1]], rim - [0, 0, s[1]]]),
+        mujoco.mjtGeom.mjGEOM_BOX: np.array(list(itertools.product(*[(-x, x) for x in s[:3]]))),
+        mujoco.mjtGeom.mjGEOM_ELLIPSOID: s[:3] * u,
+    }[t]
+    return d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T
+
+
+def assert_reach_bounds(arm: rd.Arm, q: np.ndarray) -> None:
+    """Every point of every geom lies within its bound of every hinge that moves it."""
+    m = arm.mj_model
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    for g in {p.geom1 for p in col.collision_pairs(m)} | {p.geom2 for p in col.collision_pairs(m)}:
+        bounds = pc.reach_bounds(m, g)
+        if not bounds:
+            continue  # welded to the world (the floor): nothing moves it
+        pts = geom_points(m, d, g)
+        for j, bound in bounds.items():
+            if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
+                assert bound == 1.0
+                continue
+            r = pts - d.xanchor[j]
+            to_axis = np.linalg.norm(np.cross(d.xaxis[j], r), axis=1).max()
+            assert to_axis <= bound + 1e-12, (m.geom(g).name, m.joint(j).name, to_axis, bound)
+
+
+@given(poses(_SLIDER))
+def test_reach_bounds_hold_with_a_slide(q: np.ndarray) -> None:
+    assert_reach_bounds(_SLIDER, q)
+
+
+@given(poses(_ARM7))
+def test_reach_bounds_hold_on_arm7(q: np.ndarray) -> None:
+    assert_reach_bounds(_ARM7, q)
+
+
+@given(poses(_TYPED))
+def test_reach_bounds_hold_on_every_type(q: np.ndarray) -> None:
+    assert_reach_bounds(_TYPED, q)
 
 
 def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:

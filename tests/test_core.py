@@ -91,9 +91,11 @@ def test_singular_values_and_projector_laws(case, engine):
     det = np.linalg.det(J @ J.T)
     assert np.isclose(np.prod(s.sigma) ** 2, det, rtol=1e-9, atol=1e-13 * s.sigma[0] ** 12)
     N = linalg.nullspace_projector(J)
-    assert np.max(np.abs(J @ N)) < 1e-12
-    assert np.max(np.abs(N @ N - N)) < 1e-12
-    assert np.max(np.abs(N - N.T)) < 1e-12
+    # J^+ carries rounding amplified by the condition number of the kept singular values.
+    tol = 1e-13 * s.sigma[0] / s.sigma[s.rank - 1]
+    assert np.max(np.abs(J @ N)) < tol
+    assert np.max(np.abs(N @ N - N)) < tol
+    assert np.max(np.abs(N - N.T)) < tol
     B = linalg.nullspace_basis(J)
     assert B.shape[1] == J.shape[1] - s.rank
     assert np.allclose(B.T @ B, np.eye(B.shape[1]), atol=1e-12)

@@ -171,6 +171,8 @@ def _bodies_filtered(model: mujoco.MjModel, b1: int, b2: int) -> bool:
     w1, w2 = int(model.body_weldid[b1]), int(model.body_weldid[b2])
     if w1 == w2:
         return True
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
+        return False
     if w1 == 0 or w2 == 0:
         return False
     pw1 = int(model.body_weldid[model.body_parentid[w1]])

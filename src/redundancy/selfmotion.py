@@ -1,45 +1,186 @@
 """Self-motion: moving the joints along the Jacobian's null space so the tool stays put.
 
-Each step recomputes J at the current pose, moves along the unit null-space direction
-(continuing the previous step's sign) and, optionally, adds the least-squares correction
-J^+ e that pulls the tool back to its start pose; without it the tool drifts at second order
-in the step size. Objective-driven moves choose the null-space direction that raises a
-scalar objective (manipulability, distance to the joint limits, self-collision distance).
+Each step recomputes J at the current pose and moves a joint distance ``h`` along the unit
+null-space direction, continuing the previous step's way (the sign of a null-space basis
+vector is arbitrary). Two integrators are offered:
+
+* ``"euler"``: one direction per step, taken at the step's start. The tool moves by
+  O(h^2) per step (J n = 0 only at the start of the step), so over a fixed joint motion
+  of ``total`` the drift adds up to O(h): halving the step halves the drift.
+* ``"midpoint"``: the direction is taken again at the half step (explicit midpoint rule):
+  O(h^3) per step, O(h^2) over ``total``: halving the step quarters the drift.
+
+With ``correct=True`` every step ends with Newton corrections ``q += J^+ e``, where ``e`` is
+the tool's error from its *start* pose (not from the previous step's), until ``|e| <= tol``:
+the drift does not accumulate and stays at the level of ``tol``. ``J^+ e`` is in J's row
+space, so the correction does not move the arm along the self-motion.
+
+An objective-driven move picks, each step, the null-space direction along which a scalar
+objective rises (its gradient projected onto the null space), and stops when that direction
+reverses: the objective's maximum along the self-motion. Objectives provided: Yoshikawa's
+manipulability (analytic gradient), the smallest margin to a joint limit, and the smallest
+self-collision clearance (MuJoCo's per-pair signed distances).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import linalg
 from .arm import Arm, EngineName
-from .errors import RedundancyError
+from .errors import RedundancyError, UnknownNameError
+
+if TYPE_CHECKING:
+    from .collision import DistanceEngine, GeomPair
 
 Array = NDArray[np.float64]
+Integrator = Literal["euler", "midpoint"]
+INTEGRATORS: tuple[Integrator, ...] = ("euler", "midpoint")
+
+#: Reasons a self-motion ends before its total joint motion (``SelfMotionPath.stopped``).
+STOP_PREDICATE = "stop condition met"
+STOP_MAXIMUM = "objective at its maximum along the self-motion"
+STOP_STATIONARY = "objective does not change along the null space"
+STOP_NO_NULLSPACE = "no null space"
+STOP_LIMIT = "joint limit"  # followed by ": <joint name>"
 
 
 def rotation_log(R: Array) -> Array:
-    """Rotation vector (axis times angle) [rad] of a rotation matrix."""
+    """Rotation vector (unit axis times angle in [0, pi]) of a rotation matrix [rad].
+
+    Accurate at every angle: near 0 from the skew part, near pi from the symmetric part
+    (whose largest diagonal entry gives the axis without cancellation).
+    """
     cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos)
+    angle = float(np.arccos(cos))
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    if angle < 1e-7:
-        return 0.5 * w
-    if np.pi - angle < 1e-6:  # near pi: axis from the symmetric part
-        axis = np.sqrt(np.maximum((np.diag(R) + 1.0) / 2.0, 0.0))
-        axis *= np.sign(w + (w == 0))
-        return angle * axis / np.linalg.norm(axis)
-    return angle / (2.0 * np.sin(angle)) * w
+    if angle < 1e-6:
+        return 0.5 * w  # sin(angle) ~ angle: w = 2 sin(angle) axis
+    if angle < np.pi - 1e-3:
+        return angle / (2.0 * np.sin(angle)) * w
+    # Near pi: R + I = 2 a a^T + O(pi - angle); take the column with the largest diagonal.
+    S = R + R.T + (1.0 - np.trace(R)) * np.eye(3)  # = 2 (1 - cos) a a^T
+    k = int(np.argmax(np.diag(S)))
+    axis = S[:, k] / np.linalg.norm(S[:, k])
+    if axis @ w < 0:  # w = 2 sin(angle) axis fixes the sign while sin(angle) > 0
+        axis = -axis
+    return angle * axis
 
 
-def pose_error(arm: Arm, q: Array, p0: Array, R0: Array, engine: EngineName) -> Array:
-    """Tool error [p0 - p; log(R0 R^T)] [m, rad] at q, world axes."""
+def pose_error(arm: Arm, q: Array, p0: Array, R0: Array, engine: EngineName = "mujoco") -> Array:
+    """Tool error ``[p0 - p; log(R0 R^T)]`` at ``q``, world axes, shape (6,) [m, rad].
+
+    ``J^+`` of this error is the joint step that takes the tool back to ``(p0, R0)`` to
+    first order (J's angular rows are world-frame angular velocities).
+    """
     p, R = arm.site_pose(q, engine)
     return np.concatenate([p0 - p, rotation_log(R0 @ R.T)])
+
+
+# ==========================================================================================
+# Objectives
+# ==========================================================================================
+
+
+@dataclass(frozen=True)
+class Objective:
+    """A scalar function of the pose to raise along the self-motion.
+
+    Calling the objective returns its value, so a plain ``Callable[[Array], float]`` can be
+    used wherever an :class:`Objective` is accepted.
+
+    Attributes:
+        name: Short description, with its unit.
+        value: q -> value.
+        gradient: q -> d value / dq, shape (nq,); ``None`` for central differences along
+            the null-space basis.
+    """
+
+    name: str
+    value: Callable[[Array], float]
+    gradient: Callable[[Array], Array] | None = None
+
+    def __call__(self, q: Array) -> float:
+        """The objective's value at ``q``."""
+        return float(self.value(q))
+
+
+def manipulability_objective(arm: Arm, engine: EngineName = "mujoco") -> Objective:
+    """Yoshikawa's manipulability sqrt(det(J J^T)), with its analytic gradient [mixed units]."""
+    return Objective(
+        "manipulability sqrt(det(J J^T))",
+        lambda q: linalg.yoshikawa(arm.jacobian(q, engine)),
+        lambda q: arm.manipulability_gradient(q, engine),
+    )
+
+
+def joint_limit_objective(arm: Arm) -> Objective:
+    """The smallest distance of any joint to its nearer limit [rad or m].
+
+    Its gradient is the (sub)gradient of the minimum: +1 on the joint that is nearest its
+    lower limit, -1 if it is nearest its upper limit; unlimited joints never count.
+    """
+
+    def margins(q: Array) -> Array:
+        return np.minimum(q - arm.lower, arm.upper - q)
+
+    def gradient(q: Array) -> Array:
+        m = margins(q)
+        i = int(np.argmin(m))
+        g = np.zeros(arm.nq)
+        g[i] = 1.0 if q[i] - arm.lower[i] <= arm.upper[i] - q[i] else -1.0
+        return g if np.isfinite(m[i]) else np.zeros(arm.nq)
+
+    return Objective(
+        "smallest joint-limit margin [rad]", lambda q: float(np.min(margins(q))), gradient
+    )
+
+
+def collision_objective(arm: Arm, engine: DistanceEngine = "mujoco") -> Objective:
+    """The smallest self-collision clearance over all pairs MuJoCo tests [m].
+
+    Clearance is the pair's signed distance less its contact threshold (margin + gap), so
+    it is negative exactly when MuJoCo lists a contact. No analytic gradient (the minimum
+    over pairs is not smooth): directions come from central differences.
+
+    Args:
+        arm: The arm.
+        engine: Distance engine, ``"mujoco"`` (``mj_geomDistance``) or ``"coal"``.
+    """
+    from .collision import checker
+
+    ch = checker(arm)
+    thresholds = np.array([p.threshold for p in ch.pairs])
+    return Objective(
+        f"smallest self-collision clearance ({engine}) [m]",
+        lambda q: float(np.min(ch.distance_values(q, engine) - thresholds)),
+    )
+
+
+def no_contact(arm: Arm, pair: GeomPair | tuple[str, str] | None = None) -> Callable[[Array], bool]:
+    """Stop predicate: true when MuJoCo's contact list (``mj_collision``) is empty.
+
+    Args:
+        arm: The arm.
+        pair: Only this pair's contacts count (a pair or two geom names, either order).
+    """
+    from .collision import checker
+
+    ch = checker(arm)
+    if pair is None:
+        return lambda q: not ch.contact_pairs(q)
+    target = ch.pair(*pair) if isinstance(pair, tuple) else pair
+    return lambda q: target not in ch.contact_pairs(q)
+
+
+# ==========================================================================================
+# The self-motion
+# ==========================================================================================
 
 
 @dataclass(frozen=True)
@@ -48,12 +189,16 @@ class SelfMotionPath:
 
     Attributes:
         q: Poses, shape (n + 1, nq) [rad].
-        joint_motion: Cumulative joint motion (sum of step norms), shape (n + 1,) [rad].
+        joint_motion: Cumulative joint motion, sum of |q_k+1 - q_k|, shape (n + 1,) [rad].
         position_drift: |p - p0| of the tool, shape (n + 1,) [m].
         orientation_drift: Angle of R R0^T, shape (n + 1,) [rad].
         elbow_height: z of the elbow joint's anchor, shape (n + 1,) [m].
         objective: Objective value per pose when one was used, else empty.
-        stopped: Why the motion ended before its total: '' if it did not.
+        stopped: Why the motion ended before its total, ``""`` if it did not (see the
+            ``STOP_*`` constants of this module).
+        elbow: Name of the joint whose anchor is the elbow.
+        correct: Whether the tool was pulled back to its start pose every step.
+        integrator: ``"euler"`` or ``"midpoint"``.
     """
 
     q: Array
@@ -63,19 +208,55 @@ class SelfMotionPath:
     elbow_height: Array
     objective: Array
     stopped: str
+    elbow: str = ""
+    correct: bool = True
+    integrator: str = "euler"
+
+    @property
+    def steps(self) -> int:
+        """Number of steps taken."""
+        return len(self.q) - 1
+
+    @property
+    def total(self) -> float:
+        """Joint motion covered [rad]."""
+        return float(self.joint_motion[-1])
+
+    @property
+    def max_position_drift(self) -> float:
+        """Largest tool position drift along the path [m]."""
+        return float(np.max(self.position_drift))
+
+    @property
+    def max_orientation_drift(self) -> float:
+        """Largest tool orientation drift along the path [rad]."""
+        return float(np.max(self.orientation_drift))
 
 
-Objective = Callable[[Array], float]
+Objectivelike = Objective | Callable[[Array], float]
 
 
-def manipulability_objective(arm: Arm, engine: EngineName = "mujoco") -> Objective:
-    """Objective: Yoshikawa's manipulability of the site Jacobian."""
-    return lambda q: linalg.yoshikawa(arm.jacobian(q, engine))
+def _objective_direction(
+    objective: Objectivelike, q: Array, basis: Array, fd_step: float
+) -> Array:
+    """Gradient of the objective projected onto the null space (basis columns), shape (nq,)."""
+    grad = objective.gradient if isinstance(objective, Objective) else None
+    if grad is not None:
+        return basis @ (basis.T @ grad(q))
+    h = fd_step
+    c = np.array([(objective(q + h * b) - objective(q - h * b)) / (2.0 * h) for b in basis.T])
+    return basis @ c
 
 
-def joint_limit_objective(arm: Arm) -> Objective:
-    """Objective: the smallest distance of any joint to its nearer limit [rad or m]."""
-    return lambda q: float(np.min(np.minimum(q - arm.lower, arm.upper - q)))
+def _start_sign(arm: Arm, q: Array, v: Array, elbow_idx: int, engine: EngineName) -> float:
+    """+1 if moving along ``v`` raises the elbow (or, if level, if v's largest entry is > 0)."""
+    eps = 1e-6
+    eng = arm.engine(engine)
+    up, down = eng.joint_axes(q + eps * v)[1], eng.joint_axes(q - eps * v)[1]
+    rise = up[elbow_idx, 2] - down[elbow_idx, 2]
+    if abs(rise) > 1e-12:
+        return float(np.sign(rise))
+    return float(np.sign(v[int(np.argmax(np.abs(v)))]))
 
 
 def self_motion(
@@ -85,75 +266,145 @@ def self_motion(
     step: float = 0.01,
     direction: int = 1,
     correct: bool = True,
-    objective: Objective | None = None,
+    objective: Objectivelike | None = None,
     elbow: str | None = None,
     engine: EngineName = "mujoco",
     stop: Callable[[Array], bool] | None = None,
+    integrator: Integrator = "euler",
+    tol: float = 1e-12,
+    max_corrections: int = 5,
+    fd_step: float = 1e-4,
+    respect_limits: bool = True,
 ) -> SelfMotionPath:
     """Move along the null space of the site Jacobian for ``total`` joint motion.
 
     Args:
-        arm: The arm (its Jacobian must have a one-dimensional null space along the way;
-            with a larger one the direction of largest objective gain, or the first basis
-            vector, is taken).
+        arm: The arm. Its Jacobian should have a one-dimensional null space along the way;
+            with a larger one the motion continues the previous direction projected onto it
+            (or, with an objective, follows the projected gradient).
         q0: Start pose [rad].
-        total: Joint motion to cover, sum of step norms [rad].
-        step: Joint motion per step [rad].
-        direction: +1 or -1: which way along the null space to start (ignored with an
+        total: Joint motion to cover, sum of the null-space step lengths [rad].
+        step: Null-space joint motion per step [rad].
+        direction: +1 or -1: +1 starts the way that raises the elbow (ignored with an
             objective, which picks the rising direction).
-        correct: Add J^+ e each step, removing the second-order tool drift.
-        objective: Scalar function of q to raise; the direction each step is the null-space
-            direction along which it rises (central difference of ``step`` along it).
-        elbow: Joint whose anchor height is reported; default the middle joint.
+        correct: Pull the tool back to its start pose after every step (Newton steps
+            ``J^+ e`` until ``|e| <= tol``), removing the drift.
+        objective: Scalar function of q to raise (an :class:`Objective`, or any callable);
+            each step goes along its gradient projected onto the null space; the motion
+            stops where that direction reverses, at the better of the last two poses.
+        elbow: Joint whose anchor height is reported; default the middle joint (j4 of a
+            7-joint arm).
         engine: Engine for J and the site pose.
-        stop: Predicate on q that ends the motion early when true (e.g. "out of contact").
+        stop: Predicate on q that ends the motion when true, tested before each step and at
+            the end (e.g. :func:`no_contact`).
+        integrator: ``"euler"`` or ``"midpoint"`` (see the module docstring).
+        tol: Tool error at which the correction stops [m and rad, as one 6-vector norm].
+        max_corrections: Newton corrections per step at most.
+        fd_step: Central-difference step for objectives without a gradient [rad].
+        respect_limits: Stop before a step that would leave a joint's range.
 
     Raises:
-        RedundancyError: ``step`` or ``total`` not positive, or a pose with no null space.
+        RedundancyError: ``step`` or ``total`` not positive, bad ``direction``.
+        UnknownNameError: Unknown ``elbow`` joint or ``integrator``.
+        PoseError: Bad ``q0``.
     """
     if not (step > 0 and total > 0):
         raise RedundancyError(f"step and total must be > 0 rad, got step={step!r}, total={total!r}")
     if direction not in (1, -1):
         raise RedundancyError(f"direction must be +1 or -1, got {direction!r}")
+    if integrator not in INTEGRATORS:
+        raise UnknownNameError("integrator", str(integrator), INTEGRATORS)
     q = arm.pose(q0)
     elbow_idx = arm.nq // 2 if elbow is None else arm.joint_index(elbow)
     p0, R0 = arm.site_pose(q, engine)
+
+    def null_direction(qk: Array, prev: Array | None) -> Array | None:
+        """Unit null-space direction at qk continuing ``prev``; None if there is none."""
+        basis = linalg.nullspace_basis(arm.jacobian(qk, engine))
+        if basis.shape[1] == 0:
+            return None
+        if prev is None:
+            v = basis[:, 0]
+            return direction * _start_sign(arm, qk, v, elbow_idx, engine) * v
+        v = basis @ (basis.T @ prev)  # the null-space direction closest to the previous one
+        n = float(np.linalg.norm(v))
+        return v / n if n > 1e-12 else basis[:, 0]
+
     prev: Array | None = None
     qs, motion = [q.copy()], [0.0]
-    n = int(np.ceil(total / step - 1e-9))
+    covered = 0.0
     stopped = ""
-    for _ in range(n):
+    while total - covered > 1e-12:
         if stop is not None and stop(q):
-            stopped = "stop condition met"
+            stopped = STOP_PREDICATE
             break
-        J = arm.jacobian(q, engine)
-        basis = linalg.nullspace_basis(J)
-        if basis.shape[1] == 0:
-            stopped = "no null space"
-            break
-        v = basis[:, 0]
         if objective is not None:
-            gain = objective(q + step * v) - objective(q - step * v)
-            v = v if gain >= 0 else -v
-        elif prev is None:
-            v = direction * v
-        elif v @ prev < 0:
-            v = -v  # keep moving the same way: the basis vector's sign is arbitrary
-        h = min(step, total - motion[-1])
-        dq = h * v
+            basis = linalg.nullspace_basis(arm.jacobian(q, engine))
+            if basis.shape[1] == 0:
+                stopped = STOP_NO_NULLSPACE
+                break
+            g = _objective_direction(objective, q, basis, fd_step)
+            gn = float(np.linalg.norm(g))
+            if gn == 0.0:
+                stopped = STOP_STATIONARY
+                break
+            v = g / gn
+            if prev is not None and v @ prev < 0:
+                stopped = STOP_MAXIMUM
+                if objective(q) < objective(qs[-2]):  # the last step passed the maximum
+                    qs.pop()
+                    motion.pop()
+                    q = qs[-1]
+                break
+        else:
+            v0 = null_direction(q, prev)
+            if v0 is None:
+                stopped = STOP_NO_NULLSPACE
+                break
+            v = v0
+        h = min(step, total - covered)
+        if integrator == "midpoint":
+            vm = null_direction(q + 0.5 * h * v, v)
+            if vm is None:
+                stopped = STOP_NO_NULLSPACE
+                break
+            v = vm
+        q_new = q + h * v
         if correct:
-            q_pred = q + dq
-            dq += np.linalg.pinv(arm.jacobian(q_pred, engine)) @ pose_error(arm, q_pred, p0, R0, engine)
-        q = q + dq
-        prev = v
+            for _ in range(max_corrections):
+                e = pose_error(arm, q_new, p0, R0, engine)
+                if np.linalg.norm(e) <= tol:
+                    break
+                q_new = q_new + np.linalg.pinv(arm.jacobian(q_new, engine)) @ e
+        if respect_limits:
+            out = np.flatnonzero((q_new < arm.lower) | (q_new > arm.upper))
+            if out.size:
+                stopped = f"{STOP_LIMIT}: {arm.joint_names[int(out[0])]}"
+                break
+        motion.append(motion[-1] + float(np.linalg.norm(q_new - q)))
+        q, prev = q_new, v
+        covered += h
         qs.append(q.copy())
-        motion.append(motion[-1] + h)
+    if not stopped and stop is not None and stop(q):
+        stopped = STOP_PREDICATE
     Q = np.stack(qs)
     pos, ori, elb = [], [], []
+    eng = arm.engine(engine)
     for qi in Q:
         p, R = arm.site_pose(qi, engine)
         pos.append(np.linalg.norm(p - p0))
         ori.append(np.linalg.norm(rotation_log(R @ R0.T)))
-        elb.append(arm.engine(engine).joint_axes(qi)[1][elbow_idx, 2])
+        elb.append(eng.joint_axes(qi)[1][elbow_idx, 2])
     obj = np.array([objective(qi) for qi in Q]) if objective is not None else np.zeros(0)
-    return SelfMotionPath(Q, np.array(motion), np.array(pos), np.array(ori), np.array(elb), obj, stopped)
+    return SelfMotionPath(
+        Q,
+        np.array(motion),
+        np.array(pos),
+        np.array(ori),
+        np.array(elb),
+        obj,
+        stopped,
+        arm.joint_names[elbow_idx],
+        correct,
+        integrator,
+    )
