@@ -139,24 +139,29 @@ def manipulability(J: Array, length: float = 1.0) -> Manipulability:
 
 
 def manipulability_gradient(J: Array, dJ: Array) -> Array:
-    """Gradient of w = sqrt(det(J J^T)) with respect to q.
+    """Gradient of w = sqrt(det(J J^T)) = prod(sigma) with respect to q.
 
-    d w / d q_k = w * trace((J J^T)^-1 (dJ_k J^T)), with dJ_k = dJ/dq_k; zero where w = 0
-    (the measure is not differentiable through rank loss).
+    With J = U diag(sigma) V^T, d w / d q_k = sum_i (prod_{j != i} sigma_j) u_i^T dJ_k v_i,
+    the same as w * trace((J J^T)^-1 dJ_k J^T) but without inverting J J^T, so it stays
+    accurate near singular poses. At a singular pose (numerical rank below m, see
+    :data:`RANK_RTOL`) the measure has a kink, like |x| at 0, and no gradient: zeros are
+    returned.
 
     Args:
-        J: Jacobian, shape (m, n), full row rank for a non-zero gradient.
+        J: Jacobian, shape (m, n) with m <= n.
         dJ: Its partial derivatives, shape (n, m, n): dJ[k] = dJ/dq_k.
 
     Returns:
         Gradient, shape (n,).
     """
-    A = J @ J.T
-    w = yoshikawa(J)
-    if w == 0.0 or np.linalg.cond(A) > 1e14:
+    m = J.shape[0]
+    U, s, Vt = np.linalg.svd(J)
+    if s[-1] <= RANK_RTOL * s[0]:
         return np.zeros(J.shape[1])
-    X = np.linalg.solve(A, J)  # (J J^T)^-1 J
-    return w * np.einsum("kmn,mn->k", dJ, X)
+    others = np.array([np.prod(np.delete(s, i)) for i in range(m)])
+    # u_i^T dJ_k v_i for every k and i, weighted by the product of the other singular values.
+    proj = np.einsum("mi,kmn,in->ki", U, dJ, Vt[:m])
+    return proj @ others
 
 
 def nullspace_projector(J: Array, rtol: float = RANK_RTOL) -> Array:
