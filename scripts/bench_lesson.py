@@ -67,8 +67,15 @@ def baseline(path: str, n_poses: int = 10_000) -> dict[str, object]:
     out["contact_poses"] = hits
     out["contacts"] = counts
 
-    def hold(armature: float, integrator: int, kp: float, kd: float, seconds: float, tail: float,
-             flags: int = 0) -> np.ndarray:
+    def hold(
+        armature: float,
+        integrator: int,
+        kp: float,
+        kd: float,
+        seconds: float,
+        tail: float,
+        flags: int = 0,
+    ) -> np.ndarray:
         m = mujoco.MjModel.from_xml_path(path)
         m.dof_armature[:] = armature
         m.opt.integrator = integrator
@@ -97,7 +104,11 @@ def baseline(path: str, n_poses: int = 10_000) -> dict[str, object]:
     ]
     thresholds = {}
     for kp in (0.0, 100.0):
-        stable = [kd for kd in np.arange(0.50, 0.81, 0.02) if hold(0.0, euler, kp, kd, 4.0, 0.75)[6] < 1e-3]
+        stable = [
+            kd
+            for kd in np.arange(0.50, 0.81, 0.02)
+            if hold(0.0, euler, kp, kd, 4.0, 0.75)[6] < 1e-3
+        ]
         thresholds[kp] = max(stable)
     out["thresholds"] = thresholds
     return out
@@ -123,7 +134,7 @@ def project(path: str, n_poses: int = 10_000) -> dict[str, object]:
     }
 
 
-def _timed(fn, *args) -> float:  # noqa: ANN001
+def _timed(fn, *args) -> float:
     t0 = time.perf_counter()
     with redirect_stdout(io.StringIO()):
         fn(*args)
@@ -141,15 +152,19 @@ def main(argv: list[str] | None = None) -> int:
 
     path = str(args.model or rd.model_path("arm7"))
     arm = rd.load(path, site="ee")
-    print(f"machine: {platform.processor() or platform.machine()}, {platform.system()} {platform.release()}, "
-          f"Python {platform.python_version()}, mujoco {mujoco.__version__}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {platform.system()} {platform.release()}, "
+        f"Python {platform.python_version()}, mujoco {mujoco.__version__}"
+    )
     t_project, t_base = [], []
     for _ in range(args.repeat):
         t_project.append(_timed(lesson.print_tables, arm))
         t_base.append(_timed(baseline, path))
     a, b = statistics.median(t_project), statistics.median(t_base)
-    print(f"lesson tables, medians of {args.repeat} runs: project {a:.3f} s, per-pose loop {b:.3f} s, "
-          f"speed-up {b / a:.2f}x")
+    print(
+        f"lesson tables, medians of {args.repeat} runs: project {a:.3f} s, per-pose loop {b:.3f} s, "
+        f"speed-up {b / a:.2f}x"
+    )
     ref, ours = baseline(path), project(path)
     same = (
         np.array_equal(np.round(ref["gravity_peak"], 2), np.round(ours["gravity_peak"], 2))
@@ -157,7 +172,9 @@ def main(argv: list[str] | None = None) -> int:
         and ref["contacts"] == ours["contacts"]
         and all(abs(ref["thresholds"][k] - ours["thresholds"][k]) < 1e-9 for k in ref["thresholds"])
     )
-    print(f"same tables (gravity peaks, contact poses and per-pair contacts, kd thresholds): {same}")
+    print(
+        f"same tables (gravity peaks, contact poses and per-pair contacts, kd thresholds): {same}"
+    )
     return 0 if same else 1
 
 

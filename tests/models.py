@@ -53,7 +53,9 @@ SKEW7 = """
 """
 
 
-def chain(body_extra: str = "", joints: str = '<joint name="a" axis="0 1 0"/>', extra: str = "") -> str:
+def chain(
+    body_extra: str = "", joints: str = '<joint name="a" axis="0 1 0"/>', extra: str = ""
+) -> str:
     """A two-link model with hooks for the feature under test."""
     return f"""
 <mujoco>

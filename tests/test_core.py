@@ -151,7 +151,9 @@ def test_armature_changes_only_the_diagonal_by_its_value(name, data):
     for eng, bare in zip((arm.mujoco, arm.pinocchio), BARE[name], strict=True):
         delta = eng.mass_matrix(q) - bare.mass_matrix(q)
         assert np.allclose(delta, np.diag(arm.armature("mujoco")), rtol=0, atol=1e-12)
-        assert np.allclose(eng.mass_matrix(q, armature=False), bare.mass_matrix(q), rtol=0, atol=1e-12)
+        assert np.allclose(
+            eng.mass_matrix(q, armature=False), bare.mass_matrix(q), rtol=0, atol=1e-12
+        )
 
 
 def test_arm7_zero_pose_loses_exactly_the_lessons_three_directions():

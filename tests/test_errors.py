@@ -21,9 +21,13 @@ def test_unknown_site_lists_the_valid_ones():
 
 
 def test_unknown_joint_and_keyframe():
-    with pytest.raises(rd.UnknownNameError, match=r"^unknown joint 'j1'; valid joint names: \['q1', 'q2'"):
+    with pytest.raises(
+        rd.UnknownNameError, match=r"^unknown joint 'j1'; valid joint names: \['q1', 'q2'"
+    ):
         ARM.joint_index("j1")
-    with pytest.raises(rd.UnknownNameError, match=r"^unknown keyframe 'home'; valid keyframe names: \['bent'\]$"):
+    with pytest.raises(
+        rd.UnknownNameError, match=r"^unknown keyframe 'home'; valid keyframe names: \['bent'\]$"
+    ):
         ARM.keyframe("home")
 
 
@@ -73,11 +77,15 @@ def test_missing_file():
     [
         ("not xml at all", r"^not well-formed XML: syntax error: line 1, column 0$"),
         ("<mujoco><worldbody>", r"^not well-formed XML: no element found: line 1, column 19$"),
-        ("<mujoco><worldbody><body><joint bogus='1'/></body></worldbody></mujoco>",
-         r"^MuJoCo could not compile the model: XML Error: Schema violation: unrecognized attribute: 'bogus'"),
+        (
+            "<mujoco><worldbody><body><joint bogus='1'/></body></worldbody></mujoco>",
+            r"^MuJoCo could not compile the model: XML Error: Schema violation: unrecognized attribute: 'bogus'",
+        ),
         (chain(body_extra='<geom size="nan"/>'), r"^MuJoCo could not compile the model: "),
-        (chain(body_extra='<inertial pos="0 0 0" mass="-1" diaginertia="1 1 1"/>'),
-         r"^MuJoCo could not compile the model: .*mass"),
+        (
+            chain(body_extra='<inertial pos="0 0 0" mass="-1" diaginertia="1 1 1"/>'),
+            r"^MuJoCo could not compile the model: .*mass",
+        ),
     ],
 )
 def test_malformed_models(xml, match):
@@ -88,36 +96,60 @@ def test_malformed_models(xml, match):
 @pytest.mark.parametrize(
     ("xml", "message"),
     [
-        ("<mujoco><worldbody><body><geom size='0.1'/><site name='tip'/></body></worldbody></mujoco>",
-         "unsupported feature: no joints (model): an arm needs at least one hinge or slide joint"),
-        (chain(joints='<joint name="a" type="ball"/>'),
-         "unsupported feature: ball joint (joint 'a'): only hinge and slide joints are supported "
-         "(a fixed-base arm)"),
-        (chain(joints='<freejoint name="a"/>'),
-         "unsupported feature: free joint (joint 'a'): only hinge and slide joints are supported "
-         "(a fixed-base arm)"),
-        (chain(joints='<joint name="a" axis="0 1 0"/><joint name="a2" axis="1 0 0"/>'),
-         "unsupported feature: several joints in one body (body 'l1'): Pinocchio's MJCF parser "
-         "merges them into one joint; give each joint its own body"),
-        (chain(joints='<joint axis="0 1 0"/>'),
-         "unsupported feature: unnamed joint (joint #0): joints are matched across engines by "
-         "name; name every joint"),
-        (chain(extra='<tendon><fixed name="t"><joint joint="a" coef="1"/><joint joint="b" coef="1"/>'
-                     "</fixed></tendon>"),
-         "unsupported feature: tendon (1 in the model): Pinocchio's MJCF parser does not read it"),
-        (chain(extra='<equality><joint joint1="a" joint2="b"/></equality>'),
-         "unsupported feature: equality constraint (1 in the model): Pinocchio's MJCF parser does "
-         "not read it"),
-        (chain(body_extra='<frame pos="0 0 0.1"><geom size="0.02"/></frame>'),
-         "unsupported feature: <frame> element (worldbody): Pinocchio's MJCF parser drops the "
-         "contents of <frame>"),
-        (chain().replace("</worldbody>", '<body name="other"><joint name="c"/><geom size="0.1"/>'
-                                          "</body></worldbody>"),
-         "unsupported feature: several kinematic trees (bodies 'l1', 'other'): the library handles "
-         "one arm: a single root body carrying all joints"),
-        (chain().replace("<mujoco>", '<mujoco><include file="other.xml"/>'),
-         "unsupported feature: <include> element (<string>): Pinocchio's MJCF parser does not "
-         "follow includes; inline the file"),
+        (
+            "<mujoco><worldbody><body><geom size='0.1'/><site name='tip'/></body></worldbody></mujoco>",
+            "unsupported feature: no joints (model): an arm needs at least one hinge or slide joint",
+        ),
+        (
+            chain(joints='<joint name="a" type="ball"/>'),
+            "unsupported feature: ball joint (joint 'a'): only hinge and slide joints are supported "
+            "(a fixed-base arm)",
+        ),
+        (
+            chain(joints='<freejoint name="a"/>'),
+            "unsupported feature: free joint (joint 'a'): only hinge and slide joints are supported "
+            "(a fixed-base arm)",
+        ),
+        (
+            chain(joints='<joint name="a" axis="0 1 0"/><joint name="a2" axis="1 0 0"/>'),
+            "unsupported feature: several joints in one body (body 'l1'): Pinocchio's MJCF parser "
+            "merges them into one joint; give each joint its own body",
+        ),
+        (
+            chain(joints='<joint axis="0 1 0"/>'),
+            "unsupported feature: unnamed joint (joint #0): joints are matched across engines by "
+            "name; name every joint",
+        ),
+        (
+            chain(
+                extra='<tendon><fixed name="t"><joint joint="a" coef="1"/><joint joint="b" coef="1"/>'
+                "</fixed></tendon>"
+            ),
+            "unsupported feature: tendon (1 in the model): Pinocchio's MJCF parser does not read it",
+        ),
+        (
+            chain(extra='<equality><joint joint1="a" joint2="b"/></equality>'),
+            "unsupported feature: equality constraint (1 in the model): Pinocchio's MJCF parser does "
+            "not read it",
+        ),
+        (
+            chain(body_extra='<frame pos="0 0 0.1"><geom size="0.02"/></frame>'),
+            "unsupported feature: <frame> element (worldbody): Pinocchio's MJCF parser drops the "
+            "contents of <frame>",
+        ),
+        (
+            chain().replace(
+                "</worldbody>",
+                '<body name="other"><joint name="c"/><geom size="0.1"/></body></worldbody>',
+            ),
+            "unsupported feature: several kinematic trees (bodies 'l1', 'other'): the library handles "
+            "one arm: a single root body carrying all joints",
+        ),
+        (
+            chain().replace("<mujoco>", '<mujoco><include file="other.xml"/>'),
+            "unsupported feature: <include> element (<string>): Pinocchio's MJCF parser does not "
+            "follow includes; inline the file",
+        ),
     ],
 )
 def test_unsupported_features(xml, message):
@@ -127,8 +159,14 @@ def test_unsupported_features(xml, message):
 
 
 def test_everything_is_a_redundancy_error():
-    for cls in (rd.ModelError, rd.UnsupportedFeatureError, rd.UnknownNameError, rd.PoseError,
-                rd.OutOfRangeError, rd.MissingDependencyError):
+    for cls in (
+        rd.ModelError,
+        rd.UnsupportedFeatureError,
+        rd.UnknownNameError,
+        rd.PoseError,
+        rd.OutOfRangeError,
+        rd.MissingDependencyError,
+    ):
         assert issubclass(cls, rd.RedundancyError)
 
 

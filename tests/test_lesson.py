@@ -49,7 +49,9 @@ def test_embedded_copy_is_the_shared_file_when_present():
 def test_tables_match_every_printed_digit(ours, table):
     expected = _sections(OUTPUT)[table]
     for line in expected:
-        assert line in ours[table], f"lesson line missing from ours:\n{line}\nours:\n" + "\n".join(ours[table])
+        assert line in ours[table], f"lesson line missing from ours:\n{line}\nours:\n" + "\n".join(
+            ours[table]
+        )
 
 
 def _share(lines: list[str]) -> float:
@@ -58,8 +60,11 @@ def _share(lines: list[str]) -> float:
 
 def test_table4_within_the_issue_bounds(arm7):
     expected = _sections(OUTPUT)["4"]
-    lesson_pairs = [(m.group(1), int(m.group(2))) for line in expected
-                    if (m := re.match(r"^\s+(\S+ / \S+)\s+(\d+) poses$", line))]
+    lesson_pairs = [
+        (m.group(1), int(m.group(2)))
+        for line in expected
+        if (m := re.match(r"^\s+(\S+ / \S+)\s+(\d+) poses$", line))
+    ]
     assert len(lesson_pairs) == 4
     stats = lesson.contact_table(arm7)
     assert abs(100 * stats.share_with_contact - _share(expected)) <= 0.5

@@ -98,13 +98,21 @@ class Progress:
             return
         frac = done / max(self.total, 1)
         bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r  {self.label:<22}[{bar:<30}] {done}/{self.total} {time.perf_counter() - self.t0:5.1f} s")
+        sys.stderr.write(
+            f"\r  {self.label:<22}[{bar:<30}] {done}/{self.total} {time.perf_counter() - self.t0:5.1f} s"
+        )
         if done >= self.total:
             sys.stderr.write("\n")
         sys.stderr.flush()
 
 
-def audit(arm: Arm, n_poses: int = 10_000, seed: int = 0, kd: float = AUDIT_KD, progress: bool | None = None) -> AuditReport:
+def audit(
+    arm: Arm,
+    n_poses: int = 10_000,
+    seed: int = 0,
+    kd: float = AUDIT_KD,
+    progress: bool | None = None,
+) -> AuditReport:
     """Audit an arm: every section of the report, and the findings.
 
     Args:
@@ -131,43 +139,71 @@ def audit(arm: Arm, n_poses: int = 10_000, seed: int = 0, kd: float = AUDIT_KD, 
     hmax_bare = inertia.max_stable_timestep(M_bare, kd, b)
     joints = []
     for i, n in enumerate(names):
-        joints.append({
-            "name": n, "type": arm.joint_types[i], "lower": float(arm.lower[i]), "upper": float(arm.upper[i]),
-            "armature": float(arma[i]), "armature_share": float(arma[i] / M[i]), "damping": float(b[i]),
-            "effort_limit": float(arm.effort_limit[i]), "M_ii": float(M[i]), "M_ii_bare": float(M_bare[i]),
-            "h_max": float(hmax[i]), "h_max_bare": float(hmax_bare[i]),
-        })
+        joints.append(
+            {
+                "name": n,
+                "type": arm.joint_types[i],
+                "lower": float(arm.lower[i]),
+                "upper": float(arm.upper[i]),
+                "armature": float(arma[i]),
+                "armature_share": float(arma[i] / M[i]),
+                "damping": float(b[i]),
+                "effort_limit": float(arm.effort_limit[i]),
+                "M_ii": float(M[i]),
+                "M_ii_bare": float(M_bare[i]),
+                "h_max": float(hmax[i]),
+                "h_max_bare": float(hmax_bare[i]),
+            }
+        )
         if arma[i] == 0.0:
-            findings.append(Finding("armature", f"joint {n!r} has zero armature: a geared joint's rotor inertia N^2 J_rotor is missing"))
+            findings.append(
+                Finding(
+                    "armature",
+                    f"joint {n!r} has zero armature: a geared joint's rotor inertia N^2 J_rotor is missing",
+                )
+            )
         if h >= hmax[i]:
-            findings.append(Finding(
-                "timestep",
-                f"timestep {h * 1e3:.3g} ms is above joint {n!r}'s h_max {hmax[i] * 1e3:.3g} ms at kd = {kd:g} N m s/rad "
-                f"(M_ii {M[i]:.4g} kg m^2, b {b[i]:g}): explicit controller damping will diverge",
-            ))
+            findings.append(
+                Finding(
+                    "timestep",
+                    f"timestep {h * 1e3:.3g} ms is above joint {n!r}'s h_max {hmax[i] * 1e3:.3g} ms at kd = {kd:g} N m s/rad "
+                    f"(M_ii {M[i]:.4g} kg m^2, b {b[i]:g}): explicit controller damping will diverge",
+                )
+            )
     if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and arm.nq > 1:
-        findings.append(Finding(
-            "armature",
-            f"every joint has the same armature {arma[0]:g} kg m^2: a placeholder? reflected inertia is N^2 J_rotor "
-            "and differs between a shoulder and a wrist motor",
-        ))
+        findings.append(
+            Finding(
+                "armature",
+                f"every joint has the same armature {arma[0]:g} kg m^2: a placeholder? reflected inertia is N^2 J_rotor "
+                "and differs between a shoulder and a wrist motor",
+            )
+        )
 
     # Keyframes: singular values and manipulability; contacts come with the collision section.
     keyframes = []
     for k, q in keys.items():
         s = jacobian_svd(arm.jacobian(q))
         sp = jacobian_svd(arm.jacobian(q, "pinocchio"))
-        keyframes.append({
-            "name": k, "q": q, "sigma": s.sigma, "rank": s.rank, "manipulability": s.manipulability,
-            "condition": s.condition, "lost_directions": s.lost_direction_names(),
-            "engine_sigma_diff": float(np.max(np.abs(s.sigma - sp.sigma))),
-        })
+        keyframes.append(
+            {
+                "name": k,
+                "q": q,
+                "sigma": s.sigma,
+                "rank": s.rank,
+                "manipulability": s.manipulability,
+                "condition": s.condition,
+                "lost_directions": s.lost_direction_names(),
+                "engine_sigma_diff": float(np.max(np.abs(s.sigma - sp.sigma))),
+            }
+        )
         if s.sigma[-1] < SINGULAR_SIGMA:
             lost = ", ".join(s.lost_direction_names()) or "see U"
-            findings.append(Finding(
-                "keyframe",
-                f"keyframe {k!r} is singular: sigma_min {s.sigma[-1]:.2e} < {SINGULAR_SIGMA:g}, rank {s.rank} (lost: {lost})",
-            ))
+            findings.append(
+                Finding(
+                    "keyframe",
+                    f"keyframe {k!r} is singular: sigma_min {s.sigma[-1]:.2e} < {SINGULAR_SIGMA:g}, rank {s.rank} (lost: {lost})",
+                )
+            )
 
     # Gravity against the motor limits, both engines.
     qs = random_poses(arm, n_poses, seed)
@@ -182,46 +218,71 @@ def audit(arm: Arm, n_poses: int = 10_000, seed: int = 0, kd: float = AUDIT_KD, 
     peak = np.max(np.abs(tau), axis=0)
     over = np.abs(tau) > arm.effort_limit
     gravity = {
-        "n_poses": n_poses, "seed": seed, "peak": peak, "limit": arm.effort_limit,
-        "poses_over_limit": int(np.sum(over.any(axis=1))), "engine_diff": float(np.max(np.abs(tau - tau_p))),
+        "n_poses": n_poses,
+        "seed": seed,
+        "peak": peak,
+        "limit": arm.effort_limit,
+        "poses_over_limit": int(np.sum(over.any(axis=1))),
+        "engine_diff": float(np.max(np.abs(tau - tau_p))),
     }
     for i, n in enumerate(names):
         if over[:, i].any():
-            findings.append(Finding(
-                "gravity",
-                f"gravity torque at joint {n!r} reaches {peak[i]:.3g} N m, over its motor limit "
-                f"{arm.effort_limit[i]:.3g} N m, in {int(over[:, i].sum())} of {n_poses} poses",
-            ))
+            findings.append(
+                Finding(
+                    "gravity",
+                    f"gravity torque at joint {n!r} reaches {peak[i]:.3g} N m, over its motor limit "
+                    f"{arm.effort_limit[i]:.3g} N m, in {int(over[:, i].sum())} of {n_poses} poses",
+                )
+            )
 
     # Self-collision over random poses, and at the keyframes.
     stats: CollisionStatistics = collision_statistics(arm, n_poses, seed + 1, distances="mujoco")
     collision = {
-        "n_poses": stats.n_poses, "seed": stats.seed, "share_with_contact": stats.share_with_contact,
+        "n_poses": stats.n_poses,
+        "seed": stats.seed,
+        "share_with_contact": stats.share_with_contact,
         "pairs": [
             {"pair": p.pair.label, "poses": p.poses, "contacts": p.contacts, "closest": p.closest}
             for p in sorted(stats.pairs, key=lambda p: (-p.poses, p.closest))
         ],
         "keyframes": [
-            {"name": k.keyframe, "contacts": k.contacts,
-             "closest_pair": k.closest.pair.label if k.closest else None,
-             "closest_distance": k.closest.distance if k.closest else None}
+            {
+                "name": k.keyframe,
+                "contacts": k.contacts,
+                "closest_pair": k.closest.pair.label if k.closest else None,
+                "closest_distance": k.closest.distance if k.closest else None,
+            }
             for k in stats.keyframes
         ],
         "n_pairs": len(stats.pairs),
     }
     for k in stats.keyframes:
         if k.contacts:
-            findings.append(Finding("keyframe", f"keyframe {k.keyframe!r} is in self-contact ({k.contacts} contacts)"))
+            findings.append(
+                Finding(
+                    "keyframe",
+                    f"keyframe {k.keyframe!r} is in self-contact ({k.contacts} contacts)",
+                )
+            )
 
     # The engines, pose by pose and model against model.
     cc: CrossCheckReport = crosscheck(arm, qs[:CROSSCHECK_POSES])
     crossd = {
-        "n_poses": cc.n_poses, "ok": cc.ok,
-        "quantities": [{"quantity": a.quantity, "max_error": a.max_error, "tol": a.tol, "ok": a.ok} for a in cc.agreements],
+        "n_poses": cc.n_poses,
+        "ok": cc.ok,
+        "quantities": [
+            {"quantity": a.quantity, "max_error": a.max_error, "tol": a.tol, "ok": a.ok}
+            for a in cc.agreements
+        ],
     }
     for a in cc.agreements:
         if not a.ok:
-            findings.append(Finding("engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}"))
+            findings.append(
+                Finding(
+                    "engines",
+                    f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}",
+                )
+            )
     eq: EquivalenceReport = compare_models(arm)
     equiv = {
         "equivalent": eq.equivalent,
@@ -231,15 +292,31 @@ def audit(arm: Arm, n_poses: int = 10_000, seed: int = 0, kd: float = AUDIT_KD, 
     for d in eq.differences:
         findings.append(Finding("engines", f"models differ: {d}"))
     return AuditReport(
-        str(arm.source), arm.site, joints, h, kd, keyframes, gravity, collision, crossd, equiv, findings
+        str(arm.source),
+        arm.site,
+        joints,
+        h,
+        kd,
+        keyframes,
+        gravity,
+        collision,
+        crossd,
+        equiv,
+        findings,
     )
 
 
 def format_report(r: AuditReport) -> list[str]:
     """The audit as text lines."""
     ms = lambda x: "any" if x is None or not np.isfinite(x) else f"{1e3 * x:.2f}"  # noqa: E731
-    out = [f"audit of {r.model} (site {r.site!r})", "", f"joints (M_ii at the reference pose; h_max at kd = {r.kd:g} N m s/rad, timestep {1e3 * r.timestep:g} ms):"]
-    out.append(f"  {'joint':<8}{'type':<7}{'range':>17}{'armature':>10}{'share':>7}{'damping':>9}{'limit':>8}{'M_ii':>9}{'h_max ms':>10}{'bare ms':>9}")
+    out = [
+        f"audit of {r.model} (site {r.site!r})",
+        "",
+        f"joints (M_ii at the reference pose; h_max at kd = {r.kd:g} N m s/rad, timestep {1e3 * r.timestep:g} ms):",
+    ]
+    out.append(
+        f"  {'joint':<8}{'type':<7}{'range':>17}{'armature':>10}{'share':>7}{'damping':>9}{'limit':>8}{'M_ii':>9}{'h_max ms':>10}{'bare ms':>9}"
+    )
     for j in r.joints:
         rng = f"[{j['lower']:.3g}, {j['upper']:.3g}]"
         out.append(
@@ -256,22 +333,38 @@ def format_report(r: AuditReport) -> list[str]:
     g = r.gravity
     out += ["", f"gravity over {g['n_poses']} random poses (seed {g['seed']}):"]
     out.append(f"  peak |tau| (N m)     {np.array2string(np.asarray(g['peak']), precision=2)}")
-    ratio = ["-" if p < 1e-9 else f"{lim / p:.2f}" for p, lim in zip(g["peak"], g["limit"], strict=True)]
+    ratio = [
+        "-" if p < 1e-9 else f"{lim / p:.2f}" for p, lim in zip(g["peak"], g["limit"], strict=True)
+    ]
     out.append(f"  limit / peak         {' '.join(ratio)}")
-    out.append(f"  poses over a limit   {g['poses_over_limit']}   (Pinocchio vs MuJoCo: {g['engine_diff']:.1e} N m)")
+    out.append(
+        f"  poses over a limit   {g['poses_over_limit']}   (Pinocchio vs MuJoCo: {g['engine_diff']:.1e} N m)"
+    )
     c = r.collision
-    out += ["", f"self-collision over {c['n_poses']} random poses (seed {c['seed']}), {c['n_pairs']} pairs tested:"]
+    out += [
+        "",
+        f"self-collision over {c['n_poses']} random poses (seed {c['seed']}), {c['n_pairs']} pairs tested:",
+    ]
     out.append(f"  {100 * c['share_with_contact']:.1f}% of poses have a contact")
     out.append(f"  {'pair':<24}{'poses':>7}{'contacts':>10}{'closest (m)':>13}")
     for p in c["pairs"][:8]:
         out.append(f"  {p['pair']:<24}{p['poses']:>7}{p['contacts']:>10}{p['closest']:>13.4f}")
     for k in c["keyframes"]:
-        near = f", closest {k['closest_pair']} at {k['closest_distance']:.4f} m" if k["closest_pair"] else ""
+        near = (
+            f", closest {k['closest_pair']} at {k['closest_distance']:.4f} m"
+            if k["closest_pair"]
+            else ""
+        )
         out.append(f"  keyframe {k['name']}: {k['contacts']} contacts{near}")
     x = r.crosscheck
-    out += ["", f"engine cross-check over {x['n_poses']} poses (|MuJoCo - Pinocchio| / max(1, |value|)):"]
+    out += [
+        "",
+        f"engine cross-check over {x['n_poses']} poses (|MuJoCo - Pinocchio| / max(1, |value|)):",
+    ]
     for a in x["quantities"]:
-        out.append(f"  {a['quantity']:<26}{a['max_error']:>10.2e}  tol {a['tol']:.0e}  {'ok' if a['ok'] else 'DISAGREE'}")
+        out.append(
+            f"  {a['quantity']:<26}{a['max_error']:>10.2e}  tol {a['tol']:.0e}  {'ok' if a['ok'] else 'DISAGREE'}"
+        )
     e = r.equivalence
     out += ["", "model equivalence (MuJoCo's compiled model vs Pinocchio's):"]
     out += [f"  DIFFERS {d}" for d in e["differences"]] or ["  no differences"]
@@ -279,7 +372,9 @@ def format_report(r: AuditReport) -> list[str]:
     for b in e["bridged"]:
         kinds.setdefault(b["quantity"], []).append(f"{b['joint']}={b['value']}")
     for kind, vals in kinds.items():
-        out.append(f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): {', '.join(vals)}")
+        out.append(
+            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): {', '.join(vals)}"
+        )
     out += ["", f"findings: {len(r.findings)}"]
     out += [f"  [{f.kind}] {f.message}" for f in r.findings] or ["  none"]
     return out

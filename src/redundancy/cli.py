@@ -16,16 +16,24 @@ def _parser() -> argparse.ArgumentParser:
         description="Audit a redundant arm with MuJoCo and Pinocchio, cross-checked.",
     )
     sub = p.add_subparsers(dest="command", required=True)
-    a = sub.add_parser("audit", help="audit an MJCF arm (default: the bundled arm7, with lesson 5.2's tables)")
+    a = sub.add_parser(
+        "audit", help="audit an MJCF arm (default: the bundled arm7, with lesson 5.2's tables)"
+    )
     a.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
     a.add_argument("--site", default="ee", help="tool site name (default: ee)")
-    a.add_argument("--poses", type=int, default=10_000, help="random poses for the sweeps (default: 10000)")
+    a.add_argument(
+        "--poses", type=int, default=10_000, help="random poses for the sweeps (default: 10000)"
+    )
     a.add_argument("--seed", type=int, default=0, help="seed of the random poses (default: 0)")
-    a.add_argument("--json", metavar="FILE", help="also write a machine-readable report ('-' for stdout)")
+    a.add_argument(
+        "--json", metavar="FILE", help="also write a machine-readable report ('-' for stdout)"
+    )
     a.add_argument("--no-lesson", action="store_true", help="skip lesson 5.2's tables for arm7")
     les = sub.add_parser("lesson", help="print lesson 5.2's six tables for arm7")
     les.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
-    les.add_argument("--poses", type=int, default=10_000, help="random poses for tables (3) and (4)")
+    les.add_argument(
+        "--poses", type=int, default=10_000, help="random poses for tables (3) and (4)"
+    )
     return p
 
 

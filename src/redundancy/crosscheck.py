@@ -95,7 +95,9 @@ class CrossCheckReport:
             out.append(f"{a.quantity:<26}{a.max_error:>14.2e}{a.tol:>9.0e}  {flag}")
         if self.bridges:
             kinds = sorted({b.quantity for b in self.bridges})
-            out.append(f"bridged from MuJoCo (same numbers in both, not compared): {', '.join(kinds)}")
+            out.append(
+                f"bridged from MuJoCo (same numbers in both, not compared): {', '.join(kinds)}"
+            )
         return out
 
 

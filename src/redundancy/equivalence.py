@@ -70,7 +70,9 @@ class EquivalenceReport:
 
     def lines(self) -> list[str]:
         """Human-readable report lines."""
-        out = [f"compared ({len(self.checked)} quantities, tol {self.tol:g}): {', '.join(self.checked)}"]
+        out = [
+            f"compared ({len(self.checked)} quantities, tol {self.tol:g}): {', '.join(self.checked)}"
+        ]
         if self.differences:
             out += [f"DIFFERS  {d}" for d in self.differences]
         else:
@@ -80,7 +82,9 @@ class EquivalenceReport:
             by_kind.setdefault(b.quantity, []).append(b)
         for kind, items in by_kind.items():
             vals = ", ".join(f"{b.joint}={b.value_text}" for b in items)
-            out.append(f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does not read it as MuJoCo does): {vals}")
+            out.append(
+                f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does not read it as MuJoCo does): {vals}"
+            )
         return out
 
 
@@ -99,10 +103,12 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
 
     def cmp(quantity: str, item: str, a: object, b: object) -> None:
         a_arr, b_arr = np.asarray(a, float), np.asarray(b, float)
-        same_inf = (np.isinf(a_arr) & np.isinf(b_arr) & (np.sign(a_arr) == np.sign(b_arr)))
+        same_inf = np.isinf(a_arr) & np.isinf(b_arr) & (np.sign(a_arr) == np.sign(b_arr))
         with np.errstate(invalid="ignore"):
             diff = a_arr - b_arr
-        err = np.where(same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf)))
+        err = np.where(
+            same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
+        )
         e = float(np.max(err)) if err.size else 0.0
         if e > tol:
             diffs.append(Difference(quantity, item, a, b, e))
@@ -115,7 +121,11 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         pin_parent = pm.names[pm.parents[pm.getJointId(n)]]
         pin_parent = "" if pin_parent == "universe" else pin_parent
         if mj_parent != pin_parent:
-            diffs.append(Difference("parent joint", n, mj_parent or "(base)", pin_parent or "(base)", float("inf")))
+            diffs.append(
+                Difference(
+                    "parent joint", n, mj_parent or "(base)", pin_parent or "(base)", float("inf")
+                )
+            )
     from .pinocchio_engine import joint_kind
 
     for i, n in enumerate(names):
@@ -155,8 +165,18 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     cmp("site orientation", arm.site, R_m, R_p)
     cmp("gravity vector", "model", arm.mj_model.opt.gravity, np.asarray(pm.gravity.linear))
     checked = (
-        "parent joint", "joint type", "joint axis", "joint range", "armature", "damping",
-        "effort limit", "body mass", "centre of mass", "inertia", "site frame", "gravity",
+        "parent joint",
+        "joint type",
+        "joint axis",
+        "joint range",
+        "armature",
+        "damping",
+        "effort limit",
+        "body mass",
+        "centre of mass",
+        "inertia",
+        "site frame",
+        "gravity",
     )
     return EquivalenceReport(tuple(diffs), arm.bridges, tol, checked)
 

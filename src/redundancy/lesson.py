@@ -68,9 +68,17 @@ def joint_table(arm: Arm, key: str = "home", kd: float = KD) -> JointTable:
     axes = arm.mujoco.model.jnt_axis
     rows = tuple(
         JointRow(
-            name, "xyz"[int(np.argmax(np.abs(axes[i])))], float(arm.lower[i]), float(arm.upper[i]),
-            float(arm.armature()[i]), float(b[i]), float(arm.effort_limit[i]),
-            float(m[i]), float(bare[i]), float(h[i]), float(hb[i]),
+            name,
+            "xyz"[int(np.argmax(np.abs(axes[i])))],
+            float(arm.lower[i]),
+            float(arm.upper[i]),
+            float(arm.armature()[i]),
+            float(b[i]),
+            float(arm.effort_limit[i]),
+            float(m[i]),
+            float(bare[i]),
+            float(h[i]),
+            float(hb[i]),
         )
         for i, name in enumerate(arm.joint_names)
     )
@@ -93,9 +101,15 @@ def format_joint_table(t: JointTable) -> list[str]:
             f"  {r.name:<5}{r.axis:>5}{rng:>15}{r.armature:>10.3f}{r.damping:>9.2f}{r.limit:>7.0f}"
             f"{r.m_ii:>9.4f}{r.m_ii_bare:>11.5f}{_ms(r.h_max):>10}{_ms(r.h_max_bare):>11}"
         )
-    out.append("  units: limit N m, M_ii kg m^2 at the home pose; h_max = 2 M_ii / (kd - b) for a controller")
-    out.append(f"  damping kd = {t.kd} N m s/rad on top of the joint's own damping b, which Euler treats implicitly")
-    out.append(f"  Pinocchio's M_ii (with and without armature) differ from MuJoCo's by at most {t.engine_diff:.1e}")
+    out.append(
+        "  units: limit N m, M_ii kg m^2 at the home pose; h_max = 2 M_ii / (kd - b) for a controller"
+    )
+    out.append(
+        f"  damping kd = {t.kd} N m s/rad on top of the joint's own damping b, which Euler treats implicitly"
+    )
+    out.append(
+        f"  Pinocchio's M_ii (with and without armature) differ from MuJoCo's by at most {t.engine_diff:.1e}"
+    )
     return out
 
 
@@ -139,7 +153,7 @@ def format_jacobian_table(rows: Sequence[SVDRow]) -> list[str]:
 
 # -- (3) gravity budget -------------------------------------------------------------------------
 def random_poses(arm: Arm, n: int, seed: int) -> Array:
-    """n poses uniform in the joint ranges; the same draws as n calls of rng.uniform(lo, hi)."""
+    """N poses uniform in the joint ranges; the same draws as n calls of rng.uniform(lo, hi)."""
     rng = np.random.default_rng(seed)
     return rng.uniform(arm.lower, arm.upper, size=(n, arm.nq))
 
@@ -219,7 +233,11 @@ def format_contact_table(stats: CollisionStatistics, top: int = 4) -> list[str]:
     out.append('    lesson: its "poses" column counted contacts; compare it with "contacts"')
     for k in stats.keyframes:
         if k.keyframe in ("zero", "home"):
-            clear = f" (closest pair {k.closest.pair.label} at {k.closest.distance:.4f} m)" if k.closest else ""
+            clear = (
+                f" (closest pair {k.closest.pair.label} at {k.closest.distance:.4f} m)"
+                if k.closest
+                else ""
+            )
             out.append(f"  contacts at the {k.keyframe} pose: {k.contacts}{clear}")
     return out
 
@@ -247,10 +265,15 @@ HOLD_CASES = (
     ("joint PD", 0.0, "Euler", True, True),
     ("joint PD", 0.0, "implicitfast", True, True),
 )
-_INTEGRATORS = {"Euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
+_INTEGRATORS = {
+    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+}
 
 
-def _variant(arm: Arm, armature: float, integrator: str = "Euler", eulerdamp: bool = True) -> mujoco.MjModel:
+def _variant(
+    arm: Arm, armature: float, integrator: str = "Euler", eulerdamp: bool = True
+) -> mujoco.MjModel:
     m = copy.copy(arm.mj_model)
     m.dof_armature[:] = armature
     m.opt.integrator = _INTEGRATORS[integrator]
@@ -267,7 +290,19 @@ def hold_table(arm: Arm, key: str = "home", seconds: float = 2.0) -> tuple[HoldC
         m = _variant(arm, arm_value, integ, eulerdamp)
         r = simulate_hold(m, target, KP if pd else 0.0, KD if pd else 0.0, seconds)
         j = int(np.argmax(r.peak_speed))
-        rows.append(HoldCase(label, arm_value, integ, pd, eulerdamp, float(r.peak_speed[j]), arm.joint_names[j], r.bad_qacc_warnings, r.messages))
+        rows.append(
+            HoldCase(
+                label,
+                arm_value,
+                integ,
+                pd,
+                eulerdamp,
+                float(r.peak_speed[j]),
+                arm.joint_names[j],
+                r.bad_qacc_warnings,
+                r.messages,
+            )
+        )
     return tuple(rows)
 
 
@@ -357,12 +392,14 @@ def format_wrist_threshold(w: WristThreshold, joint: str = "j7") -> list[str]:
         f"-> bound predicts kd < b + 2 I / h = {w.bound:.3f}"
     ]
     for kp, kd in w.stable_up_to.items():
-        out.append(f"  kp {kp:>5g}: stable for kd up to {kd:.2f}, unstable from {kd + w.step:.2f} N m s/rad")
+        out.append(
+            f"  kp {kp:>5g}: stable for kd up to {kd:.2f}, unstable from {kd + w.step:.2f} N m s/rad"
+        )
     return out
 
 
 # -- all six ----------------------------------------------------------------------------------------
-def print_tables(arm: Arm, n_poses: int = N_POSES, out=print) -> None:  # noqa: ANN001
+def print_tables(arm: Arm, n_poses: int = N_POSES, out=print) -> None:
     """Print the lesson's six tables for ``arm`` (which must be shaped like arm7)."""
     out("(1) joints, inertia and the explicit-damping timestep bound:")
     for line in format_joint_table(joint_table(arm)):
@@ -376,7 +413,9 @@ def print_tables(arm: Arm, n_poses: int = N_POSES, out=print) -> None:  # noqa: 
     out("(4) self-collision:")
     for line in format_contact_table(contact_table(arm, n_poses, seed=1)):
         out(line)
-    out(f"(5) hold the home pose for 2 s at h = 2 ms after a 0.01 rad/s nudge (PD: kp {KP:g}, kd {KD:g}):")
+    out(
+        f"(5) hold the home pose for 2 s at h = 2 ms after a 0.01 rad/s nudge (PD: kp {KP:g}, kd {KD:g}):"
+    )
     for line in format_hold_table(hold_table(arm)):
         out(line)
     out("(6) the bare wrist's stability threshold in kd (no armature, Euler, h = 2 ms):")

@@ -46,7 +46,11 @@ def joint_force_limits(model: mujoco.MjModel) -> Array:
             and model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
             and model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
         ):
-            lim = np.max(np.abs(model.actuator_ctrlrange[a])) * abs(model.actuator_gainprm[a, 0]) * gear
+            lim = (
+                np.max(np.abs(model.actuator_ctrlrange[a]))
+                * abs(model.actuator_gainprm[a, 0])
+                * gear
+            )
         else:
             lim = np.inf
         limit[dof] += lim
@@ -185,7 +189,11 @@ class MujocoEngine:
             owner = m.dof_bodyid[k]
             bodies = [b for b in range(1, m.nbody) if m.body_weldid[b] == owner]
             mass = sum(m.body_mass[b] for b in bodies)
-            com = sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass if mass > 0 else d.xpos[owner]
+            com = (
+                sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass
+                if mass > 0
+                else d.xpos[owner]
+            )
             inertia = np.zeros((3, 3))
             for b in bodies:
                 R = d.ximat[b].reshape(3, 3)
@@ -250,7 +258,9 @@ def simulate_hold(
         record_from: Fraction of the run after which speeds are recorded (0: every step).
     """
     with captured_warnings() as messages:
-        return _hold(model, target, kp, kd, seconds, nudge, gravity_compensation, record_from, messages)
+        return _hold(
+            model, target, kp, kd, seconds, nudge, gravity_compensation, record_from, messages
+        )
 
 
 @contextlib.contextmanager

@@ -236,9 +236,7 @@ class SelfMotionPath:
 Objectivelike = Objective | Callable[[Array], float]
 
 
-def _objective_direction(
-    objective: Objectivelike, q: Array, basis: Array, fd_step: float
-) -> Array:
+def _objective_direction(objective: Objectivelike, q: Array, basis: Array, fd_step: float) -> Array:
     """Gradient of the objective projected onto the null space (basis columns), shape (nq,)."""
     grad = objective.gradient if isinstance(objective, Objective) else None
     if grad is not None:
