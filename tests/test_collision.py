@@ -91,7 +91,8 @@ TYPED = """
           <body name="hand" pos="0 0.05 0.25" euler="0.2 0 0">
             <joint name="j4" axis="0 1 0" range="-2.8 2.8"/>
             <geom name="hand_sph" type="sphere" size="0.05" pos="0 0 0.06"/>
-            <geom name="hand_box" type="box" size="0.02 0.05 0.03" pos="0 0 0.13" euler="0.3 0.2 0.1"/>
+            <geom name="hand_box" type="box" size="0.02 0.05 0.03" pos="0 0 0.13"
+                  euler="0.3 0.2 0.1"/>
             <geom name="hand_cap" type="capsule" size="0.02" fromto="-0.05 0 0.1 0.05 0.02 0.1"/>
             <geom name="hand_cyl" type="cylinder" size="0.03 0.02" pos="0 0.06 0.1" euler="1 0 0"/>
             <geom name="hand_ell" type="ellipsoid" size="0.02 0.03 0.04" pos="0 -0.06 0.1"/>
@@ -248,13 +249,19 @@ def test_welded_bodies_and_same_body_geoms_never_collide() -> None:
         (0, 0, 1, 1, False),
     ],
 )
-def test_bitmasks_are_or_of_the_two_one_sided_matches(t1: int, a1: int, t2: int, a2: int, tested: bool) -> None:
-    xml = chain(geom='type="sphere" size="0.3"').replace(
-        '<geom name="ga" type="sphere" size="0.3"/>',
-        f'<geom name="ga" type="sphere" size="0.3" contype="{t1}" conaffinity="{a1}"/>',
-    ).replace(
-        '<geom name="gc" type="sphere" size="0.3"/>',
-        f'<geom name="gc" type="sphere" size="0.3" contype="{t2}" conaffinity="{a2}"/>',
+def test_bitmasks_are_or_of_the_two_one_sided_matches(
+    t1: int, a1: int, t2: int, a2: int, tested: bool
+) -> None:
+    xml = (
+        chain(geom='type="sphere" size="0.3"')
+        .replace(
+            '<geom name="ga" type="sphere" size="0.3"/>',
+            f'<geom name="ga" type="sphere" size="0.3" contype="{t1}" conaffinity="{a1}"/>',
+        )
+        .replace(
+            '<geom name="gc" type="sphere" size="0.3"/>',
+            f'<geom name="gc" type="sphere" size="0.3" contype="{t2}" conaffinity="{a2}"/>',
+        )
     )
     m = mj(xml)
     assert ("ga / gc" in labels(m)) is tested
@@ -274,18 +281,30 @@ def test_exclude_removes_and_pair_adds_bypassing_every_filter() -> None:
     assert p.threshold == pytest.approx(0.012)
     # An explicit pair even between bitmask-less geoms, and replacing a filtered-in pair.
     m2 = mj(
-        chain('<contact><pair geom1="gc" geom2="ga"/></contact>', geom='type="sphere" size="0.3" contype="0"')
+        chain(
+            '<contact><pair geom1="gc" geom2="ga"/></contact>',
+            geom='type="sphere" size="0.3" contype="0"',
+        )
     )
     assert [(q.label, q.explicit) for q in col.collision_pairs(m2)] == [("ga / gc", True)]
     m3 = mj(chain('<contact><pair geom1="gc" geom2="ga" margin="0.02"/></contact>'))
-    assert [(q.label, q.explicit, q.margin) for q in col.collision_pairs(m3)] == [("ga / gc", True, 0.02)]
+    assert [(q.label, q.explicit, q.margin) for q in col.collision_pairs(m3)] == [
+        ("ga / gc", True, 0.02)
+    ]
     for model in (m, m2, m3):
-        assert mujoco_contact_pairs(model) == {(q.geom1, q.geom2) for q in col.collision_pairs(model)}
+        assert mujoco_contact_pairs(model) == {
+            (q.geom1, q.geom2) for q in col.collision_pairs(model)
+        }
 
 
 @pytest.mark.parametrize("flag", ["contact", "constraint"])
 def test_no_pairs_when_contacts_are_disabled(flag: str) -> None:
-    m = mj(chain('<contact><pair geom1="ga" geom2="gb"/></contact>', option=f'<option><flag {flag}="disable"/></option>'))
+    m = mj(
+        chain(
+            '<contact><pair geom1="ga" geom2="gb"/></contact>',
+            option=f'<option><flag {flag}="disable"/></option>',
+        )
+    )
     assert col.collision_pairs(m) == ()
     assert mujoco_contact_pairs(m) == set()
 
@@ -346,7 +365,9 @@ def random_models(draw: st.DrawFn) -> str:
         out = []
         for name, ct, ca in geoms[b]:
             pos = " ".join(f"{x:.3f}" for x in rng.uniform(-0.05, 0.05, 3))
-            out.append(f'<geom name="{name}" size="0.5" pos="{pos}" contype="{ct}" conaffinity="{ca}"/>')
+            out.append(
+                f'<geom name="{name}" size="0.5" pos="{pos}" contype="{ct}" conaffinity="{ca}"/>'
+            )
         return "".join(out)
 
     def body_xml(b: int) -> str:
@@ -355,7 +376,9 @@ def random_models(draw: st.DrawFn) -> str:
         inertial = '<inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>'
         return f'<body name="b{b}" pos="0 0 0.01">{joint}{inertial}{geom_xml(b)}{kids}</body>'
 
-    world = geom_xml(0) + ('<geom name="floor" type="plane" size="1 1 0.1"/>' if world_plane else "")
+    world = geom_xml(0) + (
+        '<geom name="floor" type="plane" size="1 1 0.1"/>' if world_plane else ""
+    )
     world += "".join(body_xml(c + 1) for c in range(nbody) if parents[c] == 0)
     contact = "".join(
         f'<exclude body1="{body_names[a]}" body2="{body_names[b]}"/>' for a, b in sorted(excludes)
@@ -429,7 +452,11 @@ def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
     for c, k in zip(coal_d.pairs, mj_d.pairs, strict=True):
         p = c.pair
         if c.distance > BAND and k.distance > BAND:
-            assert abs(c.distance - k.distance) <= separated_tol(p, m), (p.label, c.distance, k.distance)
+            assert abs(c.distance - k.distance) <= separated_tol(p, m), (
+                p.label,
+                c.distance,
+                k.distance,
+            )
             # Nearest points: as far apart as the distance says, for both engines.
             for e in (c, k):
                 assert np.linalg.norm(e.point2 - e.point1) == pytest.approx(e.distance, abs=1e-6)
@@ -438,12 +465,19 @@ def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
                 assert abs(c.distance - k.distance) <= TIGHT, (p.label, c.distance, k.distance)
         else:
             # Opposite signs only inside the band where neither engine can tell.
-            assert abs(c.distance) <= BAND and abs(k.distance) <= BAND, (p.label, c.distance, k.distance)
+            assert abs(c.distance) <= BAND and abs(k.distance) <= BAND, (
+                p.label,
+                c.distance,
+                k.distance,
+            )
     # The touching pairs by coal are exactly the pairs MuJoCo lists contacts for.
     unclear = {e.pair for e in coal_d.pairs if abs(e.clearance) < BAND}
     by_coal = {e.pair for e in coal_d.touching} - unclear
     by_mujoco = ch.contact_pairs(q) - unclear
-    assert by_coal == by_mujoco, (sorted(x.label for x in by_coal), sorted(x.label for x in by_mujoco))
+    assert by_coal == by_mujoco, (
+        sorted(x.label for x in by_coal),
+        sorted(x.label for x in by_mujoco),
+    )
 
 
 @given(poses(_TYPED))
@@ -464,8 +498,13 @@ def test_fast_contacts_are_mj_forward_contacts(q: np.ndarray) -> None:
     d = mujoco.MjData(m)
     d.qpos[:] = q
     mujoco.mj_forward(m, d)
-    expected = sorted((tuple(sorted(map(int, g))), round(float(x), 12)) for g, x in zip(d.contact.geom[: d.ncon], d.contact.dist[: d.ncon], strict=True))
-    got = sorted(((c.pair.geom1, c.pair.geom2), round(c.distance, 12)) for c in col.contacts(_ARM7, q))
+    expected = sorted(
+        (tuple(sorted(map(int, g))), round(float(x), 12))
+        for g, x in zip(d.contact.geom[: d.ncon], d.contact.dist[: d.ncon], strict=True)
+    )
+    got = sorted(
+        ((c.pair.geom1, c.pair.geom2), round(c.distance, 12)) for c in col.contacts(_ARM7, q)
+    )
     assert got == expected
 
 
@@ -475,7 +514,9 @@ def test_contact_normal_points_from_geom1_to_geom2() -> None:
     xml = """
 <mujoco><worldbody>
   <geom name="cap" type="capsule" size="0.1 0.2"/>
-  <body name="a" pos="0.15 0 0"><joint name="j" axis="0 0 1"/><geom name="ball" size="0.1"/><site name="ee"/></body>
+  <body name="a" pos="0.15 0 0">
+    <joint name="j" axis="0 0 1"/><geom name="ball" size="0.1"/><site name="ee"/>
+  </body>
 </worldbody></mujoco>"""
     arm = rd.load_string(xml)
     (c,) = col.contacts(arm, [0.0])
@@ -495,7 +536,20 @@ def test_distances_name_lookup_and_closest(arm7: rd.Arm) -> None:
         d.of("link1", "link2")  # parent and child: never tested
     with pytest.raises(rd.UnknownNameError) as err:
         col.distances(arm7, q, engine="fcl")  # type: ignore[arg-type]
-    assert str(err.value) == "unknown distance engine 'fcl'; valid distance engine names: ['coal', 'mujoco']"
+    assert (
+        str(err.value)
+        == "unknown distance engine 'fcl'; valid distance engine names: ['coal', 'mujoco']"
+    )
+
+
+@given(st.lists(poses(_ARM7), min_size=2, max_size=4))
+def test_distances_depend_on_the_pose_alone(qs: list[np.ndarray]) -> None:
+    """No warm start: the same pose gives the same distances whatever was queried before."""
+    ch = col.checker(_ARM7)
+    first = ch.distance_values(qs[0])
+    for q in qs[1:]:
+        ch.distance_values(q)
+    np.testing.assert_array_equal(ch.distance_values(qs[0]), first)
 
 
 def test_unnamed_body_with_geoms_is_refused() -> None:
@@ -516,6 +570,37 @@ def test_placement_mismatch_is_caught() -> None:
     pm.frames[fid] = frame
     with pytest.raises(rd.ModelError, match="do not see the same bodies"):
         col.CollisionChecker(arm)
+
+
+def test_failed_epa_is_redone(monkeypatch: pytest.MonkeyPatch) -> None:
+    """coal's EPA reports a failure as -DBL_MAX: the pair is redone with a looser EPA, and
+    if that fails too, the overlap is bounded by the sum of the bounding radii."""
+    import coal
+
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    ch = col.CollisionChecker(arm)
+    q = arm.keyframe("home").copy()
+    q[arm.joint_index("j4")] = 2.9
+    good = ch.distances(q)
+    k = ch.pairs.index(ch.pair("link2", "link4"))
+    scene = ch._coal
+    raw = scene._raw_values
+
+    def failing(q: np.ndarray) -> np.ndarray:
+        out = raw(q)
+        out[k] = -np.finfo(float).max
+        return out
+
+    monkeypatch.setattr(scene, "_raw_values", failing)
+    redone = ch.distances(q)
+    # EPA to 1e-4 m instead of 1e-6 m.
+    assert redone.pairs[k].distance == pytest.approx(good.pairs[k].distance, abs=1e-4)
+    assert np.linalg.norm(redone.pairs[k].point1 - good.pairs[k].point1) < 1e-3
+    np.testing.assert_array_equal(np.delete(redone.values, k), np.delete(good.values, k))
+    monkeypatch.setattr(coal, "distance", lambda *a: -np.finfo(float).max)
+    m = arm.mj_model
+    bound = -(m.geom_rbound[ch.pairs[k].geom1] + m.geom_rbound[ch.pairs[k].geom2])
+    assert ch.distance_values(q)[k] == pytest.approx(bound)
 
 
 # ==========================================================================================
@@ -564,7 +649,10 @@ def test_statistics_count_poses_and_contacts_as_the_lesson_loop(arm7: rd.Arm) ->
         if a.closest > BAND and b.closest > BAND:
             assert abs(a.closest - b.closest) <= separated_tol(a.pair, m)
         else:
-            assert np.sign(a.closest) == np.sign(b.closest) or max(abs(a.closest), abs(b.closest)) < BAND
+            assert (
+                np.sign(a.closest) == np.sign(b.closest)
+                or max(abs(a.closest), abs(b.closest)) < BAND
+            )
     # Keyframes: MuJoCo's contact count there.
     for k in stats.keyframes:
         d.qpos[:] = k.q
@@ -617,10 +705,11 @@ def geom_points(m: mujoco.MjModel, d: mujoco.MjData, g: int) -> np.ndarray:
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     th = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     rim = np.stack([s[0] * np.cos(th), s[0] * np.sin(th), np.zeros_like(th)], axis=1)
+    up = np.array([0.0, 0.0, s[1]])
     local = {
         mujoco.mjtGeom.mjGEOM_SPHERE: s[0] * u,
-        mujoco.mjtGeom.mjGEOM_CAPSULE: np.vstack([s[0] * u + [0, 0, s[1]], s[0] * u - [0, 0, s[1]]]),
-        mujoco.mjtGeom.mjGEOM_CYLINDER: np.vstack([rim + [0, 0, s[1]], rim - [0, 0, s[1]]]),
+        mujoco.mjtGeom.mjGEOM_CAPSULE: np.vstack([s[0] * u + up, s[0] * u - up]),
+        mujoco.mjtGeom.mjGEOM_CYLINDER: np.vstack([rim + up, rim - up]),
         mujoco.mjtGeom.mjGEOM_BOX: np.array(list(itertools.product(*[(-x, x) for x in s[:3]]))),
         mujoco.mjtGeom.mjGEOM_ELLIPSOID: s[:3] * u,
     }[t]
@@ -671,7 +760,9 @@ def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
     # The bound is on the true signed distance; where coal's depth (EPA) is only as good as
     # its sign, max(db, 0) still obeys it: true d(qb) <= 0 there.
     ok = (da <= 0) | (np.maximum(db, 0.0) >= da - w - BAND)
-    assert ok.all(), [(p.label, a, b, x) for p, a, b, x, o in zip(ch.pairs, da, db, w, ok, strict=True) if not o]
+    assert ok.all(), [
+        (p.label, a, b, x) for p, a, b, x, o in zip(ch.pairs, da, db, w, ok, strict=True) if not o
+    ]
 
 
 @given(segments(_ARM7))
@@ -737,7 +828,9 @@ def lesson_path(arm: rd.Arm) -> np.ndarray:
 
 
 @pytest.mark.parametrize("engine", ["coal", "mujoco"])
-def test_lesson_path_folds_the_elbow_into_link2_between_free_waypoints(arm7: rd.Arm, engine: str) -> None:
+def test_lesson_path_folds_the_elbow_into_link2_between_free_waypoints(
+    arm7: rd.Arm, engine: str
+) -> None:
     Q = lesson_path(arm7)
     ch = col.checker(arm7)
     # The premise: every waypoint is free, and dense sampling finds link2 / link4 mid-path.
@@ -745,7 +838,7 @@ def test_lesson_path_folds_the_elbow_into_link2_between_free_waypoints(arm7: rd.
         assert not ch.contacts(q)
     sampled = first_sampled_contact(arm7, Q, 1000)
     assert sampled is not None and sampled[0] == 1 and 0.0 < sampled[1] < 1.0
-    seg, s = sampled
+    s = sampled[1]
     q = Q[1] + s * (Q[2] - Q[1])
     assert "link2 / link4" in {p.label for p in ch.contact_pairs(q)}
     result = assert_path_check_sound(arm7, Q, engine)

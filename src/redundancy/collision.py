@@ -24,6 +24,7 @@ Path checking (conservative advancement) lives in :mod:`redundancy.pathcheck`.
 from __future__ import annotations
 
 import time
+import warnings
 import weakref
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -33,7 +34,13 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import ModelError, PoseError, RedundancyError, UnknownNameError, UnsupportedFeatureError
+from .errors import (
+    ModelError,
+    PoseError,
+    RedundancyError,
+    UnknownNameError,
+    UnsupportedFeatureError,
+)
 
 if TYPE_CHECKING:
     import coal
@@ -58,18 +65,11 @@ AMBIGUITY_BAND = 1e-6
 COAL_GJK_TOLERANCE = 1e-10
 #: coal's EPA (penetration depth) tolerance [m]; tighter values make EPA fail on deep overlaps.
 COAL_EPA_TOLERANCE = 1e-6
-#: Iteration caps for coal's GJK and EPA (defaults 128 and 64 are too few at 1e-9).
+#: Iteration caps for coal's GJK and EPA (its defaults, 128 and 64, are too few at these
+#: tolerances on curved shapes).
 COAL_MAX_ITERATIONS = 1000
 
 _G = mujoco.mjtGeom
-_PRIMITIVES = {
-    int(_G.mjGEOM_PLANE): "plane",
-    int(_G.mjGEOM_SPHERE): "sphere",
-    int(_G.mjGEOM_CAPSULE): "capsule",
-    int(_G.mjGEOM_ELLIPSOID): "ellipsoid",
-    int(_G.mjGEOM_CYLINDER): "cylinder",
-    int(_G.mjGEOM_BOX): "box",
-}
 # Geom types that have no collision function with each other in MuJoCo (mjCOLLISIONFUNC
 # holds NULL for plane/hfield against plane/hfield), so MuJoCo never tests such a pair.
 _NO_COLLIDER = {int(_G.mjGEOM_PLANE), int(_G.mjGEOM_HFIELD)}
@@ -137,7 +137,9 @@ class GeomPair:
 
     def matches(self, name1: str, name2: str) -> bool:
         """True when the pair is made of the geoms so named, in either order."""
-        return {name1, name2} == set(self.names) and (name1 != name2 or self.names[0] == self.names[1])
+        return {name1, name2} == set(self.names) and (
+            name1 != name2 or self.names[0] == self.names[1]
+        )
 
     def __str__(self) -> str:
         return self.label
@@ -156,7 +158,11 @@ def _margin_gap(model: mujoco.MjModel, g1: int, g2: int, ipair: int) -> tuple[fl
         margin = float(model.pair_margin[ipair])
     else:
         margin = float(model.geom_margin[g1] + model.geom_margin[g2])
-    gap = float(model.pair_gap[ipair]) if ipair >= 0 else float(model.geom_gap[g1] + model.geom_gap[g2])
+    gap = (
+        float(model.pair_gap[ipair])
+        if ipair >= 0
+        else float(model.geom_gap[g1] + model.geom_gap[g2])
+    )
     return margin, gap
 
 
@@ -198,6 +204,9 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
       ``<pair>`` element is tested once, with the element's parameters.
     * never plane or height field against plane or height field (MuJoCo has no collider).
 
+    Not modelled: sleeping bodies (``<flag sleep="enable"/>``), which MuJoCo skips pose by
+    pose, and flex objects.
+
     Args:
         model: MuJoCo's compiled model, or an :class:`~redundancy.Arm`.
 
@@ -231,7 +240,10 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
                 continue
             if (min(b1, b2), max(b1, b2)) in excluded:
                 continue
-            if not (m.geom_contype[g1] & m.geom_conaffinity[g2] or m.geom_contype[g2] & m.geom_conaffinity[g1]):
+            if not (
+                m.geom_contype[g1] & m.geom_conaffinity[g2]
+                or m.geom_contype[g2] & m.geom_conaffinity[g1]
+            ):
                 continue
             found[(g1, g2)] = -1
     pairs = []
@@ -466,12 +478,14 @@ def coal_shape(model: mujoco.MjModel, geom: int) -> coal.ShapeBase:
         return coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0)
     name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"#{geom}"
     raise UnsupportedFeatureError(
-        f"{geom_type_name(model, geom)} geom", f"geom {name!r}", "distances are computed for primitive geoms only"
+        f"{geom_type_name(model, geom)} geom",
+        f"geom {name!r}",
+        "distances are computed for primitive geoms only",
     )
 
 
 def distance_request() -> coal.DistanceRequest:
-    """coal's distance request as this module uses it: signed, tight GJK, robust EPA."""
+    """The coal distance request this module uses: signed, tight GJK, robust EPA."""
     import coal
 
     req = coal.DistanceRequest()
@@ -480,6 +494,7 @@ def distance_request() -> coal.DistanceRequest:
     req.gjk_max_iterations = COAL_MAX_ITERATIONS
     req.epa_tolerance = COAL_EPA_TOLERANCE
     req.epa_max_iterations = COAL_MAX_ITERATIONS
+    req.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess  # no warm start: reproducible
     return req
 
 
@@ -508,7 +523,9 @@ class _CoalScene:
         for g in used:
             self.slot[g] = self.geom_model.addGeometryObject(self._geometry_object(m, g))
         for p in pairs:
-            self.geom_model.addCollisionPair(pin.CollisionPair(self.slot[p.geom1], self.slot[p.geom2]))
+            self.geom_model.addCollisionPair(
+                pin.CollisionPair(self.slot[p.geom1], self.slot[p.geom2])
+            )
         self.geom_data = pin.GeometryData(self.geom_model)
         # GeometryData owns one request per pair; computeDistances reads them.
         for req in self.geom_data.distanceRequests:
@@ -518,12 +535,22 @@ class _CoalScene:
             req.gjk_max_iterations = ref.gjk_max_iterations
             req.epa_tolerance = ref.epa_tolerance
             req.epa_max_iterations = ref.epa_max_iterations
+            req.gjk_initial_guess = ref.gjk_initial_guess
+            # Pinocchio turns on GJK warm starts from the previous call, which makes a
+            # distance depend on the poses queried before it (by up to 1e-6 m for EPA
+            # depths); off, every distance is a function of the pose alone, and faster.
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)
+                if hasattr(req, "enable_cached_gjk_guess"):
+                    req.enable_cached_gjk_guess = False
         # Pair k of the GeometryModel must be pair k of the set.
         for k, p in enumerate(pairs):
             cp = self.geom_model.collisionPairs[k]
             assert {cp.first, cp.second} == {self.slot[p.geom1], self.slot[p.geom2]}
+        self._retried: dict[int, tuple[float, Array, Array]] = {}
         self._swapped = [
-            self.geom_model.collisionPairs[k].first != self.slot[p.geom1] for k, p in enumerate(pairs)
+            self.geom_model.collisionPairs[k].first != self.slot[p.geom1]
+            for k, p in enumerate(pairs)
         ]
 
     def _geometry_object(self, m: mujoco.MjModel, g: int) -> pin.GeometryObject:
@@ -546,7 +573,9 @@ class _CoalScene:
         frame = self.pin_model.frames[fid]
         # GeometryObject placements are relative to the parent *joint*: compose the body
         # frame's placement in its joint with the geom's placement in its body.
-        return pin.GeometryObject(gname, frame.parentJoint, fid, frame.placement * local, coal_shape(m, g))
+        return pin.GeometryObject(
+            gname, frame.parentJoint, fid, frame.placement * local, coal_shape(m, g)
+        )
 
     def update(self, q: Array) -> None:
         import pinocchio as pin
@@ -561,19 +590,25 @@ class _CoalScene:
         oMg = self.geom_data.oMg[self.slot[g]]
         return oMg.translation.copy(), oMg.rotation.copy()
 
-    def distance_values(self, q: Array) -> Array:
-        """Signed distance of every pair [m] (fast path: no nearest points)."""
+    def _raw_values(self, q: Array) -> Array:
         import pinocchio as pin
 
         self._qp[self.perm] = q
         # computeDistances = forwardKinematics + updateGeometryPlacements + coal.distance on
         # every collision pair, in one C++ loop.
-        pin.computeDistances(self.pin_model, self.pin_data, self.geom_model, self.geom_data, self._qp)
-        out = np.array([r.min_distance for r in self.geom_data.distanceResults])
+        pin.computeDistances(
+            self.pin_model, self.pin_data, self.geom_model, self.geom_data, self._qp
+        )
+        return np.array([r.min_distance for r in self.geom_data.distanceResults])
+
+    def distance_values(self, q: Array) -> Array:
+        """Signed distance of every pair [m] (fast path: no nearest points)."""
+        out = self._raw_values(q)
+        # EPA failures come back as -DBL_MAX (or non-finite): redo those pairs.
         bad = ~np.isfinite(out) | (out < -1e6)
-        if bad.any():
-            for k in np.flatnonzero(bad):
-                out[k] = self._retry(int(k))[0]
+        self._retried = {int(k): self._retry(int(k)) for k in np.flatnonzero(bad)}
+        for k, (d, _, _) in self._retried.items():
+            out[k] = d
         return out
 
     def distances(self, q: Array) -> tuple[Array, Array, Array]:
@@ -582,6 +617,8 @@ class _CoalScene:
         p1, p2 = np.zeros((n, 3)), np.zeros((n, 3))
         for k, r in enumerate(self.geom_data.distanceResults):
             a, b = r.getNearestPoint1(), r.getNearestPoint2()
+            if k in self._retried:
+                a, b = self._retried[k][1], self._retried[k][2]
             p1[k], p2[k] = (b, a) if self._swapped[k] else (a, b)
         return dist, p1, p2
 
@@ -611,7 +648,11 @@ class _CoalScene:
         if np.isfinite(d) and d > -1e6:
             return float(d), res.getNearestPoint1(), res.getNearestPoint2()
         m = self.arm.mj_model
-        return -float(m.geom_rbound[pair.geom1] + m.geom_rbound[pair.geom2]), tfs[0].translation, tfs[1].translation
+        return (
+            -float(m.geom_rbound[pair.geom1] + m.geom_rbound[pair.geom2]),
+            tfs[0].translation,
+            tfs[1].translation,
+        )
 
 
 def _quat_matrix(quat: ArrayLike) -> Array:
@@ -627,8 +668,7 @@ def _quat_matrix(quat: ArrayLike) -> Array:
 
 
 class CollisionChecker:
-    """Self-collision queries on one arm: the pair set, distances from coal and MuJoCo,
-    MuJoCo's contacts.
+    """Self-collision queries on one arm: pair set, distances (coal, MuJoCo), contacts.
 
     Build it once per arm (or let the module functions cache one per arm); it owns private
     ``MjData``, Pinocchio ``Data`` and coal objects, so the arm's own data is left alone.
@@ -652,7 +692,9 @@ class CollisionChecker:
     def __init__(self, arm: Arm, pairs: Sequence[GeomPair] | None = None) -> None:
         m = arm.mj_model
         if m.nflex:
-            raise UnsupportedFeatureError("flex", f"{m.nflex} in the model", "only rigid geoms are checked")
+            raise UnsupportedFeatureError(
+                "flex", f"{m.nflex} in the model", "only rigid geoms are checked"
+            )
         self.arm = arm
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
         self._mj = _MujocoScene(m, self.pairs)
@@ -703,7 +745,8 @@ class CollisionChecker:
         else:
             raise UnknownNameError("distance engine", str(engine), DISTANCE_ENGINES)
         entries = tuple(
-            PairDistance(p, float(dist[k]), p1[k].copy(), p2[k].copy()) for k, p in enumerate(self.pairs)
+            PairDistance(p, float(dist[k]), p1[k].copy(), p2[k].copy())
+            for k, p in enumerate(self.pairs)
         )
         return Distances(q.copy(), engine, entries)
 
@@ -784,7 +827,9 @@ def sampling_ranges(arm: Arm) -> tuple[Array, Array]:
     for i, kind in enumerate(arm.joint_types):
         if not (np.isfinite(lo[i]) and np.isfinite(hi[i])):
             if kind != "hinge":
-                raise PoseError(f"joint {arm.joint_names[i]!r} is an unlimited slide: no range to sample")
+                raise PoseError(
+                    f"joint {arm.joint_names[i]!r} is an unlimited slide: no range to sample"
+                )
             lo[i], hi[i] = -np.pi, np.pi
     return lo, hi
 
@@ -886,7 +931,9 @@ class CollisionStatistics:
         dist = self.distance_engine is not None
         head = f"  {'pair':<24}{'poses':>7}{'contacts':>10}"
         out.append(head + (f"{'closest (m)':>13}" if dist else ""))
-        rows = self.ranked() if not dist else sorted(self.pairs, key=lambda p: (-p.poses, p.closest))
+        rows = (
+            self.ranked() if not dist else sorted(self.pairs, key=lambda p: (-p.poses, p.closest))
+        )
         for p in rows[:top]:
             line = f"  {p.pair.label:<24}{p.poses:>7}{p.contacts:>10}"
             out.append(line + (f"{p.closest:>13.4f}" if dist else ""))
@@ -896,8 +943,8 @@ class CollisionStatistics:
             out.append(f"  at the {k.keyframe} pose: {k.contacts} contacts{near}")
         if dist:
             out.append(
-                f"  distances by {self.distance_engine}; poses where its touching pairs differ from "
-                f"MuJoCo's contacts: {self.disagreements}"
+                f"  distances by {self.distance_engine}; poses where its touching pairs differ "
+                f"from MuJoCo's contacts: {self.disagreements}"
             )
         return out
 

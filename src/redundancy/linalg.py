@@ -154,7 +154,9 @@ def manipulability_gradient(J: Array, dJ: Array) -> Array:
     Returns:
         Gradient, shape (n,).
     """
-    m = J.shape[0]
+    m, n = J.shape
+    if m > n:  # fewer joints than tool directions: w is identically 0
+        return np.zeros(n)
     U, s, Vt = np.linalg.svd(J)
     if s[-1] <= RANK_RTOL * s[0]:
         return np.zeros(J.shape[1])

@@ -12,8 +12,10 @@ configuration by walking the chain of anchors from ``j`` down to the geom: two c
 hinge anchors keep their distance whatever the joints do (a hinge's anchor is fixed in its
 parent's frame as well as in its own body's, so both anchors are fixed in one rigid group), a
 slide in the chain adds its travel, and the last anchor is rigidly attached to the geom, whose
-points lie within its bounding radius of its centre. So ``R_j(g) = sum |a_{k+1} - a_k| + travel + |c_g - a_last| +
-rbound_g`` bounds ``|p - a_j|`` for every point of ``g`` at every pose.
+points lie within its bounding radius of its centre. So
+``R_j(g) = sum |a_{k+1} - a_k| + travel + |c_g - a_last| + rbound_g`` bounds ``|p - a_j|``
+for every point ``p`` of ``g`` at every pose (on the joint's own body, the distance of the
+centre to the axis line plus the bounding radius is used instead: it is constant there).
 
 **Only relative motion counts.** The distance between geoms ``g1`` (body ``b1``) and ``g2``
 (body ``b2``) depends only on the joints between their bodies: a joint upstream of both moves
@@ -130,7 +132,9 @@ def reach_bounds(model: mujoco.MjModel, geom: int) -> dict[int, float]:
         kind = int(model.jnt_type[j])
         if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
             raise UnsupportedFeatureError(
-                "ball or free joint", f"joint #{j}", "path checking bounds hinge and slide chains only"
+                "ball or free joint",
+                f"joint #{j}",
+                "path checking bounds hinge and slide chains only",
             )
         if i == len(chain) - 1:
             # The geom is rigid with this joint's body: its points' distance to the axis
@@ -307,7 +311,9 @@ class PathChecker:
         try:
             Q = np.asarray(waypoints, dtype=float)
         except (TypeError, ValueError) as err:
-            raise PoseError(f"waypoints must be an array of shape (k, {self.arm.nq}): {err}") from err
+            raise PoseError(
+                f"waypoints must be an array of shape (k, {self.arm.nq}): {err}"
+            ) from err
         if Q.ndim != 2 or Q.shape[0] < 1:
             raise PoseError(
                 f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got {Q.shape}"
@@ -364,7 +370,8 @@ class PathChecker:
                 else:
                     # No pair can lose more than its clearance (less the engines' error)
                     # before s + step: the largest step that cannot skip a contact.
-                    step = float(np.min((c[moving] - eps) / rate[moving]))
+                    with np.errstate(over="ignore"):  # a subnormal rate: the step is inf
+                        step = float(np.min((c[moving] - eps) / rate[moving]))
                     s = min(1.0, s + step)
                 c = clearance(qa + s * dq if s < 1.0 else qb)
                 if c.min() < tol:
