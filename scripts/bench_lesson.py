@@ -153,7 +153,8 @@ def main(argv: list[str] | None = None) -> int:
     path = str(args.model or rd.model_path("arm7"))
     arm = rd.load(path, site="ee")
     print(
-        f"machine: {platform.processor() or platform.machine()}, {platform.system()} {platform.release()}, "
+        f"machine: {platform.processor() or platform.machine()}, {platform.system()} "
+        f"{platform.release()}, "
         f"Python {platform.python_version()}, mujoco {mujoco.__version__}"
     )
     t_project, t_base = [], []
@@ -162,7 +163,8 @@ def main(argv: list[str] | None = None) -> int:
         t_base.append(_timed(baseline, path))
     a, b = statistics.median(t_project), statistics.median(t_base)
     print(
-        f"lesson tables, medians of {args.repeat} runs: project {a:.3f} s, per-pose loop {b:.3f} s, "
+        f"lesson tables, medians of {args.repeat} runs: project {a:.3f} s, per-pose loop "
+        f"{b:.3f} s, "
         f"speed-up {b / a:.2f}x"
     )
     ref, ours = baseline(path), project(path)

@@ -28,7 +28,7 @@ from .equivalence import EquivalenceReport, compare_models
 from .lesson import random_poses
 from .linalg import jacobian_svd
 
-#: A keyframe counts as singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
+#: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
 #: Controller damping gain at which timesteps are judged [N m s/rad] (the lesson's kd).
 AUDIT_KD = 5.0
@@ -99,7 +99,8 @@ class Progress:
         frac = done / max(self.total, 1)
         bar = "#" * int(30 * frac)
         sys.stderr.write(
-            f"\r  {self.label:<22}[{bar:<30}] {done}/{self.total} {time.perf_counter() - self.t0:5.1f} s"
+            f"\r  {self.label:<22}[{bar:<30}] {done}/{self.total} "
+            f"{time.perf_counter() - self.t0:5.1f} s"
         )
         if done >= self.total:
             sys.stderr.write("\n")
@@ -159,22 +160,26 @@ def audit(
             findings.append(
                 Finding(
                     "armature",
-                    f"joint {n!r} has zero armature: a geared joint's rotor inertia N^2 J_rotor is missing",
+                    f"joint {n!r} has zero armature: a geared joint's rotor inertia N^2 "
+                    "J_rotor is missing",
                 )
             )
         if h >= hmax[i]:
             findings.append(
                 Finding(
                     "timestep",
-                    f"timestep {h * 1e3:.3g} ms is above joint {n!r}'s h_max {hmax[i] * 1e3:.3g} ms at kd = {kd:g} N m s/rad "
-                    f"(M_ii {M[i]:.4g} kg m^2, b {b[i]:g}): explicit controller damping will diverge",
+                    f"timestep {h * 1e3:.3g} ms is above joint {n!r}'s h_max "
+                    f"{hmax[i] * 1e3:.3g} ms at kd = {kd:g} N m s/rad "
+                    f"(M_ii {M[i]:.4g} kg m^2, b {b[i]:g}): explicit controller damping will "
+                    "diverge",
                 )
             )
     if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and arm.nq > 1:
         findings.append(
             Finding(
                 "armature",
-                f"every joint has the same armature {arma[0]:g} kg m^2: a placeholder? reflected inertia is N^2 J_rotor "
+                f"every joint has the same armature {arma[0]:g} kg m^2: a placeholder? "
+                "reflected inertia is N^2 J_rotor "
                 "and differs between a shoulder and a wrist motor",
             )
         )
@@ -201,7 +206,8 @@ def audit(
             findings.append(
                 Finding(
                     "keyframe",
-                    f"keyframe {k!r} is singular: sigma_min {s.sigma[-1]:.2e} < {SINGULAR_SIGMA:g}, rank {s.rank} (lost: {lost})",
+                    f"keyframe {k!r} is singular: sigma_min {s.sigma[-1]:.2e} < "
+                    f"{SINGULAR_SIGMA:g}, rank {s.rank} (lost: {lost})",
                 )
             )
 
@@ -230,7 +236,8 @@ def audit(
             findings.append(
                 Finding(
                     "gravity",
-                    f"gravity torque at joint {n!r} reaches {peak[i]:.3g} N m, over its motor limit "
+                    f"gravity torque at joint {n!r} reaches {peak[i]:.3g} N m, over its motor "
+                    "limit "
                     f"{arm.effort_limit[i]:.3g} N m, in {int(over[:, i].sum())} of {n_poses} poses",
                 )
             )
@@ -312,22 +319,26 @@ def format_report(r: AuditReport) -> list[str]:
     out = [
         f"audit of {r.model} (site {r.site!r})",
         "",
-        f"joints (M_ii at the reference pose; h_max at kd = {r.kd:g} N m s/rad, timestep {1e3 * r.timestep:g} ms):",
+        f"joints (M_ii at the reference pose; h_max at kd = {r.kd:g} N m s/rad, timestep "
+        f"{1e3 * r.timestep:g} ms):",
     ]
     out.append(
-        f"  {'joint':<8}{'type':<7}{'range':>17}{'armature':>10}{'share':>7}{'damping':>9}{'limit':>8}{'M_ii':>9}{'h_max ms':>10}{'bare ms':>9}"
+        f"  {'joint':<8}{'type':<7}{'range':>17}{'armature':>10}{'share':>7}{'damping':>9}"
+        f"{'limit':>8}{'M_ii':>9}{'h_max ms':>10}{'bare ms':>9}"
     )
     for j in r.joints:
         rng = f"[{j['lower']:.3g}, {j['upper']:.3g}]"
         out.append(
-            f"  {j['name']:<8}{j['type']:<7}{rng:>17}{j['armature']:>10.4g}{100 * j['armature_share']:>6.1f}%"
-            f"{j['damping']:>9.3g}{j['effort_limit']:>8.3g}{j['M_ii']:>9.4g}{ms(j['h_max']):>10}{ms(j['h_max_bare']):>9}"
+            f"  {j['name']:<8}{j['type']:<7}{rng:>17}{j['armature']:>10.4g}"
+            f"{100 * j['armature_share']:>6.1f}%{j['damping']:>9.3g}{j['effort_limit']:>8.3g}"
+            f"{j['M_ii']:>9.4g}{ms(j['h_max']):>10}{ms(j['h_max_bare']):>9}"
         )
     out += ["", "keyframes (site Jacobian):"]
     for k in r.keyframes:
         lost = f", lost: {', '.join(k['lost_directions'])}" if k["lost_directions"] else ""
         out.append(
-            f"  {k['name']:<8} sigma {np.array2string(np.asarray(k['sigma']), precision=4, suppress_small=True)}"
+            f"  {k['name']:<8} sigma "
+            f"{np.array2string(np.asarray(k['sigma']), precision=4, suppress_small=True)}"
             f" rank {k['rank']}, manipulability {k['manipulability']:.3g}{lost}"
         )
     g = r.gravity
@@ -338,12 +349,14 @@ def format_report(r: AuditReport) -> list[str]:
     ]
     out.append(f"  limit / peak         {' '.join(ratio)}")
     out.append(
-        f"  poses over a limit   {g['poses_over_limit']}   (Pinocchio vs MuJoCo: {g['engine_diff']:.1e} N m)"
+        f"  poses over a limit   {g['poses_over_limit']}   (Pinocchio vs MuJoCo: "
+        f"{g['engine_diff']:.1e} N m)"
     )
     c = r.collision
     out += [
         "",
-        f"self-collision over {c['n_poses']} random poses (seed {c['seed']}), {c['n_pairs']} pairs tested:",
+        f"self-collision over {c['n_poses']} random poses (seed {c['seed']}), {c['n_pairs']} "
+        "pairs tested:",
     ]
     out.append(f"  {100 * c['share_with_contact']:.1f}% of poses have a contact")
     out.append(f"  {'pair':<24}{'poses':>7}{'contacts':>10}{'closest (m)':>13}")
@@ -363,7 +376,8 @@ def format_report(r: AuditReport) -> list[str]:
     ]
     for a in x["quantities"]:
         out.append(
-            f"  {a['quantity']:<26}{a['max_error']:>10.2e}  tol {a['tol']:.0e}  {'ok' if a['ok'] else 'DISAGREE'}"
+            f"  {a['quantity']:<26}{a['max_error']:>10.2e}  tol {a['tol']:.0e}  "
+            f"{'ok' if a['ok'] else 'DISAGREE'}"
         )
     e = r.equivalence
     out += ["", "model equivalence (MuJoCo's compiled model vs Pinocchio's):"]
@@ -373,7 +387,8 @@ def format_report(r: AuditReport) -> list[str]:
         kinds.setdefault(b["quantity"], []).append(f"{b['joint']}={b['value']}")
     for kind, vals in kinds.items():
         out.append(
-            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): {', '.join(vals)}"
+            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): "
+            f"{', '.join(vals)}"
         )
     out += ["", f"findings: {len(r.findings)}"]
     out += [f"  [{f.kind}] {f.message}" for f in r.findings] or ["  none"]

@@ -71,7 +71,8 @@ class EquivalenceReport:
     def lines(self) -> list[str]:
         """Human-readable report lines."""
         out = [
-            f"compared ({len(self.checked)} quantities, tol {self.tol:g}): {', '.join(self.checked)}"
+            f"compared ({len(self.checked)} quantities, tol {self.tol:g}): "
+            f"{', '.join(self.checked)}"
         ]
         if self.differences:
             out += [f"DIFFERS  {d}" for d in self.differences]
@@ -83,7 +84,8 @@ class EquivalenceReport:
         for kind, items in by_kind.items():
             vals = ", ".join(f"{b.joint}={b.value_text}" for b in items)
             out.append(
-                f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does not read it as MuJoCo does): {vals}"
+                f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does "
+                f"not read it as MuJoCo does): {vals}"
             )
         return out
 

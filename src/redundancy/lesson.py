@@ -26,7 +26,7 @@ KP, KD = 100.0, 5.0  # the lesson's PD gains [N m/rad], [N m s/rad]
 N_POSES = 10_000
 
 
-# -- (1) joints -------------------------------------------------------------------------------
+# -- (1) joints -----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class JointRow:
     """One joint of table (1); inertias at the home pose [kg m^2], steps [s]."""
@@ -102,18 +102,21 @@ def format_joint_table(t: JointTable) -> list[str]:
             f"{r.m_ii:>9.4f}{r.m_ii_bare:>11.5f}{_ms(r.h_max):>10}{_ms(r.h_max_bare):>11}"
         )
     out.append(
-        "  units: limit N m, M_ii kg m^2 at the home pose; h_max = 2 M_ii / (kd - b) for a controller"
+        "  units: limit N m, M_ii kg m^2 at the home pose; h_max = 2 M_ii / (kd - b) for a "
+        "controller"
     )
     out.append(
-        f"  damping kd = {t.kd} N m s/rad on top of the joint's own damping b, which Euler treats implicitly"
+        f"  damping kd = {t.kd} N m s/rad on top of the joint's own damping b, which Euler "
+        "treats implicitly"
     )
     out.append(
-        f"  Pinocchio's M_ii (with and without armature) differ from MuJoCo's by at most {t.engine_diff:.1e}"
+        "  Pinocchio's M_ii (with and without armature) differ from MuJoCo's by at most "
+        f"{t.engine_diff:.1e}"
     )
     return out
 
 
-# -- (2) Jacobian singular values --------------------------------------------------------------
+# -- (2) Jacobian singular values -----------------------------------------------------------------
 @dataclass(frozen=True)
 class SVDRow:
     """Table (2): singular values of the site Jacobian at a keyframe."""
@@ -151,7 +154,7 @@ def format_jacobian_table(rows: Sequence[SVDRow]) -> list[str]:
     return out
 
 
-# -- (3) gravity budget -------------------------------------------------------------------------
+# -- (3) gravity budget ---------------------------------------------------------------------------
 def random_poses(arm: Arm, n: int, seed: int) -> Array:
     """N poses uniform in the joint ranges; the same draws as n calls of rng.uniform(lo, hi)."""
     rng = np.random.default_rng(seed)
@@ -189,14 +192,16 @@ def format_gravity_budget(g: GravityBudget) -> list[str]:
     """Table (3) lines."""
     ratio = " ".join("-" if not np.isfinite(r) else f"{r:.2f}" for r in g.ratio)
     return [
-        f"  {g.n_poses} random poses within the ranges: largest gravity torque per joint (N m) {np.round(g.peak, 2)}",
-        f"  motor limit / largest gravity torque: {ratio}  (- : vertical axis, gravity never loads it)",
+        f"  {g.n_poses} random poses within the ranges: largest gravity torque per joint (N m) "
+        f"{np.round(g.peak, 2)}",
+        f"  motor limit / largest gravity torque: {ratio}  (- : vertical axis, gravity never "
+        "loads it)",
         f"  poses where some joint's gravity torque exceeds its motor limit: {g.n_over}",
         f"  Pinocchio's gravity torques differ from MuJoCo's by at most {g.engine_diff:.1e} N m",
     ]
 
 
-# -- (4) self-collision ------------------------------------------------------------------------------
+# -- (4) self-collision ---------------------------------------------------------------------------
 #: What the lesson printed in table (4), 10000 poses of default_rng(1) (lesson 5.2, output (4)).
 #: Its script added one per *contact* in data.contact, not one per pose, though it printed
 #: "poses"; these are therefore contact counts, shown beside ours.
@@ -242,7 +247,7 @@ def format_contact_table(stats: CollisionStatistics, top: int = 4) -> list[str]:
     return out
 
 
-# -- (5) holding the home pose ------------------------------------------------------------------
+# -- (5) holding the home pose --------------------------------------------------------------------
 @dataclass(frozen=True)
 class HoldCase:
     """One row of table (5)."""
@@ -309,7 +314,8 @@ def hold_table(arm: Arm, key: str = "home", seconds: float = 2.0) -> tuple[HoldC
 def format_hold_table(rows: Sequence[HoldCase]) -> list[str]:
     """Table (5) lines, then MuJoCo's warnings (captured during the runs)."""
     out = [
-        f"  {r.label:<28} armature {r.armature:<5} {r.integrator:<13} max |qvel| {r.peak:9.3g} rad/s "
+        f"  {r.label:<28} armature {r.armature:<5} {r.integrator:<13} max |qvel| {r.peak:9.3g} "
+        "rad/s "
         f"at {r.joint}, bad-acceleration warnings {r.warnings}"
         for r in rows
     ]
@@ -319,7 +325,7 @@ def format_hold_table(rows: Sequence[HoldCase]) -> list[str]:
     return out
 
 
-# -- (6) the bare wrist's stability threshold -------------------------------------------------------
+# -- (6) the bare wrist's stability threshold -----------------------------------------------------
 @dataclass(frozen=True)
 class WristThreshold:
     """Table (6): predicted and simulated kd threshold of the last joint without armature.
@@ -388,17 +394,19 @@ def wrist_threshold(
 def format_wrist_threshold(w: WristThreshold, joint: str = "j7") -> list[str]:
     """Table (6) lines."""
     out = [
-        f"  bare {joint}: I = {w.inertia:.6f} kg m^2, b = {w.damping} N m s/rad, h = {w.timestep} s "
+        f"  bare {joint}: I = {w.inertia:.6f} kg m^2, b = {w.damping} N m s/rad, h = "
+        f"{w.timestep} s "
         f"-> bound predicts kd < b + 2 I / h = {w.bound:.3f}"
     ]
     for kp, kd in w.stable_up_to.items():
         out.append(
-            f"  kp {kp:>5g}: stable for kd up to {kd:.2f}, unstable from {kd + w.step:.2f} N m s/rad"
+            f"  kp {kp:>5g}: stable for kd up to {kd:.2f}, unstable from {kd + w.step:.2f} N m "
+            "s/rad"
         )
     return out
 
 
-# -- all six ----------------------------------------------------------------------------------------
+# -- all six --------------------------------------------------------------------------------------
 def print_tables(arm: Arm, n_poses: int = N_POSES, out=print) -> None:
     """Print the lesson's six tables for ``arm`` (which must be shaped like arm7)."""
     out("(1) joints, inertia and the explicit-damping timestep bound:")
@@ -414,7 +422,8 @@ def print_tables(arm: Arm, n_poses: int = N_POSES, out=print) -> None:
     for line in format_contact_table(contact_table(arm, n_poses, seed=1)):
         out(line)
     out(
-        f"(5) hold the home pose for 2 s at h = 2 ms after a 0.01 rad/s nudge (PD: kp {KP:g}, kd {KD:g}):"
+        f"(5) hold the home pose for 2 s at h = 2 ms after a 0.01 rad/s nudge (PD: kp {KP:g}, "
+        f"kd {KD:g}):"
     )
     for line in format_hold_table(hold_table(arm)):
         out(line)

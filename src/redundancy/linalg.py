@@ -113,7 +113,7 @@ class Manipulability:
 
 
 def yoshikawa(J: Array) -> float:
-    """sqrt(det(J J^T)), computed as the product of singular values (exact 0 when rank-deficient)."""
+    """sqrt(det(J J^T)), as the product of singular values (exactly 0 when rank-deficient)."""
     return float(np.prod(np.linalg.svd(J, compute_uv=False)))
 
 
@@ -190,7 +190,9 @@ def damped_pinv(J: Array, damping: float) -> Array:
 
 
 def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
-    """Dynamically consistent null-space projector N = I - J_bar J (Khatib), J_bar = M^-1 J^T Lambda.
+    """Dynamically consistent null-space projector N = I - J_bar J (Khatib).
+
+    J_bar = M^-1 J^T Lambda with Lambda = (J M^-1 J^T)^-1, the task-space inertia.
 
     Torques projected by N^T produce no tool acceleration. Requires J of full row rank.
 
