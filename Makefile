@@ -16,7 +16,9 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 audit: $(STAMP)          ## the main job: audit models/arm7.xml (the lesson's six tables first)
-	$(BIN)/redundancy audit
+	@# Exit status 1 means "the audit has findings" (arm7's zero keyframe is singular by design);
+	@# only 2 and above (bad input, crashes) fail the target.
+	$(BIN)/redundancy audit || [ $$? -eq 1 ]
 
 test: $(STAMP)           ## the default (fast) suite, as CI runs it
 	$(BIN)/python -m pytest
