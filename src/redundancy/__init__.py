@@ -9,7 +9,9 @@ Example:
 
 from __future__ import annotations
 
+from . import batch
 from .arm import Arm, Bridge, load, load_string
+from .batch import crosscheck_batch
 from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
 from .equivalence import Difference, EquivalenceReport, compare_models
 from .errors import (
@@ -45,6 +47,8 @@ __all__ = [
     "UnknownNameError",
     "UnsupportedFeatureError",
     "__version__",
+    "batch",
+    "crosscheck_batch",
     "compare_models",
     "crosscheck",
     "load",

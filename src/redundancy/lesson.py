@@ -15,10 +15,10 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from . import inertia, linalg
+from . import batch, inertia, linalg
 from .arm import Arm
 from .collision import CollisionStatistics, collision_statistics
-from .mujoco_engine import batch, simulate_hold
+from .mujoco_engine import simulate_hold
 
 Array = NDArray[np.float64]
 
@@ -181,8 +181,8 @@ class GravityBudget:
 def gravity_budget(arm: Arm, n: int = N_POSES, seed: int = 0) -> GravityBudget:
     """Peak |gravity torque| per joint over n random poses, from both engines."""
     qs = random_poses(arm, n, seed)
-    tau = batch(arm.mujoco, "gravity", qs)
-    tau_p = np.stack([arm.pinocchio.gravity(q) for q in qs])
+    tau = batch.gravities(arm, qs, "mujoco")
+    tau_p = batch.gravities(arm, qs, "pinocchio")
     peak = np.max(np.abs(tau), axis=0)
     over = int(np.sum(np.any(np.abs(tau) > arm.effort_limit, axis=1)))
     return GravityBudget(n, peak, arm.effort_limit.copy(), over, float(np.max(np.abs(tau - tau_p))))

@@ -167,8 +167,13 @@ def manipulability_gradient(J: Array, dJ: Array) -> Array:
 
 
 def nullspace_projector(J: Array, rtol: float = RANK_RTOL) -> Array:
-    """Orthogonal projector onto the null space of J: N = I - J^+ J (symmetric, idempotent)."""
-    return np.eye(J.shape[1]) - np.linalg.pinv(J, rcond=rtol) @ J
+    """Orthogonal projector onto the null space of J: N = I - J^+ J (symmetric, idempotent).
+
+    Built from one SVD as N = V_0 V_0^T, V_0 the right singular vectors past the rank: the
+    same matrix as I - pinv(J) J (to rounding) at half the cost.
+    """
+    B = nullspace_basis(J, rtol)
+    return B @ B.T
 
 
 def nullspace_basis(J: Array, rtol: float = RANK_RTOL) -> Array:

@@ -100,15 +100,19 @@ class MujocoEngine:
         self.nv = model.nv
         # Armature as M sees it: the joint's own plus what its actuators reflect.
         self.armature = model.dof_armature + actuator_armature(model)
-        self._jacp = np.zeros((3, model.nv))
-        self._jacr = np.zeros((3, model.nv))
+        # mj_jacSite and mj_jacDot write into contiguous row views of one 6 x nv array, so the
+        # stacked Jacobian needs no vstack; qpos/qvel views are kept because each attribute
+        # access on MjData builds a new array view.
+        self._jac = np.zeros((6, model.nv))
+        self._jacp, self._jacr = self._jac[:3], self._jac[3:]
+        self._qpos, self._qvel = self.data.qpos, self.data.qvel
         self._M = np.zeros((model.nv, model.nv))
         self._tau = np.zeros(model.nv)
 
     def _kinematics(self, q: Array) -> None:
         d = self.data
-        d.qpos[:] = q
-        d.qvel[:] = 0.0
+        self._qpos[:] = q
+        self._qvel[:] = 0.0
         # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
         # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read.
         mujoco.mj_kinematics(self.model, d)
@@ -124,7 +128,7 @@ class MujocoEngine:
         """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular [rad/rad], world axes."""
         self._kinematics(q)
         mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self.site_id)
-        return np.vstack([self._jacp, self._jacr])
+        return self._jac.copy()
 
     def mass_matrix(self, q: Array, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
@@ -207,12 +211,6 @@ class MujocoEngine:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
         self._kinematics(q)
         return self.data.xaxis.copy(), self.data.xanchor.copy()
-
-
-def batch(engine: MujocoEngine, fn: str, qs: Array) -> Array:
-    """Evaluate one of the engine's per-pose methods over a stack of poses, shape (n, ...)."""
-    f = getattr(engine, fn)
-    return np.stack([f(q) for q in qs])
 
 
 @dataclass(frozen=True)

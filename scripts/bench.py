@@ -1,0 +1,451 @@
+"""Benchmark: batched quantities against the bare engine loops they wrap, and the controller path.
+
+For every batched quantity of :mod:`redundancy.batch` the script times, in the same process
+and interleaved round by round (so that other load on the machine hits both alike):
+
+* the **bare loop**: the engine's own functions in a tight Python loop, nothing else,
+  outputs preallocated (MuJoCo writes into them; Pinocchio's returned arrays are copied in);
+* the **batched call** of the library, with its input validation and post-processing.
+
+It prints medians over the rounds and the median of the per-round ratios batched / bare.
+Then the single-pose path of a null-space controller (J, projector, one step) against bare
+``mj_kinematics + mj_comPos + mj_jacSite + np.linalg.pinv``, the Gram-matrix shortcut for
+singular values against the SVD (speed and accuracy near singular poses), and the two-engine
+cross-check of J, M and gravity against the sum of its six bare loops.
+
+Usage: ``python scripts/bench.py [--model arm7] [--n 10000] [--repeats 7] [--calls 2000]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import sys
+import time
+from collections.abc import Callable
+
+import coal
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+import redundancy as rd
+from redundancy import batch, linalg
+from redundancy.collision import checker, random_poses
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def machine() -> list[str]:
+    """Lines describing the machine and the software versions."""
+    cpu = platform.processor() or "?"
+    try:
+        with open("/proc/cpuinfo") as f:
+            names = [ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")]
+        cpu = names[0] if names else cpu
+    except OSError:
+        pass
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    return [
+        f"machine: {platform.node()} {platform.platform()}",
+        f"cpu: {cpu}, {os.cpu_count()} logical cores, {usable} usable; "
+        f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}",
+        f"python {platform.python_version()}, numpy {np.__version__}, mujoco {mujoco.__version__}, "
+        f"pinocchio {pin.__version__}, coal {getattr(coal, '__version__', '?')}",
+    ]
+
+
+def rounds(cases: dict[str, Callable[[], object]], repeats: int) -> dict[str, list[float]]:
+    """Run every case once per round, ``repeats`` rounds; wall times [s] per case."""
+    for f in cases.values():  # warm-up: workspaces, pools, caches
+        f()
+    times: dict[str, list[float]] = {k: [] for k in cases}
+    for _ in range(repeats):
+        for k, f in cases.items():
+            t = time.perf_counter()
+            f()
+            times[k].append(time.perf_counter() - t)
+    return times
+
+
+def ratio(times: dict[str, list[float]], num: str, den: str | list[str]) -> float:
+    """Median over rounds of time(num) / time(den) (den: one case or the sum of several)."""
+    dens = [den] if isinstance(den, str) else den
+    per_round = [a / sum(times[d][i] for d in dens) for i, a in enumerate(times[num])]
+    return statistics.median(per_round)
+
+
+def ms(times: dict[str, list[float]], k: str) -> float:
+    return 1e3 * statistics.median(times[k])
+
+
+# ------------------------------------------------------------------------------------------
+# Bare loops: the engines' own functions, nothing else
+# ------------------------------------------------------------------------------------------
+
+
+class Bare:
+    """Tight loops over a pose stack with the engines' functions and preallocated outputs."""
+
+    def __init__(self, arm: rd.Arm, Q: np.ndarray) -> None:
+        self.Q = Q
+        self.m = arm.mj_model
+        self.d = mujoco.MjData(self.m)
+        self.sid = arm.mujoco.site_id
+        self.pm = arm.pinocchio.model
+        self.pd = self.pm.createData()
+        self.fid = arm.pinocchio.frame_id
+        n, nv = len(Q), self.m.nv
+        self.J, self.M, self.G = np.empty((n, 6, nv)), np.empty((n, nv, nv)), np.empty((n, nv))
+        ch = checker(arm)
+        self.coal = ch._coal
+        self.g1, self.g2 = ch._mj.g1.tolist(), ch._mj.g2.tolist()
+        self.D = np.empty((n, len(ch.pairs)))
+
+    def mj_jacobians(self) -> None:
+        """mj_kinematics + mj_comPos + mj_jacSite per pose."""
+        m, d, sid, qpos = self.m, self.d, self.sid, self.d.qpos
+        kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
+        for q, J in zip(self.Q, self.J, strict=True):
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)
+            jac(m, d, J[:3], J[3:], sid)
+
+    def mj_mass(self) -> None:
+        """mj_kinematics + mj_comPos + mj_crb + mj_fullM per pose."""
+        m, d, qpos = self.m, self.d, self.d.qpos
+        kin, com, crb, full = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_crb, mujoco.mj_fullM
+        for q, M in zip(self.Q, self.M, strict=True):
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)
+            crb(m, d)
+            full(m, d, M)
+
+    def mj_gravity(self) -> None:
+        """mj_kinematics + mj_comPos + mj_rne per pose."""
+        m, d, qpos = self.m, self.d, self.d.qpos
+        kin, com, rne = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_rne
+        for q, g in zip(self.Q, self.G, strict=True):
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)
+            rne(m, d, 0, g)
+
+    def pin_jacobians(self) -> None:
+        """Pinocchio computeFrameJacobian (LOCAL_WORLD_ALIGNED) per pose."""
+        pm, pd, fid, J, cfj = self.pm, self.pd, self.fid, self.J, pin.computeFrameJacobian
+        for i, q in enumerate(self.Q):
+            J[i] = cfj(pm, pd, q, fid, LWA)
+
+    def pin_mass(self) -> None:
+        """Pinocchio crba per pose (upper triangle, as Pinocchio returns it)."""
+        pm, pd, M, crba = self.pm, self.pd, self.M, pin.crba
+        for i, q in enumerate(self.Q):
+            M[i] = crba(pm, pd, q)
+
+    def pin_gravity(self) -> None:
+        """Pinocchio computeGeneralizedGravity per pose."""
+        pm, pd, G, grav = self.pm, self.pd, self.G, pin.computeGeneralizedGravity
+        for i, q in enumerate(self.Q):
+            G[i] = grav(pm, pd, q)
+
+    def svd(self) -> None:
+        """One SVD (numpy) of the stored Jacobian stack, values only."""
+        np.linalg.svd(self.J, compute_uv=False)
+
+    def mj_singular_values(self) -> None:
+        """The MuJoCo Jacobian loop, then one SVD of the stack."""
+        self.mj_jacobians()
+        np.linalg.svd(self.J, compute_uv=False)
+
+    def coal_distances(self) -> None:
+        """Pinocchio computeDistances per pose, then min_distance of each result."""
+        s = self.coal
+        pm, pd, gm, gd, compute = (
+            s.pin_model,
+            s.pin_data,
+            s.geom_model,
+            s.geom_data,
+            pin.computeDistances,
+        )
+        results = list(gd.distanceResults)  # references into the vector: no wrapper per pose
+        for q, row in zip(self.Q, self.D, strict=True):
+            compute(pm, pd, gm, gd, q)
+            row[:] = [r.min_distance for r in results]
+
+    def mj_distances(self) -> None:
+        """mj_kinematics + mj_geomDistance per pair, per pose."""
+        m, d, qpos = self.m, self.d, self.d.qpos
+        kin, dist = mujoco.mj_kinematics, mujoco.mj_geomDistance
+        pairs = list(zip(self.g1, self.g2, strict=True))
+        for q, row in zip(self.Q, self.D, strict=True):
+            qpos[:] = q
+            kin(m, d)
+            row[:] = [dist(m, d, a, b, 10.0, None) for a, b in pairs]
+
+
+# ------------------------------------------------------------------------------------------
+# Sections
+# ------------------------------------------------------------------------------------------
+
+
+def table(
+    title: str,
+    times: dict[str, list[float]],
+    rows: list[tuple[str, str, str | list[str], float]],
+) -> list[str]:
+    """Rows (label, batched case, bare case(s), target ratio) as text."""
+    out = [title, f"  {'quantity':<42}{'bare ms':>9}{'batched ms':>12}{'ratio':>8}{'target':>8}"]
+    for label, num, den, target in rows:
+        dens = [den] if isinstance(den, str) else den
+        bare = sum(ms(times, d) for d in dens)
+        r = ratio(times, num, den)
+        flag = "ok" if r <= target else "OVER"
+        out.append(
+            f"  {label:<42}{bare:>9.1f}{ms(times, num):>12.1f}{r:>8.2f}{target:>7.2f}  {flag}"
+        )
+    return out
+
+
+def batched_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
+    b = Bare(arm, Q)
+    cases: dict[str, Callable[[], object]] = {
+        "bare mj J": b.mj_jacobians,
+        "bare mj M": b.mj_mass,
+        "bare mj g": b.mj_gravity,
+        "bare pin J": b.pin_jacobians,
+        "bare pin M": b.pin_mass,
+        "bare pin g": b.pin_gravity,
+        "bare svd": b.svd,
+        "bare mj J+svd": b.mj_singular_values,
+        "bare coal d": b.coal_distances,
+        "bare mj d": b.mj_distances,
+        "J mj": lambda: batch.jacobians(arm, Q),
+        "J mj 2t": lambda: batch.jacobians(arm, Q, threads=2),
+        "J pin": lambda: batch.jacobians(arm, Q, "pinocchio"),
+        "sv mj": lambda: batch.singular_values(arm, Q),
+        "sv mj 2t": lambda: batch.singular_values(arm, Q, threads=2),
+        "sv pin 2t": lambda: batch.singular_values(arm, Q, "pinocchio", threads=2),
+        "w mj": lambda: batch.manipulabilities(arm, Q),
+        "M mj": lambda: batch.mass_matrices(arm, Q),
+        "M mj bare": lambda: batch.mass_matrices(arm, Q, armature=False),
+        "M mj 2t": lambda: batch.mass_matrices(arm, Q, threads=2),
+        "M pin": lambda: batch.mass_matrices(arm, Q, engine="pinocchio"),
+        "g mj": lambda: batch.gravities(arm, Q),
+        "g mj 2t": lambda: batch.gravities(arm, Q, threads=2),
+        "g pin": lambda: batch.gravities(arm, Q, "pinocchio"),
+        "g pin 2t": lambda: batch.gravities(arm, Q, "pinocchio", threads=2),
+        "d coal": lambda: batch.distances(arm, Q, "coal"),
+        "d mj": lambda: batch.distances(arm, Q, "mujoco"),
+        "d mj 2t": lambda: batch.distances(arm, Q, "mujoco", threads=2),
+    }
+    t = rounds(cases, repeats)
+    rows: list[tuple[str, str, str | list[str], float]] = [
+        ("jacobians, mujoco", "J mj", "bare mj J", 1.5),
+        ("jacobians, mujoco, 2 threads", "J mj 2t", "bare mj J", 1.5),
+        ("jacobians, pinocchio", "J pin", "bare pin J", 1.5),
+        ("singular values, mujoco (vs J loop + svd)", "sv mj", "bare mj J+svd", 1.5),
+        ("singular values, mujoco, 2 thr (vs J + svd)", "sv mj 2t", "bare mj J+svd", 1.5),
+        ("singular values, mujoco, 2 thr (vs J loop)", "sv mj 2t", "bare mj J", 1.5),
+        ("singular values, pinocchio, 2 thr (vs J loop)", "sv pin 2t", "bare pin J", 1.5),
+        ("manipulability, mujoco (vs J loop + svd)", "w mj", "bare mj J+svd", 1.5),
+        ("mass matrices, mujoco", "M mj", "bare mj M", 1.5),
+        ("mass matrices without armature, mujoco", "M mj bare", "bare mj M", 1.5),
+        ("mass matrices, mujoco, 2 threads", "M mj 2t", "bare mj M", 1.5),
+        ("mass matrices, pinocchio", "M pin", "bare pin M", 1.5),
+        ("gravity, mujoco", "g mj", "bare mj g", 1.5),
+        ("gravity, mujoco, 2 threads", "g mj 2t", "bare mj g", 1.5),
+        ("gravity, pinocchio (rneaInParallel)", "g pin", "bare pin g", 1.5),
+        ("gravity, pinocchio, 2 OpenMP threads", "g pin 2t", "bare pin g", 1.5),
+        ("distances, coal", "d coal", "bare coal d", 1.5),
+        ("distances, mujoco", "d mj", "bare mj d", 1.5),
+        ("distances, mujoco, 2 threads", "d mj 2t", "bare mj d", 1.5),
+    ]
+    out = table(f"Batched quantities, {len(Q)} poses, medians of {repeats} rounds", t, rows)
+    out.append(
+        f"  (numpy's SVD of the ({len(Q)}, 6, {arm.nq}) stack alone: {ms(t, 'bare svd'):.1f} ms)"
+    )
+    return out
+
+
+def crosscheck_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
+    b = Bare(arm, Q)
+    names = ("jacobian", "mass matrix", "gravity")
+    small = Q[: max(1, len(Q) // 20)]
+    scale = len(Q) / len(small)
+    cases: dict[str, Callable[[], object]] = {
+        "bare mj J": b.mj_jacobians,
+        "bare mj M": b.mj_mass,
+        "bare mj g": b.mj_gravity,
+        "bare pin J": b.pin_jacobians,
+        "bare pin M": b.pin_mass,
+        "bare pin g": b.pin_gravity,
+        "cc 1t": lambda: batch.crosscheck_batch(arm, Q, names),
+        "cc 2t": lambda: batch.crosscheck_batch(arm, Q, names, threads=2),
+        "per pose (1/20)": lambda: rd.crosscheck(arm, small, names),
+    }
+    t = rounds(cases, repeats)
+    parts = [k for k in cases if k.startswith("bare")]
+    rows: list[tuple[str, str, str | list[str], float]] = [
+        ("crosscheck J, M, g (vs sum of 6 bare loops)", "cc 1t", parts, 1.0),
+        ("crosscheck J, M, g, 2 threads (vs sum)", "cc 2t", parts, 1.0),
+    ]
+    out = table(f"Two-engine cross-check of J, M and gravity, {len(Q)} poses", t, rows)
+    out.append(
+        "  bare parts [ms]: "
+        + ", ".join(f"{k.removeprefix('bare ')} {ms(t, k):.1f}" for k in parts)
+    )
+    out.append(
+        f"  rd.crosscheck pose by pose (timed on {len(small)} poses, scaled): "
+        f"{ms(t, 'per pose (1/20)') * scale:.0f} ms"
+    )
+    report = batch.crosscheck_batch(arm, Q, names)
+    out += ["  " + line for line in report.lines()]
+    return out
+
+
+def gram_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
+    J = batch.jacobians(arm, Q)
+
+    def gram() -> np.ndarray:
+        lam = np.linalg.eigvalsh(J @ J.transpose(0, 2, 1))[:, ::-1]
+        return np.sqrt(np.maximum(lam, 0.0))
+
+    t = rounds({"svd": lambda: np.linalg.svd(J, compute_uv=False), "gram": gram}, repeats)
+    S = np.linalg.svd(J, compute_uv=False)
+    rel = np.abs(gram() - S) / S[:, :1]
+    out = [
+        "Singular values: SVD of J against sqrt(eig(J J^T)) (the Gram shortcut)",
+        f"  time on {len(Q)} poses: svd {ms(t, 'svd'):.1f} ms, gram {ms(t, 'gram'):.1f} ms "
+        f"(ratio {ratio(t, 'gram', 'svd'):.2f})",
+        f"  random poses: largest |gram - svd| / sigma_max = {rel.max():.1e}; "
+        f"relative error of sigma_min up to {(np.abs(gram() - S) / S)[:, -1].max():.1e}",
+    ]
+    if "zero" in arm.keyframes:
+        q0 = arm.keyframe("zero")
+        for label, q in (
+            ("zero pose", q0),
+            ("zero pose + 1e-4 rad on j4", q0 + 1e-4 * np.eye(arm.nq)[3]),
+        ):
+            Jq = arm.jacobian(q)
+            s = np.linalg.svd(Jq, compute_uv=False)
+            g = np.sqrt(np.maximum(np.linalg.eigvalsh(Jq @ Jq.T)[::-1], 0.0))
+            rank = [int(np.sum(x > linalg.RANK_RTOL * x[0])) for x in (s, g)]
+            k = rank[0] - 1  # the smallest non-zero singular value
+            out.append(
+                f"  {label}: rank svd {rank[0]}, gram {rank[1]}; smallest non-zero sigma svd "
+                f"{s[k]:.6e}, gram {g[k]:.6e} (relative error {abs(g[k] - s[k]) / s[k]:.1e})"
+            )
+    out.append(
+        "  -> not used: its small singular values miss the 1e-12 batched results are held to"
+    )
+    return out
+
+
+def controller_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
+    m, d, sid = arm.mj_model, mujoco.MjData(arm.mj_model), arm.mujoco.site_id
+    qs = random_poses(arm, calls, seed=7)
+    v = np.linspace(-0.5, 0.5, arm.nq)
+    dt = 1e-3
+    J6 = np.zeros((6, arm.nq))
+    jp, jr = J6[:3], J6[3:]
+    eye = np.eye(arm.nq)
+    qpos = d.qpos
+    kin, com, jac, pinv = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite, np.linalg.pinv
+
+    def bare_J() -> None:
+        for q in qs:
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)
+            jac(m, d, jp, jr, sid)
+
+    def bare_step() -> None:
+        for q in qs:
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)
+            jac(m, d, jp, jr, sid)
+            N = eye - pinv(J6, rcond=linalg.RANK_RTOL) @ J6
+            q + dt * (N @ v)
+
+    def lib_step() -> None:
+        for q in qs:
+            J = arm.jacobian(q)
+            N = linalg.nullspace_projector(J)
+            q + dt * (N @ v)
+
+    def lib_J() -> None:
+        for q in qs:
+            arm.jacobian(q)
+
+    def lib_pose() -> None:
+        for q in qs:
+            arm.pose(q)
+
+    def bare_pinv() -> None:
+        for _ in qs:
+            eye - pinv(J6, rcond=linalg.RANK_RTOL) @ J6
+
+    def lib_projector() -> None:
+        for _ in qs:
+            linalg.nullspace_projector(J6)
+
+    cases = {
+        "bare step": bare_step,
+        "lib step": lib_step,
+        "bare J": bare_J,
+        "lib J": lib_J,
+        "arm.pose": lib_pose,
+        "bare pinv": bare_pinv,
+        "lib projector": lib_projector,
+    }
+    t = rounds(cases, repeats)
+
+    def us(k: str) -> float:
+        return 1e6 * statistics.median(t[k]) / calls
+
+    r = ratio(t, "lib step", "bare step")
+    return [
+        f"Single-pose controller path (J, N = I - J^+ J, one null-space step), {calls} calls",
+        f"  bare (mj_kinematics + mj_comPos + mj_jacSite + np.linalg.pinv): "
+        f"{us('bare step'):6.2f} us",
+        f"  library (arm.jacobian + linalg.nullspace_projector):            "
+        f"{us('lib step'):6.2f} us   ratio {r:.2f} (target 2.00) {'ok' if r <= 2 else 'OVER'}",
+        f"  of which: J bare {us('bare J'):.2f} us, arm.jacobian {us('lib J'):.2f} us "
+        f"(arm.pose alone {us('arm.pose'):.2f} us); pinv projector bare {us('bare pinv'):.2f} us, "
+        f"linalg {us('lib projector'):.2f} us",
+    ]
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--model", default="arm7", help="arm7 or panda (site 'ee')")
+    p.add_argument("--n", type=int, default=10000, help="poses per batch")
+    p.add_argument("--repeats", type=int, default=7, help="rounds; medians are reported")
+    p.add_argument("--calls", type=int, default=2000, help="single-pose calls per round")
+    args = p.parse_args(argv)
+    arm = rd.load(rd.model_path(args.model), site="ee")
+    Q = random_poses(arm, args.n, seed=0)
+    t0 = time.perf_counter()
+    lines = [
+        f"redundancy {rd.__version__} benchmark: {args.model}, {args.n} random poses (seed 0)",
+        *machine(),
+        "ratios are medians over rounds of (batched time / bare time) measured in the same round",
+        "",
+    ]
+    print("\n".join(lines), flush=True)
+    for section in (batched_section, crosscheck_section, gram_section):
+        print("\n".join(section(arm, Q, args.repeats)) + "\n", flush=True)
+    print("\n".join(controller_section(arm, args.calls, args.repeats)), flush=True)
+    print(f"\n(total {time.perf_counter() - t0:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,217 @@
+"""Batched evaluation (redundancy.batch) equals the single-pose path, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import redundancy as rd
+from redundancy import batch
+from redundancy.collision import checker, random_poses
+from redundancy.crosscheck import TOLERANCES
+
+from .models import SKEW7
+
+ENGINES = ("mujoco", "pinocchio")
+
+
+@pytest.fixture(scope="module", params=["arm7", "panda", "skew7"])
+def arm(request: pytest.FixtureRequest) -> rd.Arm:
+    if request.param == "skew7":
+        return rd.load_string(SKEW7, site="tool")
+    return rd.load(rd.model_path(request.param), site="ee")
+
+
+def sample(arm: rd.Arm, n: int = 120, seed: int = 3) -> np.ndarray:
+    """Random poses plus every keyframe (arm7's zero pose is singular, rank 3)."""
+    keys = list(arm.keyframes.values())
+    Q = random_poses(arm, n, seed)
+    return np.vstack([*keys, Q]) if keys else Q
+
+
+def stack(f, Q):
+    return np.array([f(q) for q in Q])
+
+
+# -- equality with the single-pose path --------------------------------------------------
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_jacobians_equal_single_pose(arm: rd.Arm, engine: str) -> None:
+    Q = sample(arm)
+    J = batch.jacobians(arm, Q, engine)
+    assert J.shape == (len(Q), 6, arm.nq)
+    assert np.array_equal(J, stack(lambda q: arm.jacobian(q, engine), Q))
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("armature", [True, False])
+def test_mass_matrices_equal_single_pose(arm: rd.Arm, engine: str, armature: bool) -> None:
+    Q = sample(arm)
+    M = batch.mass_matrices(arm, Q, armature, engine)
+    assert M.shape == (len(Q), arm.nq, arm.nq)
+    assert np.array_equal(M, stack(lambda q: arm.mass_matrix(q, armature, engine), Q))
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_gravities_equal_single_pose(arm: rd.Arm, engine: str) -> None:
+    Q = sample(arm)
+    G = batch.gravities(arm, Q, engine)
+    assert G.shape == (len(Q), arm.nq)
+    assert G.flags.c_contiguous
+    assert np.array_equal(G, stack(lambda q: arm.gravity(q, engine), Q))
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_singular_values_equal_single_pose(arm: rd.Arm, engine: str) -> None:
+    Q = sample(arm)
+    S = batch.singular_values(arm, Q, engine)
+    assert S.shape == (len(Q), 6)
+    # Bit for bit with the values-only SVD of each J (what yoshikawa uses)...
+    ref = stack(lambda q: np.linalg.svd(arm.jacobian(q, engine), compute_uv=False), Q)
+    assert np.array_equal(S, ref)
+    # ...and to rounding with Arm.svd, whose SVD also computes the vectors.
+    sigma = stack(lambda q: arm.svd(q, engine).sigma, Q)
+    assert np.abs(S - sigma).max() <= 1e-12 * max(1.0, np.abs(sigma).max())
+
+
+def test_singular_values_keep_the_rank_at_a_singular_pose(arm7: rd.Arm) -> None:
+    S = batch.singular_values(arm7, arm7.keyframe("zero")[None])[0]
+    assert int(np.sum(S > rd.linalg.RANK_RTOL * S[0])) == 3
+    assert S[3:].max() < 1e-14
+
+
+@pytest.mark.parametrize("kind", batch.MANIPULABILITY_KINDS)
+def test_manipulabilities_equal_single_pose(arm: rd.Arm, kind: str) -> None:
+    Q = sample(arm, 60)
+    w = batch.manipulabilities(arm, Q, kind=kind, length=0.5)
+    ref = stack(lambda q: getattr(arm.manipulability(q, length=0.5), kind), Q)
+    assert w.shape == (len(Q),)
+    assert np.array_equal(w, ref)
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_distances_equal_single_pose(arm: rd.Arm, engine: str) -> None:
+    Q = sample(arm, 80)
+    ch = checker(arm)
+    D = batch.distances(arm, Q, engine)
+    assert D.shape == (len(Q), len(ch.pairs))
+    assert np.array_equal(D, stack(lambda q: ch.distance_values(q, engine), Q))
+
+
+def test_crosscheck_batch_equals_crosscheck(arm: rd.Arm) -> None:
+    Q = sample(arm, 80)
+    names = batch.BATCH_QUANTITIES
+    report = batch.crosscheck_batch(arm, Q, names)
+    assert report == rd.crosscheck(arm, Q, names)
+    assert report.ok
+    assert report.n_poses == len(Q)
+
+
+def test_crosscheck_batch_delegates_the_other_quantities(arm7: rd.Arm) -> None:
+    Q = sample(arm7, 5)
+    names = ("manipulability gradient", "gravity", "jacobian derivative")
+    report = batch.crosscheck_batch(arm7, Q, names, tolerances={"gravity": 1e-10})
+    assert [a.quantity for a in report.agreements] == list(names)
+    assert report == rd.crosscheck(arm7, Q, names, tolerances={"gravity": 1e-10})
+    assert report["gravity"].tol == 1e-10
+    assert [a.quantity for a in batch.crosscheck_batch(arm7, Q[:2]).agreements] == list(TOLERANCES)
+
+
+def test_worst_pose_follows_crosscheck_rules() -> None:
+    assert batch._worst(np.array([0.0, 2.0, 1.0, 2.0])) == (2.0, 1)  # first maximum
+    assert batch._worst(np.zeros(3)) == (0.0, 0)
+    assert batch._worst(np.zeros(0)) == (0.0, 0)
+    err, where = batch._worst(np.array([1.0, np.inf, 5.0, np.nan, 7.0]))
+    assert np.isnan(err) and where == 3  # the last non-finite error wins
+
+
+# -- threads -----------------------------------------------------------------------------
+
+
+def test_threads_give_identical_results(arm7: rd.Arm) -> None:
+    Q = random_poses(arm7, 2 * batch.MIN_POSES_PER_THREAD + 10, seed=5)
+    assert len(batch._spans(len(Q), 2)) == 2
+    for engine in ENGINES:
+        assert np.array_equal(
+            batch.jacobians(arm7, Q, engine), batch.jacobians(arm7, Q, engine, threads=2)
+        )
+        assert np.array_equal(
+            batch.mass_matrices(arm7, Q, False, engine),
+            batch.mass_matrices(arm7, Q, False, engine, threads=2),
+        )
+        assert np.array_equal(
+            batch.gravities(arm7, Q, engine), batch.gravities(arm7, Q, engine, threads=3)
+        )
+        assert np.array_equal(
+            batch.singular_values(arm7, Q, engine),
+            batch.singular_values(arm7, Q, engine, threads=2),
+        )
+    assert np.array_equal(
+        batch.distances(arm7, Q, "mujoco"), batch.distances(arm7, Q, "mujoco", threads=2)
+    )
+    names = ("jacobian", "mass matrix", "mass matrix (bare)", "gravity", "site position")
+    assert batch.crosscheck_batch(arm7, Q, names) == batch.crosscheck_batch(
+        arm7, Q, names, threads=2
+    )
+
+
+def test_batch_leaves_the_arms_data_alone(arm7: rd.Arm) -> None:
+    q = arm7.keyframe("home")
+    J = arm7.jacobian(q)
+    qpos = arm7.mujoco.data.qpos.copy()
+    batch.jacobians(arm7, random_poses(arm7, 10))
+    batch.gravities(arm7, random_poses(arm7, 10), "pinocchio")
+    assert np.array_equal(arm7.mujoco.data.qpos, qpos)
+    assert np.array_equal(arm7.jacobian(q), J)
+
+
+# -- shapes and errors -------------------------------------------------------------------
+
+
+def test_empty_stack(arm7: rd.Arm) -> None:
+    Q = np.zeros((0, 7))
+    assert batch.jacobians(arm7, Q).shape == (0, 6, 7)
+    assert batch.singular_values(arm7, Q, "pinocchio").shape == (0, 6)
+    assert batch.mass_matrices(arm7, Q, engine="pinocchio").shape == (0, 7, 7)
+    assert batch.gravities(arm7, Q, "pinocchio").shape == (0, 7)
+    assert batch.distances(arm7, Q).shape == (0, len(checker(arm7).pairs))
+    assert batch.crosscheck_batch(arm7, Q, batch.BATCH_QUANTITIES).n_poses == 0
+
+
+def test_accepts_lists(arm7: rd.Arm) -> None:
+    q = arm7.keyframe("home")
+    assert np.array_equal(batch.gravities(arm7, [q.tolist()])[0], arm7.gravity(q))
+
+
+@pytest.mark.parametrize(
+    ("Q", "match"),
+    [
+        (np.zeros(7), r"poses must have shape \(n, 7\) for joints \['j1'.*got shape \(7,\)"),
+        (np.zeros((3, 6)), r"got shape \(3, 6\)"),
+        (np.zeros((2, 3, 7)), r"got shape \(2, 3, 7\)"),
+        ([["a"] * 7], "poses must be numeric"),
+        (np.array([[0.0] * 7, [0.0, np.nan, 0, 0, 0, np.inf, 0]]), r"pose 1 .*j2=nan, j6=inf"),
+    ],
+)
+def test_bad_poses(arm7: rd.Arm, Q: object, match: str) -> None:
+    with pytest.raises(rd.PoseError, match=match):
+        batch.jacobians(arm7, Q)  # type: ignore[arg-type]
+    with pytest.raises(rd.PoseError):
+        batch.crosscheck_batch(arm7, Q)  # type: ignore[arg-type]
+
+
+def test_bad_arguments(arm7: rd.Arm) -> None:
+    Q = np.zeros((2, 7))
+    with pytest.raises(rd.UnknownNameError, match="valid engine names"):
+        batch.jacobians(arm7, Q, "bullet")  # type: ignore[arg-type]
+    with pytest.raises(rd.UnknownNameError, match="'coal', 'mujoco'"):
+        batch.distances(arm7, Q, "pinocchio")  # type: ignore[arg-type]
+    with pytest.raises(rd.UnknownNameError, match="manipulability kind"):
+        batch.manipulabilities(arm7, Q, kind="volume")  # type: ignore[arg-type]
+    with pytest.raises(rd.RedundancyError, match="length must be > 0"):
+        batch.manipulabilities(arm7, Q, kind="scaled", length=0.0)
+    with pytest.raises(rd.RedundancyError, match="threads must be an integer >= 1"):
+        batch.gravities(arm7, Q, threads=0)
+    with pytest.raises(rd.UnknownNameError, match="unknown quantity 'torque'"):
+        batch.crosscheck_batch(arm7, Q, ("torque",))
