@@ -167,16 +167,7 @@ def mujoco_contact_pairs(m: mujoco.MjModel) -> set[tuple[int, int]]:
     return {tuple(sorted(map(int, g))) for g in d.contact.geom[: d.ncon]}
 
 
-@pytest.fixture(scope="module")
-def typed() -> rd.Arm:
-    return rd.load_string(TYPED)
-
-
-@pytest.fixture(scope="module")
-def slider() -> rd.Arm:
-    return rd.load_string(SLIDER)
-
-
+# Module-level arms: hypothesis strategies need them when the tests are defined.
 _TYPED = rd.load_string(TYPED)
 _SLIDER = rd.load_string(SLIDER)
 _ARM7 = rd.load(rd.model_path("arm7"), site="ee")
@@ -471,13 +462,15 @@ def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
                 k.distance,
             )
     # The touching pairs by coal are exactly the pairs MuJoCo lists contacts for.
-    unclear = {e.pair for e in coal_d.pairs if abs(e.clearance) < BAND}
+    unclear = {e.pair for e in coal_d.pairs + mj_d.pairs if abs(e.clearance) < BAND}
     by_coal = {e.pair for e in coal_d.touching} - unclear
     by_mujoco = ch.contact_pairs(q) - unclear
     assert by_coal == by_mujoco, (
         sorted(x.label for x in by_coal),
         sorted(x.label for x in by_mujoco),
     )
+    # And MuJoCo agrees with itself: mj_geomDistance's sign against mj_collision's list.
+    assert ch.touching_pairs(q, "mujoco") - unclear == by_mujoco
 
 
 @given(poses(_TYPED))
@@ -673,6 +666,17 @@ def test_statistics_on_given_poses_and_without_distances(arm7: rd.Arm) -> None:
     assert stats.of("link4", "link2").poses == 1
 
 
+def test_statistics_cross_check_catches_a_wrong_engine(
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scene = col.checker(arm7)._coal  # the coal side, as the sweep calls it
+    right = scene.distance_values
+    monkeypatch.setattr(scene, "distance_values", lambda q: right(q) + 0.01)
+    stats = col.collision_statistics(arm7, 300, seed=1)
+    assert stats.poses_with_contact > 0
+    assert stats.disagreements > 0
+
+
 def test_unlimited_slide_cannot_be_sampled() -> None:
     arm = rd.load_string(SLIDER.replace('range="-0.1 0.2"', 'limited="false"'))
     with pytest.raises(rd.PoseError, match="unlimited slide"):
@@ -854,7 +858,7 @@ def test_lesson_path_folds_the_elbow_into_link2_between_free_waypoints(
 def test_path_checker_edge_cases(arm7: rd.Arm) -> None:
     home = arm7.keyframe("home")
     one = pc.check_path(arm7, [home])
-    assert one.free and one.evaluations == 1
+    assert one.free and one.evaluations == 1 and one.segments == 0
     q = home.copy()
     q[arm7.joint_index("j4")] = 2.9
     start = pc.check_path(arm7, [q, home])
@@ -870,6 +874,32 @@ def test_path_checker_edge_cases(arm7: rd.Arm) -> None:
         pc.check_path(arm7, [home, home[:3]])
     with pytest.raises(rd.UnknownNameError, match="valid distance engine names"):
         pc.check_path(arm7, [home, q], engine="fcl")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("gap", [5e-6, -5e-6, 3e-3])
+def test_grazing_pass_is_a_near_miss_contact_or_free(gap: float) -> None:
+    """A ball slides past a fixed ball; their closest approach is ``gap`` [m]."""
+    xml = f"""
+<mujoco><worldbody>
+  <geom name="fixed" size="0.1" pos="0 {0.2 + gap} 0"/>
+  <body name="cart"><joint name="x" type="slide" axis="1 0 0" range="-0.5 0.5"/>
+    <geom name="ball" size="0.1"/><site name="ee"/></body>
+</worldbody></mujoco>"""
+    arm = rd.load_string(xml)
+    path = [[-0.3], [0.3]]
+    result = pc.check_path(arm, path, tol=1e-5)
+    if gap > 1e-5:
+        # The smallest clearance seen at the evaluated poses: never below the true one.
+        assert result.free and gap - 1e-12 <= result.min_clearance < gap + 1e-4
+        return
+    c = result.contact
+    assert not result.free and c is not None
+    assert c.touching == (gap < 0)
+    # Reported near x = 0, where the balls pass: within the distance tol [m] allows.
+    assert abs(c.q[0]) < 0.01
+    assert c.distance == pytest.approx(np.hypot(c.q[0], 0.2 + gap) - 0.2, abs=1e-12)
+    assert c.clear_until <= c.s
+    assert pc.check_path(arm, path, tol=2e-6).free == (gap > 2e-6)
 
 
 def test_weights_ignore_joints_upstream_of_both_geoms(arm7: rd.Arm) -> None:
@@ -896,9 +926,9 @@ def test_path_checker_finds_a_contact_on_small_arms(arm: rd.Arm) -> None:
     assert not result.free and result.contact is not None and result.contact.segment == 0
 
 
-def test_pair_combinations_in_typed_cover_every_type_pair(typed: rd.Arm) -> None:
+def test_pair_combinations_in_typed_cover_every_type_pair() -> None:
     """The TYPED model exercises every pair of primitive types (so the per-type tests bite)."""
-    have = {p.types for p in col.collision_pairs(typed)}
+    have = {p.types for p in col.collision_pairs(_TYPED)}
     kinds = ["sphere", "capsule", "box", "cylinder", "ellipsoid"]
     want = {frozenset(t) for t in itertools.combinations_with_replacement(kinds, 2)}
     want |= {frozenset(("plane", k)) for k in kinds}

@@ -9,9 +9,10 @@ Example:
 
 from __future__ import annotations
 
-from . import batch
+from . import batch, collision, pathcheck, selfmotion
 from .arm import Arm, Bridge, load, load_string
 from .batch import crosscheck_batch
+from .collision import CollisionChecker, collision_pairs, collision_statistics
 from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
 from .equivalence import Difference, EquivalenceReport, compare_models
 from .errors import (
@@ -26,6 +27,7 @@ from .errors import (
 from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
 from .linalg import JacobianSVD, Manipulability
 from .models import model_path
+from .pathcheck import check_path
 
 __version__ = "0.1.0"
 
@@ -34,6 +36,7 @@ __all__ = [
     "Agreement",
     "Arm",
     "Bridge",
+    "CollisionChecker",
     "CrossCheckReport",
     "Difference",
     "EquivalenceReport",
@@ -48,14 +51,20 @@ __all__ = [
     "UnsupportedFeatureError",
     "__version__",
     "batch",
-    "crosscheck_batch",
+    "check_path",
+    "collision",
+    "collision_pairs",
+    "collision_statistics",
     "compare_models",
     "crosscheck",
+    "crosscheck_batch",
     "load",
     "load_string",
     "max_stable_kd",
     "max_stable_timestep",
     "model_path",
+    "pathcheck",
     "reflected_inertia",
     "rotor_inertia",
+    "selfmotion",
 ]

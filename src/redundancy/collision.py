@@ -26,7 +26,7 @@ from __future__ import annotations
 import time
 import warnings
 import weakref
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
@@ -392,6 +392,7 @@ class _MujocoScene:
         self.index[self.g1, self.g2] = np.arange(len(pairs))
         self.index[self.g2, self.g1] = np.arange(len(pairs))
         self._fromto = np.zeros(6)
+        self._pairs_list = list(zip(self.g1.tolist(), self.g2.tolist(), strict=True))
 
     def kinematics(self, q: Array) -> None:
         self.data.qpos[:] = q
@@ -435,13 +436,15 @@ class _MujocoScene:
         m, d = self.model, self.data
         n = len(self.pairs)
         dist, p1, p2 = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3))
-        for k in range(n):
-            g1, g2 = int(self.g1[k]), int(self.g2[k])
-            # distmax caps the answer; the distance never exceeds the centres' separation
-            # (each centre is inside its convex geom, or on its plane), so this never binds.
-            distmax = float(np.linalg.norm(d.geom_xpos[g1] - d.geom_xpos[g2])) + 1.0
-            dist[k] = mujoco.mj_geomDistance(m, d, g1, g2, distmax, self._fromto)
-            p1[k], p2[k] = self._fromto[:3], self._fromto[3:]
+        # distmax caps the answer; the distance never exceeds the centres' separation (each
+        # centre is inside its convex geom, or on its plane), so this cap never binds.
+        xpos = d.geom_xpos
+        caps = (np.linalg.norm(xpos[self.g1] - xpos[self.g2], axis=1) + 1.0).tolist()
+        fromto = self._fromto
+        geom_distance = mujoco.mj_geomDistance
+        for k, (g1, g2) in enumerate(self._pairs_list):
+            dist[k] = geom_distance(m, d, g1, g2, caps[k], fromto)
+            p1[k], p2[k] = fromto[:3], fromto[3:]
         return dist, p1, p2
 
 
@@ -548,6 +551,9 @@ class _CoalScene:
             cp = self.geom_model.collisionPairs[k]
             assert {cp.first, cp.second} == {self.slot[p.geom1], self.slot[p.geom2]}
         self._retried: dict[int, tuple[float, Array, Array]] = {}
+        # References into GeometryData's result vector, listed once: building the Python
+        # wrappers anew for every pose would cost more than the distances themselves.
+        self._results = list(self.geom_data.distanceResults)
         self._swapped = [
             self.geom_model.collisionPairs[k].first != self.slot[p.geom1]
             for k, p in enumerate(pairs)
@@ -599,7 +605,7 @@ class _CoalScene:
         pin.computeDistances(
             self.pin_model, self.pin_data, self.geom_model, self.geom_data, self._qp
         )
-        return np.array([r.min_distance for r in self.geom_data.distanceResults])
+        return np.array([r.min_distance for r in self._results])
 
     def distance_values(self, q: Array) -> Array:
         """Signed distance of every pair [m] (fast path: no nearest points)."""
@@ -615,7 +621,7 @@ class _CoalScene:
         dist = self.distance_values(q)
         n = len(self.pairs)
         p1, p2 = np.zeros((n, 3)), np.zeros((n, 3))
-        for k, r in enumerate(self.geom_data.distanceResults):
+        for k, r in enumerate(self._results):
             a, b = r.getNearestPoint1(), r.getNearestPoint2()
             if k in self._retried:
                 a, b = self._retried[k][1], self._retried[k][2]
@@ -703,8 +709,9 @@ class CollisionChecker:
             err = self.placement_error(q)
             if err > self.PLACEMENT_TOL:
                 raise ModelError(
-                    f"Pinocchio places the collision geoms {err:.3g} m/rad away from MuJoCo at q = "
-                    f"{np.round(q, 4).tolist()}; the engines do not see the same bodies"
+                    f"Pinocchio and MuJoCo place the collision geoms differently at q = "
+                    f"{np.round(q, 4).tolist()} (largest difference {err:.3g} in a position [m] "
+                    "or a rotation-matrix entry); the engines do not see the same bodies"
                 )
 
     # -- checks --------------------------------------------------------------------------
@@ -992,6 +999,15 @@ def collision_statistics(
     closest_at = np.full(npair, -1)
     with_contact = 0
     disagree = 0
+    # The poses are validated above: call the engines' scenes directly, without per-pose checks.
+    measure = None
+    if distances == "coal":
+        measure = ch._coal.distance_values
+    elif distances == "mujoco":
+
+        def measure(q: Array) -> Array:
+            return ch._mj.distances(q)[0]
+
     t0 = time.perf_counter()
     for i, q in enumerate(Q):
         idx, _ = ch._mj.collide(q)
@@ -1001,16 +1017,16 @@ def collision_statistics(
             touched = np.zeros(npair, dtype=bool)
             touched[idx] = True
             pose_hits += touched
-        if distances is not None:
-            d = ch.distance_values(q, distances)
+        if measure is not None:
+            d = measure(q)
             better = d < closest
             closest[better] = d[better]
             closest_at[better] = i
-            clear = (d < thr) & (np.abs(d - thr) >= AMBIGUITY_BAND)
+            # Cross-check: the engine's touching pairs against MuJoCo's contact pairs.
             fuzzy = np.abs(d - thr) < AMBIGUITY_BAND
-            mj = np.zeros(npair, dtype=bool)
-            mj[idx] = True
-            if ((clear != mj) & ~fuzzy).any():
+            listed = np.zeros(npair, dtype=bool)
+            listed[idx] = True
+            if (((d < thr) != listed) & ~fuzzy).any():
                 disagree += 1
     seconds = time.perf_counter() - t0
     stats = tuple(
@@ -1042,8 +1058,3 @@ def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[Keyfr
     for name, q in arm.keyframes.items():
         out.append(KeyframeClearance(name, q, len(ch.contacts(q)), ch.distances(q, engine).closest))
     return tuple(out)
-
-
-def pair_labels(pairs: Iterable[GeomPair]) -> list[str]:
-    """The labels of some pairs (``"link2 / link4"``), in order."""
-    return [p.label for p in pairs]

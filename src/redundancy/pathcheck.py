@@ -4,31 +4,33 @@ A path is a list of waypoints joined by straight joint-space segments
 ``q(s) = q_a + s (q_b - q_a)``, ``s`` in [0, 1]. Checking a few samples can step over a
 contact; this module instead takes steps that provably cannot.
 
-**The motion bound.** Along a segment, a point ``p`` of a geom moves, relative to the body
-frame of any geom it could hit, at speed ``|v| = |sum_j J_j(p) qdot_j|``. For a hinge ``j``,
-``|J_j(p)| = |axis_j x (p - a_j)| <= |p - a_j|`` (``a_j`` a point on the axis); for a slide,
-``|J_j(p)| = 1``. The distance between a geom and joint ``j``'s anchor is bounded over every
-configuration by walking the chain of anchors from ``j`` down to the geom: two consecutive
-hinge anchors keep their distance whatever the joints do (a hinge's anchor is fixed in its
-parent's frame as well as in its own body's, so both anchors are fixed in one rigid group), a
-slide in the chain adds its travel, and the last anchor is rigidly attached to the geom, whose
-points lie within its bounding radius of its centre. So
-``R_j(g) = sum |a_{k+1} - a_k| + travel + |c_g - a_last| + rbound_g`` bounds ``|p - a_j|``
-for every point ``p`` of ``g`` at every pose (on the joint's own body, the distance of the
-centre to the axis line plus the bounding radius is used instead: it is constant there).
+**Only relative motion counts.** The distance between geoms ``g1`` (on body ``b1``) and
+``g2`` (on ``b2``) does not change when both move rigidly together, so it depends only on
+the joints between the two bodies: with ``J(b)`` the joints from the root down to ``b``,
+the joints in ``J(b1) - J(b2)`` and ``J(b2) - J(b1)``. Seen from the last body the two
+share, a point ``p`` of ``g1`` moves at speed ``|sum_j J_j(p) qdot_j|`` over the joints in
+``J(b1) - J(b2)``, where ``|J_j(p)| = |axis_j x (p - a_j)|`` for a hinge (``a_j`` its
+anchor), at most ``|p - a_j|``, and ``|J_j(p)| = 1`` for a slide.
 
-**Only relative motion counts.** The distance between geoms ``g1`` (body ``b1``) and ``g2``
-(body ``b2``) depends only on the joints between their bodies: a joint upstream of both moves
-them together. With ``J(b)`` the joints from the root to ``b``, a straight step of ``ds``
-changes the pair's distance by at most ``ds * sum_j w_j |q_b,j - q_a,j|`` with ``w_j =
-R_j(g1)`` for ``j`` in ``J(b1) - J(b2)``, ``R_j(g2)`` for ``j`` in ``J(b2) - J(b1)``, 0 else.
+**The reach bound.** ``|p - a_j|`` is bounded over every configuration by walking the chain
+of anchors from ``j`` down to the geom: two consecutive hinge anchors keep their distance
+whatever the joints do (a hinge's anchor is fixed in its parent's frame as well as in its own
+body's, so both anchors are fixed in one rigid group), a slide in the chain adds its travel,
+and the last anchor is rigidly attached to the geom, whose points lie within its bounding
+radius of its centre: ``R_j(g) = sum |a_{k+1} - a_k| + travel + |c_g - a_last| + rbound_g``.
+On the joint's own body the distance of the centre to the axis line plus the bounding radius
+is used instead (it is constant there). So a straight step ``ds`` changes the pair's distance
+by at most ``ds * sum_j w_j |q_b,j - q_a,j|``, with ``w_j = R_j(g1)`` for ``j`` in
+``J(b1) - J(b2)``, ``R_j(g2)`` for ``j`` in ``J(b2) - J(b1)``, 0 for the shared joints.
 
 **The step.** At ``s``, with every pair's clearance ``c_p`` (distance minus contact threshold)
 known to within ``eps`` (the engines' accuracy, :data:`~redundancy.collision.AMBIGUITY_BAND`),
 no pair can reach contact before ``s + min_p (c_p - eps) / rate_p``; the checker jumps there.
-It stops at the first evaluated point whose smallest clearance is below ``tol``: either a
-contact, or a near miss within ``tol`` (it errs on the side of reporting). Since every step
-is at least ``(tol - eps) / max rate``, it always terminates.
+It stops at the first evaluated point whose smallest clearance is below ``tol``: everything
+before it is free. Since every step is at least ``(tol - eps) / max rate``, it always
+terminates. If that point is a near miss rather than a contact, the checker walks on in steps
+that move no geom by more than ``tol`` to report the contact that usually follows; either way
+the path is not declared free (it errs on the side of reporting).
 """
 
 from __future__ import annotations
@@ -59,6 +61,8 @@ Array = NDArray[np.float64]
 #: Default clearance below which a path point is reported [m]: 10 um, ten times the
 #: engines' accuracy, so that steps stay long enough near grazing contacts.
 DEFAULT_TOL = 1e-5
+#: Steps the checker walks past a near miss looking for the contact that follows [-].
+NEAR_MISS_WALK = 1000
 
 
 # ==========================================================================================
@@ -194,7 +198,8 @@ class PathContact:
     """Where a path first meets a contact (or comes within ``tol`` of one).
 
     Attributes:
-        segment: Index of the segment (from waypoint ``segment`` to ``segment + 1``).
+        segment: Index of the segment (from waypoint ``segment`` to ``segment + 1``; 0 for
+            a path of a single waypoint).
         s: Fraction along the segment of the reported point, in [0, 1].
         q: The pose there [rad or m].
         pair: The pair with the smallest clearance there.
@@ -230,7 +235,7 @@ class PathCheck:
         contact: The first contact, or near miss if no contact follows it closely (None when
             free).
         evaluations: Poses at which all pair distances were computed.
-        segments: Number of segments checked.
+        segments: Number of segments checked (waypoints - 1).
         tol: Clearance below which a point is reported [m].
         engine: Distance engine used.
         min_clearance: Smallest clearance over the evaluated poses [m].
@@ -319,7 +324,7 @@ class PathChecker:
                 f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got {Q.shape}"
             )
         Q = np.array([self.arm.pose(q) for q in Q])
-        nseg = max(len(Q) - 1, 1)
+        nseg = len(Q) - 1
         thr = self.thresholds
         evals = 0
         min_clear = np.inf
@@ -340,7 +345,9 @@ class PathChecker:
                 # Near miss: walk on in steps that move every pair by at most tol.
                 h = tol / float(rate.max())
                 cs, ss = c, s
-                while cs.min() < tol and ss < 1.0:
+                for _ in range(NEAR_MISS_WALK):
+                    if cs.min() >= tol or ss >= 1.0:
+                        break
                     ss = min(1.0, ss + h)
                     cs = clearance(qa + ss * (qb - qa))
                     if cs.min() < 0:
@@ -388,8 +395,10 @@ def check_path(
     """Whether the straight joint-space segments between waypoints are free of self-contact.
 
     Uses the arm's cached pair set (see :class:`PathChecker` for the method and guarantees):
-    a contact anywhere on the path is never missed; the first point reported is at or before
-    the first real contact, and may be a near miss within ``tol`` (``contact.touching`` says).
+    a contact anywhere on the path is never missed. When the path is not free,
+    ``contact.clear_until`` is at or before the first real contact (the path is proven free
+    up to there) and ``contact.s`` is the first contact found, or a near miss within ``tol``
+    when none follows closely (``contact.touching`` says which).
 
     Args:
         arm: The arm.
