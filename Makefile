@@ -5,7 +5,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup audit test test-thorough lesson bench lint clean
+.PHONY: setup audit test test-thorough lesson bench lint clean lab screenshot
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,12 @@ lesson: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench.py
+
+lab: $(STAMP)            ## the interactive lab at http://127.0.0.1:8080/
+	$(BIN)/redundancy lab
+
+screenshot: $(STAMP)     ## docs/lab.png (needs chromium)
+	$(BIN)/python scripts/lab_screenshot.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests scripts

@@ -20,7 +20,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import linalg
 from .errors import ModelError, OutOfRangeError, PoseError, UnknownNameError, UnsupportedFeatureError
-from .mujoco_engine import MujocoEngine, actuator_armature, actuator_damping, joint_force_limits
+from .mujoco_engine import (
+    MujocoEngine,
+    actuator_armature,
+    actuator_damping,
+    captured_warnings,
+    joint_force_limits,
+)
 from .pinocchio_engine import PinocchioEngine, joint_kind
 
 Array = NDArray[np.float64]
@@ -75,25 +81,89 @@ def check_supported(
         model: MuJoCo's compiled model.
         xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
         strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed
-            fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle). With
-            ``strict=False`` such a model loads and :func:`redundancy.compare_models` shows
-            the differences; what Pinocchio cannot represent at all is refused either way.
+            fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle, default
+            classes it applies differently, compiler mass bounds). With ``strict=False``
+            such a model loads and :func:`redundancy.compare_models` shows the differences;
+            what Pinocchio cannot represent at all, and invalid values (non-finite numbers,
+            negative armature or damping, inverted ranges), are refused either way.
+
+    Raises:
+        UnsupportedFeatureError: A feature the engines may not agree on.
+        ModelError: Values no arm can have (NaN or infinite numbers, negative armature or
+            damping, a range whose lower limit is above its upper limit).
     """
+    if xml_root is not None:
+        _check_xml(xml_root, strict=False)
     if model.njnt == 0:
-        raise UnsupportedFeatureError("no joints", "model", "an arm needs at least one hinge or slide joint")
+        raise UnsupportedFeatureError(
+            "no joints", "model", "an arm needs at least one hinge or slide joint"
+        )
     names = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
     for j in range(model.njnt):
         kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
         where = f"joint {names[j]!r}" if names[j] else f"joint #{j}"
         if kind in ("ball", "free"):
             raise UnsupportedFeatureError(
-                f"{kind} joint", where, "only hinge and slide joints are supported (a fixed-base arm)"
+                f"{kind} joint",
+                where,
+                "only hinge and slide joints are supported (a fixed-base arm)",
             )
         if not names[j]:
             raise UnsupportedFeatureError(
-                "unnamed joint", where, "joints are matched across engines by name; name every joint"
+                "unnamed joint",
+                where,
+                "joints are matched across engines by name; name every joint",
             )
     bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    # Values no arm can have: MuJoCo compiles some of them (an infinite pos, a NaN axis, a
+    # negative armature, range="1 -1") and both engines would then compute nonsense.
+    arrays = {
+        "body_pos": (model.body_pos, bodies, "body"),
+        "body_quat": (model.body_quat, bodies, "body"),
+        "body_ipos": (model.body_ipos, bodies, "body"),
+        "body_mass": (model.body_mass, bodies, "body"),
+        "body_inertia": (model.body_inertia, bodies, "body"),
+        "jnt_pos": (model.jnt_pos, names, "joint"),
+        "jnt_axis": (model.jnt_axis, names, "joint"),
+        "jnt_range": (model.jnt_range, names, "joint"),
+        "dof_armature": (model.dof_armature, names, "joint"),
+        "dof_damping": (model.dof_damping, names, "joint"),
+        "geom_pos": (model.geom_pos, _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom), "geom"),
+        "geom_size": (
+            model.geom_size,
+            _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom),
+            "geom",
+        ),
+        "site_pos": (model.site_pos, _names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite), "site"),
+    }
+    for field, (values, labels, kind) in arrays.items():
+        bad = ~np.isfinite(np.asarray(values, dtype=float).reshape(len(values), -1)).all(axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ModelError(
+                f"non-finite value in the compiled model: {field} of {kind} "
+                f"{labels[i] or f'#{i}'!r} is {np.asarray(values[i]).tolist()}"
+            )
+    if not np.isfinite(model.opt.gravity).all():
+        raise ModelError(
+            f"non-finite value in the compiled model: gravity {model.opt.gravity.tolist()}"
+        )
+    for j in range(model.njnt):
+        dof = model.jnt_dofadr[j]
+        for what, value, unit in (
+            ("armature", model.dof_armature[dof], "kg m^2"),
+            ("damping", model.dof_damping[dof], "N m s/rad"),
+        ):
+            if value < 0:
+                raise ModelError(
+                    f"joint {names[j]!r} has negative {what} {value:g} [{unit}]; it must be >= 0"
+                )
+        lo, hi = model.jnt_range[j]
+        if lo > hi:  # MuJoCo silently leaves such a joint unlimited
+            raise ModelError(
+                f"joint {names[j]!r} has range [{lo:g}, {hi:g}]: "
+                "the lower limit is above the upper limit"
+            )
     for b in range(model.nbody):
         if model.body_jntnum[b] > 1:
             raise UnsupportedFeatureError(
@@ -118,7 +188,8 @@ def check_supported(
         raise UnsupportedFeatureError(
             "several root bodies",
             "bodies " + ", ".join(repr(bodies[r]) for r in root_bodies),
-            "Pinocchio's MJCF parser reads only the first body in <worldbody>; nest them in one body",
+            "Pinocchio's MJCF parser reads only the first body in <worldbody>; "
+            "nest them in one body",
         )
     if not strict:
         return
@@ -128,11 +199,15 @@ def check_supported(
         raise UnsupportedFeatureError(
             "fixed root body with a pose",
             f"body {bodies[root]!r}",
-            "Pinocchio's MJCF parser drops the pose of a root body without joints; move its pos/quat "
-            "to its children",
+            "Pinocchio's MJCF parser drops the pose of a root body without joints; "
+            "move its pos/quat to its children",
         )
     for g in range(model.ngeom):
-        non_primitive = (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF, mujoco.mjtGeom.mjGEOM_HFIELD)
+        non_primitive = (
+            mujoco.mjtGeom.mjGEOM_MESH,
+            mujoco.mjtGeom.mjGEOM_SDF,
+            mujoco.mjtGeom.mjGEOM_HFIELD,
+        )
         if int(model.geom_type[g]) in {int(t) for t in non_primitive}:
             gname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
             raise UnsupportedFeatureError(
@@ -144,14 +219,103 @@ def check_supported(
         _check_xml(xml_root)
 
 
-def _check_xml(root: ET.Element) -> None:
-    """Refuse MJCF spellings that Pinocchio's parser reads differently from MuJoCo."""
+def _check_xml(root: ET.Element, strict: bool = True) -> None:
+    """Refuse MJCF spellings that Pinocchio's parser cannot read or reads differently from MuJoCo.
+
+    Args:
+        root: The parsed MJCF.
+        strict: Also refuse what Pinocchio reads differently (see :func:`check_supported`);
+            with False, only what no engine should be given: a root element other than
+            ``<mujoco>``, NaN or infinite numbers, and shell inertia (Pinocchio raises).
+    """
+
+    def tag(el: ET.Element, *attrs: str) -> str:
+        shown = [f"name={el.get('name')!r}"] if el.get("name") else []
+        shown += [f"{a}={el.get(a)!r}" for a in attrs if el.get(a) is not None]
+        return f"<{' '.join([el.tag, *shown])}>"
+
+    if root.tag != "mujoco":
+        raise UnsupportedFeatureError(
+            f"<{root.tag}> root element",
+            "model",
+            "the library reads MJCF, whose root element is <mujoco> (convert a URDF with MuJoCo: "
+            "compile it and save it with mujoco.mj_saveLastXML)",
+        )
+    # Attributes holding names or keywords, never numbers (a body may be called "inf").
+    text_attrs = {
+        "name",
+        "class",
+        "childclass",
+        "joint",
+        "joint1",
+        "joint2",
+        "body",
+        "body1",
+        "body2",
+        "site",
+        "geom",
+        "geom1",
+        "geom2",
+        "mesh",
+        "file",
+        "material",
+        "texture",
+        "hfield",
+        "tendon",
+        "target",
+        "prefix",
+        "model",
+        "plugin",
+        "instance",
+        "content_type",
+        "key",
+        "meshdir",
+        "texturedir",
+        "assetdir",
+        "actuator",
+        "objname",
+        "cranksite",
+        "slidersite",
+    }
+    for el in root.iter():
+        for attr, value in el.attrib.items():
+            if attr in text_attrs:
+                continue
+            try:
+                numbers = [float(x) for x in value.split()]
+            except ValueError:
+                continue  # a keyword, not a number list
+            if not all(np.isfinite(numbers)):
+                raise ModelError(
+                    f"non-finite number in the model: {tag(el)} {attr}={value!r}; "
+                    "every number must be finite"
+                )
+        if el.get("shellinertia", "false") == "true":
+            raise UnsupportedFeatureError(
+                "shell inertia",
+                tag(el, "shellinertia"),
+                "Pinocchio's MJCF parser cannot compute it; "
+                "use a solid geom or an explicit <inertial>",
+            )
+    if not strict:
+        return
     compiler = root.find("compiler")
     seq = compiler.get("eulerseq", "xyz") if compiler is not None else "xyz"
     if seq != seq.lower():
         raise UnsupportedFeatureError(
-            "extrinsic eulerseq", f"<compiler eulerseq={seq!r}>", "Pinocchio's MJCF parser reads it as intrinsic"
+            "extrinsic eulerseq",
+            f"<compiler eulerseq={seq!r}>",
+            "Pinocchio's MJCF parser reads it as intrinsic",
         )
+    for el in root.iter("compiler"):
+        for attr in ("boundmass", "boundinertia", "settotalmass", "inertiagrouprange"):
+            if el.get(attr) is not None:
+                raise UnsupportedFeatureError(
+                    f"compiler {attr}",
+                    f"<compiler {attr}={el.get(attr)!r}>",
+                    "Pinocchio's MJCF parser ignores it, so the engines' masses would differ; "
+                    "write the masses and inertias out",
+                )
     for el in root.iter():
         aa = el.get("axisangle")
         if aa is not None:
@@ -169,6 +333,62 @@ def _check_xml(root: ET.Element) -> None:
         raise UnsupportedFeatureError(
             "<frame> element", "worldbody", "Pinocchio's MJCF parser drops the contents of <frame>"
         )
+    if root.find(".//replicate") is not None:
+        raise UnsupportedFeatureError(
+            "<replicate> element",
+            "worldbody",
+            "Pinocchio's MJCF parser does not expand it; write the copies out",
+        )
+    for default in root.iter("default"):
+        where = f"<default class={default.get('class', 'main')!r}>"
+        for geom in default.findall("geom"):
+            # mass 0 on visual-only geoms is harmless: Pinocchio leaves those out of the inertia.
+            visual = geom.get("contype") == "0" and geom.get("conaffinity") == "0"
+            if geom.get("mass") is not None and not (visual and float(geom.get("mass", 1)) == 0):
+                raise UnsupportedFeatureError(
+                    "geom mass in a default class",
+                    where,
+                    "Pinocchio's MJCF parser ignores a default geom mass (it reads density); "
+                    "give the mass on each geom",
+                )
+        for joint in default.findall("joint"):
+            if joint.get("pos") is not None:
+                raise UnsupportedFeatureError(
+                    "joint pos in a default class",
+                    where,
+                    "Pinocchio's MJCF parser does not apply it to every joint; "
+                    "give the pos on each joint",
+                )
+
+    # Class -> its parent class; an element's class may refine the body's childclass (Pinocchio
+    # then merges a class with its own ancestor, which changes nothing), not replace it.
+    parent_class: dict[str, str] = {}
+    for default in root.iter("default"):
+        for sub in default.findall("default"):
+            parent_class[sub.get("class", "")] = default.get("class", "main")
+
+    def refines(cls: str, active: str) -> bool:
+        seen: set[str] = set()
+        while cls != active and cls in parent_class and cls not in seen:
+            seen.add(cls)
+            cls = parent_class[cls]
+        return cls == active
+
+    def walk(el: ET.Element, active: str | None) -> None:
+        for child in el:
+            cls = child.get("class")
+            if active is not None and cls is not None and not refines(cls, active):
+                raise UnsupportedFeatureError(
+                    "class inside a different childclass",
+                    f"{tag(child, 'class')} in a body with childclass {active!r}",
+                    "Pinocchio's MJCF parser merges the two classes where MuJoCo uses only "
+                    "the element's class; set the attributes on the element or use the body's "
+                    "childclass",
+                )
+            walk(child, child.get("childclass", active) if child.tag == "body" else active)
+
+    for world in root.iter("worldbody"):
+        walk(world, None)
 
 
 class Arm:
@@ -359,7 +579,12 @@ class Arm:
             OutOfRangeError: A value outside its range (only with ``check_range``).
         """
         try:
-            arr = np.asarray(q, dtype=np.float64)
+            arr = np.asarray(q)
+            if np.iscomplexobj(arr):  # float64 conversion would drop the imaginary part silently
+                raise PoseError("pose must be real, got complex values")
+            arr = np.asarray(arr, dtype=np.float64)
+        except PoseError:
+            raise
         except (TypeError, ValueError) as err:
             raise PoseError(f"pose must be numeric, got {type(q).__name__}: {err}") from err
         if arr.shape != (self.nq,):
@@ -431,9 +656,13 @@ class Arm:
 
 def _read_mujoco(xml: str | None, path: Path | None) -> mujoco.MjModel:
     try:
-        if path is not None:
-            return mujoco.MjModel.from_xml_path(str(path))
-        return mujoco.MjModel.from_xml_string(xml or "")
+        # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
+        # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
+        # their causes with the library's own message instead.
+        with captured_warnings():
+            if path is not None:
+                return mujoco.MjModel.from_xml_path(str(path))
+            return mujoco.MjModel.from_xml_string(xml or "")
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the model: {err}") from err
 

@@ -1,4 +1,4 @@
-"""Command line: ``redundancy audit [MODEL.xml]`` and ``redundancy lesson``.
+"""Command line: ``redundancy audit [MODEL.xml]``, ``redundancy lesson`` and ``redundancy lab``.
 
 Heavy imports (the engines) happen inside the subcommands, so ``--help`` is instant.
 """
@@ -34,6 +34,17 @@ def _parser() -> argparse.ArgumentParser:
     les.add_argument(
         "--poses", type=int, default=10_000, help="random poses for tables (3) and (4)"
     )
+    lab = sub.add_parser(
+        "lab", help="serve lesson 5.2's interactive arm as a local web page (redundancy[lab])"
+    )
+    lab.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
+    lab.add_argument("--site", default="ee", help="tool site name (default: ee)")
+    lab.add_argument(
+        "--host", default="127.0.0.1", help="interface to listen on (default: 127.0.0.1)"
+    )
+    lab.add_argument(
+        "--port", type=int, default=8080, help="TCP port (default: 8080; if taken, the next free)"
+    )
     return p
 
 
@@ -54,6 +65,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             arm = load(args.model or model_path("arm7"), site="ee")
             lesson.print_tables(arm, n_poses=args.poses)
+            return 0
+        if args.command == "lab":
+            from .arm import load
+            from .models import model_path
+
+            arm = load(args.model or model_path("arm7"), site=args.site)
+            from . import lab  # MissingDependencyError without the `lab` extra
+
+            lab.serve(arm, host=args.host, port=args.port)
             return 0
         from .audit import run_audit
 

@@ -69,7 +69,8 @@ class PinocchioEngine:
         # computeFrameJacobian runs the forward pass itself; LOCAL_WORLD_ALIGNED is MuJoCo's
         # convention: velocity of the site origin, expressed along world axes.
         J = pin.computeFrameJacobian(self.model, self.data, self._pin_q(q), self.frame_id, _LWA)
-        return J[:, self.perm]
+        # eigenpy returns a 6 x 1 matrix as a vector of shape (6,): keep it a matrix.
+        return np.reshape(J, (6, self.nv))[:, self.perm]
 
     def mass_matrix(self, q: Array, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
@@ -100,7 +101,7 @@ class PinocchioEngine:
             # The frame's placement must be current for the frame-level variation.
             pin.updateFramePlacements(self.model, self.data)
             dJ = pin.getFrameJacobianTimeVariation(self.model, self.data, self.frame_id, _LWA)
-            out[i] = dJ[:, self.perm]
+            out[i] = np.reshape(dJ, (6, self.nv))[:, self.perm]
         return out
 
     def integrate(self, q: Array, dq: Array) -> Array:
@@ -128,7 +129,7 @@ class PinocchioEngine:
         axes, anchors = np.zeros((self.nv, 3)), np.zeros((self.nv, 3))
         for i, k in enumerate(self.perm):
             jid = self._joint_id(k)
-            J = pin.getJointJacobian(self.model, self.data, jid, _LWA)[:, k]
+            J = np.reshape(pin.getJointJacobian(self.model, self.data, jid, _LWA), (6, self.nv))[:, k]
             kind = joint_kind(self.model.joints[jid])
             axes[i] = J[3:] if kind == "hinge" else J[:3]
             anchors[i] = self.data.oMi[jid].translation

@@ -1,0 +1,504 @@
+"""Random MJCF arms for property tests: models nobody hand-tuned.
+
+:func:`arms` draws fixed-base serial or branching arms with 1 to 9 hinge or slide joints:
+arbitrary joint axes, body poses in every form MJCF allows (``pos``, ``quat``, ``euler``,
+``axisangle``, ``xyaxes``, ``zaxis``), angles in radians or degrees, intrinsic euler
+sequences, default classes and ``childclass``, primitive geoms with ``mass`` or ``density``
+(or ``fromto``), explicit inertials (diagonal or full), armature, damping, joint ranges,
+actuators, gravity and a site ``"tip"`` at the end of the last body. Every model it draws is
+one the loader accepts (``strict=True``), so both engines must agree on it; a failing model
+shrinks to a small one.
+
+:func:`refused_arms` draws the same arms with one feature the loader must refuse (a posed
+fixed root, an extrinsic euler sequence, a ball joint...), with the feature's name.
+
+Example:
+    >>> from hypothesis import given
+    >>> import redundancy as rd
+    >>> from redundancy.generate import arms
+    >>> @given(arms())
+    ... def test_engines_agree(gen):
+    ...     arm = rd.load_string(gen.xml, site=gen.site)
+    ...     assert rd.compare_models(arm).equivalent
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+try:
+    from hypothesis import strategies as st
+except ImportError as err:  # pragma: no cover - exercised only without the extra
+    from .errors import MissingDependencyError
+
+    raise MissingDependencyError("hypothesis", "test") from err
+
+#: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
+EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")
+
+#: Features :func:`refused_arms` can add, each the ``feature`` of the loader's refusal.
+REFUSED_FEATURES = (
+    "fixed root body with a pose",
+    "extrinsic eulerseq",
+    "axisangle with a non-unit axis",
+    "<frame> element",
+    "several joints in one body",
+    "several root bodies",
+    "several kinematic trees",
+    "ball joint",
+    "free joint",
+    "tendon",
+    "equality constraint",
+    "unnamed joint",
+    "mesh, sdf or height-field geom",
+    "no joints",
+    "class inside a different childclass",
+    "joint pos in a default class",
+    "geom mass in a default class",
+    "compiler boundmass",
+    "<replicate> element",
+    "shell inertia",
+)
+
+#: What each refusal adds: (default classes, lines in the last body, compiler attributes).
+_REFUSAL_PARTS = {
+    "class inside a different childclass": (
+        '<default class="X"><joint damping="0.5"/></default>'
+        '<default class="Y"><geom density="500"/>'
+        "</default>",
+        '<body name="extra" childclass="X"><geom type="sphere" size="0.02" class="Y"/></body>',
+        "",
+    ),
+    "joint pos in a default class": (
+        '<default class="P"><joint pos="0 0 0.01"/></default>',
+        "",
+        "",
+    ),
+    "geom mass in a default class": ('<default class="G"><geom mass="1"/></default>', "", ""),
+    "compiler boundmass": ("", "", ' boundmass="0.01"'),
+    "<replicate> element": (
+        "",
+        '<replicate count="2" offset="0 0 0.05"><geom type="sphere" size="0.01"/></replicate>',
+        "",
+    ),
+    "shell inertia": ("", '<geom type="sphere" size="0.02" shellinertia="true"/>', ""),
+}
+
+_AXES = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0), (0, -1, 0), (0, 0, -1))
+
+
+@dataclass(frozen=True)
+class GeneratedArm:
+    """One drawn MJCF model.
+
+    Attributes:
+        xml: The MJCF text.
+        site: Name of the tool site (``"tip"``).
+        n_joints: Number of hinge and slide joints.
+        features: Short names of the optional features the model uses.
+        refused: For :func:`refused_arms`, the feature the loader must refuse, else None.
+    """
+
+    xml: str
+    site: str = "tip"
+    n_joints: int = 0
+    features: tuple[str, ...] = ()
+    refused: str | None = None
+
+    def __repr__(self) -> str:  # shown by hypothesis for a falsifying example
+        head = f"GeneratedArm(n_joints={self.n_joints}, features={list(self.features)}"
+        if self.refused:
+            head += f", refused={self.refused!r}"
+        return f"{head}, xml=\n{self.xml})"
+
+    def _repr_pretty_(self, printer: object, cycle: bool) -> None:
+        """Hypothesis's and IPython's pretty printer: the XML as text, not an escaped string."""
+        printer.text(repr(self))  # type: ignore[attr-defined]
+
+
+# -- number helpers ---------------------------------------------------------------------------
+
+
+def _num(x: float) -> str:
+    """Shortest text that reads back as exactly ``x``."""
+    return repr(float(x)) if x != int(x) else str(int(x))
+
+
+def _vec(xs: tuple[float, ...] | list[float] | np.ndarray) -> str:
+    return " ".join(_num(float(x)) for x in xs)
+
+
+def _real(lo: float, hi: float, digits: int = 3) -> st.SearchStrategy[float]:
+    """Floats in [lo, hi] rounded to ``digits`` decimals (readable, shrink toward 0 or lo)."""
+    return st.floats(lo, hi, allow_nan=False, allow_infinity=False).map(lambda x: round(x, digits))
+
+
+def _direction(min_norm: float = 0.2) -> st.SearchStrategy[tuple[float, float, float]]:
+    """A coordinate axis or a rounded random vector of norm >= ``min_norm`` (not unit)."""
+    rand = st.tuples(_real(-1, 1, 2), _real(-1, 1, 2), _real(-1, 1, 2)).map(
+        lambda v: v if math.hypot(*v) >= min_norm else (0.0, 0.0, 1.0)
+    )
+    return st.one_of(st.sampled_from(_AXES), rand)
+
+
+@dataclass
+class _Ctx:
+    """What the drawn model's compiler settings are, while drawing its elements."""
+
+    degree: bool
+    features: set[str] = field(default_factory=set)
+
+    def angle(self, rad: float) -> float:
+        """An angle [rad] in the model's unit, rounded."""
+        return round(math.degrees(rad), 3) if self.degree else round(rad, 5)
+
+
+@st.composite
+def _orientation(draw: st.DrawFn, ctx: _Ctx, forms: tuple[str, ...] | None = None) -> str:
+    """One orientation attribute (or none) in any MJCF form."""
+    form = draw(st.sampled_from(forms or ("none", "quat", "euler", "axisangle", "xyaxes", "zaxis")))
+    if form == "none":
+        return ""
+    ctx.features.add(form)
+    if form == "quat":
+        q = draw(st.tuples(*[_real(-1, 1, 3)] * 4))
+        q = q if math.hypot(*q) >= 0.2 else (1.0, 0.0, 0.0, 0.0)
+        return f' quat="{_vec(q)}"'
+    if form == "euler":
+        a = draw(st.tuples(*[_real(-math.pi, math.pi, 4)] * 3))
+        return f' euler="{_vec([ctx.angle(x) for x in a])}"'
+    if form == "axisangle":
+        v = np.array(draw(_direction()), dtype=float)
+        v /= np.linalg.norm(v)  # printed with repr: a unit axis to 1e-16
+        ang = draw(_real(-math.pi, math.pi, 4))
+        return f' axisangle="{_vec(v)} {_num(ctx.angle(ang))}"'
+    if form == "xyaxes":
+        x = draw(_direction())
+        y = draw(_direction())
+        if np.linalg.norm(np.cross(x, y)) <= 0.2 * math.hypot(*x) * math.hypot(*y):
+            y = (1, 0, 0) if abs(x[0]) < 0.5 * math.hypot(*x) else (0, 1, 0)
+        return f' xyaxes="{_vec(x)} {_vec(y)}"'
+    z = draw(_direction())
+    return f' zaxis="{_vec(z)}"'
+
+
+@st.composite
+def _pose(draw: st.DrawFn, ctx: _Ctx, scale: float = 0.3) -> str:
+    pos = draw(st.one_of(st.none(), st.tuples(*[_real(-scale, scale)] * 3)))
+    text = f' pos="{_vec(pos)}"' if pos is not None else ""
+    return text + draw(_orientation(ctx))
+
+
+@st.composite
+def _geom(draw: st.DrawFn, ctx: _Ctx, klass: str | None, visual: bool = False) -> str:
+    kind = draw(st.sampled_from(("sphere", "capsule", "cylinder", "box", "ellipsoid")))
+    attrs = f'type="{kind}"'
+    r = draw(_real(0.01, 0.08))
+    fromto = kind in ("capsule", "cylinder", "box") and draw(st.booleans())
+    if fromto:
+        ctx.features.add("fromto")
+        a = draw(st.tuples(*[_real(-0.2, 0.2)] * 3))
+        b = draw(st.tuples(*[_real(-0.2, 0.2)] * 3))
+        b = b if math.dist(a, b) > 0.02 else (a[0], a[1], a[2] + 0.1)
+        size = f"{_num(r)}" if kind != "box" else f"{_num(r)} {_num(r * 0.7)}"
+        attrs += f' size="{size}" fromto="{_vec(a)} {_vec(b)}"'
+    else:
+        if kind == "sphere":
+            size = [r]
+        elif kind in ("capsule", "cylinder"):
+            size = [r, draw(_real(0.01, 0.2))]
+        else:
+            size = draw(st.tuples(*[_real(0.01, 0.1)] * 3))
+        attrs += f' size="{_vec(size)}"' + draw(_pose(ctx, 0.15))
+    if visual:
+        ctx.features.add("visual geom")
+        return f'<geom {attrs} contype="0" conaffinity="0" group="2" mass="0"/>'
+    how = draw(st.sampled_from(("default", "mass", "density")))
+    if how == "mass":
+        attrs += f' mass="{_num(draw(_real(0.05, 3)))}"'
+    elif how == "density":
+        attrs += f' density="{_num(draw(_real(100, 3000, 0)))}"'
+    if klass:
+        attrs += f' class="{klass}"'
+    ctx.features.add(f"geom {how}")
+    return f"<geom {attrs}/>"
+
+
+@st.composite
+def _inertial(draw: st.DrawFn, ctx: _Ctx) -> str:
+    """An explicit inertial of a solid box (so the moments are physical) [kg, kg m^2]."""
+    m = draw(_real(0.05, 3))
+    dims = np.array(draw(st.tuples(*[_real(0.02, 0.4)] * 3)))
+    sq = dims**2
+    diag = m / 12 * np.array([sq[1] + sq[2], sq[0] + sq[2], sq[0] + sq[1]])
+    pos = draw(st.tuples(*[_real(-0.2, 0.2)] * 3))
+    if draw(st.booleans()):
+        ctx.features.add("fullinertia")
+        # A rotated box: R diag R^T, written as ixx iyy izz ixy ixz iyz.
+        angles = draw(st.tuples(*[_real(-math.pi, math.pi, 3)] * 3))
+        R = _rotation(angles)
+        full = R @ np.diag(diag) @ R.T
+        vals = [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
+        return f'<inertial pos="{_vec(pos)}" mass="{_num(m)}" fullinertia="{_vec(vals)}"/>'
+    ctx.features.add("diaginertia")
+    orient = draw(_orientation(ctx, ("none", "quat", "euler", "zaxis")))
+    return f'<inertial pos="{_vec(pos)}"{orient} mass="{_num(m)}" diaginertia="{_vec(diag)}"/>'
+
+
+def _rotation(angles: tuple[float, float, float]) -> np.ndarray:
+    a, b, c = angles
+    rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+    ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
+    rz = np.array([[math.cos(c), -math.sin(c), 0], [math.sin(c), math.cos(c), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+@st.composite
+def _joint_attrs(draw: st.DrawFn, ctx: _Ctx, kind: str | None, in_default: bool = False) -> str:
+    """Joint attributes other than name and class; ``kind`` None leaves the type to defaults.
+
+    A joint ``pos`` is drawn only on joints, not in defaults (see :data:`REFUSED_FEATURES`).
+    """
+    attrs = ""
+    if kind is not None:
+        attrs += f' type="{kind}"'
+        ctx.features.add(kind)
+    if draw(st.booleans()):
+        attrs += f' axis="{_vec(draw(_direction()))}"'
+    if not in_default and draw(st.booleans()):
+        attrs += f' pos="{_vec(draw(st.tuples(*[_real(-0.1, 0.1)] * 3)))}"'
+    if kind is not None and draw(st.booleans()):
+        ctx.features.add("range")
+        attrs += " " + _range(draw, ctx, kind)
+    if draw(st.booleans()):
+        attrs += f' armature="{_num(draw(_real(0, 0.1, 4)))}"'
+    if draw(st.booleans()):
+        attrs += f' damping="{_num(draw(_real(0, 2)))}"'
+    return attrs
+
+
+def _range(draw: st.DrawFn, ctx: _Ctx, kind: str) -> str:
+    if kind == "slide":
+        lo, hi = draw(_real(-0.3, 0.0)), draw(_real(0.01, 0.3))
+        return f'range="{_num(lo)} {_num(hi)}"'
+    lo, hi = draw(_real(-math.pi, -0.05, 4)), draw(_real(0.05, math.pi, 4))
+    return f'range="{_num(ctx.angle(lo))} {_num(ctx.angle(hi))}"'
+
+
+@st.composite
+def _defaults(draw: st.DrawFn, ctx: _Ctx) -> tuple[str, dict[str, str], dict[str, str]]:
+    """The ``<default>`` block, the joint type each class gives and each class's parent."""
+    classes: dict[str, str] = {}
+    parents: dict[str, str] = {}
+    main = ""
+    if draw(st.booleans()):
+        armature, damping = _num(draw(_real(0, 0.05, 4))), _num(draw(_real(0, 1)))
+        main += f'<joint armature="{armature}" damping="{damping}"/>'
+    if draw(st.booleans()):
+        main += f'<geom density="{_num(draw(_real(200, 2000, 0)))}"/>'
+    names = draw(st.sampled_from(((), ("A",), ("A", "B"))))
+    nested = len(names) == 2 and draw(st.booleans())
+    blocks: dict[str, str] = {}
+    for name in names:
+        kind = draw(st.sampled_from(("hinge", "slide")))
+        classes[name] = kind
+        jattrs = f' type="{kind}"' + draw(_joint_attrs(ctx, None, in_default=True))
+        if draw(st.booleans()):
+            jattrs += " " + _range(draw, ctx, kind)
+        gattrs = ""
+        if draw(st.booleans()):
+            gattrs = f' density="{_num(draw(_real(200, 3000, 0)))}"'
+        blocks[name] = f'<default class="{name}"><joint{jattrs}/><geom{gattrs}/>'
+    if nested:
+        ctx.features.add("nested classes")
+        parents["B"] = "A"
+        inner = f"\n    {blocks['A']}{blocks['B']}</default></default>"
+    else:
+        inner = "".join(f"\n    {b}</default>" for b in blocks.values())
+    if main or inner:
+        ctx.features.add("defaults")
+    text = f"  <default>{main}{inner}\n  </default>\n" if (main or inner) else ""
+    return text, classes, parents
+
+
+@st.composite
+def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None) -> GeneratedArm:
+    ctx = _Ctx(degree=draw(st.booleans()))
+    seq = draw(st.sampled_from(EULER_SEQUENCES))
+    if refuse == "extrinsic eulerseq":
+        seq = seq.upper()
+    extra_defaults, extra_lines, extra_compiler = _REFUSAL_PARTS.get(refuse or "", ("", "", ""))
+    unit = "degree" if ctx.degree else "radian"
+    compiler = f'<compiler angle="{unit}" autolimits="true" eulerseq="{seq}"{extra_compiler}/>'
+    option = ""
+    if draw(st.booleans()):
+        ctx.features.add("gravity")
+        option = f'\n  <option gravity="{_vec(draw(st.tuples(*[_real(-10, 10, 2)] * 3)))}"/>'
+    defaults, classes, class_parents = draw(_defaults(ctx))
+    if extra_defaults:
+        defaults = (
+            defaults.replace("\n  </default>\n", f"\n    {extra_defaults}\n  </default>\n")
+            if defaults
+            else f"  <default>\n    {extra_defaults}\n  </default>\n"
+        )
+
+    def refining(active: str | None) -> list[str | None]:
+        """Classes an element may name inside ``childclass=active``: it or its descendants."""
+        if active is None:
+            return [None, *classes]
+        out: list[str | None] = [None]
+        for c in classes:
+            k: str | None = c
+            while k is not None and k != active:
+                k = class_parents.get(k)
+            if k == active:
+                out.append(c)
+        return out
+
+    # Jointed bodies, then up to two welded (joint-less) bodies inserted anywhere.
+    jointed = [refuse != "no joints"] * draw(st.integers(1, max_joints))
+    for _ in range(draw(st.integers(0, 2))):
+        jointed.insert(draw(st.integers(0, len(jointed))), False)
+    if refuse == "free joint":
+        jointed[0] = True
+    if refuse == "fixed root body with a pose":
+        jointed[0] = False
+        if not any(jointed):
+            jointed.append(True)
+    n = len(jointed)
+    parents = [-1] + [
+        (i - 1 - draw(st.integers(0, i - 1))) if branching else i - 1 for i in range(1, n)
+    ]
+    if any(p != i - 1 for i, p in enumerate(parents) if i):
+        ctx.features.add("branching")
+    children: list[list[int]] = [[] for _ in range(n)]
+    for i, p in enumerate(parents[1:], start=1):
+        children[p].append(i)
+
+    class_names = list(classes)
+    bodies: list[str] = []
+    active_of: list[str | None] = []
+    joint_names: list[str] = []
+    joint_kinds: list[str] = []
+    for i in range(n):
+        inherited = active_of[parents[i]] if i else None
+        childclass = draw(st.sampled_from([None, *class_names])) if class_names else None
+        active_of.append(childclass or inherited)
+        attrs = f'name="b{i}"'
+        if childclass:
+            attrs += f' childclass="{childclass}"'
+            ctx.features.add("childclass")
+        if refuse == "axisangle with a non-unit axis" and i == n - 1:
+            attrs += ' pos="0 0 0.1" axisangle="1 1 0 30"'
+        elif i > 0 or jointed[0]:
+            attrs += draw(_pose(ctx))
+        elif refuse == "fixed root body with a pose":
+            attrs += ' pos="0 0 0.1" quat="0.9 0.1 0 0"'
+        lines = [f"<body {attrs}>"]
+        if jointed[i]:
+            jclass = draw(st.sampled_from(refining(active_of[i])))
+            active = jclass or active_of[i]
+            kind = (
+                draw(st.sampled_from([None, "hinge", "slide"]))
+                if active
+                else draw(st.sampled_from(["hinge", "slide"]))
+            )
+            eff = kind or classes.get(active or "", "hinge")
+            name = f"j{len(joint_names)}"
+            jattrs = draw(_joint_attrs(ctx, kind))
+            if jclass:
+                jattrs += f' class="{jclass}"'
+            if refuse == "unnamed joint" and not joint_names:
+                lines.append(f"<joint{jattrs}/>")
+            elif refuse == "ball joint" and not joint_names:
+                lines.append(f'<joint name="{name}" type="ball" limited="false"/>')
+            elif refuse == "free joint" and i == 0:
+                lines.append(f'<freejoint name="{name}"/>')
+            else:
+                lines.append(f'<joint name="{name}"{jattrs}/>')
+            if refuse == "several joints in one body" and not joint_names:
+                lines.append(f'<joint name="{name}b" type="hinge" axis="1 0 0"/>')
+            joint_names.append(name)
+            joint_kinds.append(eff)
+        if draw(st.booleans()):
+            lines.append(draw(_inertial(ctx)))
+        gclass = draw(st.sampled_from(refining(active_of[i])))
+        geoms = [draw(_geom(ctx, gclass))]
+        if draw(st.booleans()):
+            geoms.append(draw(_geom(ctx, None, visual=draw(st.booleans()))))
+        if refuse == "<frame> element" and i == n - 1:
+            geoms.append('<frame pos="0 0 0.1"><geom type="sphere" size="0.02"/></frame>')
+        if refuse == "mesh, sdf or height-field geom" and i == n - 1:
+            geoms.append('<geom type="mesh" mesh="cube"/>')
+        if extra_lines and i == n - 1:
+            geoms.append(extra_lines)
+        lines += geoms
+        if i == n - 1:
+            lines.append(f'<site name="tip"{draw(_pose(ctx, 0.2))}/>')
+        bodies.append("\n".join(lines))
+
+    def render(i: int, depth: int) -> str:
+        pad = "  " * depth
+        head, *rest = bodies[i].split("\n")
+        out = [pad + head] + [pad + "  " + r for r in rest]
+        out += [render(c, depth + 1) for c in children[i]]
+        out.append(pad + "</body>")
+        return "\n".join(out)
+
+    world = render(0, 2)
+    if refuse in ("several root bodies", "several kinematic trees"):
+        joint = '<joint name="other" axis="0 0 1"/>' if refuse == "several kinematic trees" else ""
+        world += (
+            f'\n    <body name="other" pos="1 0 0">{joint}<geom type="sphere" size="0.05"/></body>'
+        )
+    tail = ""
+    if draw(st.booleans()) and joint_names and refuse is None:
+        ctx.features.add("actuators")
+        motors = []
+        for name in draw(st.lists(st.sampled_from(joint_names), unique=True, min_size=1)):
+            gear = _num(draw(_real(0.5, 100, 1)))
+            lim = _num(draw(_real(1, 50, 1)))
+            motors.append(f'<motor joint="{name}" gear="{gear}" ctrlrange="-{lim} {lim}"/>')
+        tail += "  <actuator>" + "".join(motors) + "</actuator>\n"
+    if refuse == "tendon":
+        fixed = f'<fixed name="t"><joint joint="{joint_names[0]}" coef="1"/></fixed>'
+        tail += f"  <tendon>{fixed}</tendon>\n"
+    if refuse == "equality constraint":
+        tail += f'  <equality><joint joint1="{joint_names[0]}"/></equality>\n'
+    asset = ""
+    if refuse == "mesh, sdf or height-field geom":
+        verts = "0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"
+        asset = f'  <asset><mesh name="cube" vertex="{verts}"/></asset>\n'
+    xml = (
+        f"<mujoco>\n  {compiler}{option}\n{defaults}{asset}  <worldbody>\n{world}\n"
+        f"  </worldbody>\n{tail}</mujoco>\n"
+    )
+    return GeneratedArm(xml, "tip", len(joint_names), tuple(sorted(ctx.features)), refuse)
+
+
+def arms(max_joints: int = 9, branching: bool = True) -> st.SearchStrategy[GeneratedArm]:
+    """Random MJCF arms the loader accepts and on which both engines must agree.
+
+    Args:
+        max_joints: Largest number of hinge and slide joints (at least 1).
+        branching: Also draw trees (bodies with several children), not only chains.
+    """
+    return _model(max(1, max_joints), branching, None)
+
+
+def refused_arms(
+    features: tuple[str, ...] = REFUSED_FEATURES, max_joints: int = 4
+) -> st.SearchStrategy[GeneratedArm]:
+    """Random arms with one feature the loader refuses; ``refused`` names it.
+
+    Args:
+        features: Which refusals to draw from (a subset of :data:`REFUSED_FEATURES`).
+        max_joints: Largest number of hinge and slide joints.
+    """
+    return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
+
+
+__all__ = ["EULER_SEQUENCES", "REFUSED_FEATURES", "GeneratedArm", "arms", "refused_arms"]

@@ -1,0 +1,572 @@
+"""Malformed and hostile input, table-driven: the library's own exception, a message naming
+the cause, and no engine output on the terminal.
+
+tests/test_errors.py holds the first 27 cases (unknown names, pose shapes and values, not XML,
+truncated XML, an unknown attribute, a NaN size, a negative mass, no joints, ball and free
+joints, several joints in one body, an unnamed joint, tendons, equality constraints,
+``<frame>``, several kinematic trees, ``<include>``); this table adds the rest. A fuzz run
+mutates arm7.xml's text (``HYPOTHESIS_PROFILE=thorough`` runs 1000 mutants).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import redundancy as rd
+
+from .models import SKEW7, chain
+
+ARM = rd.load_string(SKEW7, site="tool")
+JOINTS = "['q1', 'q2', 'q3', 'q4', 'q5', 'q6', 'q7']"
+ARM7_TEXT = rd.model_path("arm7").read_text()
+#: Text an engine prints when it complains (MuJoCo's warnings, C++ or Python tracebacks).
+ENGINE_NOISE = re.compile(r"WARNING|Error|error:|Traceback|terminate|Segmentation|Assertion")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One bad input: what to call, the exception it must raise and its message (a regex)."""
+
+    call: Callable[[], object]
+    error: type[Exception]
+    message: str
+    quiet: bool = True  # nothing may be printed on stdout or stderr
+
+
+def _load(xml: object, site: str = "tip", strict: bool = True) -> Callable[[], object]:
+    return lambda: rd.load_string(xml, site=site, strict=strict)  # type: ignore[arg-type]
+
+
+def _load_file(tmp: str, name: str, text: str, site: str = "tip") -> Callable[[], object]:
+    def call() -> object:
+        path = Path(tmp) / name
+        path.write_text(text)
+        return rd.load(path, site=site)
+
+    return call
+
+
+def _l2(attrs: str) -> str:
+    """chain() with extra attributes on body l2."""
+    return chain().replace(
+        '<body name="l2" pos="0 0 0.3">', f'<body name="l2" pos="0 0 0.3" {attrs}>'
+    )
+
+
+UF = "unsupported feature: "
+MJ = r"MuJoCo could not compile the model: "
+MESH = '<asset><mesh name="m" file="/nonexistent/m.stl"/></asset>'
+CUBE = (
+    '<asset><mesh name="cube" vertex="0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 '
+    '.1 .1 .1"/></asset>'
+)
+RADIAN = '<mujoco><compiler angle="radian"/>'
+
+
+def cases(tmp: str) -> dict[str, Case]:
+    """The table; ``tmp`` is a scratch directory for file-based cases."""
+    return {
+        # -- not an MJCF model ----------------------------------------------------------------
+        "empty text": Case(
+            _load(""), rd.ModelError, r"^not well-formed XML: no element found: line 1, column 0$"
+        ),
+        "bytes, not str": Case(
+            _load(b"<mujoco/>"), rd.ModelError, r"^MJCF text must be a str, got bytes$"
+        ),
+        "None, not str": Case(
+            _load(None), rd.ModelError, r"^MJCF text must be a str, got NoneType$"
+        ),
+        "URDF": Case(
+            _load('<robot name="r"><link name="a"/></robot>'),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "<robot> root element (model): the library reads MJCF, "
+                "whose root element is <mujoco>"
+            )
+            + ".*mj_saveLastXML",
+        ),
+        "arm7 cut in half": Case(
+            _load(ARM7_TEXT[: len(ARM7_TEXT) // 2], site="ee"),
+            rd.ModelError,
+            r"^not well-formed XML: [a-z ]+: line \d+, column \d+$",
+        ),
+        "mismatched tag": Case(
+            _load(chain().replace("</worldbody>", "</world>")),
+            rd.ModelError,
+            r"^not well-formed XML: mismatched tag: line 14, column 4$",
+        ),
+        "unknown element": Case(
+            _load(chain(body_extra="<bogus/>")),
+            rd.ModelError,
+            "^" + MJ + r"XML Error: Schema violation: unrecognized element\n"
+            "Element 'bogus'",
+        ),
+        "unknown joint type": Case(
+            _load(chain(joints='<joint name="a" type="hinj"/>')),
+            rd.ModelError,
+            "^" + MJ + r"XML Error: invalid keyword: 'hinj'",
+        ),
+        # -- files ------------------------------------------------------------------------------
+        "a directory": Case(
+            lambda: rd.load(tmp),
+            rd.ModelError,
+            "^" + re.escape(f"MJCF file not found: {tmp!r}") + "$",
+        ),
+        "missing mesh file": Case(
+            _load(
+                chain(body_extra='<geom type="mesh" mesh="m"/>').replace(
+                    "<mujoco>", "<mujoco>" + MESH
+                )
+            ),
+            rd.ModelError,
+            "^" + MJ + re.escape("Error: Error opening file '/nonexistent/m.stl'"),
+        ),
+        "include in a file": Case(
+            _load_file(
+                tmp, "inc.xml", chain().replace("<mujoco>", '<mujoco><include file="x.xml"/>')
+            ),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + f"<include> element ({tmp}/inc.xml): Pinocchio's MJCF parser does "
+                "not follow includes; inline the file"
+            )
+            + "$",
+        ),
+        "arm7 without its site": Case(
+            _load_file(tmp, "nosite.xml", ARM7_TEXT, site="flange"),
+            rd.UnknownNameError,
+            r"^unknown site 'flange'; valid site names: \['ee'\]$",
+        ),
+        # -- NaN, inf and impossible values -----------------------------------------------------
+        "inf in a body pos": Case(
+            _load(chain().replace('pos="0 0 0.1"', 'pos="0 0 inf"')),
+            rd.ModelError,
+            "^"
+            + re.escape(
+                "non-finite number in the model: <body name='l1'> "
+                "pos='0 0 inf'; every number must be finite"
+            )
+            + "$",
+        ),
+        "NaN in a joint axis": Case(
+            _load(chain(joints='<joint name="a" axis="0 nan 0"/>')),
+            rd.ModelError,
+            "^"
+            + re.escape(
+                "non-finite number in the model: <joint name='a'> "
+                "axis='0 nan 0'; every number must be finite"
+            )
+            + "$",
+        ),
+        "inf mass": Case(
+            _load(chain(body_extra='<inertial pos="0 0 0" mass="inf" diaginertia="1 1 1"/>')),
+            rd.ModelError,
+            "^"
+            + re.escape(
+                "non-finite number in the model: <inertial> mass='inf'; every number must be finite"
+            )
+            + "$",
+        ),
+        "-inf gravity": Case(
+            _load(chain().replace("<mujoco>", '<mujoco><option gravity="0 0 -inf"/>')),
+            rd.ModelError,
+            "^"
+            + re.escape(
+                "non-finite number in the model: <option> gravity='0 0 -inf'; "
+                "every number must be finite"
+            )
+            + "$",
+        ),
+        "zero mass": Case(
+            _load(chain(body_extra='<inertial pos="0 0 0" mass="0" diaginertia="1 1 1"/>')),
+            rd.ModelError,
+            "^" + MJ + "Error: mass and inertia of moving bodies must be larger than mjMINVAL"
+            r"\nElement name 'l2'",
+        ),
+        "zero density": Case(
+            _load(chain().replace('size="0.04"/>', 'size="0.04" density="0"/>')),
+            rd.ModelError,
+            "^" + MJ + "Error: mass and inertia of moving bodies must be larger than "
+            r"mjMINVAL\nElement name 'l1'",
+        ),
+        "negative geom mass": Case(
+            _load(chain(body_extra='<geom size="0.02" mass="-1"/>')),
+            rd.ModelError,
+            "^" + MJ + "Error: mass, inertia or density are negative in geom",
+        ),
+        "negative armature": Case(
+            _load(chain(joints='<joint name="a" axis="0 1 0" armature="-1"/>')),
+            rd.ModelError,
+            "^" + re.escape("joint 'a' has negative armature -1 [kg m^2]; it must be >= 0") + "$",
+        ),
+        "negative damping": Case(
+            _load(chain(joints='<joint name="a" axis="0 1 0" damping="-0.5"/>')),
+            rd.ModelError,
+            "^"
+            + re.escape("joint 'a' has negative damping -0.5 [N m s/rad]; it must be >= 0")
+            + "$",
+        ),
+        "inverted range": Case(
+            _load(chain(joints='<joint name="a" type="slide" axis="0 0 1" range="0.2 -0.2"/>')),
+            rd.ModelError,
+            "^"
+            + re.escape("joint 'a' has range [0.2, -0.2]: the lower limit is above the upper limit")
+            + "$",
+        ),
+        "zero joint axis": Case(
+            _load(chain(joints='<joint name="a" axis="0 0 0"/>')),
+            rd.ModelError,
+            "^" + MJ + r"Error: axis too small in joint\nElement name 'a'",
+        ),
+        "zero quaternion": Case(
+            _load(_l2('quat="0 0 0 0"')),
+            rd.ModelError,
+            "^" + MJ + "XML Error: zero quaternion is not allowed",
+        ),
+        "two orientations": Case(
+            _load(_l2('quat="1 0 0 0" euler="0 0 1"')),
+            rd.ModelError,
+            "^" + MJ + "XML Error: multiple orientation specifiers are not allowed",
+        ),
+        "range without limited": Case(
+            _load(
+                chain(joints='<joint name="a" axis="0 1 0" range="-1 1"/>').replace(
+                    "<mujoco>", '<mujoco><compiler autolimits="false"/>'
+                )
+            ),
+            rd.ModelError,
+            "^" + MJ + "Error: joint has `range` but not `limited`",
+        ),
+        # -- names and keyframes ------------------------------------------------------------------
+        "keyframe of the wrong length": Case(
+            _load(chain(extra='<keyframe><key name="k" qpos="0 0 0"/></keyframe>')),
+            rd.ModelError,
+            "^" + MJ + "Error: keyframe 'k': invalid qpos size, expected 2, got 3",
+        ),
+        "repeated joint name": Case(
+            _load(chain(joints='<joint name="b" axis="0 1 0"/>')),
+            rd.ModelError,
+            "^" + MJ + "XML Error: Error: repeated name 'b' in joint",
+        ),
+        "actuator on a missing joint": Case(
+            _load(chain(extra='<actuator><motor joint="zz"/></actuator>')),
+            rd.ModelError,
+            "^" + MJ + "Error: unknown transmission target 'zz' for actuator id = 0",
+        ),
+        "site on the world body": Case(
+            _load(chain().replace("<worldbody>", '<worldbody><site name="w"/>'), site="w"),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "site Pinocchio does not read (site 'w'): Pinocchio has no frame of that name"
+            )
+            + "$",
+        ),
+        "site None": Case(
+            _load(chain(), site=None),
+            rd.UnknownNameError,  # type: ignore[arg-type]
+            r"^unknown site None; valid site names: \['tip'\]$",
+        ),
+        # -- features the engines read differently or not at all -----------------------------------
+        "second root body": Case(
+            _load(
+                chain().replace(
+                    "</worldbody>",
+                    '<body name="table" pos="1 0 0"><geom size="0.1"/></body></worldbody>',
+                ),
+                strict=False,
+            ),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "several root bodies (bodies 'l1', 'table'): Pinocchio's MJCF parser "
+                "reads only the first body in <worldbody>; nest them in one body"
+            )
+            + "$",
+        ),
+        "frame around the arm": Case(
+            _load(
+                chain()
+                .replace("<worldbody>", '<worldbody><frame pos="0 0 1">')
+                .replace("</worldbody>", "</frame></worldbody>")
+            ),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "<frame> element (worldbody): Pinocchio's MJCF parser drops the "
+                "contents of <frame>"
+            )
+            + "$",
+        ),
+        "replicate": Case(
+            _load(
+                chain(
+                    body_extra='<replicate count="2" offset="0 0 0.1"><geom size="0.01"/></replicate>'
+                )
+            ),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "<replicate> element (worldbody): Pinocchio's MJCF parser does not "
+                "expand it; write the copies out"
+            )
+            + "$",
+        ),
+        "shell inertia": Case(
+            _load(chain(body_extra='<geom size="0.05" shellinertia="true"/>'), strict=False),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "shell inertia (<geom shellinertia='true'>): Pinocchio's MJCF parser "
+                "cannot compute it; use a solid geom or an explicit <inertial>"
+            )
+            + "$",
+        ),
+        "settotalmass": Case(
+            _load(chain().replace("<mujoco>", '<mujoco><compiler settotalmass="10"/>')),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "compiler settotalmass (<compiler settotalmass='10'>): Pinocchio's "
+                "MJCF parser ignores it, so the engines' masses would differ; write the "
+                "masses and inertias out"
+            )
+            + "$",
+        ),
+        "extrinsic eulerseq": Case(
+            _load(chain().replace("<mujoco>", '<mujoco><compiler eulerseq="ZYX"/>')),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "extrinsic eulerseq (<compiler eulerseq='ZYX'>): Pinocchio's MJCF "
+                "parser reads it as intrinsic"
+            )
+            + "$",
+        ),
+        "non-unit axisangle": Case(
+            _load(_l2('axisangle="0 0 2 30"')),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "axisangle with a non-unit axis (<body name='l2' axisangle='0 0 2 "
+                "30'>): Pinocchio's MJCF parser does not normalise the axis; write a unit "
+                "axis"
+            )
+            + "$",
+        ),
+        "mesh geom": Case(
+            _load(
+                chain(body_extra='<geom name="hull" type="mesh" mesh="cube"/>').replace(
+                    "<mujoco>", "<mujoco>" + CUBE
+                )
+            ),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "mesh, sdf or height-field geom (geom 'hull'): Pinocchio's MJCF "
+                "parser gives meshes a placeholder inertia; use primitive geoms"
+            )
+            + "$",
+        ),
+        "posed fixed root": Case(
+            _load(
+                chain()
+                .replace(
+                    '<body name="l1" pos="0 0 0.1">',
+                    '<body name="base" pos="0 0 0.5"><geom size="0.05"/>'
+                    '<body name="l1" pos="0 0 0.1">',
+                )
+                .replace("</worldbody>", "</body></worldbody>")
+            ),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "fixed root body with a pose (body 'base'): Pinocchio's MJCF parser "
+                "drops the pose of a root body without joints; move its pos/quat to its "
+                "children"
+            )
+            + "$",
+        ),
+        "free joint below the root": Case(
+            _load(
+                chain(joints='<joint name="a" axis="0 1 0"/>').replace(
+                    '<joint name="b" axis="0 1 0"/>', '<freejoint name="b"/>'
+                )
+            ),
+            rd.ModelError,
+            "^" + MJ + "Error: free joint can only be used on top level",
+        ),
+        # -- poses and other arguments ---------------------------------------------------------
+        "complex pose": Case(
+            lambda: ARM.jacobian(np.full(7, 0.1 + 1j)),
+            rd.PoseError,
+            r"^pose must be real, got complex values$",
+        ),
+        "pose as text": Case(
+            lambda: ARM.jacobian("0 0 0 0 0 0 0"),
+            rd.PoseError,
+            r"^pose must be numeric, got str: could not convert string to float",
+        ),
+        "pose None": Case(
+            lambda: ARM.gravity(None),
+            rd.PoseError,
+            "^" + re.escape(f"pose must have shape (7,) for joints {JOINTS}, got shape ()") + "$",
+        ),
+        "pose dict": Case(
+            lambda: ARM.mass_matrix({}), rd.PoseError, r"^pose must be numeric, got dict"
+        ),
+        "ragged pose": Case(
+            lambda: ARM.jacobian([[0, 0, 0], [0, 0, 0, 0]]),
+            rd.PoseError,
+            r"^pose must be numeric, got list: setting an array element with a sequence",
+        ),
+        "column pose": Case(
+            lambda: ARM.jacobian(np.zeros((7, 1))),
+            rd.PoseError,
+            "^"
+            + re.escape(f"pose must have shape (7,) for joints {JOINTS}, got shape (7, 1)")
+            + "$",
+        ),
+        "empty pose": Case(
+            lambda: ARM.site_pose([]),
+            rd.PoseError,
+            "^" + re.escape(f"pose must have shape (7,) for joints {JOINTS}, got shape (0,)") + "$",
+        ),
+        "slide out of range": Case(
+            lambda: ARM.pose([0, 0, 0.2, 0, 0, 0, 0], check_range=True),
+            rd.OutOfRangeError,
+            r"^joint 'q3' = 0.2 is outside its range \[-0.1, 0.1\]$",
+        ),
+        "NaN pose in crosscheck": Case(
+            lambda: rd.crosscheck(ARM, np.full((2, 7), np.nan)),
+            rd.PoseError,
+            r"^pose has non-finite values: q1=nan, q2=nan",
+        ),
+        "inf pose in compare_models": Case(
+            lambda: rd.compare_models(ARM, np.full(7, np.inf)),
+            rd.PoseError,
+            r"^pose has non-finite values: q1=inf",
+        ),
+        "unknown engine": Case(
+            lambda: ARM.jacobian(np.zeros(7), engine="drake"),  # type: ignore[arg-type]
+            rd.UnknownNameError,
+            r"^unknown engine 'drake'; valid engine names: \['mujoco', 'pinocchio'\]$",
+        ),
+    }
+
+
+NAMES = list(cases("/tmp"))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_bad_input(name: str, tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    case = cases(str(tmp_path))[name]
+    capfd.readouterr()
+    with pytest.raises(case.error) as exc:
+        case.call()
+    assert isinstance(exc.value, rd.RedundancyError)
+    assert re.search(case.message, str(exc.value)), str(exc.value)
+    out, err = capfd.readouterr()
+    if case.quiet:
+        assert not ENGINE_NOISE.search(out + err), out + err
+
+
+def test_table_size() -> None:
+    assert len(NAMES) >= 40
+
+
+# ------------------------------------------------------------------------------------------
+# Fuzz: arm7.xml with its text mutated
+# ------------------------------------------------------------------------------------------
+
+#: Fuzz examples: 20 by default, 1000 under the thorough profile.
+FUZZ_EXAMPLES = max(20, settings().max_examples // 3) if settings().max_examples < 1000 else 1000
+TOKENS = [
+    '"',
+    "<",
+    ">",
+    "/>",
+    "</body>",
+    "<body>",
+    '<joint name="x"/>',
+    ' bogus="1"',
+    "nan",
+    "inf",
+    "-1",
+    "0",
+    "1e308",
+    "-1e-308",
+    "<frame>",
+    '<include file="x.xml"/>',
+    "&amp;",
+    "\x00",
+    '<joint type="ball" name="y"/>',
+    '<geom size="0"/>',
+    "ü",
+    " ",
+    "\n",
+]
+NUMBER = re.compile(r"-?\d+\.?\d*(?:e-?\d+)?")
+
+
+@st.composite
+def mutants(draw: st.DrawFn) -> str:
+    text = ARM7_TEXT
+    for _ in range(draw(st.integers(1, 3))):
+        n = len(text)
+        kind = draw(st.sampled_from(["delete", "insert", "number", "duplicate", "truncate"]))
+        i = draw(st.integers(0, n))
+        if kind == "delete":
+            text = text[:i] + text[i + draw(st.integers(1, 200)) :]
+        elif kind == "insert":
+            text = text[:i] + draw(st.sampled_from(TOKENS)) + text[i:]
+        elif kind == "duplicate":
+            j = min(n, i + draw(st.integers(1, 400)))
+            text = text[:j] + text[i:j] + text[j:]
+        elif kind == "truncate":
+            text = text[:i]
+        else:
+            spans = [m.span() for m in NUMBER.finditer(text)] or [(0, 0)]
+            a, b = spans[draw(st.integers(0, len(spans) - 1))]
+            new = draw(
+                st.one_of(
+                    st.sampled_from(["nan", "inf", "-inf", "0", "-1", "1e300", "-0"]),
+                    st.floats(-1e3, 1e3, allow_nan=False).map(repr),
+                )
+            )
+            text = text[:a] + new + text[b:]
+    return text
+
+
+@settings(max_examples=FUZZ_EXAMPLES, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=mutants())
+def test_fuzzed_arm7(text: str, capfd: pytest.CaptureFixture[str]) -> None:
+    """Any mutant of arm7.xml loads or raises a RedundancyError; a loaded one is usable.
+
+    When the two compiled models are equivalent, the engines must agree at the zero pose
+    unless the mutant's numbers overflow (a 1e300 mass).
+    """
+    capfd.readouterr()
+    try:
+        arm = rd.load_string(text, site="ee")
+    except rd.RedundancyError as err:
+        assert str(err)
+        arm = None
+    if arm is not None:
+        report = rd.compare_models(arm)
+        cc = rd.crosscheck(arm, np.zeros(arm.nq))
+        finite = all(np.isfinite(a.max_error) for a in cc.agreements)
+        if report.equivalent and finite:
+            assert cc.ok, "\n".join(cc.lines() + report.lines())
+    out, err = capfd.readouterr()
+    assert "Traceback" not in out + err

@@ -1,0 +1,290 @@
+"""Engine agreement on arms nobody hand-tuned: random MJCF from :mod:`redundancy.generate`.
+
+Each drawn arm is loaded into both engines; the compiled models must be equivalent, and the
+site pose, J, dJ/dq, M and gravity must agree at poses drawn inside the joint ranges, as must
+the collision distances of MuJoCo's pair set (coal against ``mj_geomDistance``). A failure
+shrinks to a small model. The number of models scales with the hypothesis profile: 100 by
+default, 2000 under ``HYPOTHESIS_PROFILE=thorough``.
+
+Every class of disagreement these properties found has a regression test below, holding the
+shrunk model: the library now refuses it with a clear error, or the disagreement is a known
+engine difference that the property explains (MuJoCo's capsule-box collider).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import redundancy as rd
+from redundancy import collision as col
+from redundancy.generate import REFUSED_FEATURES, GeneratedArm, arms, refused_arms
+from redundancy.testing import PROFILES, poses
+
+#: The loaded profile's examples per property: 60 by default, 1000 under "thorough".
+EXAMPLES = settings().max_examples
+#: Generated models per run: 100 by default, 2000 under the thorough profile.
+N_MODELS = 100 if EXAMPLES < PROFILES["thorough"] else 2 * EXAMPLES
+BAND = col.AMBIGUITY_BAND
+TIGHT = 1e-9
+CURVED = {"cylinder", "ellipsoid"}
+#: Counts for the closing note (printed with -s): models checked and explained differences.
+SEEN: dict[str, int] = {"models": 0, "capsule-box depth missed by MuJoCo": 0}
+
+
+def _segment_crosses_box(p0: np.ndarray, p1: np.ndarray, half: np.ndarray) -> bool:
+    """Whether the segment p0-p1 (box frame [m]) meets the box of half-sizes ``half``."""
+    t0, t1 = 0.0, 1.0
+    d = p1 - p0
+    for k in range(3):
+        if abs(d[k]) < 1e-15:
+            if abs(p0[k]) > half[k]:
+                return False
+            continue
+        a, b = sorted(((-half[k] - p0[k]) / d[k], (half[k] - p0[k]) / d[k]))
+        t0, t1 = max(t0, a), min(t1, b)
+        if t0 > t1:
+            return False
+    return True
+
+
+def _capsule_through_box(arm: rd.Arm, pair: col.GeomPair, q: np.ndarray) -> bool:
+    """True when a capsule's segment passes through a box: they overlap by at least its radius.
+
+    MuJoCo's capsule-box collider (and ``mj_geomDistance``) can miss such a deep overlap and
+    report the pair apart; coal reports it. This independent check explains the difference.
+    """
+    if pair.types != frozenset({"capsule", "box"}):
+        return False
+    import mujoco
+
+    m = arm.mj_model
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    cap, box = (pair.geom1, pair.geom2)
+    if int(m.geom_type[cap]) != int(mujoco.mjtGeom.mjGEOM_CAPSULE):
+        cap, box = box, cap
+    R = d.geom_xmat[box].reshape(3, 3)
+    axis = d.geom_xmat[cap].reshape(3, 3)[:, 2] * m.geom_size[cap, 1]
+    ends = [R.T @ (d.geom_xpos[cap] + s * axis - d.geom_xpos[box]) for s in (-1.0, 1.0)]
+    return _segment_crosses_box(ends[0], ends[1], m.geom_size[box])
+
+
+def assert_distances_agree(arm: rd.Arm, q: np.ndarray) -> None:
+    """coal against ``mj_geomDistance`` on every pair (tolerances as in test_collision)."""
+    ch = col.checker(arm)
+    ccd = max(float(arm.mj_model.opt.ccd_tolerance), TIGHT)
+    d_coal = ch.distance_values(q, "coal")
+    d_mj = ch.distance_values(q, "mujoco")
+    for pair, a, b in zip(ch.pairs, d_coal, d_mj, strict=True):
+        if a > BAND and b > BAND:
+            tol = ccd if pair.types & CURVED else TIGHT
+            assert abs(a - b) <= tol, (pair.label, a, b)
+        elif (a < -BAND) != (b < -BAND) and max(abs(a), abs(b)) > BAND:
+            assert a < 0 < b and _capsule_through_box(arm, pair, q), (pair.label, a, b)
+            SEEN["capsule-box depth missed by MuJoCo"] += 1
+
+
+def assert_engines_agree(gen: GeneratedArm, qs: list[np.ndarray]) -> rd.Arm:
+    arm = rd.load_string(gen.xml, site=gen.site)
+    report = rd.compare_models(arm)
+    assert report.equivalent, "\n".join(report.lines())
+    cc = rd.crosscheck(arm, np.array(qs))
+    assert cc.ok, "\n".join(cc.lines())
+    for q in qs:
+        assert_distances_agree(arm, q)
+    return arm
+
+
+@settings(max_examples=N_MODELS, suppress_health_check=[HealthCheck.too_slow])
+@given(arms(), st.data())
+def test_generated_arms_agree(gen: GeneratedArm, data: st.DataObject) -> None:
+    arm = rd.load_string(gen.xml, site=gen.site)
+    qs = [data.draw(poses(arm), label="q") for _ in range(2)]
+    assert_engines_agree(gen, qs)
+    SEEN["models"] += 1
+
+
+@pytest.mark.parametrize("feature", REFUSED_FEATURES)
+def test_refused_variants_are_refused(feature: str) -> None:
+    """Each refusal, on random arms (the profile's examples shared among the features)."""
+
+    @settings(max_examples=max(3, EXAMPLES // len(REFUSED_FEATURES)))
+    @given(refused_arms((feature,)))
+    def check(gen: GeneratedArm) -> None:
+        with pytest.raises(rd.UnsupportedFeatureError) as exc:
+            rd.load_string(gen.xml, site=gen.site)
+        assert exc.value.feature == gen.refused == feature, str(exc.value)
+        assert str(exc.value).startswith(f"unsupported feature: {feature} (")
+
+    check()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _closing_note() -> object:
+    """Print what the generated arms showed (visible with ``pytest -s``)."""
+    yield
+    print(
+        f"\ngenerated arms: {SEEN['models']} models agreed; pairs where MuJoCo's capsule-box "
+        f"collider missed a capsule through a box: {SEEN['capsule-box depth missed by MuJoCo']}"
+    )
+
+
+# ------------------------------------------------------------------------------------------
+# Regression tests: the shrunk model of every class of disagreement found.
+# ------------------------------------------------------------------------------------------
+
+ONE_JOINT = """<mujoco>
+  <worldbody>
+    <body name="b0">
+      <joint name="j0" type="hinge"/>
+      <geom type="sphere" size="0.01"/>
+      <site name="tip"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_one_joint_arm() -> None:
+    """Class 1: eigenpy returns Pinocchio's 6 x 1 Jacobians as vectors of shape (6,)."""
+    arm = rd.load_string(ONE_JOINT, site="tip")
+    assert arm.jacobian([0.3], engine="pinocchio").shape == (6, 1)
+    assert rd.compare_models(arm).equivalent
+    assert rd.crosscheck(arm, np.array([[0.3], [-1.2]])).ok
+
+
+def _model(
+    default: str, body: str = "", joint: str = '<joint name="j0" axis="0 1 0"/>', top: str = ""
+) -> str:
+    return f"""<mujoco>{top}
+  <default>{default}</default>
+  <worldbody>
+    <body name="b0" {body}>{joint}
+      <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03"/>
+      <body name="b1" pos="0 0 0.3">
+        <joint name="j1" axis="1 0 0"/>
+        <geom type="box" size="0.05 0.02 0.1" pos="0 0 0.1"/>
+        <site name="tip" pos="0 0 0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+#: Shrunk models of each class Pinocchio 4.1 reads differently, the refusal, and a quantity
+#: that differs when the model is loaded anyway with ``strict=False``.
+READ_DIFFERENTLY = [
+    pytest.param(
+        _model('<joint pos="0 0.1 0"/>'),
+        "joint pos in a default class (<default class='main'>): Pinocchio's MJCF parser does not "
+        "apply it to every joint; give the pos on each joint",
+        "joint axis line offset",
+        id="joint-pos-default",
+    ),
+    pytest.param(
+        _model('<geom mass="3"/>'),
+        "geom mass in a default class (<default class='main'>): Pinocchio's MJCF parser ignores "
+        "a default geom mass (it reads density); give the mass on each geom",
+        "body mass",
+        id="geom-mass-default",
+    ),
+    pytest.param(
+        _model(
+            '<default class="A"><joint type="slide" axis="1 0 0"/></default>'
+            '<default class="B"><joint armature="0.1"/></default>',
+            body='childclass="A"',
+            joint='<joint name="j0" class="B"/>',
+        ),
+        "class inside a different childclass (<joint name='j0' class='B'> in a body with "
+        "childclass 'A'): Pinocchio's MJCF parser merges the two classes where MuJoCo uses only "
+        "the element's class; set the attributes on the element or use the body's childclass",
+        "joint type",
+        id="class-merged-with-childclass",
+    ),
+    pytest.param(
+        _model("", top='<compiler boundmass="10"/>'),
+        "compiler boundmass (<compiler boundmass='10'>): Pinocchio's MJCF parser ignores it, so "
+        "the engines' masses would differ; write the masses and inertias out",
+        "body mass",
+        id="boundmass",
+    ),
+    pytest.param(
+        _model("", top='<compiler boundinertia="1"/>'),
+        "compiler boundinertia (<compiler boundinertia='1'>): Pinocchio's MJCF parser ignores "
+        "it, so the engines' masses would differ; write the masses and inertias out",
+        "inertia about com (world)",
+        id="boundinertia",
+    ),
+]
+
+
+@pytest.mark.parametrize(("xml", "message", "quantity"), READ_DIFFERENTLY)
+def test_read_differently_is_refused_or_reported(xml: str, message: str, quantity: str) -> None:
+    with pytest.raises(rd.UnsupportedFeatureError) as exc:
+        rd.load_string(xml, site="tip")
+    assert str(exc.value) == f"unsupported feature: {message}"
+    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
+    assert quantity in {d.quantity for d in report.differences}, report.lines()
+
+
+def test_class_refining_the_childclass_is_accepted() -> None:
+    """A class that descends from the body's childclass is merged harmlessly (arm7 does it)."""
+    xml = _model(
+        '<default class="A"><joint type="slide" axis="1 0 0"/>'
+        '<default class="B"><joint type="hinge" axis="0 0 1" armature="0.1"/></default></default>',
+        body='childclass="A"',
+        joint='<joint name="j0" class="B"/>',
+    )
+    arm = rd.load_string(xml, site="tip")
+    assert arm.joint_types == ("hinge", "slide")
+    assert rd.compare_models(arm).equivalent
+    assert rd.crosscheck(arm, np.array([0.4, 0.05])).ok
+
+
+CAPSULE_THROUGH_BOX = """<mujoco>
+  <compiler angle="radian" autolimits="true" eulerseq="zyx"/>
+  <worldbody>
+    <body name="b0">
+      <geom type="sphere" size="0.062"/>
+      <body name="b1">
+        <geom type="capsule" size="0.016 0.125" euler="0 0 1"/>
+        <body name="b2">
+          <joint name="j0" type="hinge"/>
+          <geom type="box" size="0.062 0.031 0.062"/>
+          <site name="tip"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mujoco_capsule_box_misses_a_capsule_through_the_box() -> None:
+    """Class 2 (reported to collision.py's owner): a capsule whose axis passes through a box.
+
+    coal gives the true depth (the capsule must move 0.078 m = half the box's 0.062 plus the
+    radius 0.016 to get out); MuJoCo's capsule-box collider and ``mj_geomDistance`` say the
+    geoms are 3 mm apart, and ``mj_collision`` lists no contact for the pair.
+    """
+    arm = rd.load_string(CAPSULE_THROUGH_BOX, site="tip")
+    ch = col.checker(arm)
+    pair = next(p for p in ch.pairs if p.types == frozenset({"capsule", "box"}))
+    k = ch.pairs.index(pair)
+    q = np.zeros(1)
+    assert _capsule_through_box(arm, pair, q)
+    assert ch.distance_values(q, "coal")[k] == pytest.approx(-0.078, abs=1e-6)
+    assert ch.distance_values(q, "mujoco")[k] > 0
+    assert pair not in ch.contact_pairs(q)
+
+
+def test_segment_box_helper() -> None:
+    half = np.array([0.1, 0.2, 0.3])
+    assert _segment_crosses_box(np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), half)
+    assert not _segment_crosses_box(np.array([-1.0, 0.5, 0]), np.array([1.0, 0.5, 0]), half)
+    assert _segment_crosses_box(np.zeros(3), np.zeros(3), half)
