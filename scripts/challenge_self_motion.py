@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("out"), help="output directory")
     parser.add_argument("--total", type=float, default=1.0, help="self-motion from home [rad]")
     parser.add_argument("--step", type=float, default=0.01, help="null-space step [rad]")
-    parser.add_argument("--roll", type=float, default=0.6, help="j3 of the contact pose [rad]")
+    parser.add_argument("--roll", type=float, default=1.0, help="j3 of the contact pose [rad]")
     parser.add_argument("--depth", type=float, default=3e-3, help="link2/link4 overlap [m]")
     parser.add_argument("--margin", type=float, default=1e-3, help="clearance to reach [m]")
     args = parser.parse_args(argv)
@@ -240,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
         f"  joints: j3 {p.q[0][k3]:.3f} -> {p.q[-1][k3]:.3f} rad, j4 changed by "
         f"{p.q[-1][k4] - p.q[0][k4]:+.1e} rad (the elbow angle is fixed by the shoulder-to-wrist "
         "distance;\n  only the roll between link2 and link4 changes: the forearm turns off the "
-        "box's edge)"
+        "wide side of link2 toward its narrow one)"
     )
 
     args.out.mkdir(parents=True, exist_ok=True)

@@ -820,14 +820,15 @@ def test_path_checker_never_misses_with_a_slide(Q: np.ndarray) -> None:
 
 
 def lesson_path(arm: rd.Arm) -> np.ndarray:
-    """From home, fold the elbow to j4 = 2.5 (free), then roll the upper arm (j3) a
-    quarter turn (free again): half-way, the box-shaped upper arm link2 turns its corner
-    toward the folded forearm link4."""
+    """From home, fold the elbow to j4 = 2.5 (free, 1.0 mm clear), then roll the upper arm
+    (j3) to 2.9 rad (free again, 0.7 mm clear): on the way the wide side of link2, an
+    ellipsoid flatter in x than in y, turns into the folded forearm link4 (11 mm deep at
+    j3 = pi/2)."""
     home = arm.keyframe("home")
     folded = home.copy()
     folded[arm.joint_index("j4")] = 2.5
     rolled = folded.copy()
-    rolled[arm.joint_index("j3")] = np.pi / 2
+    rolled[arm.joint_index("j3")] = 2.9
     return np.stack([home, folded, rolled])
 
 
