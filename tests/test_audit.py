@@ -137,3 +137,21 @@ def test_json_to_stdout_and_bad_input_exit_code(capsys):
 def test_report_lines_are_printable():
     lines = format_report(audit(rd.load(rd.model_path("arm7")), n_poses=100))
     assert lines[-1].startswith("  [keyframe] keyframe 'zero' is singular")
+
+
+def test_json_report_is_written_atomically(tmp_path, monkeypatch):
+    from redundancy import audit as audit_mod
+
+    target = tmp_path / "report.json"
+    target.write_text("old")
+    audit_mod.write_atomic(target, "new")
+    assert target.read_text() == "new"
+
+    def crash(src, dst):
+        raise OSError("disk pulled out")
+
+    monkeypatch.setattr(audit_mod.os, "replace", crash)
+    with pytest.raises(OSError, match="disk pulled out"):
+        audit_mod.write_atomic(target, "half-written?")
+    assert target.read_text() == "new"  # the old file, whole
+    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]  # no temporary left behind
