@@ -106,8 +106,17 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
     assert text.splitlines()[0] == f"audit of {path} (site 'ee')"
     data = json.loads(out.read_text())
     assert set(data) == {
-        "model", "site", "joints", "timestep", "kd", "keyframes", "gravity", "collision",
-        "crosscheck", "equivalence", "findings",
+        "model",
+        "site",
+        "joints",
+        "timestep",
+        "kd",
+        "keyframes",
+        "gravity",
+        "collision",
+        "crosscheck",
+        "equivalence",
+        "findings",
     }
     assert data["crosscheck"]["ok"] and data["equivalence"]["equivalent"]
     assert len(data["findings"]) == (status == 1) * len(data["findings"])

@@ -19,7 +19,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import linalg
-from .errors import ModelError, OutOfRangeError, PoseError, UnknownNameError, UnsupportedFeatureError
+from .errors import (
+    ModelError,
+    OutOfRangeError,
+    PoseError,
+    UnknownNameError,
+    UnsupportedFeatureError,
+)
 from .mujoco_engine import (
     MujocoEngine,
     actuator_armature,
@@ -449,13 +455,17 @@ class Arm:
             )
         if self.site not in [f.name for f in pm.frames]:
             raise UnsupportedFeatureError(
-                "site Pinocchio does not read", f"site {self.site!r}", "Pinocchio has no frame of that name"
+                "site Pinocchio does not read",
+                f"site {self.site!r}",
+                "Pinocchio has no frame of that name",
             )
         for n in self.joint_names:
             kind = joint_kind(pm.joints[pm.getJointId(n)])
             if kind not in ("hinge", "slide"):
                 raise UnsupportedFeatureError(
-                    f"Pinocchio joint type {kind}", f"joint {n!r}", "expected a 1-dof revolute or prismatic joint"
+                    f"Pinocchio joint type {kind}",
+                    f"joint {n!r}",
+                    "expected a 1-dof revolute or prismatic joint",
                 )
 
     def _bridge(self, pm: object, mm: mujoco.MjModel) -> tuple[Bridge, ...]:
@@ -475,12 +485,28 @@ class Arm:
             lim = self.effort_limit[i]
             if pm.effortLimit[k] != lim:
                 pm.effortLimit[k] = lim
-                bridges.append(Bridge("effort limit", name, float(lim), "actuator ctrlrange/forcerange x gear"))
+                bridges.append(
+                    Bridge("effort limit", name, float(lim), "actuator ctrlrange/forcerange x gear")
+                )
             if pm.armature[k] != armature[i]:
-                bridges.append(Bridge("armature", name, float(armature[i]), "dof armature + gear^2 x actuator armature"))
+                bridges.append(
+                    Bridge(
+                        "armature",
+                        name,
+                        float(armature[i]),
+                        "dof armature + gear^2 x actuator armature",
+                    )
+                )
                 pm.armature[k] = armature[i]
             if pm.damping[k] != damping[i]:
-                bridges.append(Bridge("damping", name, float(damping[i]), "dof damping + gear^2 x actuator damping"))
+                bridges.append(
+                    Bridge(
+                        "damping",
+                        name,
+                        float(damping[i]),
+                        "dof damping + gear^2 x actuator damping",
+                    )
+                )
                 pm.damping[k] = damping[i]
             rng = (float(self.lower[i]), float(self.upper[i]))
             if (pm.lowerPositionLimit[k], pm.upperPositionLimit[k]) != rng:
@@ -488,7 +514,9 @@ class Arm:
                 pm.lowerPositionLimit[k], pm.upperPositionLimit[k] = rng
         g = mm.opt.gravity.copy()
         if not np.array_equal(pm.gravity.linear, g):
-            bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), "<option gravity>"))
+            bridges.append(
+                Bridge("gravity", "model", tuple(float(x) for x in g), "<option gravity>")
+            )
             pm.gravity = pin.Motion(g, np.zeros(3))
         bridges += self._bridge_site(pm, mm)
         return tuple(bridges)
@@ -528,7 +556,14 @@ class Arm:
         joint_pose = pd.oMi[frame.parentJoint]
         frame.placement = joint_pose.inverse() * site_mj
         pm.frames[fid] = frame
-        return [Bridge("site placement", self.site, tuple(float(x) for x in mm.site_pos[sid]), "site_pos and site_quat (site defaults)")]
+        return [
+            Bridge(
+                "site placement",
+                self.site,
+                tuple(float(x) for x in mm.site_pos[sid]),
+                "site_pos and site_quat (site defaults)",
+            )
+        ]
 
     # -- names, keyframes and poses --------------------------------------------------------
     @property
@@ -589,7 +624,8 @@ class Arm:
             raise PoseError(f"pose must be numeric, got {type(q).__name__}: {err}") from err
         if arr.shape != (self.nq,):
             raise PoseError(
-                f"pose must have shape ({self.nq},) for joints {list(self.joint_names)}, got shape {arr.shape}"
+                f"pose must have shape ({self.nq},) for joints {list(self.joint_names)}, got "
+                f"shape {arr.shape}"
             )
         bad = ~np.isfinite(arr)
         if bad.any():
@@ -598,7 +634,12 @@ class Arm:
         if check_range:
             for i in range(self.nq):
                 if not (self.lower[i] - tol <= arr[i] <= self.upper[i] + tol):
-                    raise OutOfRangeError(self.joint_names[i], float(arr[i]), float(self.lower[i]), float(self.upper[i]))
+                    raise OutOfRangeError(
+                        self.joint_names[i],
+                        float(arr[i]),
+                        float(self.lower[i]),
+                        float(self.upper[i]),
+                    )
         return arr
 
     # -- quantities, from either engine -----------------------------------------------------
@@ -610,16 +651,20 @@ class Arm:
         """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
         return self.engine(engine).site_jacobian(self.pose(q))
 
-    def svd(self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL) -> linalg.JacobianSVD:
+    def svd(
+        self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL
+    ) -> linalg.JacobianSVD:
         """SVD of the site Jacobian, with rank, lost directions and condition number."""
         return linalg.jacobian_svd(self.jacobian(q, engine), rtol)
 
-    def manipulability(self, q: ArrayLike, length: float = 1.0, engine: EngineName = "mujoco") -> linalg.Manipulability:
-        """Yoshikawa's measure of J, its position and orientation blocks, and J scaled by ``length`` [m]."""
+    def manipulability(
+        self, q: ArrayLike, length: float = 1.0, engine: EngineName = "mujoco"
+    ) -> linalg.Manipulability:
+        """Yoshikawa's measure of J, its blocks, and J with position rows divided by length [m]."""
         return linalg.manipulability(self.jacobian(q, engine), length)
 
     def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
-        """d sqrt(det(J J^T)) / dq from the engine's second-order kinematics, shape (nq,)."""
+        """Gradient d sqrt(det(J J^T)) / dq from second-order kinematics, shape (nq,)."""
         q = self.pose(q)
         eng = self.engine(engine)
         return linalg.manipulability_gradient(eng.site_jacobian(q), eng.jacobian_derivatives(q))
@@ -632,7 +677,9 @@ class Arm:
         """Orthonormal basis of J's null space at ``q``, shape (nq, nq - rank)."""
         return linalg.nullspace_basis(self.jacobian(q, engine))
 
-    def mass_matrix(self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco") -> Array:
+    def mass_matrix(
+        self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco"
+    ) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
         return self.engine(engine).mass_matrix(self.pose(q), armature)
 
@@ -702,7 +749,9 @@ def load(path: str | os.PathLike[str], site: str = "ee", strict: bool = True) ->
     root = _xml_root(p.read_text())
     if root.find(".//include") is not None:
         raise UnsupportedFeatureError(
-            "<include> element", str(p), "Pinocchio's MJCF parser does not follow includes; inline the file"
+            "<include> element",
+            str(p),
+            "Pinocchio's MJCF parser does not follow includes; inline the file",
         )
     mj = _read_mujoco(None, p)
     check_supported(mj, root, strict)
@@ -720,7 +769,9 @@ def load_string(xml: str, site: str = "ee", strict: bool = True) -> Arm:
     root = _xml_root(xml)
     if root.find(".//include") is not None:
         raise UnsupportedFeatureError(
-            "<include> element", "<string>", "Pinocchio's MJCF parser does not follow includes; inline the file"
+            "<include> element",
+            "<string>",
+            "Pinocchio's MJCF parser does not follow includes; inline the file",
         )
     mj = _read_mujoco(xml, None)
     check_supported(mj, root, strict)

@@ -129,7 +129,9 @@ class PinocchioEngine:
         axes, anchors = np.zeros((self.nv, 3)), np.zeros((self.nv, 3))
         for i, k in enumerate(self.perm):
             jid = self._joint_id(k)
-            J = np.reshape(pin.getJointJacobian(self.model, self.data, jid, _LWA), (6, self.nv))[:, k]
+            J = np.reshape(pin.getJointJacobian(self.model, self.data, jid, _LWA), (6, self.nv))[
+                :, k
+            ]
             kind = joint_kind(self.model.joints[jid])
             axes[i] = J[3:] if kind == "hinge" else J[:3]
             anchors[i] = self.data.oMi[jid].translation
