@@ -63,24 +63,24 @@ def joint_force_limits(model: mujoco.MjModel) -> Array:
     return limit
 
 
-def actuator_armature(model: mujoco.MjModel) -> Array:
-    """Armature that actuators add to each dof: ``gear^2 * actuator_armature`` [kg m^2]."""
+def _reflected_per_dof(model: mujoco.MjModel, values: Array) -> Array:
+    """Sum of gear^2 * value over the joint actuators of each dof (rotor-side to joint-side)."""
     extra = np.zeros(model.nv)
     for a in range(model.nu):
         if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
             dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
-            extra[dof] += model.actuator_gear[a, 0] ** 2 * model.actuator_armature[a]
+            extra[dof] += model.actuator_gear[a, 0] ** 2 * values[a]
     return extra
+
+
+def actuator_armature(model: mujoco.MjModel) -> Array:
+    """Armature that actuators add to each dof: ``gear^2 * actuator_armature`` [kg m^2]."""
+    return _reflected_per_dof(model, model.actuator_armature)
 
 
 def actuator_damping(model: mujoco.MjModel) -> Array:
     """Damping that actuators add to each dof: ``gear^2 * actuator_damping`` [N m s/rad]."""
-    extra = np.zeros(model.nv)
-    for a in range(model.nu):
-        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
-            dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
-            extra[dof] += model.actuator_gear[a, 0] ** 2 * model.actuator_damping[a]
-    return extra
+    return _reflected_per_dof(model, model.actuator_damping)
 
 
 class MujocoEngine:
