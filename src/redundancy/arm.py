@@ -701,6 +701,35 @@ class Arm:
         return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"
 
 
+def sampling_ranges(arm: Arm) -> tuple[Array, Array]:
+    """Lower and upper bounds used to draw random poses [rad or m].
+
+    The joint ranges; an unlimited hinge is drawn in [-pi, pi].
+
+    Raises:
+        PoseError: An unlimited slide joint (no range to draw from).
+    """
+    lo, hi = arm.lower.copy(), arm.upper.copy()
+    for i, kind in enumerate(arm.joint_types):
+        if not (np.isfinite(lo[i]) and np.isfinite(hi[i])):
+            if kind != "hinge":
+                raise PoseError(
+                    f"joint {arm.joint_names[i]!r} is an unlimited slide: no range to sample"
+                )
+            lo[i], hi[i] = -np.pi, np.pi
+    return lo, hi
+
+
+def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
+    """``n`` poses drawn uniformly in the joint ranges, shape (n, nq) [rad or m].
+
+    Draws in the same order as ``rng = np.random.default_rng(seed)`` followed by
+    ``rng.uniform(lo, hi)`` once per pose, so a seed reproduces the lesson's sample.
+    """
+    lo, hi = sampling_ranges(arm)
+    return np.random.default_rng(seed).uniform(lo, hi, size=(int(n), arm.nq))
+
+
 def _read_mujoco(xml: str | None, path: Path | None) -> mujoco.MjModel:
     try:
         # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated

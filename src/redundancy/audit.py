@@ -21,12 +21,11 @@ from typing import Any
 import numpy as np
 
 from . import batch, inertia
-from .arm import Arm, load
+from .arm import Arm, load, random_poses
 from .batch import BATCH_QUANTITIES, crosscheck_batch
 from .collision import CollisionStatistics, collision_statistics
 from .crosscheck import TOLERANCES, CrossCheckReport
 from .equivalence import EquivalenceReport, compare_models
-from .lesson import random_poses
 from .linalg import jacobian_svd
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].

@@ -34,6 +34,9 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+# Random poses are the arm's business; re-exported here, where the lesson's sample is drawn.
+from .arm import random_poses as random_poses
+from .arm import sampling_ranges as sampling_ranges
 from .errors import (
     ModelError,
     PoseError,
@@ -820,35 +823,6 @@ def contacts(arm: Arm, q: ArrayLike) -> tuple[Contact, ...]:
 # ==========================================================================================
 # Statistics over random poses
 # ==========================================================================================
-
-
-def sampling_ranges(arm: Arm) -> tuple[Array, Array]:
-    """Lower and upper bounds used to draw random poses [rad or m].
-
-    The joint ranges; an unlimited hinge is drawn in [-pi, pi].
-
-    Raises:
-        PoseError: An unlimited slide joint (no range to draw from).
-    """
-    lo, hi = arm.lower.copy(), arm.upper.copy()
-    for i, kind in enumerate(arm.joint_types):
-        if not (np.isfinite(lo[i]) and np.isfinite(hi[i])):
-            if kind != "hinge":
-                raise PoseError(
-                    f"joint {arm.joint_names[i]!r} is an unlimited slide: no range to sample"
-                )
-            lo[i], hi[i] = -np.pi, np.pi
-    return lo, hi
-
-
-def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
-    """``n`` poses drawn uniformly in the joint ranges, shape (n, nq) [rad or m].
-
-    Draws in the same order as ``rng = np.random.default_rng(seed)`` followed by
-    ``rng.uniform(lo, hi)`` once per pose, so a seed reproduces the lesson's sample.
-    """
-    lo, hi = sampling_ranges(arm)
-    return np.random.default_rng(seed).uniform(lo, hi, size=(int(n), arm.nq))
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import batch, inertia, linalg
-from .arm import Arm
+from .arm import Arm, random_poses
 from .collision import CollisionStatistics, collision_statistics
 from .mujoco_engine import simulate_hold
 
@@ -155,12 +155,6 @@ def format_jacobian_table(rows: Sequence[SVDRow]) -> list[str]:
 
 
 # -- (3) gravity budget ---------------------------------------------------------------------------
-def random_poses(arm: Arm, n: int, seed: int) -> Array:
-    """N poses uniform in the joint ranges; the same draws as n calls of rng.uniform(lo, hi)."""
-    rng = np.random.default_rng(seed)
-    return rng.uniform(arm.lower, arm.upper, size=(n, arm.nq))
-
-
 @dataclass(frozen=True)
 class GravityBudget:
     """Table (3): largest gravity torque per joint over random poses, against motor limits."""
