@@ -28,7 +28,6 @@ from .errors import (
 )
 from .mujoco_engine import (
     MujocoEngine,
-    actuator_armature,
     actuator_damping,
     captured_warnings,
     joint_force_limits,
@@ -478,36 +477,28 @@ class Arm:
 
         assert isinstance(pm, pin.Model)
         bridges: list[Bridge] = []
-        armature = mm.dof_armature + actuator_armature(mm)
-        damping = mm.dof_damping + actuator_damping(mm)
+        # Per-dof values Pinocchio keeps in a vector of its own: (name, its vector, ours, source).
+        per_dof = (
+            (
+                "effort limit",
+                pm.effortLimit,
+                self.effort_limit,
+                "actuator ctrlrange/forcerange x gear",
+            ),
+            (
+                "armature",
+                pm.armature,
+                self.mujoco.armature,
+                "dof armature + gear^2 x actuator armature",
+            ),
+            ("damping", pm.damping, self.damping(), "dof damping + gear^2 x actuator damping"),
+        )
         for i, name in enumerate(self.joint_names):
             k = pm.joints[pm.getJointId(name)].idx_v
-            lim = self.effort_limit[i]
-            if pm.effortLimit[k] != lim:
-                pm.effortLimit[k] = lim
-                bridges.append(
-                    Bridge("effort limit", name, float(lim), "actuator ctrlrange/forcerange x gear")
-                )
-            if pm.armature[k] != armature[i]:
-                bridges.append(
-                    Bridge(
-                        "armature",
-                        name,
-                        float(armature[i]),
-                        "dof armature + gear^2 x actuator armature",
-                    )
-                )
-                pm.armature[k] = armature[i]
-            if pm.damping[k] != damping[i]:
-                bridges.append(
-                    Bridge(
-                        "damping",
-                        name,
-                        float(damping[i]),
-                        "dof damping + gear^2 x actuator damping",
-                    )
-                )
-                pm.damping[k] = damping[i]
+            for quantity, theirs, ours, source in per_dof:
+                if theirs[k] != ours[i]:
+                    theirs[k] = ours[i]  # Pinocchio's vectors are writable views of its model
+                    bridges.append(Bridge(quantity, name, float(ours[i]), source))
             rng = (float(self.lower[i]), float(self.upper[i]))
             if (pm.lowerPositionLimit[k], pm.upperPositionLimit[k]) != rng:
                 bridges.append(Bridge("joint range", name, rng, "jnt_range and jnt_limited"))
