@@ -173,3 +173,16 @@ def test_everything_is_a_redundancy_error():
 def test_bad_characteristic_length():
     with pytest.raises(rd.RedundancyError, match=r"^characteristic length must be > 0 m, got 0$"):
         ARM.manipulability(np.zeros(7), length=0)
+
+
+def test_unknown_crosscheck_quantity_lists_the_valid_ones():
+    for check in (rd.crosscheck, rd.crosscheck_batch):
+        with pytest.raises(
+            rd.UnknownNameError,
+            match=r"^unknown quantity 'jacobain'; valid quantity names: \['site position'",
+        ):
+            check(
+                ARM,
+                np.zeros(7) if check is rd.crosscheck else np.zeros((1, 7)),
+                quantities=("jacobain",),
+            )

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .arm import ENGINES, Arm, EngineName
 from .collision import DISTANCE_ENGINES, CollisionChecker, DistanceEngine, checker
-from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
+from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck, quantity_names
 from .errors import PoseError, RedundancyError, UnknownNameError
 
 Array = NDArray[np.float64]
@@ -747,10 +747,7 @@ def crosscheck_batch(
     """
     threads = _check_threads(threads)
     tols = {**TOLERANCES, **(tolerances or {})}
-    names = tuple(quantities) if quantities is not None else tuple(TOLERANCES)
-    for name in names:
-        if name not in TOLERANCES:
-            raise UnknownNameError("quantity", name, list(TOLERANCES))
+    names = quantity_names(quantities)
     Q = poses(arm, Q)
     n, nv = len(Q), arm.nq
     fast = [q for q in names if q in BATCH_QUANTITIES]

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .arm import Arm, Bridge
+from .errors import UnknownNameError
 from .linalg import manipulability_gradient
 
 Array = NDArray[np.float64]
@@ -101,6 +102,19 @@ class CrossCheckReport:
         return out
 
 
+def quantity_names(quantities: Iterable[str] | None) -> tuple[str, ...]:
+    """The quantities to compare: all of :data:`TOLERANCES` by default.
+
+    Raises:
+        UnknownNameError: A name that is not a key of :data:`TOLERANCES` (lists the valid ones).
+    """
+    names = tuple(TOLERANCES) if quantities is None else tuple(quantities)
+    for name in names:
+        if name not in TOLERANCES:
+            raise UnknownNameError("quantity", name, list(TOLERANCES))
+    return names
+
+
 def crosscheck(
     arm: Arm,
     poses: ArrayLike,
@@ -116,7 +130,7 @@ def crosscheck(
         tolerances: Overrides for :data:`TOLERANCES`.
     """
     tols = {**TOLERANCES, **(tolerances or {})}
-    names = quantities or tuple(TOLERANCES)
+    names = quantity_names(quantities)
     qs = np.atleast_2d(np.asarray(poses, dtype=float))
     worst = dict.fromkeys(names, 0.0)
     where = dict.fromkeys(names, 0)

@@ -7,7 +7,7 @@ the original kept as ``__cause__``.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 
 
 class RedundancyError(Exception):
@@ -86,10 +86,3 @@ class MissingDependencyError(RedundancyError, ImportError):
             f"{module} is required for this feature; install it with "
             f"`pip install 'redundancy[{extra}]'`"
         )
-
-
-def closest(name: str, valid: Iterable[str]) -> list[str]:
-    """Return the valid names closest to ``name`` (for "did you mean" hints)."""
-    import difflib
-
-    return difflib.get_close_matches(name, list(valid), n=3)
