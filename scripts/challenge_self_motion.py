@@ -181,13 +181,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--depth", type=float, default=3e-3, help="link2/link4 overlap [m]")
     parser.add_argument("--margin", type=float, default=1e-3, help="clearance to reach [m]")
     args = parser.parse_args(argv)
-    try:
-        import matplotlib
+    from redundancy.plotting import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as err:
-        raise rd.MissingDependencyError("matplotlib", "plot") from err
+    plt = pyplot()
 
     arm = rd.load(rd.model_path("arm7"), site="ee")
     home = arm.keyframe("home")

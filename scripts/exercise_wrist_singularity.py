@@ -159,13 +159,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--points", type=int, default=441, help="sweep points over [-2.2, 2.2] rad")
     args = parser.parse_args(argv)
-    try:
-        import matplotlib
+    from redundancy.plotting import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as err:
-        raise rd.MissingDependencyError("matplotlib", "plot") from err
+    plt = pyplot()
 
     arm = rd.load(rd.model_path("arm7"), site="ee")
     home = arm.keyframe("home")
