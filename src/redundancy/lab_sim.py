@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import collision, linalg
 from .arm import Arm
 from .errors import PoseError
+from .mujoco_engine import JointPD
 
 Array = NDArray[np.float64]
 
@@ -143,7 +144,7 @@ class LabSim:
         ).astype(float)
         self.modelled_armature = self.model.dof_armature.copy()
         self.effort_limit = arm.effort_limit.copy()
-        self._actuators = self._joint_actuators()
+        self._controller = JointPD(self.model)
         self._checker = collision.checker(arm)
         self._lock = threading.RLock()
         self.targets = self.home.copy()
@@ -164,23 +165,6 @@ class LabSim:
         lo = np.where(np.isfinite(arm.lower), arm.lower, -np.pi)
         hi = np.where(np.isfinite(arm.upper), arm.upper, np.pi)
         return lo.astype(float), hi.astype(float)
-
-    def _joint_actuators(self) -> list[tuple[int, int, float]]:
-        """(actuator, dof, gear) for the first joint motor of each dof."""
-        m = self.model
-        out: list[tuple[int, int, float]] = []
-        seen: set[int] = set()
-        for a in range(m.nu):
-            if m.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
-                continue
-            dof = int(m.jnt_dofadr[m.actuator_trnid[a, 0]])
-            gear = float(m.actuator_gear[a, 0])
-            if dof in seen or gear == 0.0:
-                continue
-            seen.add(dof)
-            out.append((a, dof, gear))
-        self._unactuated = np.array([k for k in range(m.nv) if k not in seen], dtype=int)
-        return out
 
     # -- commands ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -263,15 +247,7 @@ class LabSim:
         m, d = self.model, self.data
         with self._lock:
             for _ in range(int(n)):
-                # mj_step1 computes positions and velocities, so qfrc_bias is that of the state
-                # about to be integrated; mj_step2 applies ctrl and integrates (one mj_step).
-                mujoco.mj_step1(m, d)
-                tau = d.qfrc_bias + self.kp * (self.targets - d.qpos) - self.kd * d.qvel
-                for a, dof, gear in self._actuators:
-                    d.ctrl[a] = tau[dof] / gear
-                if self._unactuated.size:
-                    d.qfrc_applied[self._unactuated] = tau[self._unactuated]
-                mujoco.mj_step2(m, d)
+                self._controller.step(m, d, self.targets, self.kp, self.kd)
                 self._steps += 1
                 self._speed_t.append(self.time)
                 self._speed_v.append(float(d.qvel[self._watch]))
@@ -319,10 +295,7 @@ class LabSim:
 
     def _applied_torque(self, dof: int) -> float:
         """Torque the controller applied to a dof in the last step, after clamping [N m]."""
-        d = self.data
-        if dof in self._unactuated:
-            return float(d.qfrc_applied[dof])
-        return float(d.qfrc_actuator[dof])
+        return self._controller.applied(self.data, dof)
 
     def speed_history(self) -> tuple[Array, Array]:
         """Times [s] and speeds [rad/s] of the watched joint over the last :data:`SPEED_WINDOW`."""

@@ -213,6 +213,62 @@ class MujocoEngine:
         return self.data.xaxis.copy(), self.data.xanchor.copy()
 
 
+class JointPD:
+    """The lesson's controller, tau = qfrc_bias + kp (q* - q) - kd qdot, stepped in MuJoCo.
+
+    The torque goes through each dof's first joint actuator as ``ctrl = tau / gear`` (so the
+    actuator's ctrlrange clamps it, as on the real arm); a dof without one gets it through
+    ``qfrc_applied``, unclamped.
+
+    Args:
+        model: The model it will step (only its actuator layout is read here).
+    """
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        actuators: list[tuple[int, int, float]] = []
+        seen: set[int] = set()
+        for a in range(model.nu):
+            if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+                continue
+            dof = int(model.jnt_dofadr[model.actuator_trnid[a, 0]])
+            gear = float(model.actuator_gear[a, 0])
+            if dof in seen or gear == 0.0:
+                continue
+            seen.add(dof)
+            actuators.append((a, dof, gear))
+        self.actuators = tuple(actuators)
+        self.unactuated = np.array([k for k in range(model.nv) if k not in seen], dtype=int)
+
+    def step(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        target: Array,
+        kp: float,
+        kd: float,
+        gravity_compensation: bool = True,
+    ) -> None:
+        """One timestep under the controller (one ``mj_step``)."""
+        # mj_step1 runs the position and velocity stages, so qfrc_bias is current for the
+        # state about to be integrated; mj_step2 then applies ctrl and integrates. Together
+        # they are one mj_step, without the extra mj_forward a read-then-step loop needs.
+        mujoco.mj_step1(model, data)
+        tau = data.qfrc_bias.copy() if gravity_compensation else np.zeros(model.nv)
+        if kp or kd:
+            tau += kp * (target - data.qpos) - kd * data.qvel
+        for a, dof, gear in self.actuators:
+            data.ctrl[a] = tau[dof] / gear
+        if self.unactuated.size:
+            data.qfrc_applied[self.unactuated] = tau[self.unactuated]
+        mujoco.mj_step2(model, data)
+
+    def applied(self, data: mujoco.MjData, dof: int) -> float:
+        """Torque applied to a dof in the last step, after the actuator's clamp [N m or N]."""
+        if dof in self.unactuated:
+            return float(data.qfrc_applied[dof])
+        return float(data.qfrc_actuator[dof])
+
+
 @dataclass(frozen=True)
 class HoldResult:
     """Peak joint speeds while a controller holds a pose in simulation.
@@ -245,8 +301,7 @@ def simulate_hold(
     torque is clamped by the actuators' ctrlrange, as MuJoCo does.
 
     Args:
-        model: Model to simulate (its timestep, integrator and flags are used as they are);
-            actuator i must drive dof i with gear 1.
+        model: Model to simulate (its timestep, integrator and flags are used as they are).
         target: Pose to hold [rad].
         kp: Stiffness [N m/rad].
         kd: Damping gain, applied explicitly through ctrl [N m s/rad].
@@ -290,16 +345,9 @@ def _hold(
     n = round(seconds / model.opt.timestep)
     first = record_from * n if record_from > 0 else -1
     peak = np.zeros(model.nv)
+    controller = JointPD(model)
     for i in range(n):
-        # mj_step1 runs the position and velocity stages, so qfrc_bias is current for the
-        # state about to be integrated; mj_step2 then applies ctrl and integrates. Together
-        # they are one mj_step, without the extra mj_forward a read-then-step loop needs.
-        mujoco.mj_step1(model, d)
-        tau = d.qfrc_bias.copy() if gravity_compensation else np.zeros(model.nv)
-        if kp or kd:
-            tau += kp * (target - d.qpos) - kd * d.qvel
-        d.ctrl[:] = tau
-        mujoco.mj_step2(model, d)
+        controller.step(model, d, target, kp, kd, gravity_compensation)
         if i > first:
             np.maximum(peak, np.abs(d.qvel), out=peak)
     warnings = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
