@@ -237,6 +237,10 @@ class JointPD:
             seen.add(dof)
             actuators.append((a, dof, gear))
         self.actuators = tuple(actuators)
+        # Index arrays, so the per-step mapping is one vectorised assignment, not a loop.
+        self._act = np.array([a for a, _, _ in actuators], dtype=int)
+        self._dof = np.array([k for _, k, _ in actuators], dtype=int)
+        self._gear = np.array([g for _, _, g in actuators], dtype=float)
         self.unactuated = np.array([k for k in range(model.nv) if k not in seen], dtype=int)
 
     def step(
@@ -256,8 +260,7 @@ class JointPD:
         tau = data.qfrc_bias.copy() if gravity_compensation else np.zeros(model.nv)
         if kp or kd:
             tau += kp * (target - data.qpos) - kd * data.qvel
-        for a, dof, gear in self.actuators:
-            data.ctrl[a] = tau[dof] / gear
+        data.ctrl[self._act] = tau[self._dof] / self._gear
         if self.unactuated.size:
             data.qfrc_applied[self.unactuated] = tau[self.unactuated]
         mujoco.mj_step2(model, data)
