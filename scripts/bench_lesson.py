@@ -117,7 +117,7 @@ def baseline(path: str, n_poses: int = 10_000) -> dict[str, object]:
 def project(path: str, n_poses: int = 10_000) -> dict[str, object]:
     """The same numbers from the library, through ``lesson.print_tables``'s functions."""
     import redundancy as rd
-    from redundancy import lesson
+    from redundancy.reports import lesson
 
     arm = rd.load(path, site="ee")
     with redirect_stdout(io.StringIO()):
@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     import redundancy as rd
-    from redundancy import lesson
+    from redundancy.reports import lesson
 
     path = str(args.model or rd.model_path("arm7"))
     arm = rd.load(path, site="ee")

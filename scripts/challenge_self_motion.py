@@ -29,13 +29,13 @@ try:
 except ImportError:  # a fresh clone that was not installed: use its source tree
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
     import redundancy as rd
-from redundancy.collision import checker
-from redundancy.selfmotion import (
+from redundancy.analysis.selfmotion import (
     SelfMotionPath,
     collision_objective,
     no_contact,
     self_motion,
 )
+from redundancy.collision import checker
 
 Array = NDArray[np.float64]
 

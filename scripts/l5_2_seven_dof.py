@@ -23,7 +23,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     import redundancy as rd
-    from redundancy import lesson
+    from redundancy.reports import lesson
 
     t0 = time.perf_counter()
     arm = rd.load(args.model or rd.model_path("arm7"), site="ee")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import redundancy as rd
 from redundancy import lab
-from redundancy.lab_browser import LabBrowser
+from redundancy.lab.browser import LabBrowser
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "lab.png"
 

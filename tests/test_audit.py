@@ -7,8 +7,8 @@ import json
 import pytest
 
 import redundancy as rd
-from redundancy.audit import audit, format_report
 from redundancy.cli import main
+from redundancy.reports.audit import audit, format_report
 
 
 def arm_xml(
@@ -149,7 +149,7 @@ def test_report_lines_are_printable():
 
 
 def test_json_report_is_written_atomically(tmp_path, monkeypatch):
-    from redundancy import audit as audit_mod
+    from redundancy.reports import audit as audit_mod
 
     target = tmp_path / "report.json"
     target.write_text("old")

@@ -7,8 +7,8 @@ import pytest
 
 import redundancy as rd
 from redundancy import batch
+from redundancy.analysis.crosscheck import TOLERANCES
 from redundancy.collision import checker, random_poses
-from redundancy.crosscheck import TOLERANCES
 
 from .models import SKEW7
 

@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import collision as col
-from redundancy import pathcheck as pc
+from redundancy.collision import pathcheck as pc
 from redundancy.testing import poses
 
 TIGHT = 1e-9

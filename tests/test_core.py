@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import linalg
-from redundancy.mujoco_engine import MujocoEngine
-from redundancy.pinocchio_engine import PinocchioEngine
+from redundancy.engines.mujoco import MujocoEngine
+from redundancy.engines.pinocchio import PinocchioEngine
 from redundancy.testing import poses
 
 from .models import SKEW7
@@ -52,7 +52,7 @@ def test_engines_agree(name, data):
 
 
 @EACH_ARM
-@pytest.mark.parametrize("engine", rd.arm.ENGINES)
+@pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
 def test_jacobian_matches_finite_differences(name, engine, data):
     q = data.draw(POSES[name])
@@ -71,7 +71,7 @@ def test_jacobian_matches_finite_differences(name, engine, data):
 
 
 @EACH_ARM
-@pytest.mark.parametrize("engine", rd.arm.ENGINES)
+@pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
 def test_manipulability_gradient_matches_finite_differences(name, engine, data):
     q = data.draw(POSES[name])
@@ -94,7 +94,7 @@ def test_manipulability_gradient_matches_finite_differences(name, engine, data):
 
 
 @EACH_ARM
-@pytest.mark.parametrize("engine", rd.arm.ENGINES)
+@pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
 def test_singular_values_and_projector_laws(name, engine, data):
     q = data.draw(POSES[name])
@@ -121,7 +121,7 @@ def test_singular_values_and_projector_laws(name, engine, data):
 
 
 @EACH_ARM
-@pytest.mark.parametrize("engine", rd.arm.ENGINES)
+@pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
 def test_mass_matrix_symmetric_positive_definite(name, engine, data):
     q = data.draw(POSES[name])
@@ -137,7 +137,9 @@ def _without_armature(arm: rd.Arm) -> tuple[MujocoEngine, PinocchioEngine]:
     mm.actuator_armature[:] = 0.0
     pm = arm.pinocchio.model.copy()
     pm.armature[:] = 0.0
-    return MujocoEngine(mm, arm.site), PinocchioEngine(pm, arm.site, arm.joint_names)
+    return MujocoEngine(mm, arm.site, np.zeros(arm.nq)), PinocchioEngine(
+        pm, arm.site, arm.joint_names
+    )
 
 
 BARE = {name: _without_armature(a) for name, a in ARMS.items()}
@@ -159,7 +161,7 @@ def test_armature_changes_only_the_diagonal_by_its_value(name, data):
 def test_arm7_zero_pose_loses_exactly_the_lessons_three_directions():
     # Lesson 5.2, "Why the straight-up pose has rank 3": translation along y and z and
     # rotation about x are lost.
-    for engine in rd.arm.ENGINES:
+    for engine in rd.engines.ENGINES:
         s = ARM7.svd(ARM7.keyframe("zero"), engine)
         assert s.rank == 3
         assert s.lost_direction_names() == ["translation y", "translation z", "rotation x"]

@@ -20,7 +20,7 @@ import pytest
 
 import redundancy as rd
 from redundancy import collision
-from redundancy.lab_sim import SIGMA_WINDOW, SPEED_WINDOW, LabSim, RealTimeRunner
+from redundancy.lab.sim import SIGMA_WINDOW, SPEED_WINDOW, LabSim, RealTimeRunner
 
 #: The seven pairs in contact with the elbow folded to its 2.9 rad limit.
 SEVEN_PAIRS = {
@@ -203,7 +203,7 @@ def test_runner_survives_a_failing_callback(sim: LabSim) -> None:
 
 
 def test_server_serves_the_page(arm7: rd.Arm) -> None:
-    lab_mod = pytest.importorskip("redundancy.lab", exc_type=ImportError)
+    lab_mod = pytest.importorskip("redundancy.lab.page", exc_type=ImportError)
     with lab_mod.LabServer(arm7, port=0) as lab:
         assert lab.url.startswith("http://127.0.0.1:")
         with urllib.request.urlopen(lab.url, timeout=10) as resp:
@@ -232,7 +232,7 @@ def _browser_or_skip() -> str:
             __import__(module)
         except ImportError:
             missing(f"{module} is not installed (pip install 'redundancy[{extra}]')")
-    from redundancy.lab_browser import find_chromium
+    from redundancy.lab.browser import find_chromium
 
     exe = find_chromium()
     if exe is None:
@@ -246,8 +246,8 @@ def _browser_or_skip() -> str:
 
 def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
     exe = _browser_or_skip()
-    from redundancy import lab as L
-    from redundancy.lab_browser import LabBrowser
+    from redundancy.lab import page as L
+    from redundancy.lab.browser import LabBrowser
 
     def num(s: str) -> float:
         return float(s.split()[0])

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from redundancy import collision, lesson
+from redundancy import collision
+from redundancy.reports import lesson
 
 from .lesson_5_2_output import OUTPUT
 

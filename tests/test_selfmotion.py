@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import linalg
-from redundancy.selfmotion import (
+from redundancy.analysis.selfmotion import (
     STOP_MAXIMUM,
     Objective,
     joint_limit_objective,

@@ -9,12 +9,18 @@ Example:
 
 from __future__ import annotations
 
-from . import batch, collision, pathcheck, selfmotion
-from .arm import Arm, Bridge, load, load_string
-from .batch import crosscheck_batch
-from .collision import CollisionChecker, collision_pairs, collision_statistics
-from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
-from .equivalence import Difference, EquivalenceReport, compare_models
+from . import collision
+from .analysis import batch, selfmotion
+from .analysis.batch import crosscheck_batch
+from .analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
+from .arm import Arm
+from .collision import (
+    CollisionChecker,
+    check_path,
+    collision_pairs,
+    collision_statistics,
+    pathcheck,
+)
 from .errors import (
     MissingDependencyError,
     ModelError,
@@ -26,8 +32,10 @@ from .errors import (
 )
 from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
 from .linalg import JacobianSVD, Manipulability
+from .model.bridges import Bridge
+from .model.equivalence import Difference, EquivalenceReport, compare_models
+from .model.loading import load, load_string
 from .models import model_path
-from .pathcheck import check_path
 
 __version__ = "0.1.0"
 

@@ -59,23 +59,23 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         if args.command == "lesson":
-            from . import lesson
-            from .arm import load
+            from .model.loading import load
             from .models import model_path
+            from .reports import lesson
 
             arm = load(args.model or model_path("arm7"), site="ee")
             lesson.print_tables(arm, n_poses=args.poses)
             return 0
         if args.command == "lab":
-            from .arm import load
+            from .model.loading import load
             from .models import model_path
 
             arm = load(args.model or model_path("arm7"), site=args.site)
-            from . import lab  # MissingDependencyError without the `lab` extra
+            from .lab import page  # MissingDependencyError without the `lab` extra
 
-            lab.serve(arm, host=args.host, port=args.port)
+            page.serve(arm, host=args.host, port=args.port)
             return 0
-        from .audit import run_audit
+        from .reports.audit import run_audit
 
         return run_audit(args)
     except RedundancyError as err:

@@ -25,9 +25,9 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from .arm import Arm
-from .errors import MissingDependencyError
-from .lab_sim import KD, SIGMA_WINDOW, SPEED_WINDOW, LabReadouts, LabSim, RealTimeRunner
+from ..arm import Arm
+from ..errors import MissingDependencyError
+from .sim import KD, SIGMA_WINDOW, SPEED_WINDOW, LabReadouts, LabSim, RealTimeRunner
 
 try:
     import trimesh

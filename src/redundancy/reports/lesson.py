@@ -15,10 +15,11 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from . import batch, inertia, linalg
-from .arm import Arm, random_poses
-from .collision import CollisionStatistics, collision_statistics
-from .mujoco_engine import simulate_hold
+from .. import inertia, linalg
+from ..analysis import batch
+from ..arm import Arm, random_poses
+from ..collision import CollisionStatistics, collision_statistics
+from ..lab.control import simulate_hold
 
 Array = NDArray[np.float64]
 

@@ -32,10 +32,10 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import collision, linalg
-from .arm import Arm
-from .errors import PoseError
-from .mujoco_engine import JointPD
+from .. import collision, linalg
+from ..arm import Arm
+from ..errors import PoseError
+from .control import JointPD
 
 Array = NDArray[np.float64]
 

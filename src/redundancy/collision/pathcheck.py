@@ -43,18 +43,12 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .collision import (
-    AMBIGUITY_BAND,
-    DISTANCE_ENGINES,
-    CollisionChecker,
-    DistanceEngine,
-    GeomPair,
-    checker,
-)
-from .errors import PoseError, UnknownNameError, UnsupportedFeatureError
+from ..errors import PoseError, UnknownNameError, UnsupportedFeatureError
+from .checker import CollisionChecker, checker
+from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair
 
 if TYPE_CHECKING:
-    from .arm import Arm
+    from ..arm import Arm
 
 Array = NDArray[np.float64]
 

@@ -8,9 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .arm import Arm, Bridge
-from .errors import UnknownNameError
-from .linalg import manipulability_gradient
+from ..arm import Arm
+from ..errors import UnknownNameError
+from ..linalg import manipulability_gradient
+from ..model.bridges import Bridge
 
 Array = NDArray[np.float64]
 

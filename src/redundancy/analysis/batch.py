@@ -42,10 +42,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from .arm import ENGINES, Arm, EngineName
-from .collision import DISTANCE_ENGINES, CollisionChecker, DistanceEngine, checker
+from ..arm import ENGINES, Arm, EngineName
+from ..collision import DISTANCE_ENGINES, CollisionChecker, DistanceEngine, checker
+from ..errors import PoseError, RedundancyError, UnknownNameError
 from .crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck, quantity_names
-from .errors import PoseError, RedundancyError, UnknownNameError
 
 Array = NDArray[np.float64]
 ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]

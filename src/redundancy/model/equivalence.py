@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arm import Arm, Bridge
+from ..arm import Arm
+from .bridges import Bridge
 
 
 @dataclass(frozen=True)
@@ -128,7 +129,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
                     "parent joint", n, mj_parent or "(base)", pin_parent or "(base)", float("inf")
                 )
             )
-    from .pinocchio_engine import joint_kind
+    from ..engines.pinocchio import joint_kind
 
     for i, n in enumerate(names):
         kind = joint_kind(pm.joints[pm.getJointId(n)])

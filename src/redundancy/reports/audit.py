@@ -20,13 +20,15 @@ from typing import Any
 
 import numpy as np
 
-from . import batch, inertia
-from .arm import Arm, load, random_poses
-from .batch import BATCH_QUANTITIES, crosscheck_batch
-from .collision import CollisionStatistics, collision_statistics
-from .crosscheck import TOLERANCES, CrossCheckReport
-from .equivalence import EquivalenceReport, compare_models
-from .linalg import jacobian_svd
+from .. import inertia
+from ..analysis import batch
+from ..analysis.batch import BATCH_QUANTITIES, crosscheck_batch
+from ..analysis.crosscheck import TOLERANCES, CrossCheckReport
+from ..arm import Arm, random_poses
+from ..collision import CollisionStatistics, collision_statistics
+from ..linalg import jacobian_svd
+from ..model.equivalence import EquivalenceReport, compare_models
+from ..model.loading import load
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
@@ -419,7 +421,7 @@ def write_atomic(path: str | os.PathLike[str], text: str) -> None:
 
 def run_audit(args: argparse.Namespace) -> int:
     """The ``audit`` subcommand; returns 1 when there are findings."""
-    from .models import model_path
+    from ..models import model_path
 
     path = args.model or model_path("arm7")
     arm = load(path, site=args.site)

@@ -31,12 +31,12 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import linalg
-from .arm import Arm, EngineName
-from .errors import RedundancyError, UnknownNameError
+from .. import linalg
+from ..arm import Arm, EngineName
+from ..errors import RedundancyError, UnknownNameError
 
 if TYPE_CHECKING:
-    from .collision import DistanceEngine, GeomPair
+    from ..collision import DistanceEngine, GeomPair
 
 Array = NDArray[np.float64]
 Integrator = Literal["euler", "midpoint"]
@@ -152,7 +152,7 @@ def collision_objective(arm: Arm, engine: DistanceEngine = "mujoco") -> Objectiv
         arm: The arm.
         engine: Distance engine, ``"mujoco"`` (``mj_geomDistance``) or ``"coal"``.
     """
-    from .collision import checker
+    from ..collision import checker
 
     ch = checker(arm)
     thresholds = np.array([p.threshold for p in ch.pairs])
@@ -169,7 +169,7 @@ def no_contact(arm: Arm, pair: GeomPair | tuple[str, str] | None = None) -> Call
         arm: The arm.
         pair: Only this pair's contacts count (a pair or two geom names, either order).
     """
-    from .collision import checker
+    from ..collision import checker
 
     ch = checker(arm)
     if pair is None:

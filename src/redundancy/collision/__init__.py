@@ -1,0 +1,59 @@
+"""Self-collision under MuJoCo's contact rules, with distances from coal and from MuJoCo.
+
+* :mod:`~redundancy.collision.pairs`: the geom pairs MuJoCo tests;
+* :mod:`~redundancy.collision.checker`: distances and contacts at one pose, from both engines;
+* :mod:`~redundancy.collision.statistics`: statistics over random poses, keyframe clearance;
+* :mod:`~redundancy.collision.pathcheck`: conservative checking of a straight joint path.
+
+Only this package calls coal.
+"""
+
+from __future__ import annotations
+
+from ..arm import random_poses, sampling_ranges
+from .checker import (
+    DISTANCE_ENGINES,
+    CollisionChecker,
+    Contact,
+    DistanceEngine,
+    Distances,
+    PairDistance,
+    checker,
+    contacts,
+    distances,
+)
+from .pairs import AMBIGUITY_BAND, GeomPair, collision_pairs, find_pair
+from .pathcheck import PathCheck, PathChecker, check_path
+from .statistics import (
+    CollisionStatistics,
+    KeyframeClearance,
+    PairStatistics,
+    collision_statistics,
+    keyframe_clearance,
+)
+
+__all__ = [
+    "AMBIGUITY_BAND",
+    "DISTANCE_ENGINES",
+    "CollisionChecker",
+    "CollisionStatistics",
+    "Contact",
+    "DistanceEngine",
+    "Distances",
+    "GeomPair",
+    "KeyframeClearance",
+    "PairDistance",
+    "PairStatistics",
+    "PathCheck",
+    "PathChecker",
+    "check_path",
+    "checker",
+    "collision_pairs",
+    "collision_statistics",
+    "contacts",
+    "distances",
+    "find_pair",
+    "keyframe_clearance",
+    "random_poses",
+    "sampling_ranges",
+]

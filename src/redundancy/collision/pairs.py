@@ -1,0 +1,256 @@
+"""The geom pairs MuJoCo tests for self-collision, by MuJoCo's own rules."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import (
+    UnknownNameError,
+    UnsupportedFeatureError,
+)
+
+if TYPE_CHECKING:
+    from ..arm import Arm
+
+Array = NDArray[np.float64]
+DistanceEngine = Literal["coal", "mujoco"]
+DISTANCE_ENGINES: tuple[DistanceEngine, ...] = ("coal", "mujoco")
+
+#: Width of the band around a pair's contact threshold inside which the two engines may
+#: legitimately disagree on "touching" [m]: MuJoCo's GJK/EPA stops at ``opt.ccd_tolerance``
+#: (1e-6 m by default), coal's at the tolerances below; a pair this close to the threshold is
+#: reported as touching by one engine and not the other without either being wrong.
+AMBIGUITY_BAND = 1e-6
+
+#: coal's GJK stops when its relative convergence gap is below this. At 1e-9 a capsule end
+#: facing a box face almost squarely came out 2.4e-9 (relative) short; at 1e-10 separated
+#: distances of polytope-like pairs match MuJoCo's closed forms to 1e-16 m, and curved ones
+#: (cylinders, ellipsoids) to MuJoCo's own GJK tolerance. Below 1e-11 GJK stops converging.
+COAL_GJK_TOLERANCE = 1e-10
+#: coal's EPA (penetration depth) tolerance [m]; tighter values make EPA fail on deep overlaps.
+COAL_EPA_TOLERANCE = 1e-6
+#: Iteration caps for coal's GJK and EPA (its defaults, 128 and 64, are too few at these
+#: tolerances on curved shapes).
+COAL_MAX_ITERATIONS = 1000
+
+_G = mujoco.mjtGeom
+# Geom types that have no collision function with each other in MuJoCo (mjCOLLISIONFUNC
+# holds NULL for plane/hfield against plane/hfield), so MuJoCo never tests such a pair.
+_NO_COLLIDER = {int(_G.mjGEOM_PLANE), int(_G.mjGEOM_HFIELD)}
+
+
+def geom_type_name(model: mujoco.MjModel, geom: int) -> str:
+    """MuJoCo's short name of a geom's type (``"capsule"``...)."""
+    return mujoco.mjtGeom(model.geom_type[geom]).name.removeprefix("mjGEOM_").lower()
+
+
+# ==========================================================================================
+# The pair set: MuJoCo's rules, read from the compiled model
+# ==========================================================================================
+
+
+@dataclass(frozen=True)
+class GeomPair:
+    """One geom pair that MuJoCo tests for contact.
+
+    Attributes:
+        geom1: Geom id, the smaller of the two.
+        geom2: Geom id, the larger.
+        name1: Name of ``geom1`` (``""`` if unnamed).
+        name2: Name of ``geom2``.
+        body1: Name of the body carrying ``geom1``.
+        body2: Name of the body carrying ``geom2``.
+        type1: Geom type of ``geom1`` (``"capsule"``...).
+        type2: Geom type of ``geom2``.
+        explicit: True for a ``<contact><pair>`` element (which bypasses every filter).
+        margin: Distance at which MuJoCo's contact becomes active [m].
+        gap: Extra distance over ``margin`` at which MuJoCo already lists the contact [m].
+    """
+
+    geom1: int
+    geom2: int
+    name1: str
+    name2: str
+    body1: str
+    body2: str
+    type1: str
+    type2: str
+    explicit: bool
+    margin: float
+    gap: float
+
+    @property
+    def threshold(self) -> float:
+        """MuJoCo lists a contact for the pair when the distance is below this [m]."""
+        return self.margin + self.gap
+
+    @property
+    def names(self) -> tuple[str, str]:
+        """The two geom names (``#id`` for an unnamed geom), in id order."""
+        return (self.name1 or f"#{self.geom1}", self.name2 or f"#{self.geom2}")
+
+    @property
+    def label(self) -> str:
+        """``"link2 / link4"``: geom names sorted alphabetically, as the lesson prints them."""
+        return " / ".join(sorted(self.names))
+
+    @property
+    def types(self) -> frozenset[str]:
+        """The set of the two geom types."""
+        return frozenset((self.type1, self.type2))
+
+    def matches(self, name1: str, name2: str) -> bool:
+        """True when the pair is made of the geoms so named, in either order."""
+        return {name1, name2} == set(self.names) and (
+            name1 != name2 or self.names[0] == self.names[1]
+        )
+
+    def __str__(self) -> str:
+        return self.label
+
+
+def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
+    return mujoco.mj_id2name(model, obj, i) or ""
+
+
+def _margin_gap(model: mujoco.MjModel, g1: int, g2: int, ipair: int) -> tuple[float, float]:
+    """Margin and gap of a pair as engine_collision_driver.c's getMargin/getGap compute them."""
+    if model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_OVERRIDE:
+        # mj_assignMargin: the override replaces every margin (the gap is not overridden).
+        margin = float(model.opt.o_margin)
+    elif ipair >= 0:
+        margin = float(model.pair_margin[ipair])
+    else:
+        margin = float(model.geom_margin[g1] + model.geom_margin[g2])
+    gap = (
+        float(model.pair_gap[ipair])
+        if ipair >= 0
+        else float(model.geom_gap[g1] + model.geom_gap[g2])
+    )
+    return margin, gap
+
+
+def _bodies_filtered(model: mujoco.MjModel, b1: int, b2: int) -> bool:
+    """MuJoCo's body-pair filter (filterBodyPair in engine_collision_driver.c).
+
+    Bodies welded together (same ``body_weldid``, which includes a body and itself) never
+    collide. With ``filterparent`` on (the default), a body does not collide with its parent,
+    where both are taken as weld groups: the parent of a weld group is the weld group of the
+    parent of its root body. The world exception: the parent filter only applies when
+    neither weld group is the world's, so a body attached to the world by a joint does
+    collide with geoms welded to the world (a floor, a base plate).
+    """
+    w1, w2 = int(model.body_weldid[b1]), int(model.body_weldid[b2])
+    if w1 == w2:
+        return True
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
+        return False
+    if w1 == 0 or w2 == 0:
+        return False
+    pw1 = int(model.body_weldid[model.body_parentid[w1]])
+    pw2 = int(model.body_weldid[model.body_parentid[w2]])
+    return w1 == pw2 or w2 == pw1
+
+
+def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
+    """The geom pairs MuJoCo's ``mj_collision`` tests for contact, sorted by geom ids.
+
+    Reproduces engine_collision_driver.c from the compiled model (pose-independent rules
+    only; the bounding-sphere and bounding-box tests that follow are geometric shortcuts that
+    never drop a touching pair):
+
+    * none at all when ``<flag contact="disable"/>`` or ``constraint="disable"``;
+    * every ``<contact><pair>``, whatever its geoms' bitmasks, bodies or exclusions;
+    * otherwise geoms on bodies that pass the body filter (not welded together, not parent
+      and child unless ``filterparent`` is disabled or one side is welded to the world), whose
+      bodies are not listed in a ``<contact><exclude>``, and whose bitmasks match:
+      ``(contype1 & conaffinity2) | (contype2 & conaffinity1) != 0``. A pair also named in a
+      ``<pair>`` element is tested once, with the element's parameters.
+    * never plane or height field against plane or height field (MuJoCo has no collider).
+
+    Not modelled: sleeping bodies (``<flag sleep="enable"/>``), which MuJoCo skips pose by
+    pose, and flex objects.
+
+    Args:
+        model: MuJoCo's compiled model, or an :class:`~redundancy.Arm`.
+
+    Raises:
+        UnsupportedFeatureError: A contact-filter callback is installed
+            (``mujoco.set_mjcb_contactfilter``): it replaces the bitmask test with user code
+            this function cannot reproduce.
+    """
+    m: mujoco.MjModel = model if isinstance(model, mujoco.MjModel) else model.mj_model
+    dsbl = m.opt.disableflags
+    if dsbl & (mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):
+        return ()
+    if mujoco.get_mjcb_contactfilter() is not None:
+        raise UnsupportedFeatureError(
+            "contact filter callback",
+            "mujoco.set_mjcb_contactfilter",
+            "a user callback replaces MuJoCo's bitmask test; the pair set cannot be reproduced",
+        )
+    found: dict[tuple[int, int], int] = {}  # (g1, g2) -> ipair (-1: from the filters)
+    for k in range(m.npair):
+        g1, g2 = sorted((int(m.pair_geom1[k]), int(m.pair_geom2[k])))
+        found.setdefault((g1, g2), k)
+    # exclude_signature packs the two body ids as (smaller << 16) + larger.
+    excluded = {(int(s) >> 16, int(s) & 0xFFFF) for s in m.exclude_signature}
+    for g1 in range(m.ngeom):
+        for g2 in range(g1 + 1, m.ngeom):
+            if (g1, g2) in found:
+                continue
+            b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
+            if _bodies_filtered(m, b1, b2):
+                continue
+            if (min(b1, b2), max(b1, b2)) in excluded:
+                continue
+            if not (
+                m.geom_contype[g1] & m.geom_conaffinity[g2]
+                or m.geom_contype[g2] & m.geom_conaffinity[g1]
+            ):
+                continue
+            found[(g1, g2)] = -1
+    pairs = []
+    for (g1, g2), ipair in sorted(found.items()):
+        if int(m.geom_type[g1]) in _NO_COLLIDER and int(m.geom_type[g2]) in _NO_COLLIDER:
+            continue
+        margin, gap = _margin_gap(m, g1, g2, ipair)
+        pairs.append(
+            GeomPair(
+                geom1=g1,
+                geom2=g2,
+                name1=_name(m, mujoco.mjtObj.mjOBJ_GEOM, g1),
+                name2=_name(m, mujoco.mjtObj.mjOBJ_GEOM, g2),
+                body1=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g1])),
+                body2=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g2])),
+                type1=geom_type_name(m, g1),
+                type2=geom_type_name(m, g2),
+                explicit=ipair >= 0,
+                margin=margin,
+                gap=gap,
+            )
+        )
+    return tuple(pairs)
+
+
+def find_pair(pairs: Sequence[GeomPair], name1: str, name2: str) -> GeomPair:
+    """The pair of the geoms so named (either order).
+
+    Raises:
+        UnknownNameError: No such pair in ``pairs`` (the message lists the pairs).
+    """
+    for p in pairs:
+        if p.matches(name1, name2):
+            return p
+    raise UnknownNameError("geom pair", f"{name1} / {name2}", [p.label for p in pairs])
+
+
+# ==========================================================================================
+# Results
+# ==========================================================================================

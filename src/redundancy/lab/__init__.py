@@ -1,0 +1,1 @@
+"""The interactive lab: simulation and controller, the browser page, a headless browser driver."""
