@@ -28,7 +28,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (no usage block) and exit status 2."""
 
     def error(self, message: str) -> NoReturn:
-        raise _BadInput(f"{self.prog}: {message}")
+        raise _BadInput(f"{self.prog}: error: {message}")
 
 
 def _count(minimum: int) -> Callable[[str], int]:

@@ -362,17 +362,17 @@ def _gravity_findings(arm: Arm, g: GravityBudget) -> list[Finding]:
     out = []
     comp = " after gravity compensation" if g.gravcomp else ""
     for i, name in enumerate(arm.joint_names):
-        for count, need, limit, side in (
-            (g.over_low[i], g.low[i], g.limit_lower[i], "negative"),
-            (g.over_high[i], g.high[i], g.limit_upper[i], "positive"),
+        for count, (need, limit), side in (
+            (g.over_low[i], g.worst_low[i], "negative"),
+            (g.over_high[i], g.worst_high[i], "positive"),
         ):
             if count:
                 out.append(
                     Finding(
                         "gravity",
-                        f"gravity{comp} at joint {name!r} needs {need:.3g} N m, beyond its "
-                        f"actuators' {side} limit {limit:.3g} N m, in {count} of "
-                        f"{g.n_poses} poses",
+                        f"gravity{comp} at joint {name!r} needs more {side} torque than its "
+                        f"actuators give in {count} of {g.n_poses} poses; worst: needs "
+                        f"{need:.3g} N m where their most {side} is {limit:.3g} N m",
                     )
                 )
     return out
@@ -485,8 +485,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
                     names[i],
                     fmt(g.low[i], 4),
                     fmt(g.high[i], 4),
-                    fmt(g.limit_lower[i], 4),
-                    fmt(g.limit_upper[i], 4),
+                    "varies" if g.varies[i] else fmt(g.limit_lower[i], 4),
+                    "varies" if g.varies[i] else fmt(g.limit_upper[i], 4),
                     "-" if not math.isfinite(g.ratio[i]) else f"{g.ratio[i]:.2f}",
                     str(int(g.over_low[i] + g.over_high[i])),
                 ]

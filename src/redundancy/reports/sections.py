@@ -295,10 +295,15 @@ class GravityBudget:
         seed: Their seed.
         low: Most negative torque the actuators must give, per joint [N m or N].
         high: Most positive [N m or N].
-        limit_lower: Tightest most-negative torque they can give over the poses [N m or N].
-        limit_upper: Tightest most-positive [N m or N].
+        limit_lower: Most negative torque they can give, per joint; where it depends on the
+            pose (servos), its least negative value over the poses [N m or N].
+        limit_upper: Most positive torque they can give; where it varies, its smallest [N m].
+        varies: Per joint, whether the limits depend on the pose.
         over_low: Per joint, poses needing more negative torque than the actuators give.
         over_high: Per joint, poses needing more positive torque than they give.
+        worst_low: Per joint, (need, limit) at the pose with the largest negative shortfall
+            (NaN where there is none) [N m or N].
+        worst_high: The same for the positive direction [N m or N].
         n_over: Poses where some joint's need is outside its range.
         engine_diff: Largest |Pinocchio - MuJoCo| gravity torque [N m or N].
         gravcomp: Whether gravity compensation is subtracted.
@@ -311,8 +316,11 @@ class GravityBudget:
     high: Array
     limit_lower: Array
     limit_upper: Array
+    varies: NDArray[np.bool_]
     over_low: NDArray[np.int_]
     over_high: NDArray[np.int_]
+    worst_low: Array
+    worst_high: Array
     n_over: int
     engine_diff: float
     gravcomp: bool
@@ -332,14 +340,31 @@ class GravityBudget:
         return np.minimum(up, down)
 
 
+class _Worst:
+    """Per joint, the largest shortfall seen so far and the (need, limit) where it occurred."""
+
+    def __init__(self, nv: int) -> None:
+        self.short = np.zeros(nv)
+        self.at = np.full((nv, 2), np.nan)
+
+    def add(self, short: Array, need: Array, limit: Array) -> None:
+        rows = np.argmax(short, axis=0)
+        cols = np.arange(short.shape[1])
+        better = short[rows, cols] > self.short
+        self.short[better] = short[rows, cols][better]
+        self.at[better] = np.stack([need[rows, cols], limit[rows, cols]], axis=1)[better]
+
+
 def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudget:
     """Holding torque over ``n_poses`` random poses against the actuators, in chunks."""
     nv = arm.nq
     load = _Load(arm)
     low, high = np.zeros(nv), np.zeros(nv)
     lim_lo, lim_hi = np.full(nv, -np.inf), np.full(nv, np.inf)
+    lo_min, hi_max = np.full(nv, np.inf), np.full(nv, -np.inf)
     over_low = np.zeros(nv, dtype=int)
     over_high = np.zeros(nv, dtype=int)
+    worst_low, worst_high = _Worst(nv), _Worst(nv)
     n_over, diff = 0, 0.0
     for Q in pose_chunks(arm, n_poses, seed):
         tau = batch.gravities(arm, Q, "mujoco")
@@ -349,6 +374,11 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
         low, high = np.minimum(low, need.min(axis=0)), np.maximum(high, need.max(axis=0))
         lim_lo = np.maximum(lim_lo, effort.lower.max(axis=0))
         lim_hi = np.minimum(lim_hi, effort.upper.min(axis=0))
+        lo_min = np.minimum(lo_min, effort.lower.min(axis=0))
+        hi_max = np.maximum(hi_max, effort.upper.max(axis=0))
+        with np.errstate(invalid="ignore"):  # inf - inf where unlimited: no shortfall
+            worst_low.add(np.nan_to_num(effort.lower - need, nan=0.0), need, effort.lower)
+            worst_high.add(np.nan_to_num(need - effort.upper, nan=0.0), need, effort.upper)
         below, above = need < effort.lower, need > effort.upper
         over_low += below.sum(axis=0)
         over_high += above.sum(axis=0)
@@ -361,8 +391,11 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
         high,
         lim_lo,
         lim_hi,
+        (lo_min != lim_lo) | (hi_max != lim_hi),
         over_low,
         over_high,
+        worst_low.at,
+        worst_high.at,
         n_over,
         diff,
         load.uniform != 0.0,
