@@ -45,6 +45,21 @@ def _parser() -> argparse.ArgumentParser:
     lab.add_argument(
         "--port", type=int, default=8080, help="TCP port (default: 8080; if taken, the next free)"
     )
+    cmp = sub.add_parser(
+        "compare",
+        help="compare two descriptions of one robot (URDF or MJCF), structurally and pose by pose",
+    )
+    cmp.add_argument("a", help="first model file (MJCF or URDF)")
+    cmp.add_argument("b", help="second model file (MJCF or URDF)")
+    cmp.add_argument("--frame-a", default="ee", help="A's tool site or link (default: ee)")
+    cmp.add_argument("--frame-b", default="ee", help="B's tool site or link (default: ee)")
+    cmp.add_argument(
+        "--joint-map", metavar="FILE", help="joint names of A -> B (JSON object, or lines 'a b')"
+    )
+    cmp.add_argument("--json", metavar="FILE", help="also write the comparison ('-' for stdout)")
+    cmp.add_argument("--poses", type=int, default=200, help="random poses (default: 200)")
+    cmp.add_argument("--seed", type=int, default=0, help="seed of the random poses (default: 0)")
+    cmp.add_argument("--tol", type=float, default=1e-9, help="absolute tolerance (default: 1e-9)")
     return p
 
 
@@ -75,6 +90,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             page.serve(arm, host=args.host, port=args.port)
             return 0
+        if args.command == "compare":
+            from .analysis.compare import run_compare
+            from .reports.audit import write_atomic
+
+            return run_compare(args, write_atomic)
         from .reports.audit import run_audit
 
         return run_audit(args)
