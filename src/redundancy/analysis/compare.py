@@ -225,10 +225,15 @@ def _match(a: Arm, b: Arm, joint_map: Mapping[str, str] | None) -> list[tuple[st
             raise UnknownNameError("joint", name_a, a.joint_names)
         if name_b not in b.joint_names:
             raise UnknownNameError("joint", name_b, b.joint_names)
-    targets = list(mapping.values())
-    if len(set(targets)) != len(targets):
-        raise ModelError(f"the joint map sends two joints of A to one joint of B: {mapping}")
-    return [(n, mapping.get(n, n)) for n in a.joint_names]
+    pairs = [(n, mapping.get(n, n)) for n in a.joint_names]
+    targets = [nb for _, nb in pairs]
+    twice = sorted({nb for nb in targets if targets.count(nb) > 1})
+    if twice:
+        raise ModelError(
+            f"the joint map sends two joints of A to one joint of B ({', '.join(twice)}): "
+            f"{dict(pairs)}"
+        )
+    return pairs
 
 
 def compare(
@@ -467,6 +472,8 @@ class _Comparer:
             a, b = self.a, self.b
             pa, ra = a.mujoco.site_pose(qa)
             pb, rb = b.mujoco.site_pose(qb)
+            # Per quantity: A's value, B's value, and the axis that runs over joints (None
+            # for the tool pose), to name the joint with the largest difference.
             values = {
                 "tool position": (pa, pb, None),
                 "tool rotation": (ra, rb, None),
@@ -490,21 +497,17 @@ class _Comparer:
                 if quantity not in worst or err > worst[quantity][0]:
                     located = ""
                     if axis is not None and err > self.tol:
-                        per = diff.max(axis=tuple(k for k in range(diff.ndim) if k != axis))
-                        if diff.ndim == 2 and axis == 0:  # M: a joint's row or column
-                            per = np.maximum(diff.max(axis=0), diff.max(axis=1))
-                        first = int(np.flatnonzero(per > self.tol)[0])
-                        located = f"first differs at {self.where(self.ia[first])}"
+                        k = int(np.unravel_index(np.argmax(diff), diff.shape)[axis])
+                        located = f"largest at {self.where(self.ia[k])}"
                     worst[quantity] = (err, p, va, vb, located)
         for quantity, (err, p, va, vb, located) in worst.items():
             bare = quantity == "mass matrix" and not full_m
             name = quantity + (" (without armature)" if bare else "")
             self.largest[name] = err
             if err > self.tol:
-                note = f"worst at pose {p} q_A = {np.array2string(qs[p], precision=4)}"
-                self.diffs.append(
-                    Finding(name, "poses", va, vb, err, note + (f"; {located}" if located else ""))
-                )
+                note = f"worst at pose {p}, q_A = {np.array2string(qs[p], precision=4)}"
+                note += f"; {located}" if located else ""
+                self.diffs.append(Finding(name, "poses", va, vb, err, note))
         return len(qs)
 
     def run(self, n: int, seed: int) -> Comparison:

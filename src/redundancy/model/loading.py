@@ -87,8 +87,8 @@ def decode_xml(data: bytes, source: str) -> tuple[str, bool]:
         source: File name, for messages.
 
     Returns:
-        The text without its XML declaration, and whether the bytes were UTF-8 already (the
-        engines may then read the file itself).
+        The text without its XML declaration, and whether the bytes were UTF-8 without a
+        byte-order mark (the engines may then read the file itself).
 
     Raises:
         ModelError: An unknown encoding, or bytes that are not in the declared one.

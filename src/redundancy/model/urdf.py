@@ -16,8 +16,11 @@ part, this module decides:
   the library resolves them (the URDF's directory and its parents, ``ROS_PACKAGE_PATH``) and
   gives MuJoCo absolute paths; an unresolved path is the library's error, naming it.
   Visual geoms are discarded (MuJoCo's default for URDF); Pinocchio's model reads no geometry.
-* **missing inertials**: MuJoCo infers a moving link's mass from its collision geoms,
-  Pinocchio gives it none: refused, naming the link.
+* **missing inertials**: MuJoCo infers the mass of a link without ``<inertial>`` from its
+  collision geoms (``inertiafromgeom`` auto), Pinocchio gives it none (URDF's meaning). The
+  library compiles with ``inertiafromgeom`` false, so both read a missing inertial as no
+  mass; a moving link left with no mass at all (with the links fixed to it) is refused,
+  naming it (MuJoCo would raise a mass error, Pinocchio a singular mass matrix).
 * **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: refused.
 * **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
 * **armature**: URDF cannot express it; both engines read 0.
@@ -48,6 +51,21 @@ _JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "pla
 # MuJoCo compiler settings (the URDF's <mujoco><compiler> extension) that change masses or
 # inertias in MuJoCo only: Pinocchio reads the inertials as written.
 _MASS_SETTINGS = ("boundmass", "boundinertia", "settotalmass", "balanceinertia")
+# Numeric attributes of URDF elements (tag -> attribute -> count of numbers), checked before
+# either parser sees them: urdfdom prints its own complaint on stderr before Pinocchio raises.
+_NUMBERS = {
+    "origin": {"xyz": 3, "rpy": 3},
+    "axis": {"xyz": 3},
+    "limit": {"lower": 1, "upper": 1, "effort": 1, "velocity": 1},
+    "dynamics": {"damping": 1, "friction": 1},
+    "mass": {"value": 1},
+    "inertia": {k: 1 for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+    "box": {"size": 3},
+    "cylinder": {"radius": 1, "length": 1},
+    "sphere": {"radius": 1},
+    "capsule": {"radius": 1, "length": 1},
+    "mesh": {"scale": 3},
+}
 
 DisabledPairs = str | os.PathLike[str] | Iterable[Sequence[str]]
 
@@ -94,6 +112,7 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
         ModelError: Not a valid URDF (missing names, unknown link, several roots).
     """
     _check_xacro(root, source)
+    _check_numbers(root, source)
     if root.tag != "robot":
         raise UnsupportedFeatureError(
             f"<{root.tag}> root element", source, "a URDF's root element is <robot>"
@@ -167,6 +186,21 @@ def _check_xacro(root: ET.Element, source: str) -> None:
             )
 
 
+def _check_numbers(root: ET.Element, source: str) -> None:
+    for el in root.iter():
+        for attr, count in _NUMBERS.get(el.tag, {}).items():
+            value = el.get(attr)
+            if value is None:
+                continue
+            try:
+                numbers = [float(x) for x in value.split()]
+            except ValueError:
+                numbers = []
+            if len(numbers) != count or not all(np.isfinite(numbers)):
+                what = "a finite number" if count == 1 else f"{count} finite numbers"
+                raise ModelError(f"URDF {source}: <{el.tag} {attr}={value!r}> must be {what}")
+
+
 def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
     parent_of: dict[str, str] = {}
     for kind, parent, child in tree.joints.values():
@@ -194,6 +228,11 @@ def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
             mass[el.get("name", "")] = float(m.get("value", "0")) if m is not None else 0.0
         except ValueError as err:
             raise ModelError(f"URDF {source}: link {el.get('name')!r} mass: {err}") from err
+    for link, value in mass.items():
+        if not value >= 0:  # negative or NaN
+            raise ModelError(
+                f"URDF {source}: link {link!r} has mass {value:g} [kg]; a mass must be >= 0"
+            )
     for joint in tree.moving_joints:
         child = tree.joints[joint][2]
         group = tree.groups[child]
@@ -201,8 +240,9 @@ def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
             raise UnsupportedFeatureError(
                 "moving link without inertial",
                 f"link {child!r} (moved by joint {joint!r}) in {source}",
-                "Pinocchio gives it no mass while MuJoCo infers one from its collision geoms; "
-                "add an <inertial> with its mass, centre of mass and inertia",
+                "a URDF link without <inertial> has no mass, and a moving body needs one "
+                "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an "
+                "<inertial> with its mass, centre of mass and inertia",
             )
 
 
@@ -345,6 +385,9 @@ def build_mujoco(
             # URDF keeps every link: the tool link must stay a body to carry the site, and
             # welded bodies change no mass, no inertia and no contact (weld groups are filtered).
             spec.compiler.fusestatic = False
+            # A link without <inertial> has no mass in URDF (and in Pinocchio); MuJoCo's
+            # default would infer one from the link's collision geoms.
+            spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
             for mesh in spec.meshes:
                 mesh.file = str(resolve_mesh(mesh.file, base, source))
             body = spec.body(tool_link)
@@ -415,7 +458,10 @@ def _bounded_revolutes(model: object) -> object:
         if kinds[j] in axes:
             joint = axes[kinds[j]]()
         elif kinds[j] == unaligned:
-            joint = pin.JointModelRevoluteUnaligned(np.asarray(joint.getMotionAxis()))
+            # The axis is not exposed; the motion subspace S = (0, axis) at angle 0 carries it.
+            data = joint.createData()
+            joint.calc(data, np.array([1.0, 0.0]))
+            joint = pin.JointModelRevoluteUnaligned(np.asarray(data.S).reshape(6)[3:].copy())
         parent = jmap[model.parents[j]]
         jmap[j] = new.addJoint(parent, joint, model.jointPlacements[j], model.names[j])
         new.appendBodyToJoint(jmap[j], model.inertias[j], pin.SE3.Identity())
