@@ -245,11 +245,15 @@ def test_cli_frames_and_joint_map(tmp_path: Path, capsys: pytest.CaptureFixture[
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--poses", "-1"], "redundancy: error: --poses must be >= 0, got -1"),
+        (["--poses", "-1"], "redundancy compare: error: argument --poses: must be >= 0, got -1"),
         (["--tol", "nan"], "redundancy: error: --tol must be a finite number > 0, got nan"),
         (["--frame-a", "tool9"], "redundancy: error: unknown link 'tool9'; valid link names: "),
         (["--joint-map", "/nonexistent/map"], "redundancy: error: cannot read the joint map"),
-        (["--json", "/nonexistent/dir/out.json"], "redundancy: error: --json"),
+        (
+            ["--json", "/nonexistent/dir/out.json"],
+            "redundancy: error: directory '/nonexistent/dir' of '/nonexistent/dir/out.json' "
+            "does not exist",
+        ),
     ],
 )
 def test_cli_bad_input(extra: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:

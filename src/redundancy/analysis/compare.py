@@ -553,17 +553,12 @@ def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> 
 
     Args:
         args: Parsed arguments (``a``, ``b``, ``frame_a``, ``frame_b``, ``joint_map``,
-            ``json``, ``poses``, ``seed``, ``tol``).
+            ``json``, ``poses``, ``seed``, ``tol``); the command line has checked the counts
+            and the JSON target.
         write: Writes text to a path atomically (the audit's writer).
     """
-    if args.poses < 0:
-        raise ModelError(f"--poses must be >= 0, got {args.poses}")
     if not (math.isfinite(args.tol) and args.tol > 0):
         raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
-    if args.json not in (None, "-"):
-        target = Path(args.json)
-        if target.is_dir() or not target.parent.is_dir():
-            raise ModelError(f"--json {args.json!r}: not a file in an existing directory")
     joint_map = read_joint_map(args.joint_map) if args.joint_map else None
     result = compare(
         args.a,
