@@ -166,6 +166,10 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
             f"URDF {source}: the links must form one tree with one root; roots found: {roots}"
         )
     tree = UrdfTree(root.get("name", ""), links, joints, roots[0])
+    if not tree.moving_joints:
+        raise UnsupportedFeatureError(
+            "no joints", source, "an arm needs at least one revolute, continuous or prismatic joint"
+        )
     tree.groups = _weld_groups(tree)
     _check_inertials(root, tree, source)
     _check_mujoco_extension(root, source)
