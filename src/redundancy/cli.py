@@ -136,11 +136,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _check_files(args: argparse.Namespace) -> None:
-    """Paths: the model must be a file; the JSON target must obey reports.files' rules."""
-    from pathlib import Path
-
-    if getattr(args, "model", None) is not None and not Path(args.model).is_file():
-        raise _BadInput(f"MJCF file not found: {args.model!r}")
+    """The JSON target must obey reports.files' rules (the loader checks the model file)."""
     if getattr(args, "json", None) not in (None, "-"):
         from .reports.files import check_target
 
