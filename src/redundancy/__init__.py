@@ -9,10 +9,15 @@ Example:
 
 from __future__ import annotations
 
-from . import collision
+from . import collision, engines
 from .analysis import batch, selfmotion
-from .analysis.batch import crosscheck_batch
-from .analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
+from .analysis.crosscheck import (
+    TOLERANCES,
+    Agreement,
+    CrossCheckReport,
+    crosscheck,
+    crosscheck_batch,
+)
 from .arm import Arm
 from .collision import (
     CollisionChecker,
@@ -25,6 +30,7 @@ from .errors import (
     MissingDependencyError,
     ModelError,
     OutOfRangeError,
+    ParameterError,
     PoseError,
     RedundancyError,
     UnknownNameError,
@@ -53,6 +59,7 @@ __all__ = [
     "MissingDependencyError",
     "ModelError",
     "OutOfRangeError",
+    "ParameterError",
     "PoseError",
     "RedundancyError",
     "UnknownNameError",
@@ -66,6 +73,7 @@ __all__ = [
     "compare_models",
     "crosscheck",
     "crosscheck_batch",
+    "engines",
     "load",
     "load_string",
     "max_stable_kd",

@@ -22,8 +22,7 @@ import numpy as np
 
 from .. import inertia
 from ..analysis import batch
-from ..analysis.batch import BATCH_QUANTITIES, crosscheck_batch
-from ..analysis.crosscheck import TOLERANCES, CrossCheckReport
+from ..analysis.crosscheck import BATCH_QUANTITIES, TOLERANCES, CrossCheckReport, crosscheck_batch
 from ..arm import Arm, random_poses
 from ..collision import CollisionStatistics, collision_statistics
 from ..linalg import jacobian_svd
