@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from . import collision, engines
 from .analysis import batch, selfmotion
+from .analysis.compare import Comparison, compare
 from .analysis.crosscheck import (
     TOLERANCES,
     Agreement,
@@ -51,6 +52,7 @@ __all__ = [
     "Arm",
     "Bridge",
     "CollisionChecker",
+    "Comparison",
     "CrossCheckReport",
     "Difference",
     "EquivalenceReport",
@@ -70,6 +72,7 @@ __all__ = [
     "collision",
     "collision_pairs",
     "collision_statistics",
+    "compare",
     "compare_models",
     "crosscheck",
     "crosscheck_batch",
