@@ -449,7 +449,7 @@ def cases(tmp: str) -> dict[str, Case]:
         "NaN pose in crosscheck": Case(
             lambda: rd.crosscheck(ARM, np.full((2, 7), np.nan)),
             rd.PoseError,
-            r"^pose has non-finite values: q1=nan, q2=nan",
+            r"^pose 0 has non-finite values: q1=nan, q2=nan",
         ),
         "inf pose in compare_models": Case(
             lambda: rd.compare_models(ARM, np.full(7, np.inf)),

@@ -171,7 +171,9 @@ def test_everything_is_a_redundancy_error():
 
 
 def test_bad_characteristic_length():
-    with pytest.raises(rd.RedundancyError, match=r"^characteristic length must be > 0 m, got 0$"):
+    with pytest.raises(
+        rd.ParameterError, match=r"^length must be a finite number > 0 \[m\], got 0$"
+    ):
         ARM.manipulability(np.zeros(7), length=0)
 
 
