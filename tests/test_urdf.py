@@ -224,6 +224,8 @@ def test_what_each_importer_reads() -> None:
     # The fixed tool link stays a body in MuJoCo (fusestatic off), carrying the tool site.
     assert "tool" in [mj.body(i).name for i in range(mj.nbody)]
     assert mj.site(arm.mujoco.site_id).name == "tool"
+    # MuJoCo leaves URDF geoms unnamed; the library names them after their link.
+    assert [mj.geom(i).name for i in range(mj.ngeom)] == ["l1"]
 
 
 def test_tool_as_fixed_joint_name_and_unknown_tool() -> None:

@@ -394,6 +394,7 @@ def build_mujoco(
             spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
             for mesh in spec.meshes:
                 mesh.file = str(resolve_mesh(mesh.file, base, source))
+            _name_geoms(spec)
             body = spec.body(tool_link)
             if body is None:
                 raise ModelError(f"URDF {source}: MuJoCo has no body for link {tool_link!r}")
@@ -405,6 +406,23 @@ def build_mujoco(
             return spec.compile()
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the URDF {source}: {err}") from err
+
+
+def _name_geoms(spec: mujoco.MjSpec) -> None:
+    """Name MuJoCo's unnamed URDF geoms after their link, so reports can say which is which.
+
+    A link's only collision geom takes the link's name, several take ``link/1``, ``link/2``...
+    (MuJoCo's URDF import leaves them unnamed; names already given are kept).
+    """
+    taken = {g.name for g in spec.geoms if g.name}
+    for body in spec.bodies:
+        unnamed = [g for g in body.geoms if not g.name]
+        for k, geom in enumerate(unnamed, 1):
+            name = body.name if len(unnamed) == 1 else f"{body.name}/{k}"
+            while name in taken:
+                name += "'"
+            geom.name = name
+            taken.add(name)
 
 
 def build_pinocchio(text: str, source: str) -> object:
