@@ -417,3 +417,24 @@ def test_rk4_bound_as_in_mujoco(integrator, flags, timestep, stable):
     arm, found, _ = run(xml, kd=0.0)
     assert ("timestep" not in found) == stable
     assert _free_run(arm) != stable
+
+
+@pytest.mark.parametrize(("force", "held"), [("2", False), ("50", True)])
+def test_a_servo_is_limited_by_its_forcerange_as_in_mujoco(force, held):
+    # Position servos hold keyframe k (their ctrl 0 is k) on a base tilted by 1.2 rad: joint a
+    # needs 9.9 N m there; the servo's forcerange, not its ctrlrange (a target position), binds.
+    servos = "".join(
+        f'<position joint="{j}" kp="500" kv="20" ctrlrange="-0.5 0.5" forcerange="-{force} '
+        f'{force}"/>'
+        for j in "abc"
+    )
+    xml = arm_xml(key="0 0", actuators=servos, option='integrator="implicitfast"').replace(
+        'pos="0 0 0.1"', 'pos="0 0 0.1" euler="0 1.2 0"'
+    )
+    arm, found, msgs = run(xml)
+    rows = sections.joints(arm).rows
+    assert (rows[0].effort_lower, rows[0].effort_upper) == (-float(force), float(force))
+    assert ("keyframe" not in found) == held
+    if not held:
+        assert msgs[0].startswith("keyframe 'k' cannot be held: joint 'a' needs")
+    assert moves(arm, kp=0.0, kd=0.0, compensate=False) != held
