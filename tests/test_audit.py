@@ -438,3 +438,21 @@ def test_a_servo_is_limited_by_its_forcerange_as_in_mujoco(force, held):
     if not held:
         assert msgs[0].startswith("keyframe 'k' cannot be held: joint 'a' needs")
     assert moves(arm, kp=0.0, kd=0.0, compensate=False) != held
+
+
+@pytest.mark.parametrize(
+    "factors",
+    [{"l1": 0.6, "l2": 0.6, "l3": 0.6}, {"l2": 0.4}, {"l1": 0.4, "l2": 0.7, "l3": 1.0}],
+)
+def test_holding_torque_is_mujocos_bias_minus_its_gravcomp(factors):
+    # Uniform factors take gravity x factor; mixed ones a MuJoCo engine of the scaled arm.
+    xml = arm_xml()
+    for body, factor in factors.items():
+        xml = xml.replace(f'name="{body}" pos=', f'name="{body}" gravcomp="{factor}" pos=')
+    arm = rd.load_string(xml, site="tip")
+    row = sections.keyframes(arm)[0]
+    d = mujoco.MjData(arm.mj_model)
+    d.qpos[:] = arm.keyframe("k")
+    mujoco.mj_forward(arm.mj_model, d)
+    np.testing.assert_allclose(row.hold, d.qfrc_bias - d.qfrc_gravcomp, rtol=0, atol=1e-12)
+    assert np.max(np.abs(d.qfrc_gravcomp)) > 0.1  # the compensation is really there
