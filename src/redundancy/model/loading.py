@@ -72,7 +72,7 @@ def load(path: str | os.PathLike[str], site: str = "ee", strict: bool = True) ->
         )
     mj = _read_mujoco(None, p)
     check_supported(mj, root, strict)
-    return _build(mj, _read_pinocchio(p), site, str(p), (load, (str(p), site, strict)))
+    return _build(mj, _read_pinocchio(p), site, str(p), (load, (str(p), site, strict)), root)
 
 
 def load_string(xml: str, site: str = "ee", strict: bool = True) -> Arm:
@@ -96,7 +96,7 @@ def load_string(xml: str, site: str = "ee", strict: bool = True) -> Arm:
         p = Path(tmp) / "model.xml"
         p.write_text(xml)
         pm = _read_pinocchio(p)
-    return _build(mj, pm, site, "<string>", (load_string, (xml, site, strict)))
+    return _build(mj, pm, site, "<string>", (load_string, (xml, site, strict)), root)
 
 
 def _build(
@@ -105,6 +105,7 @@ def _build(
     site: str,
     source: str,
     recipe: tuple[object, tuple[object, ...]],
+    xml_root: ET.Element | None = None,
 ) -> Arm:
     """Check that both engines see the same joints and tool, bridge, and build the Arm."""
     sites = object_names(mj, mujoco.mjtObj.mjOBJ_SITE)
@@ -130,6 +131,7 @@ def _build(
         damping,
         lower,
         upper,  # type: ignore[arg-type]
+        xml_root=xml_root,
     )
     return Arm(
         mj,
