@@ -455,7 +455,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         if refuse == "<frame> element" and i == n - 1:
             geoms.append('<frame pos="0 0 0.1"><geom type="sphere" size="0.02"/></frame>')
         if "mesh geom" in extras and i == n - 1:
-            geoms.append('<geom type="mesh" mesh="cube"/>')
+            geoms.append('<geom type="mesh" mesh="cube" contype="0" conaffinity="0"/>')
         if extra_lines and i == n - 1:
             geoms.append(extra_lines)
         lines += geoms
