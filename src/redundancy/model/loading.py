@@ -40,7 +40,7 @@ def _read_pinocchio(path: Path) -> object:
         raise ModelError(f"Pinocchio could not read the model: {err}") from err
 
 
-def _xml_root(text: str) -> ET.Element:
+def _xml_root(text: str | bytes) -> ET.Element:
     try:
         return ET.fromstring(text)
     except ET.ParseError as err:
@@ -63,7 +63,7 @@ def load(path: str | os.PathLike[str], site: str = "ee", strict: bool = True) ->
     p = Path(path)
     if not p.is_file():
         raise ModelError(f"MJCF file not found: {str(p)!r}")
-    root = _xml_root(p.read_text())
+    root = _xml_root(p.read_bytes())  # bytes: the XML declaration names the encoding
     if root.find(".//include") is not None:
         raise UnsupportedFeatureError(
             "<include> element",
