@@ -1,4 +1,4 @@
-"""Command line: ``redundancy audit [MODEL.xml]``, ``redundancy lesson`` and ``redundancy lab``.
+"""Command line: ``redundancy audit [MODEL]``, ``lesson``, ``lab`` and ``compare A B``.
 
 Every argument is checked before any work; heavy imports (the engines) happen inside the
 subcommands, so ``--help`` is instant.
@@ -114,6 +114,24 @@ def _parser() -> argparse.ArgumentParser:
     lab.add_argument(
         "--port", type=int, default=8080, help="TCP port (default: 8080; if taken, the next free)"
     )
+    cmp = sub.add_parser(
+        "compare",
+        help="compare two descriptions of one robot (MJCF or URDF), structurally and pose by pose",
+        epilog="exit status: 0 the same robot, 1 differences, 2 bad input, 3 internal error",
+    )
+    cmp.add_argument("a", help="first model file (MJCF or URDF)")
+    cmp.add_argument("b", help="second model file (MJCF or URDF)")
+    cmp.add_argument("--frame-a", default="ee", help="A's tool site or link (default: ee)")
+    cmp.add_argument("--frame-b", default="ee", help="B's tool site or link (default: ee)")
+    cmp.add_argument(
+        "--joint-map", metavar="FILE", help="A's joint names -> B's (JSON object, or lines 'a b')"
+    )
+    cmp.add_argument(
+        "--json", metavar="FILE", help="also write the comparison as JSON ('-': only JSON)"
+    )
+    cmp.add_argument("--poses", type=_count(0), default=200, help="random poses (default: 200)")
+    cmp.add_argument("--seed", type=_count(0), default=0, help="seed of the poses (default: 0)")
+    cmp.add_argument("--tol", type=float, default=1e-9, help="tolerance (default: 1e-9)")
     return p
 
 
@@ -121,7 +139,7 @@ def _check_files(args: argparse.Namespace) -> None:
     """Paths: the model must be a file; the JSON target must obey reports.files' rules."""
     from pathlib import Path
 
-    if args.model is not None and not Path(args.model).is_file():
+    if getattr(args, "model", None) is not None and not Path(args.model).is_file():
         raise _BadInput(f"MJCF file not found: {args.model!r}")
     if getattr(args, "json", None) not in (None, "-"):
         from .reports.files import check_target
@@ -177,6 +195,11 @@ def _run(args: argparse.Namespace) -> int:
 
         page.serve(arm, host=args.host, port=args.port)
         return OK
+    if args.command == "compare":
+        from .analysis.compare import run_compare
+        from .reports.files import write_atomic
+
+        return run_compare(args, write_atomic)
     return _audit(args)
 
 

@@ -17,8 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.batch import BATCH_QUANTITIES, crosscheck_batch
-from ..analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport
+from ..analysis.crosscheck import (
+    BATCH_QUANTITIES,
+    TOLERANCES,
+    Agreement,
+    CrossCheckReport,
+    crosscheck_batch,
+)
 from ..arm import Arm
 from ..errors import RedundancyError
 from ..model.equivalence import EquivalenceReport, compare_models
