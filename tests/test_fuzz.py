@@ -145,11 +145,6 @@ VALUES = st.one_of(
         lambda xs: " ".join(f"{x:g}" for x in xs)
     ),
 )
-#: Encodings of the mutant's bytes (each with its XML declaration). A non-ASCII name is
-#: written only in the Unicode encodings: in a Latin-1 file MuJoCo keeps the name's raw
-#: bytes and mj_id2name raises a bare UnicodeDecodeError (engines/mujoco.object_names; the
-#: reproducer is /work/coord/repro/arms_latin1_name.py). Add it when that is handled.
-NON_ASCII_OK = ("utf-16", "utf-8-sig", "utf-8")
 ENCODINGS = ("utf-16", "latin-1", "utf-8-sig", "utf-8")
 RESERVED = ("universe", "root_joint", "world", "link3_fixed", "ee_fixed", "j1Bis")
 
@@ -244,8 +239,6 @@ def mutants(draw: st.DrawFn) -> tuple[bytes, str]:
             parent.remove(child)
             done.append(f"<{child.tag}> removed from <{parent.tag}>")
     text = ET.tostring(root, encoding="unicode")
-    if encoding not in NON_ASCII_OK:
-        text = text.replace("é", "e")  # see NON_ASCII_OK
     if encoding == "utf-8":
         data = text.encode()
     else:

@@ -163,7 +163,9 @@ def _bridge_site(
         q[pm.joints[pm.getJointId(name)].idx_q] = mm.qpos0[i]
     pin.framesForwardKinematics(pm, pd, q)
     sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
-    fid = pm.getFrameId(site, pin.FrameType.OP_FRAME)
+    # An MJCF site is an OP_FRAME (a body or joint may share its name); a URDF tool is a link.
+    op = pin.FrameType.OP_FRAME
+    fid = pm.getFrameId(site, op) if pm.existFrame(site, op) else pm.getFrameId(site)
     site_mj = pin.SE3(data.site_xmat[sid].reshape(3, 3).copy(), data.site_xpos[sid].copy())
     if np.max(np.abs((site_mj.inverse() * pd.oMf[fid]).homogeneous - np.eye(4))) < 1e-12:
         return []

@@ -159,7 +159,8 @@ def check_supported(
                 f"geom {geom_name(model, g)!r}",
                 "Pinocchio's MJCF parser cannot read it; use primitive or mesh geoms",
             )
-    check_names(model)
+    if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
+        check_names(model)
     if not strict:
         return
     if xml_root is not None:
