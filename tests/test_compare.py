@@ -68,6 +68,15 @@ def test_different_robots() -> None:
     assert quantities(result)["presence"][0] == "joint 'joint1'"
     assert result.chains_part == "joint 'joint1'"
     assert result.n_poses == 0  # no pose can be mapped
+    document = json.loads(json.dumps(result.to_dict()))
+    assert document["differences"][0] == {
+        "quantity": "presence",
+        "where": "joint 'joint1'",
+        "a": "present",
+        "b": "absent",
+        "error": "inf",
+        "note": "",
+    }
 
 
 # -- deliberate differences ---------------------------------------------------------------

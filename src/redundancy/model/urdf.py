@@ -425,8 +425,11 @@ def _name_geoms(spec: mujoco.MjSpec) -> None:
             taken.add(name)
 
 
-def build_pinocchio(text: str, source: str) -> object:
+def build_pinocchio(text: str, source: str) -> tuple[object, list[str]]:
     """Pinocchio's model of a URDF, continuous joints as one-coordinate unbounded revolutes.
+
+    Returns:
+        The model, and the names of the continuous joints that were rebuilt.
 
     Raises:
         ModelError: Pinocchio cannot read it (the message carries Pinocchio's).
@@ -438,6 +441,17 @@ def build_pinocchio(text: str, source: str) -> object:
     except Exception as err:  # Pinocchio raises bare RuntimeError/ValueError from C++.
         raise ModelError(f"Pinocchio could not read the URDF {source}: {err}") from err
     return _bounded_revolutes(model)
+
+
+def continuous_joints(model: object) -> list[str]:
+    """Names of the joints Pinocchio read as (cos, sin) pairs."""
+    kinds = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
+    kinds += ("JointModelRevoluteUnboundedUnaligned",)
+    return [
+        model.names[j]  # type: ignore[attr-defined]
+        for j in range(1, model.njoints)  # type: ignore[attr-defined]
+        if model.joints[j].shortname() in kinds  # type: ignore[attr-defined]
+    ]
 
 
 _NV_FIELDS = (
@@ -457,7 +471,7 @@ _NV_FIELDS = (
 _NQ_FIELDS = ("lowerPositionLimit", "upperPositionLimit", "positionLimitMargin")
 
 
-def _bounded_revolutes(model: object) -> object:
+def _bounded_revolutes(model: object) -> tuple[object, list[str]]:
     """Rebuild a Pinocchio model with each (cos, sin) revolute as a one-angle revolute.
 
     Same joint placements, inertias, frames and per-dof values; the configuration of a
@@ -470,8 +484,9 @@ def _bounded_revolutes(model: object) -> object:
     axes["JointModelRUBZ"] = pin.JointModelRZ
     unaligned = "JointModelRevoluteUnboundedUnaligned"
     kinds = [model.joints[j].shortname() for j in range(model.njoints)]
-    if not any(k in axes or k == unaligned for k in kinds):
-        return model
+    rebuilt = continuous_joints(model)
+    if not rebuilt:
+        return model, []
     new = pin.Model()
     new.name = model.name
     jmap = {0: 0}
@@ -509,7 +524,7 @@ def _bounded_revolutes(model: object) -> object:
                 out[b.idx_q : b.idx_q + b.nq] = old[a.idx_q : a.idx_q + a.nq]
         setattr(new, name, out)
     new.gravity = model.gravity
-    return new
+    return new, rebuilt
 
 
 def frame_clash(pin_model: object, name: str) -> list[str]:
