@@ -487,3 +487,10 @@ def test_every_sweep_works_in_chunks(monkeypatch, arm7):
     monkeypatch.setattr(sections, "CHUNK", 40)
     audit(arm7, 130)
     assert len(seen) > 10 and max(seen) == 40 and -1 not in seen
+
+
+def test_a_joint_without_actuator_that_gravity_loads_is_a_finding():
+    xml = arm_xml().replace('<motor joint="b" ctrlrange="-50 50"/>', "")
+    _, found, msgs = run(xml)
+    assert found == ["gravity"]
+    assert msgs[0].startswith("joint 'b' has no actuator, and gravity loads it with up to")

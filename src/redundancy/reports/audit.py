@@ -233,7 +233,7 @@ def audit(
         _joint_findings(computed.joints)
         + _simulation_findings(computed)
         + _keyframe_findings(arm, computed)
-        + _gravity_findings(arm, computed.gravity)
+        + _gravity_findings(arm, computed.gravity, computed.joints)
         + _engine_findings(engines)
     )
     return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
@@ -362,10 +362,18 @@ def _unheld(arm: Arm, k: KeyframeRow) -> list[Finding]:
     ]
 
 
-def _gravity_findings(arm: Arm, g: GravityBudget) -> list[Finding]:
+def _gravity_findings(arm: Arm, g: GravityBudget, j: JointSection) -> list[Finding]:
     out = []
     comp = " after gravity compensation" if g.gravcomp else ""
     for i, name in enumerate(arm.joint_names):
+        if not j.rows[i].actuated and g.peak[i] > 1e-9:
+            out.append(
+                Finding(
+                    "gravity",
+                    f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
+                    f"{g.peak[i]:.3g} N m: nothing in the model holds it",
+                )
+            )
         for count, (need, limit), side in (
             (g.over_low[i], g.worst_low[i], "negative"),
             (g.over_high[i], g.worst_high[i], "positive"),
