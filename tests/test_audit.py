@@ -18,6 +18,7 @@ import redundancy as rd
 from redundancy.cli import main
 from redundancy.collision import collision_statistics
 from redundancy.engines.mujoco import captured_warnings
+from redundancy.errors import ParameterError
 from redundancy.lab.control import simulate_hold
 from redundancy.reports import sections
 from redundancy.reports.audit import audit, format_report
@@ -383,10 +384,11 @@ def test_report_lines_are_printable():
         ({"seed": -5}, "seed must be an integer >= 0, got -5"),
         ({"kd": float("nan")}, "kd must be a finite number >= 0 [N m s/rad], got nan"),
         ({"kd": -1.0}, "kd must be a finite number >= 0 [N m s/rad], got -1.0"),
+        ({"kd": "5"}, "kd must be a finite number >= 0 [N m s/rad], got '5'"),
     ],
 )
 def test_audit_parameters_are_checked(arm7, kw, message):
-    with pytest.raises(rd.RedundancyError) as err:
+    with pytest.raises(ParameterError) as err:
         audit(arm7, **{"n_poses": 10, **kw})
     assert str(err.value) == message
 
