@@ -438,7 +438,7 @@ def rtb_section(calls: int, repeats: int) -> list[str]:
 
     def ours() -> None:
         for q in qs_list:
-            arm.manipulability(q).full
+            _ = arm.manipulability(q).full
 
     def theirs() -> None:
         for q in qs_list:
