@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import json
 
+import mujoco
 import numpy as np
 import pytest
 
 import redundancy as rd
 from redundancy.cli import main
 from redundancy.collision import collision_statistics
+from redundancy.engines.mujoco import captured_warnings
 from redundancy.lab.control import simulate_hold
 from redundancy.reports import sections
 from redundancy.reports.audit import audit, format_report
@@ -381,3 +383,37 @@ def test_audit_parameters_are_checked(arm7, kw, message):
     with pytest.raises(rd.RedundancyError) as err:
         audit(arm7, **{"n_poses": 10, **kw})
     assert str(err.value) == message
+
+
+def _free_run(arm: rd.Arm, seconds: float = 2.0) -> bool:
+    """Whether MuJoCo's own mj_step (RK4 included) lets keyframe k's nudge grow, no control."""
+    m = arm.mj_model
+    d = mujoco.MjData(m)
+    d.qpos[:] = arm.keyframe("k")
+    d.qvel[:] = 0.01
+    peak = 0.0
+    with captured_warnings():
+        for _ in range(round(seconds / m.opt.timestep)):
+            mujoco.mj_step(m, d)  # simulate_hold steps in two halves, which MuJoCo runs as Euler
+            peak = max(peak, float(np.max(np.abs(d.qvel))))
+    return bool(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or peak > MOVES)
+
+
+@pytest.mark.parametrize(
+    ("integrator", "flags", "timestep", "stable"),
+    [
+        ("RK4", "", "0.003", True),  # joint c: h D / I = 2.3 < 2.785
+        ("Euler", '<flag eulerdamp="disable"/>', "0.003", False),  # 2.3 > 2
+        ("RK4", "", "0.005", False),  # 3.8 > 2.785
+    ],
+)
+def test_rk4_bound_as_in_mujoco(integrator, flags, timestep, stable):
+    xml = arm_xml(
+        damping="8",
+        timestep=timestep,
+        flags=flags,
+        option=f'integrator="{integrator}" gravity="0 0 0"',
+    )
+    arm, found, _ = run(xml, kd=0.0)
+    assert ("timestep" not in found) == stable
+    assert _free_run(arm) != stable

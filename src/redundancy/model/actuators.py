@@ -281,19 +281,22 @@ class DampingSplit:
     """Per dof, the damping MuJoCo's integrator treats implicitly and explicitly [N m s/rad].
 
     One step multiplies a joint's speed by ``(I - h D_explicit) / (I + h D_implicit)`` (Euler
-    family), stable while ``h < 2 I / (D_explicit - D_implicit)``; RK4 treats everything
-    explicitly and is stable while ``h < 2.785 I / D_explicit``.
+    family), stable while ``h < 2 I / (D_explicit - D_implicit)``. RK4 treats the model's
+    damping explicitly, stable while ``h < 2.785 I / D``; a kd written to ``ctrl`` is held
+    constant over the step (an Euler term), so with one the bound takes Euler's 2, which is
+    conservative for the mix (at ``h D / I = 2`` the RK4 step's multiplier stays in [-1, 1]).
 
     Attributes:
         implicit: Damping integrated implicitly.
         explicit: Damping integrated explicitly, the controller's ``kd`` included.
-        factor: 2 (Euler, implicit, implicitfast) or :data:`RK4_STABILITY`.
+        factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a
+            joint without a ``ctrl``-written kd :data:`RK4_STABILITY`.
         note: Why, in one sentence.
     """
 
     implicit: Array
     explicit: Array
-    factor: float
+    factor: Array
     note: str
 
 
@@ -315,31 +318,35 @@ def damping_split(
         kd: Controller damping written to ``ctrl`` per dof [N m s/rad].
     """
     b, kv, kd = (np.asarray(x, dtype=float) for x in np.broadcast_arrays(joint_damping, servo, kd))
-    zero = np.zeros_like(b)
+    zero, two = np.zeros_like(b), np.full_like(b, 2.0)
     if sim.integrator in ("implicit", "implicitfast"):
         return DampingSplit(
             b + kv,
             kd,
-            2.0,
+            two,
             f"{sim.integrator} integrates joint damping and servo kv implicitly; only a kd "
             "written to ctrl is explicit",
         )
     if sim.integrator == "RK4":
         return DampingSplit(
-            zero, b + kv + kd, RK4_STABILITY, "RK4 integrates all damping explicitly"
+            zero,
+            b + kv + kd,
+            np.where(kd > 0, 2.0, RK4_STABILITY),
+            "RK4 integrates all damping explicitly (stable to h D / I = 2.785; 2 with a kd "
+            "written to ctrl, which it holds over the step)",
         )
     if sim.eulerdamp:
         return DampingSplit(
             b,
             kv + kd,
-            2.0,
+            two,
             "Euler integrates joint damping implicitly; servo kv and a kd written to ctrl "
             "are explicit",
         )
     return DampingSplit(
         zero,
         b + kv + kd,
-        2.0,
+        two,
         "Euler with eulerdamp disabled integrates all damping explicitly, joint damping included",
     )
 

@@ -201,7 +201,7 @@ def audit(
     kd: float | None = None,
     computed: Sections | None = None,
     mode: str = "strict",
-    progress: Callable[[str], None] | None = None,
+    progress: Callable[[str], object] | None = None,
 ) -> AuditReport:
     """Audit an arm: every section of the report, and the findings.
 
@@ -226,8 +226,7 @@ def audit(
         raise RedundancyError(f"kd must be a finite number >= 0 [N m s/rad], got {kd!r}")
     say = progress or (lambda label: None)
     if computed is None:
-        say("joints, keyframes, gravity and self-collision")
-        computed = sections.compute(arm, n_poses, seed, kd)
+        computed = sections.compute(arm, n_poses, seed, kd, progress=say)
     say("engine cross-check")
     engines = _engines(arm, n_poses, seed)
     findings = (

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -463,14 +463,24 @@ def compute(
     seed: int = 0,
     kd: float | None = None,
     distances: str | None = "mujoco",
+    progress: Callable[[str], object] | None = None,
 ) -> Sections:
     """Every section: gravity over ``seed``'s poses, contacts over ``seed + 1``'s.
 
     With ``seed=0`` these are the lesson's samples (its tables (3) and (4)).
+
+    Args:
+        arm: The arm.
+        n_poses: Random poses of each sweep.
+        seed: Seed of the gravity sweep.
+        kd: Controller damping written to ctrl (see :func:`joints`) [N m s/rad].
+        distances: Distance engine of the collision sweep (``None``: contacts only).
+        progress: Called with a short label as each sweep starts.
     """
-    return Sections(
-        joints(arm, kd),
-        keyframes(arm),
-        gravity_budget(arm, n_poses, seed),
-        contacts(arm, n_poses, seed + 1, distances),
-    )
+    say = progress or (lambda label: None)
+    say("joints and keyframes")
+    joint_section, keys = joints(arm, kd), keyframes(arm)
+    say(f"gravity over {n_poses} poses")
+    gravity = gravity_budget(arm, n_poses, seed)
+    say(f"self-collision over {n_poses} poses")
+    return Sections(joint_section, keys, gravity, contacts(arm, n_poses, seed + 1, distances))
