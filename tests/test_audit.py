@@ -417,3 +417,42 @@ def test_rk4_bound_as_in_mujoco(integrator, flags, timestep, stable):
     arm, found, _ = run(xml, kd=0.0)
     assert ("timestep" not in found) == stable
     assert _free_run(arm) != stable
+
+
+@pytest.mark.parametrize(("force", "held"), [("2", False), ("50", True)])
+def test_a_servo_is_limited_by_its_forcerange_as_in_mujoco(force, held):
+    # Position servos hold keyframe k (their ctrl 0 is k) on a base tilted by 1.2 rad: joint a
+    # needs 9.9 N m there; the servo's forcerange, not its ctrlrange (a target position), binds.
+    servos = "".join(
+        f'<position joint="{j}" kp="500" kv="20" ctrlrange="-0.5 0.5" forcerange="-{force} '
+        f'{force}"/>'
+        for j in "abc"
+    )
+    xml = arm_xml(key="0 0", actuators=servos, option='integrator="implicitfast"').replace(
+        'pos="0 0 0.1"', 'pos="0 0 0.1" euler="0 1.2 0"'
+    )
+    arm, found, msgs = run(xml)
+    rows = sections.joints(arm).rows
+    assert (rows[0].effort_lower, rows[0].effort_upper) == (-float(force), float(force))
+    assert ("keyframe" not in found) == held
+    if not held:
+        assert msgs[0].startswith("keyframe 'k' cannot be held: joint 'a' needs")
+    assert moves(arm, kp=0.0, kd=0.0, compensate=False) != held
+
+
+@pytest.mark.parametrize(
+    "factors",
+    [{"l1": 0.6, "l2": 0.6, "l3": 0.6}, {"l2": 0.4}, {"l1": 0.4, "l2": 0.7, "l3": 1.0}],
+)
+def test_holding_torque_is_mujocos_bias_minus_its_gravcomp(factors):
+    # Uniform factors take gravity x factor; mixed ones a MuJoCo engine of the scaled arm.
+    xml = arm_xml()
+    for body, factor in factors.items():
+        xml = xml.replace(f'name="{body}" pos=', f'name="{body}" gravcomp="{factor}" pos=')
+    arm = rd.load_string(xml, site="tip")
+    row = sections.keyframes(arm)[0]
+    d = mujoco.MjData(arm.mj_model)
+    d.qpos[:] = arm.keyframe("k")
+    mujoco.mj_forward(arm.mj_model, d)
+    np.testing.assert_allclose(row.hold, d.qfrc_bias - d.qfrc_gravcomp, rtol=0, atol=1e-12)
+    assert np.max(np.abs(d.qfrc_gravcomp)) > 0.1  # the compensation is really there
