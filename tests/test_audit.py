@@ -251,8 +251,14 @@ def test_keyframe_in_contact_and_singular():
 
 
 def test_engine_disagreement_is_a_finding():
-    visual = '<geom type="sphere" size="0.03" contype="0" conaffinity="0" mass="0.2"/>'
-    report = audit(rd.load_string(arm_xml(visual=visual), site="tip"), n_poses=50)
+    # Pinocchio's parser drops the contents of <frame> (a body of 0.2 kg here); the loader
+    # bridges only inertia summed from geoms, so this difference stays (lenient load).
+    lost = (
+        '<inertial pos="0.15 0 0" mass="0.5" diaginertia="1e-4 1e-4 1e-4"/><frame pos="0.1 0 0">'
+        '<body name="lost"><inertial pos="0 0 0" mass="0.2" diaginertia="1e-4 1e-4 1e-4"/>'
+        "</body></frame>"
+    )
+    report = audit(rd.load_string(arm_xml(visual=lost), site="tip", strict=False), n_poses=50)
     engines = [f.message for f in report.findings if f.kind == "engines"]
     assert any(m.startswith("models differ: body mass of body moved by c") for m in engines)
     assert any(m.startswith("engines disagree on gravity") for m in engines)
@@ -456,3 +462,28 @@ def test_holding_torque_is_mujocos_bias_minus_its_gravcomp(factors):
     mujoco.mj_forward(arm.mj_model, d)
     np.testing.assert_allclose(row.hold, d.qfrc_bias - d.qfrc_gravcomp, rtol=0, atol=1e-12)
     assert np.max(np.abs(d.qfrc_gravcomp)) > 0.1  # the compensation is really there
+
+
+def test_every_sweep_works_in_chunks(monkeypatch, arm7):
+    # Memory stays flat in the number of poses when no engine call sees more than a chunk
+    # (measured through the CLI: 181.7 MB resident at 10 000 poses, 182.9 MB at 1 000 000).
+    from redundancy.reports import audit as audit_module
+
+    seen: list[int] = []
+
+    def spy(module, name):
+        real = getattr(module, name)
+
+        def wrapped(arm, *args, **kwargs):
+            stack = kwargs.get("poses", args[0] if args else None)
+            seen.append(len(stack) if stack is not None and np.ndim(stack) == 2 else -1)
+            return real(arm, *args, **kwargs)
+
+        monkeypatch.setattr(module, name, wrapped)
+
+    spy(sections.batch, "gravities")
+    spy(sections, "collision_statistics")
+    spy(audit_module, "crosscheck_batch")
+    monkeypatch.setattr(sections, "CHUNK", 40)
+    audit(arm7, 130)
+    assert len(seen) > 10 and max(seen) == 40 and -1 not in seen

@@ -6,10 +6,16 @@ The gaps were found empirically with Pinocchio 4.1.0 and MuJoCo 4.0.0 (see the R
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
+import mujoco
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import redundancy as rd
+from redundancy.model.bridges import _mujoco_joint_inertias
 
 from .models import chain
 
@@ -81,44 +87,156 @@ def test_site_defaults_are_bridged():
     assert report.ok, report.lines()
 
 
-def test_mesh_inertia_placeholder_is_refused_or_reported():
-    mesh = (
-        '<asset><mesh name="cube" vertex="0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"/>'
-        "</asset>"
+# ------------------------------------------------------------------------------------------
+# Issue 11's rules, each on a tiny model: Pinocchio's own reading differs from MuJoCo's (the
+# measurement that justifies the rule) or does not (the rule accepts without a bridge), and
+# the library's arm agrees either way.
+# ------------------------------------------------------------------------------------------
+
+CUBE = (
+    '<asset><mesh name="cube" vertex="0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"/>'
+    "</asset>"
+)
+INERTIAL = '<inertial pos="0 0 0.1" mass="2" diaginertia="0.01 0.02 0.03"/>'
+POSES = np.array([[0.4, -1.1], [-2.0, 0.7], [1.3, 2.9]])
+
+
+def _raw_pinocchio_inertia(xml: str, joint: str) -> tuple[float, np.ndarray]:
+    """Mass and centre of mass of a joint's bodies as Pinocchio's parser alone reads them."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "m.xml"
+        path.write_text(xml)
+        pm = pin.buildModelFromMJCF(str(path))
+    inertia = pm.inertias[pm.getJointId(joint)]
+    return float(inertia.mass), np.array(inertia.lever)
+
+
+def _mujoco_inertia(arm: rd.Arm, joint: str) -> tuple[float, np.ndarray]:
+    """The same, from MuJoCo's compiled model (expressed in Pinocchio's joint frame)."""
+    j = arm.joint_index(joint)
+    inertia = _mujoco_joint_inertias(arm.mj_model)[j]
+    return float(inertia.mass), np.array(inertia.lever)
+
+
+def _agree(arm: rd.Arm) -> None:
+    report = rd.compare_models(arm)
+    assert report.equivalent, "\n".join(report.lines())
+    cc = rd.crosscheck(arm, POSES)
+    assert cc.ok, "\n".join(cc.lines())
+
+
+def _raw_differs(xml: str, arm: rd.Arm, joint: str = "b") -> bool:
+    (m_pin, c_pin), (m_mj, c_mj) = _raw_pinocchio_inertia(xml, joint), _mujoco_inertia(arm, joint)
+    return abs(m_pin - m_mj) > 1e-9 or bool(np.max(np.abs(c_pin - c_mj)) > 1e-9)
+
+
+INERTIA_RULES = [
+    # (id, body_extra, extra head (assets, defaults, compiler), Pinocchio alone differs, cause)
+    ("mesh beside an explicit inertial", INERTIAL + '<geom type="mesh" mesh="cube"/>', CUBE,
+     False, None),
+    ("visual mesh of mass 0", '<geom type="mesh" mesh="cube" contype="0" conaffinity="0" '
+     'mass="0"/><geom size="0.05"/>', CUBE, False, None),
+    ("visual mesh with a density (MuJoCo counts it)", '<geom type="mesh" mesh="cube" '
+     'contype="0" conaffinity="0"/><geom size="0.05"/>', CUBE, True,
+     "visual geom 'l2 geom 1' has mass in MuJoCo"),
+    ("mesh feeding the inertia", '<geom type="mesh" mesh="cube" pos="0 0 0.2"/><geom size="0.05"/>',
+     CUBE, True, "mesh geom 'l2 geom 1'"),
+    ("mesh of mass 0 (Pinocchio's placeholder still counts)",
+     '<geom type="mesh" mesh="cube" mass="0"/><geom size="0.05" pos="0 0 0.3"/>', CUBE, True,
+     "placeholder inertia"),
+    ("mesh outside inertiagrouprange",
+     '<geom type="mesh" mesh="cube" group="4"/><geom size="0.05" pos="0 0 0.3"/>',
+     CUBE + '<compiler inertiagrouprange="0 3"/>', True, "outside inertiagrouprange"),
+    ("default-class geom mass, no inertial", '<geom class="heavy" size="0.05" pos="0 0 0.3"/>',
+     '<default><default class="heavy"><geom mass="3"/></default></default>', True,
+     "takes mass=3 from default class 'heavy'"),
+    ("default-class geom mass beside an inertial",
+     INERTIAL + '<geom class="heavy" size="0.05" pos="0 0 0.3"/>',
+     '<default><default class="heavy"><geom mass="3"/></default></default>', False, None),
+    ("visual geom with mass", '<geom size="0.05" pos="0 0 0.35" contype="0" conaffinity="0" '
+     'mass="0.5"/><geom size="0.05"/>', "", True, "visual geom 'l2 geom 1' has mass in MuJoCo"),
+    ("settotalmass", "", '<compiler settotalmass="9"/>', True, "settotalmass"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("body_extra", "head", "pinocchio_alone_differs", "cause"),
+    [pytest.param(*r[1:], id=r[0]) for r in INERTIA_RULES],
+)
+def test_inertia_rules(body_extra: str, head: str, pinocchio_alone_differs: bool, cause: str):
+    xml = chain(body_extra=body_extra).replace("<mujoco>", "<mujoco>" + head)
+    arm = rd.load_string(xml, site="tip")  # strict: accepted
+    assert _raw_differs(xml, arm) == pinocchio_alone_differs
+    bridged = [b for b in arm.bridges if b.quantity == "body inertia"]
+    if pinocchio_alone_differs:
+        assert [b.joint for b in bridged] == ["l2"] or "settotalmass" in cause
+        assert all(cause in b.source for b in bridged), [b.source for b in bridged]
+        line = next(x for x in rd.compare_models(arm).lines() if "body inertia" in x)
+        assert line.startswith("BRIDGED  body inertia") and cause in line
+    else:
+        assert not bridged
+    _agree(arm)
+
+
+def test_an_explicit_inertial_is_never_overwritten():
+    """A difference Pinocchio makes in an <inertial> it reads itself stays a difference."""
+    xml = chain(body_extra=INERTIAL).replace("<mujoco>", '<mujoco><compiler eulerseq="XYZ"/>')
+    xml = xml.replace(INERTIAL, INERTIAL.replace("/>", ' euler="0.3 0.2 0.1"/>'))
+    arm = rd.load_string(xml, site="tip", strict=False)
+    assert not [b for b in arm.bridges if b.quantity == "body inertia"]
+    assert "inertia about com (world)" in {d.quantity for d in rd.compare_models(arm).differences}
+
+
+POSED_ROOT = (
+    chain()
+    .replace(
+        '<body name="l1" pos="0 0 0.1">',
+        '<body name="base" pos="0.5 0.2 0.3" quat="0.9 0.3 0.1 0.2"><geom size="0.05"/>'
+        '<body name="fixture" pos="0 0.1 0" euler="0.1 0 0"><geom size="0.02"/></body>'
+        '<body name="l1" pos="0 0 0.1">',
     )
-    xml = chain(body_extra='<geom type="mesh" mesh="cube"/>').replace("<mujoco>", "<mujoco>" + mesh)
-    with pytest.raises(rd.UnsupportedFeatureError, match="mesh, sdf or height-field geom"):
-        rd.load_string(xml, site="tip")
-    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
-    # Pinocchio gives the mesh a unit-mass placeholder; MuJoCo integrates the hull (1 kg here).
-    assert {(d.quantity, d.item) for d in report.differences} >= {("body mass", "body moved by b")}
+    .replace("</worldbody>", "</body></worldbody>")
+)
 
 
-def test_fixed_root_body_pose_is_refused_or_reported():
-    xml = (
-        chain()
-        .replace(
-            '<body name="l1" pos="0 0 0.1">',
-            '<body name="base" pos="0 0 0.5" quat="0.9 0.3 0 0"><geom size="0.05"/><body name="l1" pos="0 0 0.1">',
-        )
-        .replace("</worldbody>", "</body></worldbody>")
-    )
-    with pytest.raises(rd.UnsupportedFeatureError, match="fixed root body with a pose"):
-        rd.load_string(xml, site="tip")
-    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
-    quantities = {d.quantity for d in report.differences}
-    assert {"site position", "joint axis (world)", "centre of mass (world)"} <= quantities
+def test_posed_fixed_root_is_bridged_into_joint_placements_and_frames():
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "m.xml"
+        path.write_text(POSED_ROOT)
+        raw = pin.buildModelFromMJCF(str(path))
+    arm = rd.load_string(POSED_ROOT, site="tip")
+    # Pinocchio alone drops the pose: its tool site is off by the root's offset.
+    raw_data = raw.createData()
+    pin.framesForwardKinematics(raw, raw_data, np.zeros(2))
+    site_mj, _ = arm.site_pose(np.zeros(2))
+    assert np.linalg.norm(raw_data.oMf[raw.getFrameId("tip")].translation - site_mj) > 0.3
+    assert [(b.quantity, b.joint) for b in arm.bridges] == [("root pose", "base")]
+    assert arm.bridges[0].value[:3] == (0.5, 0.2, 0.3)
+    _agree(arm)
+    # Every body frame Pinocchio holds sits where MuJoCo puts the body, at several poses.
+    pm, pd = arm.pinocchio.model, arm.pinocchio.model.createData()
+    mm = arm.mj_model
+    data = mujoco.MjData(mm)
+    for q in POSES:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(mm, data)
+        qp = np.zeros(pm.nq)
+        qp[arm.pinocchio.perm] = q
+        pin.framesForwardKinematics(pm, pd, qp)
+        for body in ("base", "fixture", "l1", "l2"):
+            b = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_BODY, body)
+            f = pd.oMf[pm.getFrameId(body, pin.FrameType.BODY)]
+            assert np.allclose(f.translation, data.xpos[b], atol=1e-12), body
+            assert np.allclose(f.rotation, data.xmat[b].reshape(3, 3), atol=1e-12), body
 
 
-def test_frame_contents_vanish_so_frames_are_refused_or_reported():
+def test_frame_contents_are_bridged_where_they_feed_the_inertia():
     xml = chain(body_extra='<frame pos="0 0 0.1"><geom size="0.05" mass="2"/></frame>')
-    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
-    masses = {
-        d.item: (d.mujoco, d.pinocchio) for d in report.differences if d.quantity == "body mass"
-    }
-    assert "body moved by b" in masses
-    mj, pn = masses["body moved by b"]
-    assert mj - pn == pytest.approx(2.0)
+    arm = rd.load_string(xml, site="tip", strict=False)
+    assert _raw_differs(xml, arm)
+    (bridged,) = [b for b in arm.bridges if b.quantity == "body inertia"]
+    assert "<frame>" in bridged.source
+    _agree(arm)
 
 
 def test_several_joints_in_one_body_are_refused():
@@ -135,17 +253,6 @@ def test_second_root_body_is_refused():
     )
     with pytest.raises(rd.UnsupportedFeatureError, match="several root bodies"):
         rd.load_string(xml, site="tip", strict=False)
-
-
-def test_visual_geom_mass_is_reported():
-    # Pinocchio leaves contype=0 conaffinity=0 geoms out of the inertia; MuJoCo counts them.
-    xml = chain(
-        body_extra='<geom type="sphere" size="0.05" pos="0 0 0.35" contype="0" conaffinity="0" mass="0.5"/>'
-    )
-    report = rd.compare_models(rd.load_string(xml, site="tip"))
-    diffs = {d.quantity: d for d in report.differences if d.item == "body moved by b"}
-    assert diffs["body mass"].mujoco - diffs["body mass"].pinocchio == pytest.approx(0.5)
-    assert not rd.crosscheck(rd.load_string(xml, site="tip"), np.array([0.2, 0.3])).ok
 
 
 def test_extrinsic_euler_and_non_unit_axisangle_are_refused_or_reported():
@@ -168,9 +275,10 @@ def test_extrinsic_euler_and_non_unit_axisangle_are_refused_or_reported():
 
 
 def test_difference_report_carries_both_values():
-    xml = chain(
-        body_extra='<geom type="sphere" size="0.05" contype="0" conaffinity="0" mass="0.5"/>'
+    xml = chain().replace(
+        '<body name="l2" pos="0 0 0.3">', '<body name="l2" pos="0 0 0.3" axisangle="1 1 0 30">'
     )
-    report = rd.compare_models(rd.load_string(xml, site="tip"))
-    line = next(x for x in report.lines() if x.startswith("DIFFERS  body mass"))
+    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
+    line = next(x for x in report.lines() if x.startswith("DIFFERS  site position"))
     assert "MuJoCo" in line and "Pinocchio" in line
+    assert report.largest["site position"] > 1e-3
