@@ -32,6 +32,7 @@ lesson: $(STAMP)
 	$(BIN)/python scripts/l5_2_seven_dof.py
 
 bench: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[bench]"
 	$(BIN)/python scripts/bench.py
 
 lab: $(STAMP)            ## the interactive lab at http://127.0.0.1:8080/

@@ -18,6 +18,7 @@ import redundancy as rd
 from redundancy.cli import main
 from redundancy.collision import collision_statistics
 from redundancy.engines.mujoco import captured_warnings
+from redundancy.errors import ParameterError
 from redundancy.lab.control import simulate_hold
 from redundancy.reports import sections
 from redundancy.reports.audit import audit, format_report
@@ -383,10 +384,11 @@ def test_report_lines_are_printable():
         ({"seed": -5}, "seed must be an integer >= 0, got -5"),
         ({"kd": float("nan")}, "kd must be a finite number >= 0 [N m s/rad], got nan"),
         ({"kd": -1.0}, "kd must be a finite number >= 0 [N m s/rad], got -1.0"),
+        ({"kd": "5"}, "kd must be a finite number >= 0 [N m s/rad], got '5'"),
     ],
 )
 def test_audit_parameters_are_checked(arm7, kw, message):
-    with pytest.raises(rd.RedundancyError) as err:
+    with pytest.raises(ParameterError) as err:
         audit(arm7, **{"n_poses": 10, **kw})
     assert str(err.value) == message
 
@@ -487,3 +489,10 @@ def test_every_sweep_works_in_chunks(monkeypatch, arm7):
     monkeypatch.setattr(sections, "CHUNK", 40)
     audit(arm7, 130)
     assert len(seen) > 10 and max(seen) == 40 and -1 not in seen
+
+
+def test_a_joint_without_actuator_that_gravity_loads_is_a_finding():
+    xml = arm_xml().replace('<motor joint="b" ctrlrange="-50 50"/>', "")
+    _, found, msgs = run(xml)
+    assert found == ["gravity"]
+    assert msgs[0].startswith("joint 'b' has no actuator, and gravity loads it with up to")

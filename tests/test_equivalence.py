@@ -282,3 +282,134 @@ def test_difference_report_carries_both_values():
     line = next(x for x in report.lines() if x.startswith("DIFFERS  site position"))
     assert "MuJoCo" in line and "Pinocchio" in line
     assert report.largest["site position"] > 1e-3
+
+
+# ------------------------------------------------------------------------------------------
+# What MuJoCo simulates that neither engine's numbers include (issue 11 item 3, model side).
+# ------------------------------------------------------------------------------------------
+
+
+def _simulated(arm: rd.Arm) -> dict[str, list[str]]:
+    out: dict[str, list[str]] = {}
+    for s in rd.compare_models(arm).simulated:
+        out.setdefault(s.feature, []).append(f"{s.item}: {s.value}")
+    return out
+
+
+def test_gravcomp_is_listed_and_is_what_mujoco_applies():
+    xml = (
+        chain()
+        .replace('<body name="l1"', '<body name="l1" gravcomp="1"')
+        .replace('<body name="l2"', '<body name="l2" gravcomp="1"')
+    )
+    arm = rd.load_string(xml, site="tip")
+    assert _simulated(arm)["gravity compensation"] == ["body l1: gravcomp=1", "body l2: gravcomp=1"]
+    # MuJoCo's simulation applies exactly the gravity torque as compensation: a motor would
+    # hold nothing, while both engines' gravity numbers still say what gravity alone needs.
+    q = np.array([0.7, -0.4])
+    data = mujoco.MjData(arm.mj_model)
+    data.qpos[:] = q
+    mujoco.mj_forward(arm.mj_model, data)
+    assert np.allclose(data.qfrc_gravcomp, arm.gravity(q), atol=1e-12)
+    assert np.abs(arm.gravity(q)).max() > 1.0
+    assert np.allclose(data.qacc, 0, atol=1e-9)  # it hangs still with zero motor torque
+
+
+def test_asymmetric_ranges_are_listed_per_direction():
+    xml = chain(
+        joints='<joint name="a" axis="0 1 0" actuatorfrcrange="-5 9"/>',
+        extra='<actuator><motor joint="a" ctrlrange="-10 80"/>'
+        '<motor joint="b" forcerange="-3 4" ctrlrange="-1 1" gear="2"/>'
+        '<position joint="b" kp="10" ctrlrange="0 1"/></actuator>',
+    )
+    arm = rd.load_string(xml, site="tip")
+    sim = _simulated(arm)
+    assert sim["asymmetric control range"] == ["actuator actuator 0: [-10, 80]"]
+    assert sim["asymmetric force range"] == ["actuator actuator 1: [-3, 4]"]
+    assert sim["asymmetric actuator force range"] == ["joint a: [-5, 9]"]
+    # A position servo's ctrlrange is a target range, not a torque: not listed.
+    assert len(sim["asymmetric control range"]) == 1
+
+
+def test_integrator_and_flags_are_listed():
+    euler = chain(extra='<option integrator="Euler"><flag eulerdamp="disable"/></option>')
+    lines = rd.compare_models(rd.load_string(euler, site="tip")).lines()
+    assert any(
+        x.startswith("SIMULATED  integrator (model: Euler, timestep 0.002 s)") for x in lines
+    )
+    assert any("eulerdamp disabled" in x and "integrated explicitly" in x for x in lines)
+    fast = chain(extra='<option integrator="implicitfast"><flag eulerdamp="disable"/></option>')
+    sim = {s.feature: s for s in rd.compare_models(rd.load_string(fast, site="tip")).simulated}
+    assert "no effect under the implicitfast integrator" in sim["eulerdamp disabled"].effect
+    assert "implicitly" in sim["integrator"].effect
+    other = chain(extra='<option><flag contact="disable" frictionloss="disable"/></option>')
+    sim = _simulated(rd.load_string(other, site="tip"))
+    assert "contact disabled" in sim and "frictionloss disabled" in sim
+
+
+def test_friction_loss_and_springs_are_listed():
+    xml = chain(
+        joints='<joint name="a" axis="0 1 0" frictionloss="0.7" stiffness="3" springref="20"/>'
+    )
+    sim = _simulated(rd.load_string(xml, site="tip"))
+    assert sim["friction loss"] == ["joints: a=0.7"]
+    assert sim["joint spring"] == [
+        "joint a: stiffness=3, springref=0.349066"
+    ]  # degrees in the file
+
+
+def test_gravity_flag_is_bridged_and_listed():
+    xml = chain(extra='<option gravity="0 0 -9.81"><flag gravity="disable"/></option>')
+    arm = rd.load_string(xml, site="tip")
+    q = np.array([0.7, -0.4])
+    # Pinocchio alone keeps 9.81 m/s^2: its gravity torque is not what MuJoCo simulates.
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "m.xml"
+        path.write_text(xml)
+        raw = pin.buildModelFromMJCF(str(path))
+    assert np.abs(pin.computeGeneralizedGravity(raw, raw.createData(), q)).max() > 1.0
+    assert [(b.quantity, b.value, b.source) for b in arm.bridges] == [
+        ("gravity", (0.0, 0.0, 0.0), '<flag gravity="disable"/>')
+    ]
+    assert np.array_equal(arm.gravity(q), np.zeros(2))
+    assert np.array_equal(arm.gravity(q, engine="pinocchio"), np.zeros(2))
+    # MuJoCo's simulation agrees: released at rest with no torque, the arm does not move.
+    data = mujoco.MjData(arm.mj_model)
+    data.qpos[:] = q
+    for _ in range(100):
+        mujoco.mj_step(arm.mj_model, data)
+    assert np.allclose(data.qpos, q, atol=1e-12)
+    assert "gravity disabled" in _simulated(arm)
+    _agree(arm)
+
+
+def test_compare_models_rejects_a_bad_tolerance(arm7):
+    for tol in (float("nan"), -1.0, float("inf"), "1e-9"):
+        with pytest.raises(rd.RedundancyError, match="tol must be a finite number >= 0"):
+            rd.compare_models(arm7, tol=tol)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------------------------------
+# Display names (model/names.py)
+# ------------------------------------------------------------------------------------------
+
+
+def test_display_names_of_unnamed_objects():
+    from redundancy.model.names import body_name, display_names, geom_name
+
+    m = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><geom type="plane" size="1 1 1"/><body name="link3"><joint/>'
+        '<geom size=".1"/><geom size=".1" name="link3 geom 2"/><geom size=".1"/>'
+        '<body><geom size=".1"/><site/></body></body></worldbody></mujoco>'
+    )
+    assert display_names(m, mujoco.mjtObj.mjOBJ_BODY) == ("world", "link3", "link3 body 0")
+    assert display_names(m, mujoco.mjtObj.mjOBJ_GEOM) == (
+        "world geom 0",
+        "link3 geom 0",
+        "link3 geom 2",
+        "link3 geom 2 (#3)",  # the generated name is taken by a named geom: the id is added
+        "link3 body 0 geom 0",
+    )
+    assert display_names(m, mujoco.mjtObj.mjOBJ_JOINT) == ("link3 joint 0",)
+    assert display_names(m, mujoco.mjtObj.mjOBJ_SITE) == ("link3 body 0 site 0",)
+    assert body_name(m, 2) == "link3 body 0" and geom_name(m, 1) == "link3 geom 0"

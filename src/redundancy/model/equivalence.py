@@ -305,6 +305,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                         f"{'negative' if abs(lo) < abs(hi) else 'positive'} direction",
                     )
                 )
+    friction: list[str] = []
     for j in range(model.njnt):
         dof = model.jnt_dofadr[j]
         if model.jnt_actfrclimited[j]:
@@ -319,15 +320,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                     )
                 )
         if model.dof_frictionloss[dof] > 0:
-            out.append(
-                SimulatedOnly(
-                    "friction loss",
-                    f"joint {joints[j]}",
-                    f"{model.dof_frictionloss[dof]:g}",
-                    "MuJoCo resists motion with this much dry friction [N m or N]; the "
-                    "gravity and hold numbers leave it out",
-                )
-            )
+            friction.append(f"{joints[j]}={model.dof_frictionloss[dof]:g}")
         if model.jnt_stiffness[j] > 0:
             out.append(
                 SimulatedOnly(
@@ -337,6 +330,16 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                     "MuJoCo adds -stiffness x (q - springref); the gravity torque leaves it out",
                 )
             )
+    if friction:
+        out.append(
+            SimulatedOnly(
+                "friction loss",
+                "joints",
+                ", ".join(friction),
+                "MuJoCo resists motion with up to this much dry friction [N m or N]; the "
+                "gravity and hold numbers leave it out",
+            )
+        )
     integrator = _INTEGRATORS.get(int(model.opt.integrator), str(model.opt.integrator))
     euler = integrator == "Euler"
     eulerdamp_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP)

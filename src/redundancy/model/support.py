@@ -58,9 +58,10 @@ def check_supported(
             "no joints", "model", "an arm needs at least one hinge or slide joint"
         )
     names = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    joint_labels = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for j in range(model.njnt):
         kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
-        where = f"joint {names[j]!r}" if names[j] else f"joint #{j}"
+        where = f"joint {joint_labels[j]!r}"
         if kind in ("ball", "free"):
             raise UnsupportedFeatureError(
                 f"{kind} joint",
@@ -73,7 +74,9 @@ def check_supported(
                 where,
                 "joints are matched across engines by name; name every joint",
             )
-    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    bodies = list(display_names(model, mujoco.mjtObj.mjOBJ_BODY))
+    geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
+    sites = display_names(model, mujoco.mjtObj.mjOBJ_SITE)
     # Values no arm can have: MuJoCo compiles some of them (an infinite pos, a NaN axis, a
     # negative armature, range="1 -1") and both engines would then compute nonsense.
     arrays = {
@@ -87,13 +90,9 @@ def check_supported(
         "jnt_range": (model.jnt_range, names, "joint"),
         "dof_armature": (model.dof_armature, names, "joint"),
         "dof_damping": (model.dof_damping, names, "joint"),
-        "geom_pos": (model.geom_pos, _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom), "geom"),
-        "geom_size": (
-            model.geom_size,
-            _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom),
-            "geom",
-        ),
-        "site_pos": (model.site_pos, _names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite), "site"),
+        "geom_pos": (model.geom_pos, geoms, "geom"),
+        "geom_size": (model.geom_size, geoms, "geom"),
+        "site_pos": (model.site_pos, sites, "site"),
     }
     for field, (values, labels, kind) in arrays.items():
         if len(values) == 0:  # a model without geoms or sites
@@ -103,7 +102,7 @@ def check_supported(
             i = int(np.flatnonzero(bad)[0])
             raise ModelError(
                 f"non-finite value in the compiled model: {field} of {kind} "
-                f"{labels[i] or f'#{i}'!r} is {np.asarray(values[i]).tolist()}"
+                f"{labels[i]!r} is {np.asarray(values[i]).tolist()}"
             )
     if not np.isfinite(model.opt.gravity).all():
         raise ModelError(
