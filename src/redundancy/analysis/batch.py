@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..arm import ENGINES, Arm, EngineName
 from ..checks import check_choice, check_number, check_poses, check_threads
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
+from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD
 
 Array = NDArray[np.float64]
@@ -65,7 +66,7 @@ def _stack(
     n, nv = len(Q), arm.nq
     shape = {"J": (n, 6, nv), "M": (n, nv, nv), "G": (n, nv)}[what]
     out = np.empty(shape)
-    arm.engine(engine).evaluate(Q, armature=armature, threads=threads, **{what: out})
+    arm.engine(engine).evaluate(Q, Stacks(armature=armature, **{what: out}), threads)
     return out
 
 
@@ -122,7 +123,7 @@ def _jacobians_and_singular_values(
     try:
         for lo in range(0, n, chunk):
             hi = min(n, lo + chunk)
-            arm.engine(engine).evaluate(Q[lo:hi], J=J[lo:hi], threads=max(1, threads - 1))
+            arm.engine(engine).evaluate(Q[lo:hi], Stacks(J=J[lo:hi]), max(1, threads - 1))
             todo.put((lo, hi))
     finally:
         todo.put(None)
