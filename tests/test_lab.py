@@ -109,7 +109,7 @@ def test_experiment_1_straight_up_is_singular(sim: LabSim) -> None:
     t, s = sim.sigma_history()
     assert s[0] > 0.2  # near home (0.2332) at the start of the window
     assert s[-1] < 2e-4
-    assert t[-1] - t[0] == pytest.approx(SIGMA_WINDOW, abs=0.05)
+    assert SIGMA_WINDOW - 0.02 < t[-1] - t[0] <= SIGMA_WINDOW
 
 
 def test_experiment_2_folding_the_elbow(sim: LabSim, arm7: rd.Arm) -> None:
@@ -578,7 +578,7 @@ def check_plots(b: object, titles: set[str], event: str) -> None:
         assert (p["min"], p["max"]) == (-window, 0.0), where
         assert len(x) == len(y) >= 2, where
         assert np.all(np.diff(x) > 0), where
-        assert -window - 0.02 <= x[0] and x[-1] <= 0.0, where  # inside the window
+        assert -window - 1e-9 <= x[0] and x[-1] <= 0.0, where  # inside the window
         assert x[-1] >= -0.05, where  # up to now
         assert p["ymin"] <= np.min(y) and np.max(y) <= p["ymax"], where
 

@@ -484,7 +484,7 @@ class LabPage:
         """
         R = self.reach
         look = self.base + np.array([0.0, 0.0, 0.45 * R])
-        radius = 0.9 * math.hypot(R, 0.55 * R)
+        radius = 0.8 * math.hypot(R, 0.55 * R)
         half = math.radians(45.0) / 2
         half = min(half, math.atan(math.tan(half) * max(aspect, 0.2)))
         dist = radius / math.sin(half)
@@ -635,7 +635,7 @@ class LabPage:
                 ),
                 scales=self._speed_scales(2 * REST_SPEED),
                 axes=self._speed_axes(2 * REST_SPEED),
-                aspect=2.2,
+                aspect=2.4,
             )
             self.torque_plot = gui.add_uplot(
                 data=(np.zeros(0), np.zeros(0)),
@@ -650,12 +650,14 @@ class LabPage:
                     "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
                     "y": viser.uplot.Scale(auto=False, range=(-1.25 * limit, 1.25 * limit)),
                 },
-                axes=self._symmetric_axes(SPEED_WINDOW, 1.25 * limit, limit),
-                aspect=2.2,
+                axes=self._symmetric_axes(SPEED_WINDOW, limit, limit),
+                aspect=2.4,
             )
-            hi = 10.0 ** max(0, math.ceil(math.log10(max(float(sim.readouts().sigma[0]), 1e-9))))
-            self._sigma_range = (SIGMA_FLOOR, hi)
-            splits, labels = log_axis(*self._sigma_range)
+            # Up to the power of ten above twice the keyframe's sigma_min (1 for arm7's 0.23).
+            s0 = float(sim.readouts().sigma_min)
+            hi = 10.0 ** max(0, math.ceil(math.log10(max(2.0 * s0, 1e-9))))
+            splits, labels = log_axis(SIGMA_FLOOR, hi)
+            self._sigma_range = (SIGMA_FLOOR, 2.0 * hi)  # room for the top label
             self.sigma_plot = gui.add_uplot(
                 data=(np.zeros(0), np.zeros(0)),
                 series=(
@@ -673,7 +675,7 @@ class LabPage:
                     self._time_axis(SIGMA_WINDOW),
                     viser.uplot.Axis(splits=splits, values=labels, size=48),
                 ),
-                aspect=2.2,
+                aspect=1.8,
             )
         panel.dock_left()
         panel.set_width(380)
@@ -692,31 +694,41 @@ class LabPage:
         )
 
     def _symmetric_axes(
-        self, window: float, half: float, limit: float
+        self, window: float, ticks: float, limit: float
     ) -> tuple[viser.uplot.Axis, ...]:
-        splits, labels = symmetric_axis(half)
+        """Time axis; y ticks at 0, +-ticks/2, +-ticks; dashed lines at +-limit, if they show.
+
+        The limit lines are left out when they would lie within 5 % of the range of 0 (the
+        speed plot's at-rest band while the joint buzzes at 15 rad/s).
+        """
+        splits, labels = symmetric_axis(ticks)
         width = 12 + 7 * max(len(s) for s in labels)
-        return (
+        axes = [
             self._time_axis(window),
             viser.uplot.Axis(splits=splits, values=labels, size=width),
-            # The limits: dashed lines across the plot, labelled on the right.
-            viser.uplot.Axis(
-                scale="y",
-                side=1,
-                splits=(-limit, limit),
-                values=(tick_label(-limit), tick_label(limit)),
-                grid=viser.uplot.Axis_Grid(stroke="#e03131", dash=(6.0, 4.0), width=1.5),
-                ticks=viser.uplot.Axis_Ticks(show=False),
-                size=12 + 7 * len(tick_label(-limit)),
-                stroke="#e03131",
-            ),
-        )
+        ]
+        if limit >= 0.05 * ticks:
+            axes.append(
+                # The limits: dashed lines across the plot, labelled on the right.
+                viser.uplot.Axis(
+                    scale="y",
+                    side=1,
+                    splits=(-limit, limit),
+                    values=(tick_label(-limit), tick_label(limit)),
+                    grid=viser.uplot.Axis_Grid(stroke="#e03131", dash=(6.0, 4.0), width=1.5),
+                    ticks=viser.uplot.Axis_Ticks(show=False),
+                    size=12 + 7 * len(tick_label(-limit)),
+                    stroke="#e03131",
+                )
+            )
+        return tuple(axes)
 
     @staticmethod
     def _speed_scales(half: float) -> dict[str, viser.uplot.Scale]:
         return {
             "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
-            "y": viser.uplot.Scale(auto=False, range=(-half, half)),
+            # 15 % above the outer ticks, so their labels are not clipped.
+            "y": viser.uplot.Scale(auto=False, range=(-1.15 * half, 1.15 * half)),
         }
 
     def _speed_axes(self, half: float) -> tuple[viser.uplot.Axis, ...]:

@@ -509,20 +509,28 @@ class LabSim:
                 watch_limit=float(self.effort_limit[self.watch_index]),
             )
 
+    def _window(
+        self, t: collections.deque[float], v: collections.deque[float], span: float
+    ) -> tuple[Array, Array]:
+        """The samples with time in [now - span, now]."""
+        tt, vv = np.array(t), np.array(v)
+        keep = tt >= self.time - span - 1e-9
+        return tt[keep], vv[keep]
+
     def speed_history(self) -> tuple[Array, Array]:
         """Times [s] and speeds [rad/s] of the watched joint over the last :data:`SPEED_WINDOW`."""
         with self._lock:
-            return np.array(self._speed_t), np.array(self._speed_v)
+            return self._window(self._speed_t, self._speed_v, SPEED_WINDOW)
 
     def torque_history(self) -> tuple[Array, Array]:
         """Times [s] and applied torques [N m] of the watched joint's motor, same window."""
         with self._lock:
-            return np.array(self._speed_t), np.array(self._torque_v)
+            return self._window(self._speed_t, self._torque_v, SPEED_WINDOW)
 
     def sigma_history(self) -> tuple[Array, Array]:
         """Times [s] and sigma_min over the last :data:`SIGMA_WINDOW`, one per ten steps."""
         with self._lock:
-            return np.array(self._sigma_t), np.array(self._sigma_v)
+            return self._window(self._sigma_t, self._sigma_v, SIGMA_WINDOW)
 
     def csv(self) -> str:
         """The plotted series as CSV: one block per plot, times relative to now [s].
