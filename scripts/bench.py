@@ -285,8 +285,8 @@ def crosscheck_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
         "bare pin J": b.pin_jacobians,
         "bare pin M": b.pin_mass,
         "bare pin g": b.pin_gravity,
-        "cc 1t": lambda: batch.crosscheck_batch(arm, Q, names),
-        "cc 2t": lambda: batch.crosscheck_batch(arm, Q, names, threads=2),
+        "cc 1t": lambda: rd.crosscheck_batch(arm, Q, names),
+        "cc 2t": lambda: rd.crosscheck_batch(arm, Q, names, threads=2),
         "per pose (1/20)": lambda: rd.crosscheck(arm, small, names),
     }
     t = rounds(cases, repeats)
@@ -304,7 +304,7 @@ def crosscheck_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
         f"  rd.crosscheck pose by pose (timed on {len(small)} poses, scaled): "
         f"{ms(t, 'per pose (1/20)') * scale:.0f} ms"
     )
-    report = batch.crosscheck_batch(arm, Q, names)
+    report = rd.crosscheck_batch(arm, Q, names)
     out += ["  " + line for line in report.lines()]
     return out
 

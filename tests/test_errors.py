@@ -68,7 +68,7 @@ def test_out_of_range_pose_when_range_matters():
 
 
 def test_missing_file():
-    with pytest.raises(rd.ModelError, match=r"^MJCF file not found: '/nonexistent/arm.xml'$"):
+    with pytest.raises(rd.ModelError, match=r"^model file not found: '/nonexistent/arm.xml'$"):
         rd.load("/nonexistent/arm.xml")
 
 
@@ -171,7 +171,9 @@ def test_everything_is_a_redundancy_error():
 
 
 def test_bad_characteristic_length():
-    with pytest.raises(rd.RedundancyError, match=r"^characteristic length must be > 0 m, got 0$"):
+    with pytest.raises(
+        rd.ParameterError, match=r"^length must be a finite number > 0 \[m\], got 0$"
+    ):
         ARM.manipulability(np.zeros(7), length=0)
 
 

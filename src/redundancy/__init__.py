@@ -9,10 +9,16 @@ Example:
 
 from __future__ import annotations
 
-from . import collision
+from . import collision, engines
 from .analysis import batch, selfmotion
-from .analysis.batch import crosscheck_batch
-from .analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
+from .analysis.compare import Comparison, compare
+from .analysis.crosscheck import (
+    TOLERANCES,
+    Agreement,
+    CrossCheckReport,
+    crosscheck,
+    crosscheck_batch,
+)
 from .arm import Arm
 from .collision import (
     CollisionChecker,
@@ -25,6 +31,7 @@ from .errors import (
     MissingDependencyError,
     ModelError,
     OutOfRangeError,
+    ParameterError,
     PoseError,
     RedundancyError,
     UnknownNameError,
@@ -45,6 +52,7 @@ __all__ = [
     "Arm",
     "Bridge",
     "CollisionChecker",
+    "Comparison",
     "CrossCheckReport",
     "Difference",
     "EquivalenceReport",
@@ -53,6 +61,7 @@ __all__ = [
     "MissingDependencyError",
     "ModelError",
     "OutOfRangeError",
+    "ParameterError",
     "PoseError",
     "RedundancyError",
     "UnknownNameError",
@@ -63,9 +72,11 @@ __all__ = [
     "collision",
     "collision_pairs",
     "collision_statistics",
+    "compare",
     "compare_models",
     "crosscheck",
     "crosscheck_batch",
+    "engines",
     "load",
     "load_string",
     "max_stable_kd",
