@@ -306,11 +306,13 @@ class LabBrowser:
         """Press the left button at ``start``, move to ``end`` in steps, release [CSS px]."""
         mouse = self.page.mouse
         mouse.move(*start)
+        self.page.wait_for_timeout(200)  # let the scene see the pointer over the handle
         mouse.down()
+        self.page.wait_for_timeout(100)
         for k in range(1, steps + 1):
             f = k / steps
             mouse.move(start[0] + f * (end[0] - start[0]), start[1] + f * (end[1] - start[1]))
-            self.page.wait_for_timeout(30)
+            self.page.wait_for_timeout(50)
         mouse.up()
 
     def screenshot(self, path: str | os.PathLike[str]) -> Path:

@@ -267,6 +267,8 @@ class LabSim:
         self._path: Array | None = None
         self._path_start = 0.0
         self._steps = 0
+        #: How many times the pose was reset (:meth:`reset_pose`, :meth:`reset_all`).
+        self.resets = -1
         n_speed = round(SPEED_WINDOW / self.timestep) + 1
         n_sigma = round(SIGMA_WINDOW / (SIGMA_EVERY * self.timestep)) + 1
         self._speed_t: collections.deque[float] = collections.deque(maxlen=n_speed)
@@ -298,6 +300,7 @@ class LabSim:
             self.targets = self.home.copy()
             self._path = None
             self._steps = 0
+            self.resets += 1
             for buf in (
                 self._speed_t,
                 self._speed_v,
