@@ -646,7 +646,7 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
             else:
                 resets = sim.resets
                 b.click(L.RESET_LABEL if event == "reset pose" else L.RESET_ALL_LABEL)
-                wait_for("the reset", lambda: sim.resets > resets)
+                wait_for("the reset", lambda n=resets: sim.resets > n)
             check_plots(b, titles, f"{event} #{k}")
         assert k == 19  # 20 events, counting from 0
 
