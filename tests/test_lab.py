@@ -514,12 +514,15 @@ def test_websocket_rejects_foreign_origins(arm7: rd.Arm) -> None:
 
         assert first_message(f"http://127.0.0.1:{lab.port}") is not None
         assert first_message(None) is not None  # not a browser
-        for foreign in ("http://evil.example", f"http://127.0.0.1.nip.io:{lab.port}"):
-            assert first_message(foreign) is None
-        assert lab.rejected_origins == [
+        foreign = [
             "http://evil.example",
             f"http://127.0.0.1.nip.io:{lab.port}",
+            "http://127.0.0.1:1",  # another server on this machine
+            "null",  # a sandboxed frame or a file:// page
         ]
+        for origin in foreign:
+            assert first_message(origin) is None
+        assert lab.rejected_origins == foreign
 
 
 # -- in the browser --------------------------------------------------------------------------

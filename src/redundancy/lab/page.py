@@ -1168,8 +1168,9 @@ class LabServer:
 
         A browser sends ``Origin`` with every websocket; a page from another site (or a DNS
         rebinding of one) would otherwise drive the arm. Allowed: no Origin (not a browser),
-        or an Origin equal to ``http://`` + the Host header whose host is a name of this
-        server. Runs in the server's event loop before viser starts its message loops.
+        or an Origin equal to ``http://`` + the Host header whose host is an address literal
+        or a name of this server (loopback names; with a wider host, the machine's names).
+        Runs in the server's event loop before viser starts its message loops.
         """
         ws = self.server._websock_server
         connection = ws._live_connections.get(conn.client_id)
@@ -1181,7 +1182,9 @@ class LabServer:
             return
         host_header = headers.get("Host", "")
         host_part = host_header.rsplit(":", 1)[0].lower() if host_header else ""
-        if origin == f"http://{host_header}" and host_part in self._allowed_hosts:
+        if origin == f"http://{host_header}" and (
+            host_part in self._allowed_hosts or self._is_ip(host_part)
+        ):
             return
         self.rejected_origins.append(origin)
 
@@ -1192,6 +1195,15 @@ class LabServer:
 
         connection.recv = closed  # no message of this connection reaches viser
         await connection.close(1008, "origin not allowed")
+
+    @staticmethod
+    def _is_ip(host: str) -> bool:
+        """An address literal: a page served from it came from this server (no DNS to rebind)."""
+        try:
+            ipaddress.ip_address(host.strip("[]"))
+        except ValueError:
+            return False
+        return True
 
     @property
     def port(self) -> int:
