@@ -207,23 +207,33 @@ class Arm:
         return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"
 
 
-def sampling_ranges(arm: Arm) -> tuple[Array, Array]:
+def sampling_ranges(
+    arm: Arm, unlimited: float = np.pi, unlimited_slide: float | None = None
+) -> tuple[Array, Array]:
     """Lower and upper bounds used to draw random poses [rad or m].
 
     The joint ranges; an unlimited hinge is drawn in [-pi, pi] (the one place this rule
     lives: sampling, hypothesis strategies, sliders and reach bounds all read it here).
 
+    Args:
+        arm: The arm.
+        unlimited: Half-width of the interval for an unlimited hinge [rad].
+        unlimited_slide: Half-width for an unlimited slide [m]; None refuses one.
+
     Raises:
-        PoseError: An unlimited slide joint (no range to draw from).
+        PoseError: An unlimited slide joint and no ``unlimited_slide`` (no range to draw from).
     """
     lo, hi = arm.lower.copy(), arm.upper.copy()
     for i, kind in enumerate(arm.joint_types):
         if not (np.isfinite(lo[i]) and np.isfinite(hi[i])):
+            if kind != "hinge" and unlimited_slide is not None:
+                lo[i], hi[i] = -unlimited_slide, unlimited_slide
+                continue
             if kind != "hinge":
                 raise PoseError(
                     f"joint {arm.joint_names[i]!r} is an unlimited slide: no range to sample"
                 )
-            lo[i], hi[i] = -np.pi, np.pi
+            lo[i], hi[i] = -unlimited, unlimited
     return lo, hi
 
 

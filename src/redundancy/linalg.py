@@ -133,25 +133,10 @@ class Manipulability:
             value = self._values[kind] = yoshikawa(block)
         return value
 
-    @property
-    def full(self) -> float:
-        """sqrt(det(J J^T)) of the whole Jacobian [mixed units]."""
-        return self._get("full")
-
-    @property
-    def position(self) -> float:
-        """sqrt(det(J J^T)) of the linear rows [m^3/rad^3]."""
-        return self._get("position")
-
-    @property
-    def orientation(self) -> float:
-        """sqrt(det(J J^T)) of the angular rows [dimensionless]."""
-        return self._get("orientation")
-
-    @property
-    def scaled(self) -> float:
-        """sqrt(det(J J^T)) with the linear rows divided by ``length`` [dimensionless]."""
-        return self._get("scaled")
+    full = property(lambda self: self._get("full"), doc="sqrt(det(J J^T)) of J [mixed units].")
+    position = property(lambda self: self._get("position"), doc="Linear rows [m^3/rad^3].")
+    orientation = property(lambda self: self._get("orientation"), doc="Angular rows [-].")
+    scaled = property(lambda self: self._get("scaled"), doc="Linear rows / length [-].")
 
     def __repr__(self) -> str:
         return (

@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
-from ..engines.contract import Engine
+from ..engines.contract import Engine, Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..linalg import manipulability_gradient
 from ..model.bridges import Bridge
@@ -209,26 +209,25 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
     want = set(names)
     need_m = bool(want & {"mass matrix", "mass matrix (bare)"})
     out: dict[str, Array] = {}
-    stacks = {
-        "X": np.empty((n, 3)) if "site position" in want else None,
-        "R": np.empty((n, 3, 3)) if "site rotation" in want else None,
-        "J": np.empty((n, 6, nv)) if "jacobian" in want else None,
-        "M": np.empty((n, nv, nv)) if need_m else None,
-        "G": np.empty((n, nv)) if "gravity" in want else None,
-    }
-    if any(v is not None for v in stacks.values()):
-        engine.evaluate(Q, threads=threads, **stacks)
-    for name, key in (
-        ("site position", "X"),
-        ("site rotation", "R"),
-        ("jacobian", "J"),
-        ("mass matrix", "M"),
-        ("gravity", "G"),
+    stacks = Stacks(
+        X=np.empty((n, 3)) if "site position" in want else None,
+        R=np.empty((n, 3, 3)) if "site rotation" in want else None,
+        J=np.empty((n, 6, nv)) if "jacobian" in want else None,
+        M=np.empty((n, nv, nv)) if need_m else None,
+        G=np.empty((n, nv)) if "gravity" in want else None,
+    )
+    engine.evaluate(Q, stacks, threads)
+    for name, value in (
+        ("site position", stacks.X),
+        ("site rotation", stacks.R),
+        ("jacobian", stacks.J),
+        ("mass matrix", stacks.M),
+        ("gravity", stacks.G),
     ):
-        if stacks[key] is not None:
-            out[name] = stacks[key]
+        if value is not None:
+            out[name] = value
     if "mass matrix (bare)" in want:
-        bare = stacks["M"].copy()  # type: ignore[union-attr]
+        bare = stacks.M.copy()  # type: ignore[union-attr]
         k = np.arange(nv)
         bare[:, k, k] -= engine.armature
         out["mass matrix (bare)"] = bare

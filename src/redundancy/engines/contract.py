@@ -13,12 +13,39 @@ each thread computes with its own engine data.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+
+
+@dataclass
+class Stacks:
+    """Output stacks that :meth:`Engine.evaluate` fills in place; None where not wanted.
+
+    Attributes:
+        X: Site positions (n, 3) [m].
+        R: Site rotation matrices (n, 3, 3).
+        J: Site Jacobians (n, 6, nv).
+        M: Mass matrices (n, nv, nv) [kg m^2], with armature unless ``armature`` is False.
+        G: Gravity torques (n, nv) [N m or N].
+        armature: Include armature in ``M``.
+    """
+
+    X: Array | None = None
+    R: Array | None = None
+    J: Array | None = None
+    M: Array | None = None
+    G: Array | None = None
+    armature: bool = True
+
+    @property
+    def dynamics(self) -> bool:
+        """True when anything beyond the site pose is wanted (J, M or gravity)."""
+        return self.J is not None or self.M is not None or self.G is not None
 
 
 @runtime_checkable
@@ -75,28 +102,12 @@ class Engine(Protocol):
         """World joint axes and anchors [m], shape (nv, 3) each."""
         ...
 
-    def evaluate(
-        self,
-        Q: Array,
-        *,
-        X: Array | None = None,
-        R: Array | None = None,
-        J: Array | None = None,
-        M: Array | None = None,
-        G: Array | None = None,
-        armature: bool = True,
-        threads: int = 1,
-    ) -> None:
-        """Fill the given output stacks for every pose of ``Q`` (n, nv), in place.
+    def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
+        """Fill the stacks of ``out`` for every pose of ``Q`` (n, nv), in place.
 
         Args:
             Q: Poses, C-contiguous (n, nv) [rad or m].
-            X: Site positions (n, 3) [m].
-            R: Site rotation matrices (n, 3, 3).
-            J: Site Jacobians (n, 6, nv).
-            M: Mass matrices (n, nv, nv) [kg m^2], with armature unless ``armature`` is False.
-            G: Gravity torques (n, nv) [N m or N].
-            armature: Include armature in ``M``.
+            out: The stacks to fill (None where not wanted).
             threads: Worker threads (at most; validated by the caller).
         """
         ...

@@ -8,14 +8,14 @@ and dof orders coincide).
 from __future__ import annotations
 
 import contextlib
-import threading
 from collections.abc import Iterator
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from .threads import run_split
+from .contract import Stacks
+from .threads import PerThread, run_split
 
 Array = NDArray[np.float64]
 
@@ -92,7 +92,8 @@ class MujocoEngine:
             np.where(limited, model.jnt_range[:, 0], -np.inf),
             np.where(limited, model.jnt_range[:, 1], np.inf),
         )
-        self._local = threading.local()
+        # This thread's data; a bound method, so a query pays one call to reach it.
+        self._work = PerThread(lambda: _Work(model)).get
 
     # -- the contract's per-joint vectors ---------------------------------------------------
     @property
@@ -111,13 +112,6 @@ class MujocoEngine:
         return self._limits[0].copy(), self._limits[1].copy()
 
     # -- per-thread data --------------------------------------------------------------------
-    def _work(self) -> _Work:
-        try:
-            return self._local.work
-        except AttributeError:
-            work = self._local.work = _Work(self.model)
-            return work
-
     def update(self, q: Array) -> _Work:
         """Bring this thread's data to pose ``q`` (a validated (nv,) array); return it.
 
@@ -232,19 +226,8 @@ class MujocoEngine:
         return d.xaxis.copy(), d.xanchor.copy()
 
     # -- stacks of poses ----------------------------------------------------------------------
-    def evaluate(
-        self,
-        Q: Array,
-        *,
-        X: Array | None = None,
-        R: Array | None = None,
-        J: Array | None = None,
-        M: Array | None = None,
-        G: Array | None = None,
-        armature: bool = True,
-        threads: int = 1,
-    ) -> None:
-        """Fill the given output stacks for every pose of ``Q``, in place (see the contract).
+    def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
+        """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
 
         One kinematics pass per pose serves every output; ``mj_jacSite``, ``mj_fullM`` and
         ``mj_rne`` write straight into the rows of the stacks. MuJoCo releases the GIL inside
@@ -254,8 +237,9 @@ class MujocoEngine:
         m, sid = self.model, self.site_id
         kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
         crb, full, rne = mujoco.mj_crb, mujoco.mj_fullM, mujoco.mj_rne
-        dyn = J is not None or M is not None or G is not None
-        R9 = None if R is None else R.reshape(len(Q), 9)
+        X, J, M, G = out.X, out.J, out.M, out.G
+        dyn = out.dynamics
+        R9 = None if out.R is None else out.R.reshape(len(Q), 9)
 
         def body(lo: int, hi: int) -> None:
             w = self._work()
@@ -282,7 +266,7 @@ class MujocoEngine:
                     rne(m, d, 0, G[i])
 
         run_split(len(Q), threads, body)
-        if M is not None and not armature:
+        if M is not None and not out.armature:
             k = np.arange(self.nv)
             M[:, k, k] -= self._armature
 

@@ -7,12 +7,14 @@ every array it returns is in the same order as :mod:`redundancy.engines.mujoco`'
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
+
+from .contract import Stacks
+from .threads import PerThread
 
 Array = NDArray[np.float64]
 
@@ -67,7 +69,8 @@ class PinocchioEngine:
         )
         self.identity = bool(np.array_equal(self.perm, np.arange(len(self.perm))))
         self._joint_ids = [model.getJointId(n) for n in joint_names]
-        self._local = threading.local()
+        # This thread's data; a bound method, so a query pays one call to reach it.
+        self._work = PerThread(lambda: _Work(model)).get
 
     # -- the contract's per-joint vectors ---------------------------------------------------
     @property
@@ -86,13 +89,6 @@ class PinocchioEngine:
         return self._vec(self.model.lowerPositionLimit), self._vec(self.model.upperPositionLimit)
 
     # -- per-thread data and joint order ----------------------------------------------------
-    def _work(self) -> _Work:
-        try:
-            return self._local.work
-        except AttributeError:
-            work = self._local.work = _Work(self.model)
-            return work
-
     def _pin_q(self, w: _Work, q: Array) -> Array:
         w.q[self.perm] = q
         return w.q
@@ -211,25 +207,15 @@ class PinocchioEngine:
         return axes, anchors
 
     # -- stacks of poses ----------------------------------------------------------------------
-    def evaluate(
-        self,
-        Q: Array,
-        *,
-        X: Array | None = None,
-        R: Array | None = None,
-        J: Array | None = None,
-        M: Array | None = None,
-        G: Array | None = None,
-        armature: bool = True,
-        threads: int = 1,
-    ) -> None:
-        """Fill the given output stacks for every pose of ``Q``, in place (see the contract).
+    def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
+        """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
 
         Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread;
         gravity is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
         ``computeGeneralizedGravity``) on ``threads`` OpenMP threads.
         """
         model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
+        X, R, J, M, G = out.X, out.R, out.J, out.M, out.G
         w = self._work()
         w.key = None
         data = w.data
@@ -256,7 +242,7 @@ class PinocchioEngine:
                 M[i] = crba(model, data, q)
             # crba fills the upper triangle (armature on the diagonal).
             M[:] = np.triu(M) + np.triu(M, 1).transpose(0, 2, 1)
-            if not armature:
+            if not out.armature:
                 k = np.arange(nv)
                 M[:, k, k] -= model.armature
             if not self.identity:

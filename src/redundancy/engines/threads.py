@@ -9,8 +9,11 @@ from __future__ import annotations
 import itertools
 import threading
 from collections.abc import Callable
+from typing import Generic, TypeVar
 
 import numpy as np
+
+T = TypeVar("T")
 
 #: Fewest poses per thread: below this a thread costs more than it saves (a 7-dof chain's
 #: MuJoCo calls take 0.5-4 us per pose; starting a thread and its MjData takes ~100 us).
@@ -73,3 +76,25 @@ def run_beside(main: Callable[[], None], side: Callable[[], None] | None) -> Non
         worker.join()
     if errors:
         raise errors[0]
+
+
+class PerThread(Generic[T]):
+    """One value per thread: built by ``factory`` on the thread's first ``get``, freed with it.
+
+    Engines keep their data (``MjData``, ``pinocchio.Data``, scratch buffers) in one, so
+    threads never share engine data and no data outlives the thread that used it.
+    """
+
+    __slots__ = ("_factory", "_local")
+
+    def __init__(self, factory: Callable[[], T]) -> None:
+        self._factory = factory
+        self._local = threading.local()
+
+    def get(self) -> T:
+        """This thread's value."""
+        try:
+            return self._local.value
+        except AttributeError:
+            value = self._local.value = self._factory()
+            return value

@@ -86,14 +86,17 @@ def effort_range(
     """Torque range per dof that the actuators can apply while the arm is held still at ``q``.
 
     For each actuator with a joint transmission (gear ``g``, length ``L = g q``, velocity 0):
-    force ``= gain(L) u + bias(L)`` for ``u`` in its input range (``ctrlrange``, or
-    ``actrange`` for stateful actuators; none under ``clampctrl`` disabled), with fixed or
-    affine gain and bias (a position servo gives ``kp u - kp L``); clamped to ``forcerange``
-    when force-limited; times ``g`` at the joint. Whichever of ``ctrlrange`` and
-    ``forcerange`` binds, binds. Several actuators on one dof add up, plus ``routed`` (gravity
-    compensation sent through the actuators by ``actuatorgravcomp``), and the joint's
-    ``actuatorfrcrange`` clamps the sum. A dof without an actuator gets ``(-inf, inf)`` and
-    ``actuated`` False. Muscle and user gains or biases count as unlimited.
+    force ``= gain u + bias`` for ``u`` in its input range (``ctrlrange``, or ``actrange`` for
+    stateful actuators; none under ``clampctrl`` disabled); clamped to ``forcerange`` when
+    force-limited; times ``g`` at the joint. Whichever of ``ctrlrange`` and ``forcerange``
+    binds, binds. A *servo* (gain or bias depending on the length: a position actuator's
+    ``kp u - kp L``) is limited by its ``forcerange`` alone: its input is a target position,
+    and a held servo settles ``tau / kp`` away from its target, so its ``ctrlrange`` bounds
+    where the arm can be held (to within that offset), not the torque. Several actuators on
+    one dof add up, plus ``routed`` (gravity compensation sent through the actuators by
+    ``actuatorgravcomp``), and the joint's ``actuatorfrcrange`` clamps the sum. A dof without
+    an actuator gets ``(-inf, inf)`` and ``actuated`` False. Muscle and user gains or biases
+    count as unlimited.
 
     Args:
         model: Compiled MuJoCo model.
@@ -118,7 +121,7 @@ def effort_range(
         bias = _affine(
             int(model.actuator_biastype[a]), model.actuator_biasprm[a], length, gain=False
         )
-        u0, u1 = _input_range(model, a)
+        u0, u1 = (-np.inf, np.inf) if _is_servo(model, a) else _input_range(model, a)
         with np.errstate(invalid="ignore"):  # 0 x inf: a zero gain gives the bias alone
             f0 = np.where(gain == 0, bias, bias + gain * u0)
             f1 = np.where(gain == 0, bias, bias + gain * u1)
@@ -157,10 +160,9 @@ def _affine(kind: int, prm: Array, length: Array, gain: bool) -> Array:
 def joint_force_limits(model: mujoco.MjModel) -> Array:
     """Largest force or torque the actuators can apply at each dof, either direction.
 
-    ``max(-lower, upper)`` of :func:`effort_range` for the actuators whose range does not
-    depend on the pose (a servo's does, through its bias, unless ``forcerange`` caps it);
-    ``inf`` where unlimited or without an actuator. This is the symmetric limit Pinocchio's
-    ``effortLimit`` holds; the audit uses :func:`effort_range`, per direction and pose.
+    ``max(-lower, upper)`` of :func:`effort_range`; ``inf`` where unlimited or without an
+    actuator. This is the symmetric limit Pinocchio's ``effortLimit`` holds; the audit uses
+    :func:`effort_range`, per direction.
 
     Args:
         model: Compiled MuJoCo model.
@@ -169,21 +171,21 @@ def joint_force_limits(model: mujoco.MjModel) -> Array:
         Limits, shape (nv,) [N m for hinges, N for slides].
     """
     r = effort_range(model)
-    limit = np.maximum(-r.lower, r.upper)
-    for a, dof, _, _ in _joint_actuators(model):
-        pose_dependent = (
+    return np.maximum(-r.lower, r.upper)
+
+
+def _is_servo(model: mujoco.MjModel, a: int) -> bool:
+    """Whether an actuator's force depends on its length (a position-type servo)."""
+    return bool(
+        (
             model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_AFFINE
             and model.actuator_gainprm[a, 1] != 0
-        ) or (
+        )
+        or (
             model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
             and model.actuator_biasprm[a, 1] != 0
         )
-        if pose_dependent and not model.actuator_forcelimited[a]:
-            limit[dof] = np.inf
-    for j in np.flatnonzero(model.jnt_actfrclimited):
-        dof = model.jnt_dofadr[j]
-        limit[dof] = min(limit[dof], float(np.max(np.abs(model.jnt_actfrcrange[j]))))
-    return limit
+    )
 
 
 def _reflected_per_dof(model: mujoco.MjModel, values: Array) -> Array:

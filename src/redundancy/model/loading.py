@@ -191,10 +191,10 @@ def load(
     if as_is:
         mj = _read_mujoco(None, p)
         check_supported(mj, root, strict)
-        return _build(mj, _read_pinocchio(p), tool, str(p), recipe)
+        return _build(mj, _read_pinocchio(p), tool, str(p), recipe, xml_root=root)
     mj = _read_mujoco(text, None, p.resolve().parent)
     check_supported(mj, root, strict)
-    return _build(mj, _pinocchio_from_text(text), tool, str(p), recipe)
+    return _build(mj, _pinocchio_from_text(text), tool, str(p), recipe, xml_root=root)
 
 
 def load_string(
@@ -232,7 +232,7 @@ def load_string(
         )
     mj = _read_mujoco(xml, None)
     check_supported(mj, root, strict)
-    return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe)
+    return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe, xml_root=root)
 
 
 def model_format(arm: Arm) -> str:
@@ -321,6 +321,7 @@ def _build(
     source: str,
     recipe: tuple[object, tuple[object, ...]],
     bridged: tuple[Bridge, ...] = (),
+    xml_root: ET.Element | None = None,
 ) -> Arm:
     """Check that both engines see the same joints and tool, bridge, and build the Arm.
 
@@ -349,6 +350,7 @@ def _build(
         damping,
         lower,
         upper,  # type: ignore[arg-type]
+        xml_root=xml_root,
     )
     return Arm(
         mj,

@@ -25,7 +25,7 @@ from ..analysis.crosscheck import (
     crosscheck_batch,
 )
 from ..arm import Arm
-from ..errors import RedundancyError
+from ..checks import check_count, check_number
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
 from .sections import GravityBudget, JointSection, KeyframeRow, Sections
@@ -188,12 +188,6 @@ def _clean(x: Any) -> Any:
 
 
 # -- the audit ------------------------------------------------------------------------------------
-def _check_count(name: str, value: object, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise RedundancyError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def audit(
     arm: Arm,
     n_poses: int = 10_000,
@@ -218,12 +212,11 @@ def audit(
         progress: Called with a short label as each part starts.
 
     Raises:
-        RedundancyError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
+        ParameterError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
     """
-    n_poses = _check_count("n_poses", n_poses, 1)
-    seed = _check_count("seed", seed, 0)
-    if kd is not None and not (isinstance(kd, int | float) and math.isfinite(kd) and kd >= 0):
-        raise RedundancyError(f"kd must be a finite number >= 0 [N m s/rad], got {kd!r}")
+    n_poses = check_count("n_poses", n_poses, 1)
+    seed = check_count("seed", seed, 0)
+    kd = None if kd is None else check_number("kd", kd, 0.0, unit="N m s/rad")
     say = progress or (lambda label: None)
     if computed is None:
         computed = sections.compute(arm, n_poses, seed, kd, progress=say)
@@ -233,7 +226,7 @@ def audit(
         _joint_findings(computed.joints)
         + _simulation_findings(computed)
         + _keyframe_findings(arm, computed)
-        + _gravity_findings(arm, computed.gravity)
+        + _gravity_findings(arm, computed.gravity, computed.joints)
         + _engine_findings(engines)
     )
     return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
@@ -362,10 +355,18 @@ def _unheld(arm: Arm, k: KeyframeRow) -> list[Finding]:
     ]
 
 
-def _gravity_findings(arm: Arm, g: GravityBudget) -> list[Finding]:
+def _gravity_findings(arm: Arm, g: GravityBudget, j: JointSection) -> list[Finding]:
     out = []
     comp = " after gravity compensation" if g.gravcomp else ""
     for i, name in enumerate(arm.joint_names):
+        if not j.rows[i].actuated and g.peak[i] > 1e-9:
+            out.append(
+                Finding(
+                    "gravity",
+                    f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
+                    f"{g.peak[i]:.3g} N m: nothing in the model holds it",
+                )
+            )
         for count, (need, limit), side in (
             (g.over_low[i], g.worst_low[i], "negative"),
             (g.over_high[i], g.worst_high[i], "positive"),
