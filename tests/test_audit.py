@@ -496,3 +496,15 @@ def test_a_joint_without_actuator_that_gravity_loads_is_a_finding():
     _, found, msgs = run(xml)
     assert found == ["gravity"]
     assert msgs[0].startswith("joint 'b' has no actuator, and gravity loads it with up to")
+
+
+def test_a_servo_without_kv_gets_no_assumed_controller_damping():
+    # A position servo with kp only (kv 0): no controller writes a kd to ctrl, so the
+    # lesson's kd = 5 is not assumed; a torque motor on the other joints keeps it.
+    actuators = (
+        '<position joint="a" kp="300" ctrlrange="-2 2"/><motor joint="b" ctrlrange="-50 50"/>'
+        '<motor joint="c" ctrlrange="-50 50"/>'
+    )
+    arm = rd.load_string(arm_xml(actuators=actuators), site="tip")
+    assert [r.kd for r in sections.joints(arm).rows] == [0.0, 5.0, 5.0]
+    assert [r.kd for r in sections.joints(arm, kd=2.0).rows] == [2.0, 2.0, 2.0]

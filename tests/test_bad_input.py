@@ -331,6 +331,34 @@ def cases(tmp: str) -> dict[str, Case]:
             )
             + "$",
         ),
+        "compiler after worldbody": Case(
+            _load(chain().replace("</worldbody>", '</worldbody><compiler angle="radian"/>')),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "<compiler> after <worldbody> (<compiler>): Pinocchio's MJCF parser reads "
+                "the file in order and applies it only to what follows (MuJoCo applies it "
+                "everywhere); move <compiler> before <worldbody>"
+            )
+            + "$",
+        ),
+        "default after worldbody": Case(
+            _load(
+                chain().replace(
+                    "</worldbody>", '</worldbody><default><joint damping="1"/></default>'
+                )
+            ),
+            rd.UnsupportedFeatureError,
+            r"^unsupported feature: <default> after <worldbody> \(<default>\)",
+        ),
+        "second worldbody": Case(
+            _load(
+                chain().replace("</mujoco>", '<worldbody><geom size="0.1"/></worldbody></mujoco>')
+            ),
+            rd.UnsupportedFeatureError,
+            r"^unsupported feature: several <worldbody> elements \(2 in the model\): Pinocchio's "
+            r"MJCF parser reads the first one again for each of them; merge them into one$",
+        ),
         "joint named universe": Case(
             _load(chain(joints='<joint name="universe" axis="0 1 0"/>')),
             rd.UnsupportedFeatureError,

@@ -18,6 +18,7 @@ import os
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -29,6 +30,8 @@ import redundancy as rd
 ARM7 = rd.model_path("arm7").read_text()
 SRC = Path(rd.__file__).resolve().parent.parent
 EXAMPLES = 400 if settings().max_examples >= 1000 else 30
+#: Outcomes of the fuzz run, printed at the end (``pytest -s``).
+STATS: Counter[str] = Counter()
 
 #: The worker: reads one request per line (JSON: file path and site), loads the file, prints
 #: one ``RESULT <json>`` line. Anything else it prints (engine noise) is ignored.
@@ -261,6 +264,7 @@ def test_fuzzed_arm7(mutant: tuple[bytes, str], worker: Worker, tmp_path_factory
     path.write_bytes(data)
     result = worker.load(path)
     status = result["status"]
+    STATS[status if status != "loaded" else f"loaded, equivalent={result['equivalent']}"] += 1
     assert status in ("refused", "loaded"), f"{what}: {status}\n{result.get('message')}"
     if status == "refused":
         assert result["message"], what
@@ -286,3 +290,10 @@ def test_worker_reports_an_engine_abort(worker: Worker, tmp_path: Path) -> None:
 def test_unmutated_arm7_loads_and_agrees(worker: Worker) -> None:
     result = worker.load(rd.model_path("arm7"))
     assert result["status"] == "loaded" and result["equivalent"] and result["agree"]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _closing_note() -> object:
+    yield
+    if STATS:
+        print("\nfuzz outcomes: " + ", ".join(f"{k}: {n}" for k, n in sorted(STATS.items())))

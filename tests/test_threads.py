@@ -28,6 +28,8 @@ from redundancy.testing import poses
 from .models import SKEW7
 
 THREADS = 8
+#: Examples per threaded property: 5 under the default profile (60), 83 under "thorough".
+HAMMER_EXAMPLES = max(3, settings.default.max_examples // 12)
 
 
 def quantities(arm: rd.Arm, q: np.ndarray) -> list[np.ndarray]:
@@ -71,7 +73,7 @@ def same(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
     return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
-@settings(max_examples=5)
+@settings(max_examples=HAMMER_EXAMPLES)
 @given(data=st.data())
 def test_one_arm_from_eight_threads_equals_sequential(arm7, data):
     Q = data.draw(st.lists(poses(arm7), min_size=8, max_size=24))
@@ -80,7 +82,7 @@ def test_one_arm_from_eight_threads_equals_sequential(arm7, data):
         assert all(same(got[i], expected[i]) for i in range(len(Q)))
 
 
-@settings(max_examples=3)
+@settings(max_examples=max(3, HAMMER_EXAMPLES // 4))
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(300, 600))
 def test_batched_calls_from_threads_equal_sequential(arm7, seed, n):
     # Stacks long enough that threads=2 splits them (MIN_POSES_PER_THREAD = 256).

@@ -7,6 +7,7 @@ Arm itself only dispatches: every number comes from an engine of :mod:`redundanc
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -23,6 +24,7 @@ from .engines.pinocchio import PinocchioEngine
 from .errors import OutOfRangeError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
+_F64 = np.dtype(np.float64)
 
 __all__ = ["ENGINES", "Arm", "EngineName", "random_poses", "sampling_ranges"]
 
@@ -72,6 +74,8 @@ class Arm:
         self.bridges = tuple(bridges)
         self.mujoco = MujocoEngine(mj_model, site, armature, damping)
         self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names)
+        self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
+        self._shape = (self.nq,)
         self._recipe = recipe
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
@@ -115,6 +119,13 @@ class Arm:
             return self.pinocchio
         raise UnknownNameError("engine", str(name), ENGINES)
 
+    def _pose(self, q: ArrayLike) -> Array:
+        # check_pose's fast path, inlined (a float64 vector of the right length, finite).
+        if type(q) is np.ndarray and q.dtype is _F64 and q.shape == self._shape:
+            if math.isfinite(sum(q.tolist())):
+                return q
+        return check_pose(q, self.joint_names)
+
     def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
         """Validate a joint configuration and return it as a float64 array of shape (nq,).
 
@@ -127,7 +138,7 @@ class Arm:
             PoseError: Wrong shape or type, complex, NaN or infinite values.
             OutOfRangeError: A value outside its range (only with ``check_range``).
         """
-        arr = check_pose(q, self.joint_names)
+        arr = self._pose(q)
         if check_range:
             tol = check_number("tol", tol, 0.0, unit="rad or m")
             for i in range(self.nq):
@@ -143,11 +154,16 @@ class Arm:
     # -- quantities, from either engine -----------------------------------------------------
     def site_pose(self, q: ArrayLike, engine: EngineName = "mujoco") -> tuple[Array, Array]:
         """Tool site position [m] and rotation matrix, world frame."""
-        return self.engine(engine).site_pose(check_pose(q, self.joint_names))
+        return self.engine(engine).site_pose(self._pose(q))
 
     def jacobian(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
-        return self.engine(engine).site_jacobian(check_pose(q, self.joint_names))
+        # The hot path of a controller: the engine by dict lookup, the pose by the fast check.
+        try:
+            eng = self._engines[engine]
+        except (KeyError, TypeError):
+            eng = self.engine(engine)
+        return eng.site_jacobian(self._pose(q))
 
     def svd(
         self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL
@@ -173,7 +189,7 @@ class Arm:
 
     def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gradient d sqrt(det(J J^T)) / dq from second-order kinematics, shape (nq,)."""
-        q = check_pose(q, self.joint_names)
+        q = self._pose(q)
         eng = self.engine(engine)
         return linalg.manipulability_gradient(eng.site_jacobian(q), eng.jacobian_derivatives(q))
 
@@ -189,11 +205,11 @@ class Arm:
         self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco"
     ) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
-        return self.engine(engine).mass_matrix(check_pose(q, self.joint_names), armature)
+        return self.engine(engine).mass_matrix(self._pose(q), armature)
 
     def gravity(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gravity torque the motors must supply to hold ``q`` [N m or N]."""
-        return self.engine(engine).gravity(check_pose(q, self.joint_names))
+        return self.engine(engine).gravity(self._pose(q))
 
     def armature(self, engine: EngineName = "mujoco") -> Array:
         """Armature per joint as the engine's mass matrix sees it [kg m^2]."""

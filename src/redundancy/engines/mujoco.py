@@ -45,7 +45,19 @@ def object_names(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int | None = None
 class _Work:
     """One thread's ``MjData`` and output buffers, with the pose its kinematics are for."""
 
-    __slots__ = ("M", "data", "have_M", "jac", "jacp", "jacr", "key", "qpos", "qvel", "tau")
+    __slots__ = (
+        "M",
+        "data",
+        "have_J",
+        "have_M",
+        "jac",
+        "jacp",
+        "jacr",
+        "key",
+        "qpos",
+        "qvel",
+        "tau",
+    )
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.data = mujoco.MjData(model)
@@ -58,6 +70,7 @@ class _Work:
         self.tau = np.zeros(model.nv)
         self.key: list[float] | None = None  # the pose the kinematics stage holds
         self.have_M = False  # M is current for that pose
+        self.have_J = False  # jac is current for that pose
 
 
 class MujocoEngine:
@@ -126,7 +139,7 @@ class MujocoEngine:
             mujoco.mj_kinematics(self.model, w.data)
             mujoco.mj_comPos(self.model, w.data)
             w.key = key
-            w.have_M = False
+            w.have_M = w.have_J = False
         return w
 
     # -- one pose ---------------------------------------------------------------------------
@@ -139,7 +152,9 @@ class MujocoEngine:
     def site_jacobian(self, q: Array) -> Array:
         """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular [rad/rad], world axes."""
         w = self.update(q)
-        mujoco.mj_jacSite(self.model, w.data, w.jacp, w.jacr, self.site_id)
+        if not w.have_J:
+            mujoco.mj_jacSite(self.model, w.data, w.jacp, w.jacr, self.site_id)
+            w.have_J = True
         return w.jac.copy()
 
     def mass_matrix(self, q: Array, armature: bool = True) -> Array:
@@ -174,6 +189,7 @@ class MujocoEngine:
         d = w.data
         point = d.site_xpos[self.site_id].copy()
         out = np.zeros((self.nv, 6, self.nv))
+        w.have_J = False  # mj_jacDot writes into the Jacobian buffers below
         for k in range(self.nv):
             w.qvel[:] = 0.0
             w.qvel[k] = 1.0

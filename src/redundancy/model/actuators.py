@@ -222,6 +222,21 @@ def servo_damping(model: mujoco.MjModel) -> Array:
     return kv
 
 
+def servo_driven(model: mujoco.MjModel) -> NDArray[np.bool_]:
+    """Per dof, whether a servo drives it rather than a torque motor.
+
+    A servo's force feeds back position or velocity (an affine bias: position, velocity and
+    general servos); a motor's is its control times a gain.
+    """
+    driven = np.zeros(model.nv, dtype=bool)
+    for a, dof, _, _ in _joint_actuators(model):
+        if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE and np.any(
+            model.actuator_biasprm[a, 1:3] != 0
+        ):
+            driven[dof] = True
+    return driven
+
+
 # -- how MuJoCo steps the model ----------------------------------------------------------------
 _INTEGRATORS = {
     mujoco.mjtIntegrator.mjINT_EULER: "Euler",

@@ -244,8 +244,27 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
                 "Pinocchio's MJCF parser cannot compute it; "
                 "use a solid geom or an explicit <inertial>",
             )
+    tags = [child.tag for child in root]
+    if tags.count("worldbody") > 1:
+        raise UnsupportedFeatureError(
+            "several <worldbody> elements",
+            f"{tags.count('worldbody')} in the model",
+            "Pinocchio's MJCF parser reads the first one again for each of them; "
+            "merge them into one",
+        )
     if not strict:
         return
+    if "worldbody" in tags:
+        first_body = tags.index("worldbody")
+        for later in ("compiler", "default"):
+            if later in tags[first_body:]:
+                raise UnsupportedFeatureError(
+                    f"<{later}> after <worldbody>",
+                    f"<{later}>",
+                    "Pinocchio's MJCF parser reads the file in order and applies it only to "
+                    f"what follows (MuJoCo applies it everywhere); move <{later}> before "
+                    "<worldbody>",
+                )
     compiler = root.find("compiler")
     seq = compiler.get("eulerseq", "xyz") if compiler is not None else "xyz"
     if seq != seq.lower():

@@ -140,7 +140,8 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         arm: The arm.
         kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: the
             lesson's :data:`LESSON_KD` on joints driven by torque motors (or nothing), 0 on
-            servo-driven joints (their damping is the servo's ``kv``, read from the model).
+            servo-driven joints (their damping is the servo's ``kv`` and the joint's own,
+            read from the model).
         key: Reference keyframe (default: :func:`reference_keyframe`).
     """
     if key is None:
@@ -157,7 +158,8 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
     )
     b = arm.damping()
     kv = actuators.servo_damping(m)
-    kd_each = np.where(kv > 0, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
+    servo = actuators.servo_driven(m)
+    kd_each = np.where(servo, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
     split = actuators.damping_split(sim, b, kv, kd_each)
     h = actuators.max_stable_timestep(M, split)
     hb = actuators.max_stable_timestep(bare, split)
