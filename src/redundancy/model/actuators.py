@@ -9,7 +9,7 @@ computation).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -222,6 +222,22 @@ def servo_damping(model: mujoco.MjModel) -> Array:
     return kv
 
 
+def servo_stiffness(model: mujoco.MjModel) -> Array:
+    """Stiffness on each dof that every integrator treats explicitly [N m/rad].
+
+    A servo's position feedback (a position actuator's ``kp``, a general actuator's
+    ``biasprm[1]``: ``-gear^2 biasprm[1]`` at the joint) plus the joint's own ``stiffness``.
+    MuJoCo's implicit integrators take only velocity derivatives implicitly.
+    """
+    k = np.zeros(model.nv)
+    for a, dof, _, gear in _joint_actuators(model):
+        if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
+            k[dof] -= gear**2 * float(model.actuator_biasprm[a, 1])
+    for j in range(model.njnt):
+        k[model.jnt_dofadr[j]] += float(model.jnt_stiffness[j])
+    return k
+
+
 def servo_driven(model: mujoco.MjModel) -> NDArray[np.bool_]:
     """Per dof, whether a servo drives it rather than a torque motor.
 
@@ -298,7 +314,12 @@ class DampingSplit:
     """Per dof, the damping MuJoCo's integrator treats implicitly and explicitly [N m s/rad].
 
     One step multiplies a joint's speed by ``(I - h D_explicit) / (I + h D_implicit)`` (Euler
-    family), stable while ``h < 2 I / (D_explicit - D_implicit)``. RK4 treats the model's
+    family), stable while ``h < 2 I / (D_explicit - D_implicit)``. With an explicit stiffness
+    ``k`` (a servo's ``kp``) the step is an oscillator's, stable while
+    ``k h^2 + 2 h (D_explicit - D_implicit) < 4 I`` (Jury's test on its 2 x 2 step), which is
+    the stricter bound ``h < (sqrt(e^2 + 4 k I) - e) / k`` with ``e = D_explicit - D_implicit``:
+    a stiff servo on a light joint needs a small step even when all damping is implicit.
+    RK4 treats the model's
     damping explicitly, stable while ``h < 2.785 I / D``; a kd written to ``ctrl`` is held
     constant over the step (an Euler term), so with one the bound takes Euler's 2, which is
     conservative for the mix (at ``h D / I = 2`` the RK4 step's multiplier stays in [-1, 1]).
@@ -309,16 +330,23 @@ class DampingSplit:
         factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a
             joint without a ``ctrl``-written kd :data:`RK4_STABILITY`.
         note: Why, in one sentence.
+        stiffness: Explicit stiffness per dof (0 under RK4, whose bound here is damping's
+            alone) [N m/rad].
     """
 
     implicit: Array
     explicit: Array
     factor: Array
     note: str
+    stiffness: Array | None = None
 
 
 def damping_split(
-    sim: Simulation, joint_damping: ArrayLike, servo: ArrayLike, kd: ArrayLike
+    sim: Simulation,
+    joint_damping: ArrayLike,
+    servo: ArrayLike,
+    kd: ArrayLike,
+    stiffness: ArrayLike = 0.0,
 ) -> DampingSplit:
     """Which damping the integrator treats implicitly, for the bound on the timestep.
 
@@ -333,7 +361,16 @@ def damping_split(
         joint_damping: Joint plus actuator damping per dof, b [N m s/rad].
         servo: Servo velocity feedback per dof, kv (:func:`servo_damping`) [N m s/rad].
         kd: Controller damping written to ``ctrl`` per dof [N m s/rad].
+        stiffness: Explicit stiffness per dof (:func:`servo_stiffness`) [N m/rad].
     """
+    split = _split(sim, joint_damping, servo, kd)
+    k = np.broadcast_to(np.asarray(stiffness, dtype=float), split.implicit.shape)
+    return replace(split, stiffness=np.zeros_like(k) if sim.integrator == "RK4" else k.copy())
+
+
+def _split(
+    sim: Simulation, joint_damping: ArrayLike, servo: ArrayLike, kd: ArrayLike
+) -> DampingSplit:
     b, kv, kd = (np.asarray(x, dtype=float) for x in np.broadcast_arrays(joint_damping, servo, kd))
     zero, two = np.zeros_like(b), np.full_like(b, 2.0)
     if sim.integrator in ("implicit", "implicitfast"):
@@ -376,4 +413,12 @@ def max_stable_timestep(inertia: ArrayLike, split: DampingSplit) -> Array:
         split: The damping split (:func:`damping_split`).
     """
     bound = inertia_bound(inertia, split.explicit, split.implicit)  # 2 I / (D_e - D_i)
-    return bound * (split.factor / 2.0)
+    bound = bound * (split.factor / 2.0)
+    if split.stiffness is None or not np.any(split.stiffness > 0):
+        return bound
+    k = split.stiffness
+    e = split.explicit - split.implicit
+    inertia = np.asarray(inertia, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        oscillator = (np.sqrt(e * e + 4.0 * k * inertia) - e) / np.where(k > 0, k, 1.0)
+    return np.where(k > 0, oscillator, bound)

@@ -284,8 +284,9 @@ def _joint_findings(j: JointSection) -> list[Finding]:
                     "timestep",
                     f"timestep {h * 1e3:.3g} ms is above joint {r.name!r}'s h_max "
                     f"{r.h_max * 1e3:.3g} ms (M_ii {r.m_ii:.4g} kg m^2, explicit damping "
-                    f"{r.explicit:g}, implicit {r.implicit:g} N m s/rad; {j.note}): the "
-                    "joint's speed will grow step by step",
+                    f"{r.explicit:g}, implicit {r.implicit:g} N m s/rad"
+                    + (f", explicit stiffness {r.stiffness:g} N m/rad" if r.stiffness else "")
+                    + f"; {j.note}): the joint's speed will grow step by step",
                 )
             )
     if h <= 0:
@@ -419,6 +420,7 @@ def format_report(r: AuditReport) -> list[str]:
                 "share",
                 "b",
                 "kv",
+                "kp",
                 "kd",
                 "effort N m",
                 "M_ii",
@@ -434,6 +436,7 @@ def format_report(r: AuditReport) -> list[str]:
                     f"{100 * x.armature_share:.1f}%",
                     fmt(x.damping, 3),
                     fmt(x.servo_kv, 3),
+                    fmt(x.stiffness, 3),
                     fmt(x.kd, 3),
                     f"[{fmt(x.effort_lower, 3)}, {fmt(x.effort_upper, 3)}]"
                     if x.actuated
@@ -444,7 +447,7 @@ def format_report(r: AuditReport) -> list[str]:
                 ]
                 for x in j.rows
             ],
-            "llrrrrrrrrrr",
+            "llrrrrrrrrrrr",
         ),
     ]
     out += ["", "keyframes (site Jacobian; torque the actuators must give to hold it):"]

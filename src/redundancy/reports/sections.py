@@ -70,6 +70,7 @@ class JointRow:
         armature: Armature as M sees it [kg m^2].
         damping: Joint plus actuator damping b [N m s/rad].
         servo_kv: A servo's velocity feedback on the joint [N m s/rad].
+        stiffness: Explicit stiffness, a servo's kp plus the joint's own [N m/rad].
         kd: Controller damping written to ctrl that the bound assumes [N m s/rad].
         effort_lower: Most negative torque the actuators give at the reference pose [N m].
         effort_upper: Most positive torque [N m].
@@ -90,6 +91,7 @@ class JointRow:
     armature: float
     damping: float
     servo_kv: float
+    stiffness: float
     kd: float
     effort_lower: float
     effort_upper: float
@@ -160,7 +162,8 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
     kv = actuators.servo_damping(m)
     servo = actuators.servo_driven(m)
     kd_each = np.where(servo, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
-    split = actuators.damping_split(sim, b, kv, kd_each)
+    stiffness = actuators.servo_stiffness(m)
+    split = actuators.damping_split(sim, b, kv, kd_each, stiffness)
     h = actuators.max_stable_timestep(M, split)
     hb = actuators.max_stable_timestep(bare, split)
     effort = actuators.effort_range(m, q)
@@ -175,6 +178,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
             float(arma[i]),
             float(b[i]),
             float(kv[i]),
+            float(stiffness[i]),
             float(kd_each[i]),
             float(effort.lower[i]),
             float(effort.upper[i]),
