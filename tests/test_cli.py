@@ -53,6 +53,8 @@ def test_json_paths_are_checked_before_any_work(tmp_path, capsys, no_work):
         str(tmp_path / "missing" / "r.json"): "does not exist",
         "/dev/null": "is a device: reports are written to regular files only",
         str(fifo): "is a FIFO: reports are written to regular files only",
+        # A regular file in a directory where no file can be created (procfs).
+        "/proc/version": "cannot create files in directory '/proc'",
     }
     dangling = tmp_path / "dangling.json"
     dangling.symlink_to(tmp_path / "nowhere.json")
@@ -166,3 +168,18 @@ def test_lenient_audits_what_strict_refuses(tmp_path, capsys):
         assert lenient in (0, 1)
     else:  # the library bridges it: both modes agree
         assert strict == lenient
+
+
+def test_json_never_replaces_the_model_file(tmp_path, capsys, no_work):
+    model = tmp_path / "arm.xml"
+    model.write_text("<mujoco/>")
+    link = tmp_path / "link.json"
+    link.symlink_to(model)
+    for target in (model, link):
+        assert main(["audit", str(model), "--json", str(target)]) == 2
+        err = capsys.readouterr().err
+        assert err == (
+            f"redundancy: error: --json {str(target)!r} is the model file {str(model)!r}: "
+            "not replaced\n"
+        )
+    assert model.read_text() == "<mujoco/>"
