@@ -592,8 +592,8 @@ def test_failed_epa_is_redone(monkeypatch: pytest.MonkeyPatch) -> None:
     np.testing.assert_array_equal(np.delete(redone.values, k), np.delete(good.values, k))
     monkeypatch.setattr(coal, "distance", lambda *a: -np.finfo(float).max)
     m = arm.mj_model
-    bound = -(m.geom_rbound[ch.pairs[k].geom1] + m.geom_rbound[ch.pairs[k].geom2])
-    assert ch.distance_values(q)[k] == pytest.approx(bound)
+    radius = [col.shapes.bounding_radius(m, g) for g in (ch.pairs[k].geom1, ch.pairs[k].geom2)]
+    assert ch.distance_values(q)[k] == pytest.approx(-sum(radius))
 
 
 # ==========================================================================================
@@ -666,13 +666,15 @@ def test_statistics_on_given_poses_and_without_distances(arm7: rd.Arm) -> None:
     assert stats.of("link4", "link2").poses == 1
 
 
+@pytest.mark.parametrize("prune", [True, False])
 def test_statistics_cross_check_catches_a_wrong_engine(
-    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch, prune: bool
 ) -> None:
-    scene = col.checker(arm7)._coal  # the coal side, as the sweep calls it
-    right = scene.distance_values
+    scene = col.checker(arm7).coal_scene()  # the coal side, as the sweep calls it
+    right, right_placed = scene.distance_values, scene.placed_values
     monkeypatch.setattr(scene, "distance_values", lambda q: right(q) + 0.01)
-    stats = col.collision_statistics(arm7, 300, seed=1)
+    monkeypatch.setattr(scene, "placed_values", lambda which: right_placed(which) + 0.01)
+    stats = col.collision_statistics(arm7, 300, seed=1, prune=prune)
     assert stats.poses_with_contact > 0
     assert stats.disagreements > 0
 

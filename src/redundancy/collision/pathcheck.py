@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import PoseError, UnknownNameError, UnsupportedFeatureError
 from .checker import CollisionChecker, checker
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair
+from .shapes import bounding_radius
 
 if TYPE_CHECKING:
     from ..arm import Arm
@@ -73,26 +74,6 @@ def _joint_chain(model: mujoco.MjModel, body: int) -> list[int]:
         chain[:0] = list(range(adr, adr + num))
         b = int(model.body_parentid[b])
     return chain
-
-
-def _bounding_radius(model: mujoco.MjModel, geom: int) -> float:
-    """Radius of a sphere about the geom's centre that contains the geom [m]."""
-    t = int(model.geom_type[geom])
-    s = model.geom_size[geom]
-    G = mujoco.mjtGeom
-    if t == G.mjGEOM_SPHERE:
-        return float(s[0])
-    if t == G.mjGEOM_CAPSULE:
-        return float(s[0] + s[1])
-    if t == G.mjGEOM_CYLINDER:
-        return float(np.hypot(s[0], s[1]))
-    if t == G.mjGEOM_BOX:
-        return float(np.linalg.norm(s[:3]))
-    if t == G.mjGEOM_ELLIPSOID:
-        return float(np.max(s[:3]))
-    if t == G.mjGEOM_PLANE:
-        return float("inf")
-    return float(model.geom_rbound[geom])
 
 
 def _travel(model: mujoco.MjModel, j: int) -> float:
@@ -123,7 +104,7 @@ def reach_bounds(model: mujoco.MjModel, geom: int) -> dict[int, float]:
     chain = _joint_chain(model, int(model.geom_bodyid[geom]))
     out: dict[int, float] = {}
     centre = data.geom_xpos[geom]
-    tail = _bounding_radius(model, geom)
+    tail = bounding_radius(model, geom)
     reach_prev = 0.0
     for i in range(len(chain) - 1, -1, -1):
         j = chain[i]
