@@ -245,7 +245,7 @@ class _Sweep:
         self.closest_at = np.full(npair, -1)
         self.with_contact = 0
         self.disagree = 0
-        self.done = 0  # poses swept so far
+        self.done = 0  # poses swept before this chunk
         # A pair below this can touch or sit in the ambiguity band: never skipped.
         self.floor = np.maximum(self.thr + AMBIGUITY_BAND, 0.0)
         model = ch.arm.mj_model
@@ -256,13 +256,6 @@ class _Sweep:
         self.c2 = np.array([col[p.geom2] for p in pairs], dtype=int)
         radius = np.array([bounding_radius(model, g) for g in used])
         self.rsum = radius[self.c1] + radius[self.c2] + PRUNE_SLACK if npair else np.zeros(0)
-
-    def place(self, q: Array) -> None:
-        assert self.scene is not None
-        if isinstance(self.scene, MujocoScene):
-            self.scene.kinematics(q)
-        else:
-            self.scene.place(q)
 
     def run(self, Q: Array) -> None:
         """Sweep one chunk of poses."""
@@ -278,48 +271,60 @@ class _Sweep:
                 listed[i, idx] = True
         self.pose_hits += listed.sum(axis=0)
         if self.scene is not None and npair:
-            if self.prune:
-                bound = np.linalg.norm(X[:, self.c1] - X[:, self.c2], axis=2) - self.rsum
-                self._seed(Q, bound)
-            for i, q in enumerate(Q):
-                if self.prune:
-                    ceiling = np.maximum(self.closest, self.floor)
-                    which = np.flatnonzero((bound[i] <= ceiling) | listed[i])
-                    if not len(which):
-                        continue
-                    self.place(q)
-                    d = self.scene.placed_values(which)
-                else:
-                    which = np.arange(npair)
-                    d = self.scene.distance_values(q)
-                self._update(self.done + i, which, d, listed[i, which])
+            D = self._measure(Q, X, listed) if self.prune else self._measure_all(Q)
+            self._fold(D, listed)
         self.done += len(Q)
 
-    def _seed(self, Q: Array, bound: Array) -> None:
-        """Measure each pair at the pose of its smallest bound in the chunk (see above)."""
+    def _measure_all(self, Q: Array) -> Array:
+        """Every pair's distance at every pose of the chunk."""
+        assert self.scene is not None
+        return np.array([self.scene.distance_values(q) for q in Q]).reshape(len(Q), -1)
+
+    def _measure(self, Q: Array, X: Array, listed: NDArray[np.bool_]) -> Array:
+        """The distances that can matter; ``inf`` where a pair is skipped (see above)."""
+        scene = self.scene
+        assert scene is not None
+        D = np.full(listed.shape, np.inf)
+        bound = np.linalg.norm(X[:, self.c1] - X[:, self.c2], axis=2) - self.rsum
+        # Seed: each pair at the pose of its smallest bound, unless even that bound rules the
+        # pair out for the whole chunk.
+        cols = np.arange(listed.shape[1])
         at = np.argmin(bound, axis=0)
-        worth = bound[at, np.arange(len(at))] <= np.maximum(self.closest, self.floor)
+        worth = bound[at, cols] <= np.maximum(self.closest, self.floor)
         for i in np.unique(at[worth]):
             which = np.flatnonzero(worth & (at == i))
-            self.place(Q[i])
-            d = self.scene.placed_values(which)  # type: ignore[union-attr]
-            better = d < self.closest[which]
-            self.closest[which[better]] = d[better]
-            self.closest_at[which[better]] = self.done + i
+            self._place(Q[i])
+            D[i, which] = scene.placed_values(which)
+        # The chunk's smallest distance per pair is at most the seed's: a pair whose bound
+        # exceeds that (and its threshold, and zero) at a pose cannot matter there.
+        ceiling = np.maximum(np.minimum(self.closest, D.min(axis=0)), self.floor)
+        todo = ((bound <= ceiling) | listed) & np.isinf(D)
+        for i in np.flatnonzero(todo.any(axis=1)):
+            which = np.flatnonzero(todo[i])
+            self._place(Q[i])
+            D[i, which] = scene.placed_values(which)
+        return D
 
-    def _update(self, i: int, which: NDArray[np.int_], d: Array, listed: NDArray[np.bool_]) -> None:
-        """Fold pose ``i``'s distances of the pairs ``which`` into the counts."""
-        old, at = self.closest[which], self.closest_at[which]
-        # The first pose reaching the smallest distance wins, as in a plain sequential loop
-        # (a seeded value may come from a later pose of the chunk).
-        better = (d < old) | ((d == old) & (i < at))
-        self.closest[which[better]] = d[better]
-        self.closest_at[which[better]] = i
-        # Cross-check: the engine's touching pairs against MuJoCo's contact pairs.
-        thr = self.thr[which]
-        fuzzy = np.abs(d - thr) < AMBIGUITY_BAND
-        if (((d < thr) != listed) & ~fuzzy).any():
-            self.disagree += 1
+    def _place(self, q: Array) -> None:
+        if isinstance(self.scene, MujocoScene):
+            self.scene.kinematics(q)
+        elif self.scene is not None:
+            self.scene.place(q)
+
+    def _fold(self, D: Array, listed: NDArray[np.bool_]) -> None:
+        """Fold a chunk's distances (``inf`` where skipped) into the running results."""
+        # Closest approach: the first pose reaching the smallest distance, as a sequential
+        # loop with a strict comparison finds it (NaN never wins).
+        finite = np.where(np.isnan(D), np.inf, D)
+        at = np.argmin(finite, axis=0)
+        low = finite[at, np.arange(D.shape[1])]
+        better = low < self.closest
+        self.closest[better] = low[better]
+        self.closest_at[better] = self.done + at[better]
+        # Cross-check: the engine's touching pairs against MuJoCo's contact pairs. A skipped
+        # pair is neither touching nor listed nor in the band, as its real distance.
+        fuzzy = np.abs(D - self.thr) < AMBIGUITY_BAND
+        self.disagree += int((((D < self.thr) != listed) & ~fuzzy).any(axis=1).sum())
 
 
 def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[KeyframeClearance, ...]:
