@@ -78,21 +78,20 @@ def cases(tmp: str) -> dict[str, Case]:
         "empty text": Case(
             _load(""), rd.ModelError, r"^not well-formed XML: no element found: line 1, column 0$"
         ),
-        "bytes, not str": Case(
-            _load(b"<mujoco/>"), rd.ModelError, r"^MJCF text must be a str, got bytes$"
+        "bytes, decoded as XML says": Case(
+            _load(b"<mujoco/>"), rd.UnsupportedFeatureError, "^" + UF + "no joints"
         ),
         "None, not str": Case(
-            _load(None), rd.ModelError, r"^MJCF text must be a str, got NoneType$"
+            _load(None), rd.ModelError, r"^model text must be a str or bytes, got NoneType$"
         ),
-        "URDF": Case(
+        "URDF without joints": Case(
             _load('<robot name="r"><link name="a"/></robot>'),
             rd.UnsupportedFeatureError,
             "^"
             + re.escape(
-                UF + "<robot> root element (model): the library reads MJCF, "
-                "whose root element is <mujoco>"
-            )
-            + ".*mj_saveLastXML",
+                UF + "no joints (<string>): an arm needs at least one revolute, continuous or "
+                "prismatic joint"
+            ),
         ),
         "arm7 cut in half": Case(
             _load(ARM7_TEXT[: len(ARM7_TEXT) // 2], site="ee"),
@@ -119,7 +118,7 @@ def cases(tmp: str) -> dict[str, Case]:
         "a directory": Case(
             lambda: rd.load(tmp),
             rd.ModelError,
-            "^" + re.escape(f"MJCF file not found: {tmp!r}") + "$",
+            "^" + re.escape(f"model path is a directory, not a file: {tmp!r}") + "$",
         ),
         "missing mesh file": Case(
             _load(

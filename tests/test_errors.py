@@ -68,7 +68,7 @@ def test_out_of_range_pose_when_range_matters():
 
 
 def test_missing_file():
-    with pytest.raises(rd.ModelError, match=r"^MJCF file not found: '/nonexistent/arm.xml'$"):
+    with pytest.raises(rd.ModelError, match=r"^model file not found: '/nonexistent/arm.xml'$"):
         rd.load("/nonexistent/arm.xml")
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 from . import collision
 from .analysis import batch, selfmotion
 from .analysis.batch import crosscheck_batch
+from .analysis.compare import Comparison, compare
 from .analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
 from .arm import Arm
 from .collision import (
@@ -45,6 +46,7 @@ __all__ = [
     "Arm",
     "Bridge",
     "CollisionChecker",
+    "Comparison",
     "CrossCheckReport",
     "Difference",
     "EquivalenceReport",
@@ -63,6 +65,7 @@ __all__ = [
     "collision",
     "collision_pairs",
     "collision_statistics",
+    "compare",
     "compare_models",
     "crosscheck",
     "crosscheck_batch",

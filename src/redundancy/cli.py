@@ -1,38 +1,107 @@
-"""Command line: ``redundancy audit [MODEL.xml]``, ``redundancy lesson`` and ``redundancy lab``.
+"""Command line: ``redundancy audit [MODEL]``, ``lesson``, ``lab`` and ``compare A B``.
 
-Heavy imports (the engines) happen inside the subcommands, so ``--help`` is instant.
+Every argument is checked before any work; heavy imports (the engines) happen inside the
+subcommands, so ``--help`` is instant.
+
+Exit status:
+    0: done, no findings; 1: the audit has findings; 2: bad input (an argument, the model
+    file, a name), with one line on stderr; 3: an internal error (a bug: please report it),
+    with one line on stderr; 130: interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import NoReturn
+
+OK, FINDINGS, BAD_INPUT, INTERNAL_ERROR, INTERRUPTED = 0, 1, 2, 3, 130
+
+
+class _BadInput(Exception):
+    """An argument that fails its check (one line for stderr)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block) and exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _BadInput(f"{self.prog}: error: {message}")
+
+
+def _count(minimum: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        return value
+
+    return parse
+
+
+def _gain(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="redundancy",
         description="Audit a redundant arm with MuJoCo and Pinocchio, cross-checked.",
+        epilog="exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error",
     )
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     a = sub.add_parser(
-        "audit", help="audit an MJCF arm (default: the bundled arm7, with lesson 5.2's tables)"
+        "audit",
+        help="audit an MJCF arm (default: the bundled arm7, with lesson 5.2's tables)",
+        epilog="exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error",
     )
     a.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
     a.add_argument("--site", default="ee", help="tool site name (default: ee)")
     a.add_argument(
-        "--poses", type=int, default=10_000, help="random poses for the sweeps (default: 10000)"
+        "--poses",
+        type=_count(1),
+        default=10_000,
+        help="random poses for the sweeps, >= 1 (default: 10000)",
     )
-    a.add_argument("--seed", type=int, default=0, help="seed of the random poses (default: 0)")
     a.add_argument(
-        "--json", metavar="FILE", help="also write a machine-readable report ('-' for stdout)"
+        "--seed", type=_count(0), default=0, help="seed of the random poses, >= 0 (default: 0)"
+    )
+    a.add_argument(
+        "--kd",
+        type=_gain,
+        default=None,
+        help="explicit controller damping written to ctrl at which to judge the timestep "
+        "[N m s/rad] (default: 5 on motor-driven joints, the servo's own kv on servo-driven "
+        "ones)",
+    )
+    a.add_argument(
+        "--lenient",
+        action="store_true",
+        help="load with strict=False: audit a model the library would refuse, each "
+        "difference between the engines' models a finding",
+    )
+    a.add_argument(
+        "--json",
+        metavar="FILE",
+        help="also write the report as JSON to a regular file (a symbolic link is followed "
+        "to the file it names); '-' prints only the JSON on stdout, tables on stderr",
     )
     a.add_argument("--no-lesson", action="store_true", help="skip lesson 5.2's tables for arm7")
     les = sub.add_parser("lesson", help="print lesson 5.2's six tables for arm7")
     les.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
     les.add_argument(
-        "--poses", type=int, default=10_000, help="random poses for tables (3) and (4)"
+        "--poses", type=_count(1), default=10_000, help="random poses for tables (3) and (4)"
     )
     lab = sub.add_parser(
         "lab", help="serve lesson 5.2's interactive arm as a local web page (redundancy[lab])"
@@ -45,42 +114,131 @@ def _parser() -> argparse.ArgumentParser:
     lab.add_argument(
         "--port", type=int, default=8080, help="TCP port (default: 8080; if taken, the next free)"
     )
+    cmp = sub.add_parser(
+        "compare",
+        help="compare two descriptions of one robot (MJCF or URDF), structurally and pose by pose",
+        epilog="exit status: 0 the same robot, 1 differences, 2 bad input, 3 internal error",
+    )
+    cmp.add_argument("a", help="first model file (MJCF or URDF)")
+    cmp.add_argument("b", help="second model file (MJCF or URDF)")
+    cmp.add_argument("--frame-a", default="ee", help="A's tool site or link (default: ee)")
+    cmp.add_argument("--frame-b", default="ee", help="B's tool site or link (default: ee)")
+    cmp.add_argument(
+        "--joint-map", metavar="FILE", help="A's joint names -> B's (JSON object, or lines 'a b')"
+    )
+    cmp.add_argument(
+        "--json", metavar="FILE", help="also write the comparison as JSON ('-': only JSON)"
+    )
+    cmp.add_argument("--poses", type=_count(0), default=200, help="random poses (default: 200)")
+    cmp.add_argument("--seed", type=_count(0), default=0, help="seed of the poses (default: 0)")
+    cmp.add_argument("--tol", type=float, default=1e-9, help="tolerance (default: 1e-9)")
     return p
+
+
+def _check_files(args: argparse.Namespace) -> None:
+    """Paths: the model must be a file; the JSON target must obey reports.files' rules."""
+    from pathlib import Path
+
+    if getattr(args, "model", None) is not None and not Path(args.model).is_file():
+        raise _BadInput(f"MJCF file not found: {args.model!r}")
+    if getattr(args, "json", None) not in (None, "-"):
+        from .reports.files import check_target
+
+        check_target(args.json)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``redundancy`` command.
 
     Returns:
-        0 on success, 1 when the audit has findings, 2 on bad input.
+        0 no findings, 1 findings, 2 bad input, 3 internal error (see the module docstring).
     """
-    args = _parser().parse_args(argv)
+    try:
+        args = _parser().parse_args(argv)
+    except _BadInput as err:
+        print(f"{err}", file=sys.stderr)
+        return BAD_INPUT
+    except SystemExit as exit_:  # --help
+        return int(exit_.code or 0)
     from .errors import RedundancyError
 
     try:
-        if args.command == "lesson":
-            from .model.loading import load
-            from .models import model_path
-            from .reports import lesson
-
-            arm = load(args.model or model_path("arm7"), site="ee")
-            lesson.print_tables(arm, n_poses=args.poses)
-            return 0
-        if args.command == "lab":
-            from .model.loading import load
-            from .models import model_path
-
-            arm = load(args.model or model_path("arm7"), site=args.site)
-            from .lab import page  # MissingDependencyError without the `lab` extra
-
-            page.serve(arm, host=args.host, port=args.port)
-            return 0
-        from .reports.audit import run_audit
-
-        return run_audit(args)
-    except RedundancyError as err:
+        _check_files(args)
+        return _run(args)
+    except (_BadInput, RedundancyError) as err:
         print(f"redundancy: error: {err}", file=sys.stderr)
-        return 2
+        return BAD_INPUT
+    except KeyboardInterrupt:
+        print("redundancy: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except Exception as err:  # a bug, not the user's input: one line, and the status says so
+        print(
+            f"redundancy: internal error: {type(err).__name__}: {err} (please report it)",
+            file=sys.stderr,
+        )
+        return INTERNAL_ERROR
+
+
+def _run(args: argparse.Namespace) -> int:
+    from .model.loading import load
+    from .models import model_path
+
+    if args.command == "lesson":
+        from .reports import lesson
+
+        arm = load(args.model or model_path("arm7"), site="ee")
+        lesson.print_tables(arm, n_poses=args.poses)
+        return OK
+    if args.command == "lab":
+        arm = load(args.model or model_path("arm7"), site=args.site)
+        from .lab import page  # MissingDependencyError without the `lab` extra
+
+        page.serve(arm, host=args.host, port=args.port)
+        return OK
+    if args.command == "compare":
+        from .analysis.compare import run_compare
+        from .reports.files import write_atomic
+
+        return run_compare(args, write_atomic)
+    return _audit(args)
+
+
+def _audit(args: argparse.Namespace) -> int:
+    """The ``audit`` subcommand; 1 when there are findings."""
+    from .model.loading import load
+    from .models import model_path
+    from .reports import sections
+    from .reports.audit import audit, format_report
+    from .reports.files import write_atomic
+
+    to_stdout = args.json == "-"
+    # With --json - stdout carries the JSON document alone; every table goes to stderr.
+    stream = sys.stderr if to_stdout else sys.stdout
+
+    def say(line: str = "") -> None:
+        print(line, file=stream, flush=True)
+
+    arm = load(args.model or model_path("arm7"), site=args.site, strict=not args.lenient)
+    computed = sections.compute(arm, args.poses, args.seed, args.kd)
+    if args.model is None and not args.no_lesson:
+        from .reports.lesson import print_tables
+
+        say("lesson 5.2's tables for arm7")
+        # Tables (1) to (4) format the audit's own sections (computed once, seed 0 and 1
+        # being the lesson's samples when --seed is 0); (5) and (6) simulate.
+        shared = computed if args.seed == 0 and args.kd in (None, 5.0) else None
+        print_tables(arm, n_poses=args.poses, out=say, computed=shared)
+        say()
+    report = audit(
+        arm, args.poses, args.seed, args.kd, computed, "lenient" if args.lenient else "strict"
+    )
+    for line in format_report(report):
+        say(line)
+    if to_stdout:
+        print(report.to_json(), flush=True)
+    elif args.json:
+        write_atomic(args.json, report.to_json() + "\n")
+    return report.exit_code
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -328,7 +328,7 @@ def _pin_jacobians(arm: Arm, Q: Array) -> Array:
     data = ws.take_pin()
     try:
         for i, q in enumerate(_pin_order(arm, Q)):
-            out[i] = cfj(model, data, q, fid, _LWA)
+            out[i] = cfj(model, data, q, fid, _LWA).reshape(6, -1)  # (6,) with one joint
     finally:
         ws.give_pin(data)
     return out if _identity(arm) else out[:, :, pe.perm]

@@ -1,24 +1,166 @@
-"""What a model's actuators add to each joint: effort limits, reflected armature and damping.
+"""What a model's actuators and simulation settings do to each joint.
 
-Read from MuJoCo's compiled model (arrays only; no engine computation).
+Effort per direction (``ctrlrange`` x gain x gear, ``forcerange``, the joint's
+``actuatorfrcrange``, whichever binds), reflected armature and damping, a servo's own
+damping (position ``kv``, velocity actuators, general bias terms), and which damping MuJoCo's
+integrator treats implicitly. Read from MuJoCo's compiled model (arrays only; no engine
+computation).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from ..engines.mujoco import object_names
+from ..inertia import max_stable_timestep as inertia_bound
 
 Array = NDArray[np.float64]
 
+#: Largest stable h D / I of the classical RK4 on a damped joint (the real-axis end of its
+#: stability region, 2.7853); Euler's is 2.
+RK4_STABILITY = 2.785293563405282
+
+
+def _joint_actuators(model: mujoco.MjModel) -> list[tuple[int, int, int, float]]:
+    """(actuator, dof, qpos address, gear) for every actuator with a joint transmission."""
+    out = []
+    for a in range(model.nu):
+        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
+            j = model.actuator_trnid[a, 0]
+            out.append(
+                (
+                    a,
+                    int(model.jnt_dofadr[j]),
+                    int(model.jnt_qposadr[j]),
+                    float(model.actuator_gear[a, 0]),
+                )
+            )
+    return out
+
+
+def _input_range(model: mujoco.MjModel, a: int) -> tuple[float, float]:
+    """Range of the signal that multiplies an actuator's gain: ctrl, or act where it has one."""
+    clamp = not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL
+    lo, hi = (
+        (float(model.actuator_ctrlrange[a, 0]), float(model.actuator_ctrlrange[a, 1]))
+        if model.actuator_ctrllimited[a] and clamp
+        else (-np.inf, np.inf)
+    )
+    dyn = int(model.actuator_dyntype[a])
+    if dyn == int(mujoco.mjtDyn.mjDYN_NONE):
+        return lo, hi
+    if dyn not in (int(mujoco.mjtDyn.mjDYN_FILTER), int(mujoco.mjtDyn.mjDYN_FILTEREXACT)):
+        lo, hi = -np.inf, np.inf  # integrator, muscle, user: bounded by actrange alone
+    # A filter's act relaxes towards ctrl: at rest it equals ctrl.
+    if model.actuator_actlimited[a]:
+        lo = max(lo, float(model.actuator_actrange[a, 0]))
+        hi = min(hi, float(model.actuator_actrange[a, 1]))
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class EffortRange:
+    """The torque a dof's actuators can apply while the arm is held still, per direction.
+
+    Arrays have shape (nv,) for one pose or (n, nv) for a stack: a servo's bias
+    (``kp (ctrl - q)``) makes its range depend on the pose.
+
+    Attributes:
+        lower: Most negative torque the actuators can apply [N m or N] (``-inf``: unlimited).
+        upper: Most positive torque [N m or N] (``inf``: unlimited).
+        actuated: Per dof, whether any actuator transmits to it, shape (nv,).
+    """
+
+    lower: Array
+    upper: Array
+    actuated: NDArray[np.bool_]
+
+
+def effort_range(
+    model: mujoco.MjModel, q: ArrayLike | None = None, routed: ArrayLike | None = None
+) -> EffortRange:
+    """Torque range per dof that the actuators can apply while the arm is held still at ``q``.
+
+    For each actuator with a joint transmission (gear ``g``, length ``L = g q``, velocity 0):
+    force ``= gain(L) u + bias(L)`` for ``u`` in its input range (``ctrlrange``, or
+    ``actrange`` for stateful actuators; none under ``clampctrl`` disabled), with fixed or
+    affine gain and bias (a position servo gives ``kp u - kp L``); clamped to ``forcerange``
+    when force-limited; times ``g`` at the joint. Whichever of ``ctrlrange`` and
+    ``forcerange`` binds, binds. Several actuators on one dof add up, plus ``routed`` (gravity
+    compensation sent through the actuators by ``actuatorgravcomp``), and the joint's
+    ``actuatorfrcrange`` clamps the sum. A dof without an actuator gets ``(-inf, inf)`` and
+    ``actuated`` False. Muscle and user gains or biases count as unlimited.
+
+    Args:
+        model: Compiled MuJoCo model.
+        q: Joint positions, shape (nq,) or (n, nq) [rad or m]; default ``qpos0``.
+        routed: Torque added to the actuators' sum before the joint's clamp, shaped like the
+            result [N m or N].
+
+    Returns:
+        The ranges, shaped like ``q`` with nv columns [N m for hinges, N for slides].
+    """
+    Q = np.asarray(model.qpos0 if q is None else q, dtype=float)
+    stack = Q.reshape(-1, model.nq)
+    n, nv = len(stack), model.nv
+    lo, hi = np.zeros((n, nv)), np.zeros((n, nv))
+    actuated = np.zeros(nv, dtype=bool)
+    for a, dof, qadr, gear in _joint_actuators(model):
+        actuated[dof] = True
+        length = gear * stack[:, qadr]
+        gain = _affine(
+            int(model.actuator_gaintype[a]), model.actuator_gainprm[a], length, gain=True
+        )
+        bias = _affine(
+            int(model.actuator_biastype[a]), model.actuator_biasprm[a], length, gain=False
+        )
+        u0, u1 = _input_range(model, a)
+        with np.errstate(invalid="ignore"):  # 0 x inf: a zero gain gives the bias alone
+            f0 = np.where(gain == 0, bias, bias + gain * u0)
+            f1 = np.where(gain == 0, bias, bias + gain * u1)
+        f_lo = np.nan_to_num(np.fmin(f0, f1), nan=-np.inf)
+        f_hi = np.nan_to_num(np.fmax(f0, f1), nan=np.inf)
+        if model.actuator_forcelimited[a]:
+            r0, r1 = model.actuator_forcerange[a]
+            f_lo, f_hi = np.clip(f_lo, r0, r1), np.clip(f_hi, r0, r1)
+        t0, t1 = gear * f_lo, gear * f_hi
+        lo[:, dof] += np.fmin(t0, t1)
+        hi[:, dof] += np.fmax(t0, t1)
+    if routed is not None:
+        extra = np.asarray(routed, dtype=float).reshape(n, nv)
+        lo, hi = lo + extra, hi + extra
+    lo[:, ~actuated], hi[:, ~actuated] = -np.inf, np.inf
+    j_lo, j_hi = np.full(nv, -np.inf), np.full(nv, np.inf)
+    for j in np.flatnonzero(model.jnt_actfrclimited):
+        j_lo[model.jnt_dofadr[j]], j_hi[model.jnt_dofadr[j]] = model.jnt_actfrcrange[j]
+    shape = (*Q.shape[:-1], nv)
+    return EffortRange(
+        np.clip(lo, j_lo, j_hi).reshape(shape), np.clip(hi, j_lo, j_hi).reshape(shape), actuated
+    )
+
+
+def _affine(kind: int, prm: Array, length: Array, gain: bool) -> Array:
+    """An actuator's gain or bias at rest (velocity 0): fixed, affine in length, or unknown."""
+    if gain and kind == int(mujoco.mjtGain.mjGAIN_FIXED):
+        return np.full(len(length), float(prm[0]))
+    if not gain and kind == int(mujoco.mjtBias.mjBIAS_NONE):
+        return np.zeros(len(length))
+    if kind == (int(mujoco.mjtGain.mjGAIN_AFFINE) if gain else int(mujoco.mjtBias.mjBIAS_AFFINE)):
+        return prm[0] + prm[1] * length
+    return np.full(len(length), np.nan)  # muscle or user: not bounded here
+
 
 def joint_force_limits(model: mujoco.MjModel) -> Array:
-    """Largest force or torque the actuators can apply at each dof.
+    """Largest force or torque the actuators can apply at each dof, either direction.
 
-    For each actuator that transmits to a joint the limit is ``|gear| * forcerange`` when
-    force-limited, otherwise ``|gear * gain * ctrlrange|`` for a motor-type actuator with a
-    limited control; several actuators on one joint add up; a joint-level ``actfrcrange``
-    caps the sum. Unlimited or unknown gives ``inf``.
+    ``max(-lower, upper)`` of :func:`effort_range` for the actuators whose range does not
+    depend on the pose (a servo's does, through its bias, unless ``forcerange`` caps it);
+    ``inf`` where unlimited or without an actuator. This is the symmetric limit Pinocchio's
+    ``effortLimit`` holds; the audit uses :func:`effort_range`, per direction and pose.
 
     Args:
         model: Compiled MuJoCo model.
@@ -26,34 +168,21 @@ def joint_force_limits(model: mujoco.MjModel) -> Array:
     Returns:
         Limits, shape (nv,) [N m for hinges, N for slides].
     """
-    limit = np.zeros(model.nv)
-    found = np.zeros(model.nv, dtype=bool)
-    for a in range(model.nu):
-        if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
-            continue
-        dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
-        gear = abs(model.actuator_gear[a, 0])
-        if model.actuator_forcelimited[a]:
-            lim = np.max(np.abs(model.actuator_forcerange[a])) * gear
-        elif (
-            model.actuator_ctrllimited[a]
-            and model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
-            and model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
-        ):
-            lim = (
-                np.max(np.abs(model.actuator_ctrlrange[a]))
-                * abs(model.actuator_gainprm[a, 0])
-                * gear
-            )
-        else:
-            lim = np.inf
-        limit[dof] += lim
-        found[dof] = True
-    limit[~found] = np.inf
-    for j in range(model.njnt):
-        if model.jnt_actfrclimited[j]:
-            dof = model.jnt_dofadr[j]
-            limit[dof] = min(limit[dof], np.max(np.abs(model.jnt_actfrcrange[j])))
+    r = effort_range(model)
+    limit = np.maximum(-r.lower, r.upper)
+    for a, dof, _, _ in _joint_actuators(model):
+        pose_dependent = (
+            model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_AFFINE
+            and model.actuator_gainprm[a, 1] != 0
+        ) or (
+            model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+            and model.actuator_biasprm[a, 1] != 0
+        )
+        if pose_dependent and not model.actuator_forcelimited[a]:
+            limit[dof] = np.inf
+    for j in np.flatnonzero(model.jnt_actfrclimited):
+        dof = model.jnt_dofadr[j]
+        limit[dof] = min(limit[dof], float(np.max(np.abs(model.jnt_actfrcrange[j]))))
     return limit
 
 
@@ -75,3 +204,152 @@ def actuator_armature(model: mujoco.MjModel) -> Array:
 def actuator_damping(model: mujoco.MjModel) -> Array:
     """Damping that actuators add to each dof: ``gear^2 * actuator_damping`` [N m s/rad]."""
     return _reflected_per_dof(model, model.actuator_damping)
+
+
+def servo_damping(model: mujoco.MjModel) -> Array:
+    """Damping a servo's own velocity feedback gives each dof [N m s/rad].
+
+    A position actuator's ``kv``, a velocity actuator's ``kv`` and a general actuator's
+    velocity bias ``biasprm[2]`` (force ``... + biasprm[2] * gear * qdot``) all come to
+    ``-gear^2 * biasprm[2]`` at the joint.
+    """
+    kv = np.zeros(model.nv)
+    for a, dof, _, gear in _joint_actuators(model):
+        if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
+            kv[dof] -= gear**2 * float(model.actuator_biasprm[a, 2])
+    return kv
+
+
+# -- how MuJoCo steps the model ----------------------------------------------------------------
+_INTEGRATORS = {
+    mujoco.mjtIntegrator.mjINT_EULER: "Euler",
+    mujoco.mjtIntegrator.mjINT_RK4: "RK4",
+    mujoco.mjtIntegrator.mjINT_IMPLICIT: "implicit",
+    mujoco.mjtIntegrator.mjINT_IMPLICITFAST: "implicitfast",
+}
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """What MuJoCo simulates beyond the rigid-body numbers both engines compute.
+
+    Attributes:
+        timestep: h [s].
+        integrator: ``"Euler"``, ``"RK4"``, ``"implicit"`` or ``"implicitfast"``.
+        eulerdamp: Euler integrates joint damping implicitly (the flag is not disabled).
+        gravity: Gravity vector [m/s^2].
+        gravity_enabled: False under ``<flag gravity="disable"/>``.
+        gravcomp: (body name, ``gravcomp`` factor) per body that has one [-].
+        gravcomp_to_actuators: Joints with ``actuatorgravcomp``: the compensation goes
+            through the actuators and the joint's ``actuatorfrcrange`` clamps it.
+    """
+
+    timestep: float
+    integrator: str
+    eulerdamp: bool
+    gravity: tuple[float, ...]
+    gravity_enabled: bool
+    gravcomp: tuple[tuple[str, float], ...]
+    gravcomp_to_actuators: tuple[str, ...]
+
+
+def simulation(model: mujoco.MjModel) -> Simulation:
+    """The model's simulation settings (``<option>``, its flags, body ``gravcomp``)."""
+    dis = int(model.opt.disableflags)
+    bodies = object_names(model, mujoco.mjtObj.mjOBJ_BODY)
+    joints = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    gravcomp = tuple(
+        (bodies[b] or f"body {b}", float(model.body_gravcomp[b]))
+        for b in range(1, model.nbody)
+        if model.body_gravcomp[b] != 0.0
+    )
+    return Simulation(
+        timestep=float(model.opt.timestep),
+        integrator=_INTEGRATORS[mujoco.mjtIntegrator(model.opt.integrator)],
+        eulerdamp=not dis & mujoco.mjtDisableBit.mjDSBL_EULERDAMP,
+        gravity=tuple(float(x) for x in model.opt.gravity),
+        gravity_enabled=not dis & mujoco.mjtDisableBit.mjDSBL_GRAVITY,
+        gravcomp=gravcomp,
+        gravcomp_to_actuators=tuple(
+            joints[j] for j in range(model.njnt) if model.jnt_actgravcomp[j] and gravcomp
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class DampingSplit:
+    """Per dof, the damping MuJoCo's integrator treats implicitly and explicitly [N m s/rad].
+
+    One step multiplies a joint's speed by ``(I - h D_explicit) / (I + h D_implicit)`` (Euler
+    family), stable while ``h < 2 I / (D_explicit - D_implicit)``; RK4 treats everything
+    explicitly and is stable while ``h < 2.785 I / D_explicit``.
+
+    Attributes:
+        implicit: Damping integrated implicitly.
+        explicit: Damping integrated explicitly, the controller's ``kd`` included.
+        factor: 2 (Euler, implicit, implicitfast) or :data:`RK4_STABILITY`.
+        note: Why, in one sentence.
+    """
+
+    implicit: Array
+    explicit: Array
+    factor: float
+    note: str
+
+
+def damping_split(
+    sim: Simulation, joint_damping: ArrayLike, servo: ArrayLike, kd: ArrayLike
+) -> DampingSplit:
+    """Which damping the integrator treats implicitly, for the bound on the timestep.
+
+    Measured in MuJoCo 3 and 4 (tests simulate each case): Euler integrates joint damping
+    and actuator ``damping`` implicitly unless ``eulerdamp`` is disabled, but a servo's
+    ``kv`` explicitly; ``implicit`` and ``implicitfast`` integrate all of the model's
+    damping implicitly; RK4 none. A ``kd`` the controller computes and writes to ``ctrl`` is
+    explicit under every integrator: MuJoCo cannot see it in advance.
+
+    Args:
+        sim: The model's simulation settings.
+        joint_damping: Joint plus actuator damping per dof, b [N m s/rad].
+        servo: Servo velocity feedback per dof, kv (:func:`servo_damping`) [N m s/rad].
+        kd: Controller damping written to ``ctrl`` per dof [N m s/rad].
+    """
+    b, kv, kd = (np.asarray(x, dtype=float) for x in np.broadcast_arrays(joint_damping, servo, kd))
+    zero = np.zeros_like(b)
+    if sim.integrator in ("implicit", "implicitfast"):
+        return DampingSplit(
+            b + kv,
+            kd,
+            2.0,
+            f"{sim.integrator} integrates joint damping and servo kv implicitly; only a kd "
+            "written to ctrl is explicit",
+        )
+    if sim.integrator == "RK4":
+        return DampingSplit(
+            zero, b + kv + kd, RK4_STABILITY, "RK4 integrates all damping explicitly"
+        )
+    if sim.eulerdamp:
+        return DampingSplit(
+            b,
+            kv + kd,
+            2.0,
+            "Euler integrates joint damping implicitly; servo kv and a kd written to ctrl "
+            "are explicit",
+        )
+    return DampingSplit(
+        zero,
+        b + kv + kd,
+        2.0,
+        "Euler with eulerdamp disabled integrates all damping explicitly, joint damping included",
+    )
+
+
+def max_stable_timestep(inertia: ArrayLike, split: DampingSplit) -> Array:
+    """Largest stable timestep per dof for a damping split [s] (``inf``: any step).
+
+    Args:
+        inertia: Joint inertia, e.g. the diagonal of M [kg m^2].
+        split: The damping split (:func:`damping_split`).
+    """
+    bound = inertia_bound(inertia, split.explicit, split.implicit)  # 2 I / (D_e - D_i)
+    return bound * (split.factor / 2.0)

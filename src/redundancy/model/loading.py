@@ -1,8 +1,10 @@
-"""Loading one MJCF file into both engines, checked and bridged, as an :class:`~redundancy.Arm`."""
+"""Loading an MJCF or URDF file into both engines, checked and bridged, as an Arm."""
 
 from __future__ import annotations
 
+import codecs
 import os
+import re
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -16,9 +18,20 @@ from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import bridge, check_pinocchio
 from .support import check_supported
+from .urdf import (
+    DisabledPairs,
+    build_mujoco,
+    build_pinocchio,
+    check_urdf,
+    frame_clash,
+    is_urdf,
+    read_disabled_pairs,
+    resolve_frame,
+    strip_declaration,
+)
 
 
-def _read_mujoco(xml: str | None, path: Path | None) -> mujoco.MjModel:
+def _read_mujoco(xml: str | None, path: Path | None, base: Path | None = None) -> mujoco.MjModel:
     try:
         # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
         # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
@@ -26,7 +39,12 @@ def _read_mujoco(xml: str | None, path: Path | None) -> mujoco.MjModel:
         with captured_warnings():
             if path is not None:
                 return mujoco.MjModel.from_xml_path(str(path))
-            return mujoco.MjModel.from_xml_string(xml or "")
+            if base is None:
+                return mujoco.MjModel.from_xml_string(xml or "")
+            # Transcoded text of a file: relative asset paths still count from its directory.
+            spec = mujoco.MjSpec.from_string(xml or "")
+            spec.modelfiledir = str(base)
+            return spec.compile()
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the model: {err}") from err
 
@@ -47,43 +65,164 @@ def _xml_root(text: str) -> ET.Element:
         raise ModelError(f"not well-formed XML: {err}") from err
 
 
-def load(path: str | os.PathLike[str], site: str = "ee", strict: bool = True) -> Arm:
-    """Load an MJCF file into MuJoCo and Pinocchio.
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32"),
+    (codecs.BOM_UTF32_BE, "utf-32"),
+    (codecs.BOM_UTF8, "utf-8-sig"),
+    (codecs.BOM_UTF16_LE, "utf-16"),
+    (codecs.BOM_UTF16_BE, "utf-16"),
+)
+_DECLARED = re.compile(rb"""^\s*<\?xml[^>]*?encoding\s*=\s*["']([A-Za-z0-9._-]+)["']""")
+
+
+def decode_xml(data: bytes, source: str) -> tuple[str, bool]:
+    """Decode a model file's bytes as XML does: byte-order mark, else the declared encoding.
+
+    MuJoCo reads UTF-8 only (a UTF-16 file fails to parse, a Latin-1 file's names reach it
+    as invalid UTF-8) and Pinocchio's parsers likewise, so a file in another encoding is
+    handed to both as the decoded text.
 
     Args:
-        path: MJCF file.
-        site: Name of the tool site.
-        strict: Refuse features Pinocchio reads differently (see :func:`check_supported`).
+        data: The file's bytes.
+        source: File name, for messages.
+
+    Returns:
+        The text without its XML declaration, and whether the bytes were UTF-8 without a
+        byte-order mark (the engines may then read the file itself).
 
     Raises:
-        ModelError: The file is missing, not XML, or an engine cannot compile it.
-        UnsupportedFeatureError: The model uses something the engines may not agree on.
-        UnknownNameError: ``site`` is not a site of the model (the message lists them).
+        ModelError: An unknown encoding, or bytes that are not in the declared one.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise ModelError(f"MJCF file not found: {str(p)!r}")
-    root = _xml_root(p.read_text())
+    encoding = next((enc for bom, enc in _BOMS if data.startswith(bom)), None)
+    if encoding is None and data[:2] in (b"<\x00", b"\x00<"):
+        encoding = "utf-16-le" if data[:1] == b"<" else "utf-16-be"  # UTF-16 without a BOM
+    if encoding is None:
+        declared = _DECLARED.match(data)
+        encoding = declared.group(1).decode("ascii") if declared else "utf-8"
+    try:
+        text = data.decode(encoding)
+    except LookupError as err:
+        raise ModelError(f"{source}: unknown encoding {encoding!r} in the XML declaration") from err
+    except UnicodeDecodeError as err:
+        raise ModelError(f"{source}: not valid {encoding} text: {err}") from err
+    as_is = codecs.lookup(encoding).name == "utf-8"
+    return strip_declaration(text), as_is
+
+
+def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
+    """A model file's bytes, or the library's error saying what was passed instead."""
+    if isinstance(path, bytes | bytearray):
+        raise ModelError("load() takes a file path; for XML text or bytes use load_string()")
+    if not isinstance(path, str | os.PathLike):
+        raise ModelError(f"load() takes a file path, got {type(path).__name__}")
+    text = os.fspath(path)
+    if isinstance(text, str) and text.lstrip().startswith("<"):
+        raise ModelError(
+            f"load() takes a file path, and this looks like XML text ({text.strip()[:40]!r}...); "
+            "use load_string() for model text"
+        )
+    p = Path(text)
+    try:
+        return p, p.read_bytes()
+    except FileNotFoundError as err:
+        raise ModelError(f"model file not found: {str(p)!r}") from err
+    except IsADirectoryError as err:
+        raise ModelError(f"model path is a directory, not a file: {str(p)!r}") from err
+    except OSError as err:
+        raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
+
+
+def _tool(site: str, frame: str | None) -> str:
+    if frame is None:
+        return site
+    if not isinstance(frame, str):
+        raise ModelError(f"frame must be a name (str), got {type(frame).__name__}")
+    return frame
+
+
+def load(
+    path: str | os.PathLike[str],
+    site: str = "ee",
+    strict: bool = True,
+    frame: str | None = None,
+    disabled_collisions: DisabledPairs | None = None,
+) -> Arm:
+    """Load an MJCF or URDF file into MuJoCo and Pinocchio.
+
+    The file is read as bytes and decoded as XML says (byte-order mark or declared encoding);
+    a URDF (root element ``<robot>``) goes through each engine's URDF importer (see
+    :mod:`redundancy.model.urdf`), an MJCF through each engine's MJCF parser.
+
+    Args:
+        path: MJCF or URDF file.
+        site: Name of the tool site (MJCF), or of the tool link (URDF).
+        strict: Refuse features Pinocchio's MJCF parser reads differently (see
+            :func:`check_supported`); MJCF only.
+        frame: The tool frame by the name its format gives it: a site (MJCF), a link or a
+            fixed joint (URDF). Overrides ``site``.
+        disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
+            ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
+            joined by a joint are always excluded.
+
+    Raises:
+        ModelError: The file is missing, not XML, not decodable, XML text instead of a path,
+            or an engine cannot compile it.
+        UnsupportedFeatureError: The model uses something the engines may not agree on.
+        UnknownNameError: The tool is not a site (MJCF) or link (URDF) of the model (the
+            message lists them).
+    """
+    p, data = _read_file(path)
+    tool = _tool(site, frame)
+    text, as_is = decode_xml(data, str(p))
+    root = _xml_root(text)
+    pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
+    recipe = (load, (str(p), site, strict, frame, pairs))
+    if is_urdf(root):
+        return _load_urdf(text, root, p.resolve().parent, str(p), tool, pairs, recipe)
+    if pairs is not None:
+        raise ModelError(_MJCF_PAIRS)
     if root.find(".//include") is not None:
         raise UnsupportedFeatureError(
             "<include> element",
             str(p),
             "Pinocchio's MJCF parser does not follow includes; inline the file",
         )
-    mj = _read_mujoco(None, p)
+    if as_is:
+        mj = _read_mujoco(None, p)
+        check_supported(mj, root, strict)
+        return _build(mj, _read_pinocchio(p), tool, str(p), recipe)
+    mj = _read_mujoco(text, None, p.resolve().parent)
     check_supported(mj, root, strict)
-    return _build(mj, _read_pinocchio(p), site, str(p), (load, (str(p), site, strict)))
+    return _build(mj, _pinocchio_from_text(text), tool, str(p), recipe)
 
 
-def load_string(xml: str, site: str = "ee", strict: bool = True) -> Arm:
-    """Load MJCF text into MuJoCo and Pinocchio (see :func:`load`).
+def load_string(
+    xml: str | bytes,
+    site: str = "ee",
+    strict: bool = True,
+    frame: str | None = None,
+    disabled_collisions: DisabledPairs | None = None,
+) -> Arm:
+    """Load MJCF or URDF text into MuJoCo and Pinocchio (see :func:`load`).
 
-    The text is written to a temporary file for Pinocchio, whose parser reads files, so it
-    must not refer to other files (meshes, includes) by relative path.
+    Bytes are decoded as XML says. Pinocchio's MJCF parser reads files, so MJCF text is
+    written to a temporary file for it and must not refer to other files (meshes, includes)
+    by relative path; a URDF's relative mesh paths count from the current directory.
     """
-    if not isinstance(xml, str):
-        raise ModelError(f"MJCF text must be a str, got {type(xml).__name__}")
+    if isinstance(xml, bytes | bytearray):
+        xml, _ = decode_xml(bytes(xml), "<string>")
+    elif isinstance(xml, str):
+        xml = strip_declaration(xml)
+    else:
+        raise ModelError(f"model text must be a str or bytes, got {type(xml).__name__}")
+    tool = _tool(site, frame)
     root = _xml_root(xml)
+    pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
+    recipe = (load_string, (xml, site, strict, frame, pairs))
+    if is_urdf(root):
+        return _load_urdf(xml, root, Path.cwd(), "<string>", tool, pairs, recipe)
+    if pairs is not None:
+        raise ModelError(_MJCF_PAIRS)
     if root.find(".//include") is not None:
         raise UnsupportedFeatureError(
             "<include> element",
@@ -92,11 +231,77 @@ def load_string(xml: str, site: str = "ee", strict: bool = True) -> Arm:
         )
     mj = _read_mujoco(xml, None)
     check_supported(mj, root, strict)
+    return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe)
+
+
+def model_format(arm: Arm) -> str:
+    """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from."""
+    recipe = getattr(arm, "_recipe", None)
+    if recipe is None:
+        return "MJCF"
+    loader, args = recipe
+    try:
+        if loader is load:
+            root = ET.fromstring(decode_xml(Path(args[0]).read_bytes(), args[0])[0])
+        else:
+            root = ET.fromstring(args[0])
+    except (OSError, ET.ParseError, ModelError):
+        return "MJCF"
+    return "URDF" if is_urdf(root) else "MJCF"
+
+
+_MJCF_PAIRS = (
+    "disabled_collisions is for URDF; an MJCF model excludes pairs itself, with "
+    "<contact><exclude body1=... body2=...>"
+)
+
+
+def _frozen_pairs(pairs: DisabledPairs) -> DisabledPairs:
+    """Pairs as a tuple (an iterator is read once), a path as a str (both pickle)."""
+    if isinstance(pairs, str | os.PathLike):
+        return os.fspath(pairs)
+    try:
+        return tuple(tuple(p) if not isinstance(p, str) else p for p in pairs)  # type: ignore[misc]
+    except TypeError as err:
+        raise ModelError(
+            f"disabled_collisions must be an SRDF path or (link, link) pairs: {err}"
+        ) from err
+
+
+def _pinocchio_from_text(xml: str) -> object:
     with tempfile.TemporaryDirectory() as tmp:
         p = Path(tmp) / "model.xml"
-        p.write_text(xml)
-        pm = _read_pinocchio(p)
-    return _build(mj, pm, site, "<string>", (load_string, (xml, site, strict)))
+        p.write_text(xml, encoding="utf-8")
+        return _read_pinocchio(p)
+
+
+def _load_urdf(
+    text: str,
+    root: ET.Element,
+    base: Path,
+    source: str,
+    tool: str,
+    pairs: DisabledPairs | None,
+    recipe: tuple[object, tuple[object, ...]],
+) -> Arm:
+    """Both engines' URDF importers, checked (see :mod:`redundancy.model.urdf`)."""
+    tree = check_urdf(root, source)
+    tool_link = resolve_frame(tree, tool)
+    disabled = read_disabled_pairs(pairs, tree)
+    pm = build_pinocchio(text, source)
+    clash = frame_clash(pm, tool_link)
+    if clash:
+        raise UnsupportedFeatureError(
+            "tool frame name used twice",
+            f"link {tool_link!r} in {source}",
+            f"Pinocchio has {len(clash)} frames of that name ({', '.join(clash)}); "
+            "rename the link or the joint",
+        )
+    mj = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    # URDF inertials are explicit and the joints are checked above: only the generic
+    # refusals apply (non-finite values, negative damping, inverted ranges, several trees).
+    check_supported(mj, None, strict=False)
+    return _build(mj, pm, tool_link, source, recipe)
 
 
 def _build(

@@ -1,41 +1,35 @@
 """``redundancy audit``: everything the library knows about an arm, and what to act on.
 
-The report has one section per question (joints and timesteps, keyframe singularity,
-gravity against motor limits, self-collision, engine agreement, model equivalence) and ends
-with *findings*: concrete problems a user should fix. The exit status is 1 when there are
-findings, 0 when there are none.
+The audit takes the shared :mod:`~redundancy.reports.sections` (joints and timesteps,
+keyframes, gravity against the actuators, self-collision), adds the engines' agreement and
+the model comparison, and *judges* them: each problem a user should fix is a
+:class:`Finding`. Numbers follow what MuJoCo simulates: the integrator and its flags, gravity
+compensation, actuator ranges per direction, servo damping.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
-import sys
-import tempfile
-import time
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
-from .. import inertia
-from ..analysis import batch
 from ..analysis.batch import BATCH_QUANTITIES, crosscheck_batch
-from ..analysis.crosscheck import TOLERANCES, CrossCheckReport
-from ..arm import Arm, random_poses
-from ..collision import CollisionStatistics, collision_statistics
-from ..linalg import jacobian_svd
+from ..analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport
+from ..arm import Arm
+from ..errors import RedundancyError
 from ..model.equivalence import EquivalenceReport, compare_models
-from ..model.loading import load
+from . import sections
+from .sections import GravityBudget, JointSection, KeyframeRow, Sections
+from .tables import fmt, ms, table
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
-#: Controller damping gain at which timesteps are judged [N m s/rad] (the lesson's kd).
-AUDIT_KD = 5.0
-#: Poses on which the second-order quantities (dJ/dq, manipulability gradient) are cross-checked;
-#: the others are checked on every pose of the gravity sweep.
+#: Poses on which the second-order quantities (dJ/dq, manipulability gradient) are
+#: cross-checked; the others are checked on every pose of the gravity sweep.
 CROSSCHECK_POSES = 200
 
 
@@ -44,7 +38,8 @@ class Finding:
     """Something in the model a user should act on.
 
     Attributes:
-        kind: Short category: ``armature``, ``timestep``, ``gravity``, ``keyframe``, ``engines``.
+        kind: Category: ``armature``, ``timestep``, ``simulation``, ``gravity``,
+            ``keyframe``, ``engines``.
         message: What is wrong and where, with the numbers.
     """
 
@@ -53,24 +48,124 @@ class Finding:
 
 
 @dataclass(frozen=True)
+class EngineAgreement:
+    """The two engines, pose by pose and model against model.
+
+    Attributes:
+        crosscheck: Agreement per quantity over the gravity sweep's poses.
+        second_order_poses: Poses on which dJ/dq and the manipulability gradient were checked.
+        equivalence: MuJoCo's compiled model against Pinocchio's.
+    """
+
+    crosscheck: CrossCheckReport
+    second_order_poses: int
+    equivalence: EquivalenceReport
+
+
+@dataclass(frozen=True)
 class AuditReport:
-    """All sections of an audit, as data (``to_json`` gives the ``--json`` document)."""
+    """All sections of an audit, the engines' agreement, and the findings.
+
+    Attributes:
+        model: The model file (or ``"<string>"``).
+        site: The tool site.
+        mode: ``"strict"`` or ``"lenient"`` (loaded with ``strict=False``: what Pinocchio reads
+            differently is a finding, not a refusal).
+        sections: Joints, keyframes, gravity, self-collision.
+        engines: Cross-check and model equivalence.
+        findings: What to act on.
+    """
 
     model: str
     site: str
-    joints: list[dict[str, Any]]
-    timestep: float
-    kd: float
-    keyframes: list[dict[str, Any]]
-    gravity: dict[str, Any]
-    collision: dict[str, Any]
-    crosscheck: dict[str, Any]
-    equivalence: dict[str, Any]
-    findings: list[Finding] = field(default_factory=list)
+    mode: str
+    sections: Sections
+    engines: EngineAgreement
+    findings: tuple[Finding, ...]
+
+    @property
+    def exit_code(self) -> int:
+        """The CLI's status: 1 with findings, 0 without."""
+        return 1 if self.findings else 0
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as plain data (the ``--json`` document)."""
+        s = self.sections
+        j, g, c = s.joints, s.gravity, s.contacts
+        cc, eq = self.engines.crosscheck, self.engines.equivalence
+        doc = {
+            "model": self.model,
+            "site": self.site,
+            "mode": self.mode,
+            "simulation": asdict(j.simulation),
+            "kd": j.kd,
+            "reference_keyframe": j.keyframe,
+            "timestep_note": j.note,
+            "joints": [{**asdict(r), "armature_share": r.armature_share} for r in j.rows],
+            "keyframes": [
+                {
+                    "name": k.name,
+                    "q": k.q,
+                    "sigma": k.svd.sigma,
+                    "rank": k.svd.rank,
+                    "manipulability": k.svd.manipulability,
+                    "condition": k.svd.condition,
+                    "lost_directions": k.svd.lost_direction_names(),
+                    "engine_sigma_diff": k.engine_diff,
+                    "hold": k.hold,
+                    "effort_lower": k.effort_lower,
+                    "effort_upper": k.effort_upper,
+                }
+                for k in s.keyframes
+            ],
+            "gravity": {**asdict(g), "peak": g.peak, "ratio": g.ratio},
+            "collision": {
+                "n_poses": c.n_poses,
+                "seed": c.seed,
+                "share_with_contact": c.share_with_contact,
+                "n_pairs": len(c.pairs),
+                "disagreements": c.disagreements,
+                "pairs": [
+                    {
+                        "pair": p.pair.label,
+                        "poses": p.poses,
+                        "contacts": p.contacts,
+                        "closest": p.closest,
+                    }
+                    for p in sorted(c.pairs, key=lambda p: (-p.poses, p.closest))
+                ],
+                "keyframes": [
+                    {
+                        "name": k.keyframe,
+                        "contacts": k.contacts,
+                        "closest_pair": k.closest.pair.label if k.closest else None,
+                        "closest_distance": k.closest.distance if k.closest else None,
+                    }
+                    for k in c.keyframes
+                ],
+            },
+            "crosscheck": {
+                "n_poses": cc.n_poses,
+                "n_poses_second_order": self.engines.second_order_poses,
+                "ok": cc.ok,
+                "quantities": [{**asdict(a), "ok": a.ok} for a in cc.agreements],
+            },
+            "equivalence": {
+                "equivalent": eq.equivalent,
+                "differences": [str(d) for d in eq.differences],
+                "bridged": [asdict(b) for b in eq.bridges],
+            },
+            "findings": [asdict(f) for f in self.findings],
+        }
+        return _clean(doc)
 
     def to_json(self) -> str:
-        """The report as a JSON document (infinite values as null)."""
-        return json.dumps(_clean(asdict(self)), indent=2)
+        """The report as a JSON document (infinite or NaN values as null)."""
+        return json.dumps(self.to_dict(), indent=2, allow_nan=False)
+
+    def lines(self) -> list[str]:
+        """The report as text lines."""
+        return format_report(self)
 
 
 def _clean(x: Any) -> Any:
@@ -82,361 +177,371 @@ def _clean(x: Any) -> Any:
         return _clean(x.tolist())
     if isinstance(x, np.generic):
         x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
+    if isinstance(x, float) and not math.isfinite(x):
         return None
     return x
 
 
-class Progress:
-    """A one-line progress bar on stderr (silent when stderr is not a terminal)."""
-
-    def __init__(self, label: str, total: int, enabled: bool | None = None) -> None:
-        self.label, self.total = label, total
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
-        self.t0 = time.perf_counter()
-
-    def __call__(self, done: int) -> None:
-        """Report ``done`` of ``total`` items."""
-        if not self.enabled:
-            return
-        frac = done / max(self.total, 1)
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(
-            f"\r  {self.label:<22}[{bar:<30}] {done}/{self.total} "
-            f"{time.perf_counter() - self.t0:5.1f} s"
-        )
-        if done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+# -- the audit ------------------------------------------------------------------------------------
+def _check_count(name: str, value: object, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise RedundancyError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
 
 
 def audit(
     arm: Arm,
     n_poses: int = 10_000,
     seed: int = 0,
-    kd: float = AUDIT_KD,
-    progress: bool | None = None,
+    kd: float | None = None,
+    computed: Sections | None = None,
+    mode: str = "strict",
+    progress: Callable[[str], None] | None = None,
 ) -> AuditReport:
     """Audit an arm: every section of the report, and the findings.
 
     Args:
         arm: The loaded arm.
-        n_poses: Random poses for the gravity and self-collision sweeps.
-        seed: Seed of the gravity sweep; the collision sweep uses ``seed + 1``.
-        kd: Controller damping gain at which timesteps are judged [N m s/rad].
-        progress: Show progress bars on stderr (default: when it is a terminal).
-    """
-    findings: list[Finding] = []
-    names = arm.joint_names
-    m = arm.mj_model
-    h = float(m.opt.timestep)
+        n_poses: Random poses for the gravity and self-collision sweeps (>= 1).
+        seed: Seed of the gravity sweep (>= 0); the collision sweep uses ``seed + 1``.
+        kd: Controller damping written to ``ctrl`` at which timesteps are judged
+            [N m s/rad]; ``None``: the lesson's 5 on motor-driven joints, the servo's own
+            ``kv`` on servo-driven ones (see :func:`~redundancy.reports.sections.joints`).
+        computed: Sections already computed with these arguments (the CLI shares them with
+            the lesson's tables).
+        mode: ``"strict"`` or ``"lenient"``: how the arm was loaded (recorded in the report).
+        progress: Called with a short label as each part starts.
 
-    # Joints: armature share and the explicit-damping timestep bound at a reference pose.
-    keys = arm.keyframes
-    ref_name = "home" if "home" in keys else (next(iter(keys)) if keys else "qpos0")
-    q_ref = keys.get(ref_name, m.qpos0.copy())
-    M = np.diag(arm.mass_matrix(q_ref))
-    M_bare = np.diag(arm.mass_matrix(q_ref, armature=False))
-    arma = arm.armature()
-    b = arm.damping()
-    hmax = inertia.max_stable_timestep(M, kd, b)
-    hmax_bare = inertia.max_stable_timestep(M_bare, kd, b)
-    joints = []
-    for i, n in enumerate(names):
-        joints.append(
-            {
-                "name": n,
-                "type": arm.joint_types[i],
-                "lower": float(arm.lower[i]),
-                "upper": float(arm.upper[i]),
-                "armature": float(arma[i]),
-                "armature_share": float(arma[i] / M[i]),
-                "damping": float(b[i]),
-                "effort_limit": float(arm.effort_limit[i]),
-                "M_ii": float(M[i]),
-                "M_ii_bare": float(M_bare[i]),
-                "h_max": float(hmax[i]),
-                "h_max_bare": float(hmax_bare[i]),
-            }
-        )
-        if arma[i] == 0.0:
-            findings.append(
+    Raises:
+        RedundancyError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
+    """
+    n_poses = _check_count("n_poses", n_poses, 1)
+    seed = _check_count("seed", seed, 0)
+    if kd is not None and not (isinstance(kd, int | float) and math.isfinite(kd) and kd >= 0):
+        raise RedundancyError(f"kd must be a finite number >= 0 [N m s/rad], got {kd!r}")
+    say = progress or (lambda label: None)
+    if computed is None:
+        say("joints, keyframes, gravity and self-collision")
+        computed = sections.compute(arm, n_poses, seed, kd)
+    say("engine cross-check")
+    engines = _engines(arm, n_poses, seed)
+    findings = (
+        _joint_findings(computed.joints)
+        + _simulation_findings(computed)
+        + _keyframe_findings(arm, computed)
+        + _gravity_findings(arm, computed.gravity)
+        + _engine_findings(engines)
+    )
+    return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
+
+
+def _engines(arm: Arm, n_poses: int, seed: int) -> EngineAgreement:
+    """Cross-check over the gravity sweep's poses, chunk by chunk, and compare the models."""
+    rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES)
+    merged: dict[str, Agreement] = {}
+    offset, second = 0, 0
+    for Q in sections.pose_chunks(arm, n_poses, seed):
+        parts = crosscheck_batch(arm, Q, quantities=BATCH_QUANTITIES).agreements
+        if offset < CROSSCHECK_POSES:
+            head = Q[: CROSSCHECK_POSES - offset]
+            parts += crosscheck_batch(arm, head, quantities=rest).agreements
+            second += len(head)
+        for a in parts:
+            merged[a.quantity] = _worse(merged.get(a.quantity), a, offset)
+        offset += len(Q)
+    agreements = tuple(merged[q] for q in (*BATCH_QUANTITIES, *rest) if q in merged)
+    cc = CrossCheckReport(agreements, arm.bridges, n_poses)
+    return EngineAgreement(cc, second, compare_models(arm))
+
+
+def _worse(kept: Agreement | None, new: Agreement, offset: int) -> Agreement:
+    """The worse of two chunks' agreements, by :func:`redundancy.crosscheck`'s rules.
+
+    The first strict maximum is kept, and a non-finite error replaces whatever was kept.
+    """
+    shifted = Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset)
+    if kept is None or not math.isfinite(new.max_error):
+        return shifted
+    if math.isfinite(kept.max_error) and new.max_error > kept.max_error:
+        return shifted
+    return kept
+
+
+# -- judging --------------------------------------------------------------------------------------
+def _joint_findings(j: JointSection) -> list[Finding]:
+    out = []
+    h = j.simulation.timestep
+    arma = np.array([r.armature for r in j.rows])
+    for r in j.rows:
+        if r.armature == 0.0:
+            out.append(
                 Finding(
                     "armature",
-                    f"joint {n!r} has zero armature: a geared joint's rotor inertia N^2 "
+                    f"joint {r.name!r} has zero armature: a geared joint's rotor inertia N^2 "
                     "J_rotor is missing",
                 )
             )
-        if h >= hmax[i]:
-            findings.append(
+        if h > 0 and h >= r.h_max:
+            out.append(
                 Finding(
                     "timestep",
-                    f"timestep {h * 1e3:.3g} ms is above joint {n!r}'s h_max "
-                    f"{hmax[i] * 1e3:.3g} ms at kd = {kd:g} N m s/rad "
-                    f"(M_ii {M[i]:.4g} kg m^2, b {b[i]:g}): explicit controller damping will "
-                    "diverge",
+                    f"timestep {h * 1e3:.3g} ms is above joint {r.name!r}'s h_max "
+                    f"{r.h_max * 1e3:.3g} ms (M_ii {r.m_ii:.4g} kg m^2, explicit damping "
+                    f"{r.explicit:g}, implicit {r.implicit:g} N m s/rad; {j.note}): the "
+                    "joint's speed will grow step by step",
                 )
             )
-    if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and arm.nq > 1:
-        findings.append(
+    if h <= 0:
+        out.append(
+            Finding("timestep", f"timestep {h:g} s is not positive: MuJoCo cannot step the model")
+        )
+    if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and len(arma) > 1:
+        out.append(
             Finding(
                 "armature",
                 f"every joint has the same armature {arma[0]:g} kg m^2: a placeholder? "
-                "reflected inertia is N^2 J_rotor "
-                "and differs between a shoulder and a wrist motor",
+                "reflected inertia is N^2 J_rotor and differs between a shoulder and a wrist "
+                "motor",
             )
         )
+    return out
 
-    # Keyframes: singular values and manipulability; contacts come with the collision section.
-    keyframes = []
-    for k, q in keys.items():
-        s = jacobian_svd(arm.jacobian(q))
-        sp = jacobian_svd(arm.jacobian(q, "pinocchio"))
-        keyframes.append(
-            {
-                "name": k,
-                "q": q,
-                "sigma": s.sigma,
-                "rank": s.rank,
-                "manipulability": s.manipulability,
-                "condition": s.condition,
-                "lost_directions": s.lost_direction_names(),
-                "engine_sigma_diff": float(np.max(np.abs(s.sigma - sp.sigma))),
-            }
+
+def _simulation_findings(s: Sections) -> list[Finding]:
+    sim = s.joints.simulation
+    out = []
+    if not sim.gravity_enabled and any(sim.gravity):
+        out.append(
+            Finding(
+                "simulation",
+                'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm '
+                "weightless, so the gravity budget is 0, while Pinocchio's model has gravity "
+                f"{list(sim.gravity)} m/s^2",
+            )
         )
-        if s.sigma[-1] < SINGULAR_SIGMA:
-            lost = ", ".join(s.lost_direction_names()) or "see U"
-            findings.append(
+    return out
+
+
+def _keyframe_findings(arm: Arm, s: Sections) -> list[Finding]:
+    out = []
+    for k in s.keyframes:
+        if k.svd.sigma[-1] < SINGULAR_SIGMA:
+            lost = ", ".join(k.svd.lost_direction_names()) or "see U"
+            out.append(
                 Finding(
                     "keyframe",
-                    f"keyframe {k!r} is singular: sigma_min {s.sigma[-1]:.2e} < "
-                    f"{SINGULAR_SIGMA:g}, rank {s.rank} (lost: {lost})",
+                    f"keyframe {k.name!r} is singular: sigma_min {k.svd.sigma[-1]:.2e} < "
+                    f"{SINGULAR_SIGMA:g}, rank {k.svd.rank} (lost: {lost})",
                 )
             )
-
-    # Gravity against the motor limits, both engines.
-    qs = random_poses(arm, n_poses, seed)
-    bar = Progress("gravity sweep", len(qs), progress)
-    tau = np.zeros_like(qs)
-    tau_p = np.zeros_like(qs)
-    for start in range(0, len(qs), 1000):
-        chunk = slice(start, start + 1000)
-        tau[chunk] = batch.gravities(arm, qs[chunk], "mujoco")
-        tau_p[chunk] = batch.gravities(arm, qs[chunk], "pinocchio")
-        bar(min(start + 1000, len(qs)))
-    peak = np.max(np.abs(tau), axis=0)
-    over = np.abs(tau) > arm.effort_limit
-    gravity = {
-        "n_poses": n_poses,
-        "seed": seed,
-        "peak": peak,
-        "limit": arm.effort_limit,
-        "poses_over_limit": int(np.sum(over.any(axis=1))),
-        "engine_diff": float(np.max(np.abs(tau - tau_p))),
-    }
-    for i, n in enumerate(names):
-        if over[:, i].any():
-            findings.append(
-                Finding(
-                    "gravity",
-                    f"gravity torque at joint {n!r} reaches {peak[i]:.3g} N m, over its motor "
-                    "limit "
-                    f"{arm.effort_limit[i]:.3g} N m, in {int(over[:, i].sum())} of {n_poses} poses",
-                )
-            )
-
-    # Self-collision over random poses, and at the keyframes.
-    stats: CollisionStatistics = collision_statistics(arm, n_poses, seed + 1, distances="mujoco")
-    collision = {
-        "n_poses": stats.n_poses,
-        "seed": stats.seed,
-        "share_with_contact": stats.share_with_contact,
-        "pairs": [
-            {"pair": p.pair.label, "poses": p.poses, "contacts": p.contacts, "closest": p.closest}
-            for p in sorted(stats.pairs, key=lambda p: (-p.poses, p.closest))
-        ],
-        "keyframes": [
-            {
-                "name": k.keyframe,
-                "contacts": k.contacts,
-                "closest_pair": k.closest.pair.label if k.closest else None,
-                "closest_distance": k.closest.distance if k.closest else None,
-            }
-            for k in stats.keyframes
-        ],
-        "n_pairs": len(stats.pairs),
-    }
-    for k in stats.keyframes:
-        if k.contacts:
-            findings.append(
+        out += _unheld(arm, k)
+    for c in s.contacts.keyframes:
+        if c.contacts:
+            out.append(
                 Finding(
                     "keyframe",
-                    f"keyframe {k.keyframe!r} is in self-contact ({k.contacts} contacts)",
+                    f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)",
                 )
             )
+    return out
 
-    # The engines, pose by pose and model against model.
-    # Batched quantities over every sweep pose; second-order ones over the first few hundred.
-    fast = crosscheck_batch(arm, qs, quantities=BATCH_QUANTITIES)
-    rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES)
-    slow = crosscheck_batch(arm, qs[:CROSSCHECK_POSES], quantities=rest)
-    cc = CrossCheckReport(fast.agreements + slow.agreements, fast.bridges, fast.n_poses)
-    crossd = {
-        "n_poses": cc.n_poses,
-        "n_poses_second_order": slow.n_poses,
-        "ok": cc.ok,
-        "quantities": [
-            {"quantity": a.quantity, "max_error": a.max_error, "tol": a.tol, "ok": a.ok}
-            for a in cc.agreements
-        ],
-    }
-    for a in cc.agreements:
-        if not a.ok:
-            findings.append(
-                Finding(
-                    "engines",
-                    f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}",
+
+def _unheld(arm: Arm, k: KeyframeRow) -> list[Finding]:
+    return [
+        Finding(
+            "keyframe",
+            f"keyframe {k.name!r} cannot be held: joint {arm.joint_names[i]!r} needs "
+            f"{k.hold[i]:.4g} N m, its actuators give [{k.effort_lower[i]:.4g}, "
+            f"{k.effort_upper[i]:.4g}] N m there",
+        )
+        for i in k.unheld
+    ]
+
+
+def _gravity_findings(arm: Arm, g: GravityBudget) -> list[Finding]:
+    out = []
+    comp = " after gravity compensation" if g.gravcomp else ""
+    for i, name in enumerate(arm.joint_names):
+        for count, (need, limit), side in (
+            (g.over_low[i], g.worst_low[i], "negative"),
+            (g.over_high[i], g.worst_high[i], "positive"),
+        ):
+            if count:
+                out.append(
+                    Finding(
+                        "gravity",
+                        f"gravity{comp} at joint {name!r} needs more {side} torque than its "
+                        f"actuators give in {count} of {g.n_poses} poses; worst: needs "
+                        f"{need:.3g} N m where their most {side} is {limit:.3g} N m",
+                    )
                 )
-            )
-    eq: EquivalenceReport = compare_models(arm)
-    equiv = {
-        "equivalent": eq.equivalent,
-        "differences": [str(d) for d in eq.differences],
-        "bridged": [asdict(b) for b in eq.bridges],
-    }
-    for d in eq.differences:
-        findings.append(Finding("engines", f"models differ: {d}"))
-    return AuditReport(
-        str(arm.source),
-        arm.site,
-        joints,
-        h,
-        kd,
-        keyframes,
-        gravity,
-        collision,
-        crossd,
-        equiv,
-        findings,
-    )
+    return out
 
 
-def format_report(r: AuditReport) -> list[str]:
-    """The audit as text lines."""
-    ms = lambda x: "any" if x is None or not np.isfinite(x) else f"{1e3 * x:.2f}"  # noqa: E731
+def _engine_findings(e: EngineAgreement) -> list[Finding]:
     out = [
-        f"audit of {r.model} (site {r.site!r})",
-        "",
-        f"joints (M_ii at the reference pose; h_max at kd = {r.kd:g} N m s/rad, timestep "
-        f"{1e3 * r.timestep:g} ms):",
+        Finding("engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}")
+        for a in e.crosscheck.agreements
+        if not a.ok
     ]
+    out += [Finding("engines", f"models differ: {d}") for d in e.equivalence.differences]
+    return out
+
+
+# -- text -----------------------------------------------------------------------------------------
+def format_report(r: AuditReport) -> list[str]:
+    """The audit as text lines; every table's columns are sized to their content."""
+    s = r.sections
+    j, sim = s.joints, s.joints.simulation
+    mode = "" if r.mode == "strict" else f", {r.mode} mode: Pinocchio's differences are findings"
+    out = [f"audit of {r.model} (site {r.site!r}{mode})", ""]
     out.append(
-        f"  {'joint':<8}{'type':<7}{'range':>17}{'armature':>10}{'share':>7}{'damping':>9}"
-        f"{'limit':>8}{'M_ii':>9}{'h_max ms':>10}{'bare ms':>9}"
+        f"simulation: timestep {_h(sim.timestep)}, integrator {sim.integrator}"
+        + ("" if sim.eulerdamp else ", eulerdamp disabled")
+        + ("" if sim.gravity_enabled else ", gravity disabled")
+        + (f", gravcomp on {len(sim.gravcomp)} bodies" if sim.gravcomp else "")
     )
-    for j in r.joints:
-        rng = f"[{j['lower']:.3g}, {j['upper']:.3g}]"
-        out.append(
-            f"  {j['name']:<8}{j['type']:<7}{rng:>17}{j['armature']:>10.4g}"
-            f"{100 * j['armature_share']:>6.1f}%{j['damping']:>9.3g}{j['effort_limit']:>8.3g}"
-            f"{j['M_ii']:>9.4g}{ms(j['h_max']):>10}{ms(j['h_max_bare']):>9}"
-        )
-    out += ["", "keyframes (site Jacobian):"]
-    for k in r.keyframes:
-        lost = f", lost: {', '.join(k['lost_directions'])}" if k["lost_directions"] else ""
-        out.append(
-            f"  {k['name']:<8} sigma "
-            f"{np.array2string(np.asarray(k['sigma']), precision=4, suppress_small=True)}"
-            f" rank {k['rank']}, manipulability {k['manipulability']:.3g}{lost}"
-        )
-    g = r.gravity
-    out += ["", f"gravity over {g['n_poses']} random poses (seed {g['seed']}):"]
-    out.append(f"  peak |tau| (N m)     {np.round(np.asarray(g['peak']), 2) + 0.0}")
-    ratio = [
-        "-" if p < 1e-9 else f"{lim / p:.2f}" for p, lim in zip(g["peak"], g["limit"], strict=True)
-    ]
-    out.append(f"  limit / peak         {' '.join(ratio)}")
-    out.append(
-        f"  poses over a limit   {g['poses_over_limit']}   (Pinocchio vs MuJoCo: "
-        f"{g['engine_diff']:.1e} N m)"
-    )
-    c = r.collision
+    kd = "kd per joint (column kd)" if j.kd is None else f"kd = {j.kd:g} N m s/rad"
     out += [
         "",
-        f"self-collision over {c['n_poses']} random poses (seed {c['seed']}), {c['n_pairs']} "
-        "pairs tested:",
+        f"joints (at keyframe {j.keyframe!r}; h_max for {kd}; {j.note}):",
+        *table(
+            [
+                "joint",
+                "type",
+                "range",
+                "armature",
+                "share",
+                "b",
+                "kv",
+                "kd",
+                "effort N m",
+                "M_ii",
+                "h_max ms",
+                "bare ms",
+            ],
+            [
+                [
+                    x.name,
+                    x.type,
+                    f"[{fmt(x.lower, 3)}, {fmt(x.upper, 3)}]",
+                    fmt(x.armature),
+                    f"{100 * x.armature_share:.1f}%",
+                    fmt(x.damping, 3),
+                    fmt(x.servo_kv, 3),
+                    fmt(x.kd, 3),
+                    f"[{fmt(x.effort_lower, 3)}, {fmt(x.effort_upper, 3)}]"
+                    if x.actuated
+                    else "no actuator",
+                    fmt(x.m_ii),
+                    ms(x.h_max),
+                    ms(x.h_max_bare),
+                ]
+                for x in j.rows
+            ],
+            "llrrrrrrrrrr",
+        ),
     ]
-    out.append(f"  {100 * c['share_with_contact']:.1f}% of poses have a contact")
-    out.append(f"  {'pair':<24}{'poses':>7}{'contacts':>10}{'closest (m)':>13}")
-    for p in c["pairs"][:8]:
-        out.append(f"  {p['pair']:<24}{p['poses']:>7}{p['contacts']:>10}{p['closest']:>13.4f}")
-    for k in c["keyframes"]:
-        near = (
-            f", closest {k['closest_pair']} at {k['closest_distance']:.4f} m"
-            if k["closest_pair"]
-            else ""
-        )
-        out.append(f"  keyframe {k['name']}: {k['contacts']} contacts{near}")
-    x = r.crosscheck
-    out += [
-        "",
-        f"engine cross-check over {x['n_poses']} poses ({x['n_poses_second_order']} for dJ/dq and "
-        "the manipulability gradient), |MuJoCo - Pinocchio| / max(1, |value|):",
-    ]
-    for a in x["quantities"]:
-        out.append(
-            f"  {a['quantity']:<26}{a['max_error']:>10.2e}  tol {a['tol']:.0e}  "
-            f"{'ok' if a['ok'] else 'DISAGREE'}"
-        )
-    e = r.equivalence
-    out += ["", "model equivalence (MuJoCo's compiled model vs Pinocchio's):"]
-    out += [f"  DIFFERS {d}" for d in e["differences"]] or ["  no differences"]
-    kinds: dict[str, list[str]] = {}
-    for b in e["bridged"]:
-        kinds.setdefault(b["quantity"], []).append(f"{b['joint']}={b['value']}")
-    for kind, vals in kinds.items():
-        out.append(
-            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): "
-            f"{', '.join(vals)}"
-        )
+    out += ["", "keyframes (site Jacobian; torque the actuators must give to hold it):"]
+    out += table(
+        ["keyframe", "sigma", "rank", "manipulability", "lost", "held"],
+        [
+            [
+                k.name,
+                " ".join(fmt(x, 4) for x in k.svd.sigma),
+                str(k.svd.rank),
+                fmt(k.svd.manipulability, 3),
+                ", ".join(k.svd.lost_direction_names()) or "-",
+                "yes" if not k.unheld else "no: " + ", ".join(j.rows[i].name for i in k.unheld),
+            ]
+            for k in s.keyframes
+        ],
+        "llrrll",
+    )
+    out += ["", *_gravity_lines(r)]
+    out += ["", *_collision_lines(r)]
+    out += ["", *_engine_lines(r)]
     out += ["", f"findings: {len(r.findings)}"]
     out += [f"  [{f.kind}] {f.message}" for f in r.findings] or ["  none"]
     return out
 
 
-def write_atomic(path: str | os.PathLike[str], text: str) -> None:
-    """Write a file so that a crash leaves the old content or the new, never half of one."""
-    p = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, p)  # atomic on POSIX within one filesystem
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def _h(h: float) -> str:
+    return f"{1e3 * h:g} ms"
 
 
-def run_audit(args: argparse.Namespace) -> int:
-    """The ``audit`` subcommand; returns 1 when there are findings."""
-    from ..models import model_path
+def _gravity_lines(r: AuditReport) -> list[str]:
+    g = r.sections.gravity
+    names = [x.name for x in r.sections.joints.rows]
+    comp = ", gravity compensation subtracted" if g.gravcomp else ""
+    off = "" if g.gravity_enabled else " (gravity disabled: nothing to hold)"
+    return [
+        f"gravity over {g.n_poses} random poses (seed {g.seed}){comp}{off}: torque the "
+        "actuators must give, against what they can give (N m)",
+        *table(
+            ["joint", "min need", "max need", "lower limit", "upper limit", "limit/need", "over"],
+            [
+                [
+                    names[i],
+                    fmt(g.low[i], 4),
+                    fmt(g.high[i], 4),
+                    "varies" if g.varies[i] else fmt(g.limit_lower[i], 4),
+                    "varies" if g.varies[i] else fmt(g.limit_upper[i], 4),
+                    "-" if not math.isfinite(g.ratio[i]) else f"{g.ratio[i]:.2f}",
+                    str(int(g.over_low[i] + g.over_high[i])),
+                ]
+                for i in range(len(names))
+            ],
+            "lrrrrrr",
+        ),
+        f"  poses over a limit: {g.n_over}   (Pinocchio vs MuJoCo gravity: "
+        f"{g.engine_diff:.1e} N m)",
+    ]
 
-    path = args.model or model_path("arm7")
-    arm = load(path, site=args.site)
-    if args.model is None and not args.no_lesson:
-        from .lesson import print_tables
 
-        print("lesson 5.2's tables for arm7", flush=True)
-        print_tables(arm, n_poses=args.poses)
-        print()
-    report = audit(arm, args.poses, args.seed)
-    if args.json == "-":
-        print(report.to_json())
-    else:
-        for line in format_report(report):
-            print(line)
-        if args.json:
-            write_atomic(args.json, report.to_json() + "\n")
-    return 1 if report.findings else 0
+def _collision_lines(r: AuditReport) -> list[str]:
+    c = r.sections.contacts
+    ranked = sorted(c.pairs, key=lambda p: (-p.poses, p.closest))[:8]
+    out = [
+        f"self-collision over {c.n_poses} random poses (seed {c.seed}), {len(c.pairs)} pairs "
+        f"tested: {100 * c.share_with_contact:.1f}% of poses have a contact",
+        *table(
+            ["pair", "poses", "contacts", "closest (m)"],
+            [[p.pair.label, str(p.poses), str(p.contacts), fmt(p.closest, 4)] for p in ranked],
+            "lrrr",
+        ),
+    ]
+    for k in c.keyframes:
+        near = (
+            f", closest {k.closest.pair.label} at {k.closest.distance:.4f} m" if k.closest else ""
+        )
+        out.append(f"  keyframe {k.keyframe}: {k.contacts} contacts{near}")
+    return out
+
+
+def _engine_lines(r: AuditReport) -> list[str]:
+    cc, eq = r.engines.crosscheck, r.engines.equivalence
+    out = [
+        f"engine cross-check over {cc.n_poses} poses ({r.engines.second_order_poses} for dJ/dq "
+        "and the manipulability gradient), |MuJoCo - Pinocchio| / max(1, |value|):",
+        *table(
+            ["quantity", "max error", "tol", ""],
+            [
+                [a.quantity, f"{a.max_error:.2e}", f"{a.tol:.0e}", "ok" if a.ok else "DISAGREE"]
+                for a in cc.agreements
+            ],
+            "lrrl",
+        ),
+        "",
+        "model equivalence (MuJoCo's compiled model vs Pinocchio's):",
+    ]
+    out += [f"  DIFFERS {d}" for d in eq.differences] or ["  no differences"]
+    kinds: dict[str, list[str]] = {}
+    for b in eq.bridges:
+        kinds.setdefault(b.quantity, []).append(f"{b.joint}={b.value_text}")
+    for kind, vals in kinds.items():
+        out.append(
+            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): "
+            f"{', '.join(vals)}"
+        )
+    return out

@@ -8,18 +8,18 @@ also says how far Pinocchio is from MuJoCo.
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import inertia, linalg
-from ..analysis import batch
-from ..arm import Arm, random_poses
-from ..collision import CollisionStatistics, collision_statistics
+from .. import inertia
+from ..arm import Arm
+from ..collision import CollisionStatistics
 from ..lab.control import simulate_hold
+from . import sections
 
 Array = NDArray[np.float64]
 
@@ -28,69 +28,16 @@ N_POSES = 10_000
 
 
 # -- (1) joints -----------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class JointRow:
-    """One joint of table (1); inertias at the home pose [kg m^2], steps [s]."""
-
-    name: str
-    axis: str
-    lower: float
-    upper: float
-    armature: float
-    damping: float
-    limit: float
-    m_ii: float
-    m_ii_bare: float
-    h_max: float
-    h_max_bare: float
-
-
-@dataclass(frozen=True)
-class JointTable:
-    """Table (1) with the engines' largest disagreement on the diagonal of M [kg m^2]."""
-
-    rows: tuple[JointRow, ...]
-    kd: float
-    engine_diff: float
-
-
-def joint_table(arm: Arm, key: str = "home", kd: float = KD) -> JointTable:
+def joint_table(arm: Arm, key: str = "home", kd: float = KD) -> sections.JointSection:
     """Axis, range, armature, damping, motor limit, M_ii with and without armature, h_max."""
-    q = arm.keyframe(key)
-    m = np.diag(arm.mass_matrix(q))
-    bare = np.diag(arm.mass_matrix(q, armature=False))
-    diff = max(
-        np.max(np.abs(np.diag(arm.mass_matrix(q, a, "pinocchio")) - (m if a else bare)))
-        for a in (True, False)
-    )
-    b = arm.damping()
-    h = inertia.max_stable_timestep(m, kd, b)
-    hb = inertia.max_stable_timestep(bare, kd, b)
-    axes = arm.mujoco.model.jnt_axis
-    rows = tuple(
-        JointRow(
-            name,
-            "xyz"[int(np.argmax(np.abs(axes[i])))],
-            float(arm.lower[i]),
-            float(arm.upper[i]),
-            float(arm.armature()[i]),
-            float(b[i]),
-            float(arm.effort_limit[i]),
-            float(m[i]),
-            float(bare[i]),
-            float(h[i]),
-            float(hb[i]),
-        )
-        for i, name in enumerate(arm.joint_names)
-    )
-    return JointTable(rows, kd, float(diff))
+    return sections.joints(arm, kd, key)
 
 
 def _ms(h: float) -> str:
     return "any" if not np.isfinite(h) else f"{1000 * h:.2f} ms"
 
 
-def format_joint_table(t: JointTable) -> list[str]:
+def format_joint_table(t: sections.JointSection) -> list[str]:
     """Table (1) lines."""
     out = [
         f"  {'joint':<5}{'axis':>5}{'range (rad)':>15}{'armature':>10}{'damping':>9}{'limit':>7}"
@@ -99,15 +46,17 @@ def format_joint_table(t: JointTable) -> list[str]:
     for r in t.rows:
         rng = np.array2string(np.array([r.lower, r.upper]), precision=1)
         out.append(
-            f"  {r.name:<5}{r.axis:>5}{rng:>15}{r.armature:>10.3f}{r.damping:>9.2f}{r.limit:>7.0f}"
-            f"{r.m_ii:>9.4f}{r.m_ii_bare:>11.5f}{_ms(r.h_max):>10}{_ms(r.h_max_bare):>11}"
+            f"  {r.name:<5}{r.axis:>5}{rng:>15}{r.armature:>10.3f}{r.damping:>9.2f}"
+            f"{r.effort_limit:>7.0f}{r.m_ii:>9.4f}{r.m_ii_bare:>11.5f}{_ms(r.h_max):>10}"
+            f"{_ms(r.h_max_bare):>11}"
         )
     out.append(
         "  units: limit N m, M_ii kg m^2 at the home pose; h_max = 2 M_ii / (kd - b) for a "
         "controller"
     )
+    kd = t.kd if t.kd is not None else max(r.kd for r in t.rows)
     out.append(
-        f"  damping kd = {t.kd} N m s/rad on top of the joint's own damping b, which Euler "
+        f"  damping kd = {kd} N m s/rad on top of the joint's own damping b, which Euler "
         "treats implicitly"
     )
     out.append(
@@ -118,72 +67,37 @@ def format_joint_table(t: JointTable) -> list[str]:
 
 
 # -- (2) Jacobian singular values -----------------------------------------------------------------
-@dataclass(frozen=True)
-class SVDRow:
-    """Table (2): singular values of the site Jacobian at a keyframe."""
-
-    key: str
-    svd: linalg.JacobianSVD
-    engine_diff: float
-
-
-def jacobian_table(arm: Arm, keys: Sequence[str] = ("zero", "home")) -> tuple[SVDRow, ...]:
+def jacobian_table(
+    arm: Arm, keys: Sequence[str] = ("zero", "home")
+) -> tuple[sections.KeyframeRow, ...]:
     """SVD of J at each keyframe, with Pinocchio's largest singular-value difference."""
-    rows = []
-    for key in keys:
-        q = arm.keyframe(key)
-        s = arm.svd(q)
-        sp = arm.svd(q, "pinocchio")
-        rows.append(SVDRow(key, s, float(np.max(np.abs(s.sigma - sp.sigma)))))
-    return tuple(rows)
+    return sections.keyframes(arm, tuple(keys))
 
 
-def format_jacobian_table(rows: Sequence[SVDRow]) -> list[str]:
+def format_jacobian_table(rows: Sequence[sections.KeyframeRow]) -> list[str]:
     """Table (2) lines."""
     out = []
     for r in rows:
         out.append(
-            f"  {r.key:<5} singular values {np.round(r.svd.sigma, 4)}  rank {r.svd.rank}  "
+            f"  {r.name:<5} singular values {np.round(r.svd.sigma, 4)}  rank {r.svd.rank}  "
             f"manipulability sqrt(det(J J^T)) = {r.svd.manipulability:.2e}"
         )
     for r in rows:
         lost = r.svd.lost_direction_names()
         if lost:
-            out.append(f"  {r.key}: lost tool directions: {', '.join(lost)}")
+            out.append(f"  {r.name}: lost tool directions: {', '.join(lost)}")
     diff = max(r.engine_diff for r in rows)
     out.append(f"  Pinocchio's singular values differ from MuJoCo's by at most {diff:.1e}")
     return out
 
 
 # -- (3) gravity budget ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class GravityBudget:
-    """Table (3): largest gravity torque per joint over random poses, against motor limits."""
-
-    n_poses: int
-    peak: Array
-    limit: Array
-    n_over: int
-    engine_diff: float
-
-    @property
-    def ratio(self) -> Array:
-        """Motor limit / peak gravity torque (inf where gravity never loads the joint)."""
-        with np.errstate(divide="ignore"):
-            return np.where(self.peak < 1e-9, np.inf, self.limit / np.maximum(self.peak, 1e-300))
-
-
-def gravity_budget(arm: Arm, n: int = N_POSES, seed: int = 0) -> GravityBudget:
+def gravity_budget(arm: Arm, n: int = N_POSES, seed: int = 0) -> sections.GravityBudget:
     """Peak |gravity torque| per joint over n random poses, from both engines."""
-    qs = random_poses(arm, n, seed)
-    tau = batch.gravities(arm, qs, "mujoco")
-    tau_p = batch.gravities(arm, qs, "pinocchio")
-    peak = np.max(np.abs(tau), axis=0)
-    over = int(np.sum(np.any(np.abs(tau) > arm.effort_limit, axis=1)))
-    return GravityBudget(n, peak, arm.effort_limit.copy(), over, float(np.max(np.abs(tau - tau_p))))
+    return sections.gravity_budget(arm, n, seed)
 
 
-def format_gravity_budget(g: GravityBudget) -> list[str]:
+def format_gravity_budget(g: sections.GravityBudget) -> list[str]:
     """Table (3) lines."""
     ratio = " ".join("-" if not np.isfinite(r) else f"{r:.2f}" for r in g.ratio)
     return [
@@ -215,7 +129,7 @@ def contact_table(arm: Arm, n_poses: int = N_POSES, seed: int = 1) -> CollisionS
     Distances per pair are left out here for speed; ``redundancy audit`` adds them (closest
     approach per pair, and coal against MuJoCo).
     """
-    return collision_statistics(arm, n_poses, seed, distances=None)
+    return sections.contacts(arm, n_poses, seed, distances=None)
 
 
 def format_contact_table(stats: CollisionStatistics, top: int = 4) -> list[str]:
@@ -402,19 +316,40 @@ def format_wrist_threshold(w: WristThreshold, joint: str = "j7") -> list[str]:
 
 
 # -- all six --------------------------------------------------------------------------------------
-def print_tables(arm: Arm, n_poses: int = N_POSES, out=print) -> None:
-    """Print the lesson's six tables for ``arm`` (which must be shaped like arm7)."""
+def print_tables(
+    arm: Arm,
+    n_poses: int = N_POSES,
+    out: Callable[[str], object] = print,
+    computed: sections.Sections | None = None,
+) -> None:
+    """Print the lesson's six tables for ``arm`` (which must be shaped like arm7).
+
+    Args:
+        arm: The arm.
+        n_poses: Random poses of tables (3) and (4).
+        out: Where each line goes.
+        computed: Sections already computed for this arm (by the audit, with seed 0), so
+            tables (1) to (4) only format them; by default they are computed here.
+    """
+    if computed is None:
+        computed = sections.Sections(
+            joint_table(arm),
+            jacobian_table(arm),
+            gravity_budget(arm, n_poses, seed=0),
+            contact_table(arm, n_poses, seed=1),
+        )
+    keys = [k for k in computed.keyframes if k.name in ("zero", "home")]
     out("(1) joints, inertia and the explicit-damping timestep bound:")
-    for line in format_joint_table(joint_table(arm)):
+    for line in format_joint_table(computed.joints):
         out(line)
     out("(2) singular values of the 6x7 Jacobian of the ee site:")
-    for line in format_jacobian_table(jacobian_table(arm)):
+    for line in format_jacobian_table(keys):
         out(line)
     out("(3) gravity torque against motor limits:")
-    for line in format_gravity_budget(gravity_budget(arm, n_poses, seed=0)):
+    for line in format_gravity_budget(computed.gravity):
         out(line)
     out("(4) self-collision:")
-    for line in format_contact_table(contact_table(arm, n_poses, seed=1)):
+    for line in format_contact_table(computed.contacts):
         out(line)
     out(
         f"(5) hold the home pose for 2 s at h = 2 ms after a 0.01 rad/s nudge (PD: kp {KP:g}, "

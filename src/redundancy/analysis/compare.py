@@ -1,0 +1,582 @@
+"""Two descriptions that claim to be one robot, compared structurally and pose by pose.
+
+A URDF and its MJCF conversion, or two versions of one MJCF: each is loaded into its own two
+engines (and cross-checked there, see :func:`redundancy.crosscheck`); this module compares
+the two arms with each other. Joints are matched by name or by a joint map.
+
+* **Structure**, at a reference pose (zeros clipped into the ranges), in the world frame so
+  that each file's choice of body frames does not matter: each joint's parent, type, axis
+  (with its sign) and axis line, range, effort limit, damping, friction, armature where both
+  formats carry it; mass, centre of mass and inertia of the body each joint moves (links
+  welded to it lumped in); the tool frame's placement; gravity.
+* **Poses**: tool pose, Jacobian, mass matrix and gravity torques over random poses drawn
+  in the ranges both share, and every keyframe of either file.
+
+Each difference names the quantity, the joint or body, both values, and the first joint
+where the two kinematic chains part. What a format cannot express (armature, keyframes and
+gravity in URDF; velocity limits in MJCF) is listed as such, not as a difference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..arm import Arm, sampling_ranges
+from ..errors import ModelError, UnknownNameError
+
+Array = NDArray[np.float64]
+
+__all__ = ["Comparison", "Finding", "compare", "read_joint_map", "run_compare"]
+
+#: Quantities compared pose by pose, with what they are made of.
+POSE_QUANTITIES = ("tool position", "tool rotation", "jacobian", "mass matrix", "gravity torque")
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One quantity on which the two descriptions differ, or that one cannot express.
+
+    Attributes:
+        quantity: e.g. ``"joint axis (world)"``, ``"centre of mass (world)"``, ``"jacobian"``.
+        where: The joint, body or frame it concerns, in A's names (B's in brackets when
+            they differ).
+        a: A's value (None where A cannot express it).
+        b: B's value (None where B cannot express it).
+        error: Largest absolute difference [SI units of the quantity] (0 for a listing).
+        note: Extra context (the pose, the format that cannot express it).
+    """
+
+    quantity: str
+    where: str
+    a: Any
+    b: Any
+    error: float = 0.0
+    note: str = ""
+
+    def __str__(self) -> str:
+        text = f"{self.quantity} of {self.where}: A {_fmt(self.a)}, B {_fmt(self.b)}"
+        if self.error:
+            text += f" (|diff| {self.error:.3g})"
+        return text + (f"; {self.note}" if self.note else "")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (arrays as lists, infinities as strings)."""
+        return {
+            "quantity": self.quantity,
+            "where": self.where,
+            "a": _jsonable(self.a),
+            "b": _jsonable(self.b),
+            "error": _jsonable(self.error),
+            "note": self.note,
+        }
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Result of :func:`compare`.
+
+    Attributes:
+        a: Description of A (file and format); b likewise.
+        frame_a: A's tool frame; frame_b likewise.
+        joint_map: Pairs (A's joint, B's joint), in A's order.
+        differences: Every difference, structural first, then pose by pose.
+        not_expressible: What one format cannot express, with the other's values.
+        chains_part: Where the kinematic chains first part (a joint, ``"tool frame"``), or
+            None when they do not.
+        largest: Largest difference per quantity compared (0 where identical) [SI units].
+        n_poses: Poses compared (random ones and keyframes).
+        tol: Absolute tolerance [SI units of each quantity].
+    """
+
+    a: str
+    b: str
+    frame_a: str
+    frame_b: str
+    joint_map: tuple[tuple[str, str], ...]
+    differences: tuple[Finding, ...]
+    not_expressible: tuple[Finding, ...]
+    chains_part: str | None
+    largest: dict[str, float] = field(default_factory=dict)
+    n_poses: int = 0
+    tol: float = 1e-9
+
+    @property
+    def equivalent(self) -> bool:
+        """True when nothing differs (what a format cannot express is not a difference)."""
+        return not self.differences
+
+    @property
+    def verdict(self) -> str:
+        """``"same robot"`` or ``"different"``."""
+        return "same robot" if self.equivalent else "different"
+
+    def lines(self) -> list[str]:
+        """Human-readable report lines."""
+        out = [
+            f"A: {self.a}, tool frame {self.frame_a!r}",
+            f"B: {self.b}, tool frame {self.frame_b!r}",
+            f"joints matched: {len(self.joint_map)} ("
+            + ", ".join(a if a == b else f"{a}={b}" for a, b in self.joint_map)
+            + ")",
+            f"compared: structure at the reference pose, and {self.n_poses} poses "
+            f"(tolerance {self.tol:g})",
+        ]
+        out += [f"DIFFERS  {d}" for d in self.differences]
+        if self.chains_part:
+            out.append(f"the chains part at: {self.chains_part}")
+        out += [f"NOT EXPRESSIBLE  {n}" for n in self.not_expressible]
+        out.append("largest difference per quantity:")
+        width = max((len(k) for k in self.largest), default=0)
+        out += [f"  {k:<{width}}  {v:.2e}" for k, v in self.largest.items()]
+        out.append(f"verdict: {self.verdict}")
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form of the whole comparison."""
+        return {
+            "a": self.a,
+            "b": self.b,
+            "frame_a": self.frame_a,
+            "frame_b": self.frame_b,
+            "joint_map": [list(p) for p in self.joint_map],
+            "verdict": self.verdict,
+            "equivalent": self.equivalent,
+            "chains_part": self.chains_part,
+            "differences": [d.to_dict() for d in self.differences],
+            "not_expressible": [n.to_dict() for n in self.not_expressible],
+            "largest": {k: _jsonable(v) for k, v in self.largest.items()},
+            "n_poses": self.n_poses,
+            "tol": self.tol,
+        }
+
+
+def _fmt(x: Any) -> str:
+    if x is None:
+        return "(cannot express)"
+    if isinstance(x, np.ndarray):
+        return np.array2string(x, precision=6, suppress_small=True, max_line_width=200)
+    if isinstance(x, float):
+        return f"{x:.9g}"
+    return str(x)
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, np.ndarray):
+        return [_jsonable(v) for v in x.tolist()]
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, float | np.floating):
+        v = float(x)
+        return v if math.isfinite(v) else str(v)
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def read_joint_map(path: str | os.PathLike[str]) -> dict[str, str]:
+    """A joint map file: a JSON object ``{"A joint": "B joint"}``, or lines ``A_joint B_joint``.
+
+    In the line form, ``#`` starts a comment and ``=`` or ``:`` may separate the two names.
+
+    Raises:
+        ModelError: Unreadable file, or a line that is not two names.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ModelError(f"cannot read the joint map {str(p)!r}: {err}") from err
+    if text.lstrip().startswith("{"):
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as err:
+            raise ModelError(f"joint map {str(p)!r} is not valid JSON: {err}") from err
+        if not all(isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
+            raise ModelError(f"joint map {str(p)!r}: every key and value must be a joint name")
+        return dict(data)
+    out: dict[str, str] = {}
+    for n, line in enumerate(text.splitlines(), 1):
+        words = line.split("#", 1)[0].replace("=", " ").replace(":", " ").split()
+        if not words:
+            continue
+        if len(words) != 2:
+            raise ModelError(
+                f"joint map {str(p)!r} line {n}: expected two joint names, got {line.strip()!r}"
+            )
+        out[words[0]] = words[1]
+    return out
+
+
+def _match(a: Arm, b: Arm, joint_map: Mapping[str, str] | None) -> list[tuple[str, str]]:
+    mapping = dict(joint_map or {})
+    for name_a, name_b in mapping.items():
+        if name_a not in a.joint_names:
+            raise UnknownNameError("joint", name_a, a.joint_names)
+        if name_b not in b.joint_names:
+            raise UnknownNameError("joint", name_b, b.joint_names)
+    pairs = [(n, mapping.get(n, n)) for n in a.joint_names]
+    targets = [nb for _, nb in pairs]
+    twice = sorted({nb for nb in targets if targets.count(nb) > 1})
+    if twice:
+        raise ModelError(
+            f"the joint map sends two joints of A to one joint of B ({', '.join(twice)}): "
+            f"{dict(pairs)}"
+        )
+    return pairs
+
+
+def compare(
+    a: Arm | str | os.PathLike[str],
+    b: Arm | str | os.PathLike[str],
+    *,
+    frame_a: str | None = None,
+    frame_b: str | None = None,
+    joint_map: Mapping[str, str] | str | os.PathLike[str] | None = None,
+    n_poses: int = 200,
+    seed: int = 0,
+    tol: float = 1e-9,
+) -> Comparison:
+    """Compare two descriptions of one robot, structurally and pose by pose.
+
+    Args:
+        a: An Arm, or a model file (MJCF or URDF) loaded with ``frame_a``.
+        b: Likewise, with ``frame_b``.
+        frame_a: A's tool frame (site for MJCF, link for URDF); default ``"ee"``.
+        frame_b: B's tool frame; default ``"ee"``.
+        joint_map: A's joint name -> B's, for joints whose names differ (others match by
+            name), or the path of a joint map file (see :func:`read_joint_map`).
+        n_poses: Random poses compared, besides the keyframes (>= 0).
+        seed: Seed of the random poses.
+        tol: Absolute tolerance per entry [SI units of each quantity], finite and > 0.
+
+    Raises:
+        ModelError: A file that does not load, a bad joint map, bad arguments.
+        UnknownNameError: A tool frame or mapped joint the model does not have.
+    """
+    from ..model.loading import load, model_format
+
+    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
+        raise ModelError(f"tol must be a finite number > 0, got {tol!r}")
+    if isinstance(n_poses, bool) or not isinstance(n_poses, int) or n_poses < 0:
+        raise ModelError(f"n_poses must be an integer >= 0, got {n_poses!r}")
+    if isinstance(joint_map, str | os.PathLike):
+        joint_map = read_joint_map(joint_map)
+    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or "ee")
+    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or "ee")
+    fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
+    pairs = _match(arm_a, arm_b, joint_map)
+    return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)
+
+
+class _Comparer:
+    """State of one comparison: the two arms, the joint pairing and the findings so far."""
+
+    def __init__(
+        self, a: Arm, b: Arm, fmt_a: str, fmt_b: str, pairs: list[tuple[str, str]], tol: float
+    ) -> None:
+        self.a, self.b, self.fmt_a, self.fmt_b, self.tol = a, b, fmt_a, fmt_b, tol
+        self.pairs = pairs
+        self.diffs: list[Finding] = []
+        self.inexpressible: list[Finding] = []
+        self.largest: dict[str, float] = {}
+        self.kinematic: list[int] = []  # indices (A's order) of joints whose kinematics differ
+        # Joints of A present in B, as indices into each arm's order.
+        self.ia = [i for i, (_, nb) in enumerate(pairs) if nb in b.joint_names]
+        self.ib = [b.joint_index(pairs[i][1]) for i in self.ia]
+        self.matched = len(self.ia) == a.nq == b.nq
+
+    def where(self, i: int) -> str:
+        name_a, name_b = self.pairs[i]
+        return f"joint {name_a!r}" + (f" [{name_b!r}]" if name_b != name_a else "")
+
+    def body_where(self, i: int) -> str:
+        ba = _body_of(self.a, i)
+        bb = _body_of(self.b, self.b.joint_index(self.pairs[i][1]))
+        shown = f"{ba!r}" + (f" [{bb!r}]" if bb != ba else "")
+        return f"body {shown} (moved by {self.pairs[i][0]!r})"
+
+    def check(self, quantity: str, where: str, va: Any, vb: Any, note: str = "") -> bool:
+        """Record a difference when |va - vb| > tol; return True when they differ."""
+        xa, xb = np.asarray(va, float), np.asarray(vb, float)
+        same_inf = np.isinf(xa) & np.isinf(xb) & (np.sign(xa) == np.sign(xb))
+        with np.errstate(invalid="ignore"):
+            err_all = np.where(same_inf, 0.0, np.abs(np.nan_to_num(xa - xb, nan=np.inf)))
+        err = float(np.max(err_all)) if err_all.size else 0.0
+        self.largest[quantity] = max(self.largest.get(quantity, 0.0), err)
+        if err > self.tol:
+            self.diffs.append(Finding(quantity, where, va, vb, err, note))
+            return True
+        return False
+
+    def cannot(self, quantity: str, where: str, va: Any, vb: Any, fmt: str) -> None:
+        self.inexpressible.append(Finding(quantity, where, va, vb, 0.0, f"{fmt} cannot express it"))
+
+    # -- structure -----------------------------------------------------------------------
+    def structure(self) -> None:
+        a, b = self.a, self.b
+        only_a = [na for na, nb in self.pairs if nb not in b.joint_names]
+        mapped = {nb for _, nb in self.pairs}
+        only_b = [n for n in b.joint_names if n not in mapped]
+        for n in only_a:
+            self.diffs.append(Finding("presence", f"joint {n!r}", "present", "absent", math.inf))
+        for n in only_b:
+            self.diffs.append(Finding("presence", f"joint {n!r}", "absent", "present", math.inf))
+        if only_a:
+            self.kinematic.append(a.joint_index(only_a[0]))
+        qa, qb = self.reference_poses()
+        ax_a, an_a = a.mujoco.joint_axes(qa)
+        ax_b, an_b = b.mujoco.joint_axes(qb)
+        m_a, c_a, I_a = a.mujoco.link_inertias(qa)
+        m_b, c_b, I_b = b.mujoco.link_inertias(qb)
+        inverse = {nb: na for na, nb in self.pairs}
+        for i, j in zip(self.ia, self.ib, strict=True):
+            w = self.where(i)
+            kin = False
+            pa = _parent_joint(a, i)
+            pb = _parent_joint(b, j)
+            pb_in_a = inverse.get(pb, pb) if pb else ""
+            if pa != pb_in_a:
+                self.diffs.append(
+                    Finding("parent joint", w, pa or "(base)", pb or "(base)", math.inf)
+                )
+                kin = True
+            if a.joint_types[i] != b.joint_types[j]:
+                self.diffs.append(
+                    Finding("joint type", w, a.joint_types[i], b.joint_types[j], math.inf)
+                )
+                kin = True
+            kin |= self.check("joint axis (world)", w, ax_a[i], ax_b[j])
+            if a.joint_types[i] == "hinge":
+                # The anchor may sit anywhere on the axis line: compare the offset across it.
+                r = an_b[j] - an_a[i]
+                kin |= self.check(
+                    "joint axis line (world)", w, np.zeros(3), r - (r @ ax_a[i]) * ax_a[i]
+                )
+            else:
+                kin |= self.check("joint anchor (world)", w, an_a[i], an_b[j])
+            if kin:
+                self.kinematic.append(i)
+            self.check("joint range", w, [a.lower[i], a.upper[i]], [b.lower[j], b.upper[j]])
+            self.check("effort limit", w, a.effort_limit[i], b.effort_limit[j])
+            self.check("damping", w, a.damping()[i], b.damping()[j])
+            self.check(
+                "friction",
+                w,
+                a.mj_model.dof_frictionloss[i],
+                b.mj_model.dof_frictionloss[j],
+            )
+            bw = self.body_where(i)
+            self.check("body mass", bw, m_a[i], m_b[j])
+            self.check("centre of mass (world)", bw, c_a[i], c_b[j])
+            self.check("inertia about the centre of mass (world)", bw, I_a[i], I_b[j])
+        self.armature()
+        self.format_only()
+        pos_a, rot_a = a.mujoco.site_pose(qa)
+        pos_b, rot_b = b.mujoco.site_pose(qb)
+        tool = f"tool frame {a.site!r}" + (f" [{b.site!r}]" if b.site != a.site else "")
+        moved = self.check("tool frame position (world)", tool, pos_a, pos_b)
+        moved |= self.check("tool frame rotation (world)", tool, rot_a, rot_b)
+        if moved:
+            self.kinematic.append(a.nq)  # after the last joint
+        g_a, g_b = a.mj_model.opt.gravity, b.mj_model.opt.gravity
+        if "URDF" in (self.fmt_a, self.fmt_b) and self.fmt_a != self.fmt_b:
+            standard = np.array([0.0, 0.0, -9.81])
+            mjcf_g = g_b if self.fmt_a == "URDF" else g_a
+            if np.max(np.abs(mjcf_g - standard)) > self.tol:
+                self.cannot("gravity vector", "model", g_a.copy(), g_b.copy(), "URDF")
+                return
+        self.check("gravity vector", "model", g_a.copy(), g_b.copy())
+
+    def armature(self) -> None:
+        a, b = self.a, self.b
+        arm_a, arm_b = a.armature(), b.armature()
+        if self.armature_comparable:
+            for i, j in zip(self.ia, self.ib, strict=True):
+                self.check("armature", self.where(i), arm_a[i], arm_b[j])
+            return
+        # One side is URDF: list the other side's armature (if any) as not expressible.
+        arm = b if self.fmt_a == "URDF" else a
+        values = arm.armature()
+        if np.any(values != 0):
+            listed = {n: float(v) for n, v in zip(arm.joint_names, values, strict=True)}
+            va, vb = (None, listed) if self.fmt_a == "URDF" else (listed, None)
+            self.cannot("armature", "joints", va, vb, "URDF")
+
+    @property
+    def armature_comparable(self) -> bool:
+        return "URDF" not in (self.fmt_a, self.fmt_b) or self.fmt_a == self.fmt_b
+
+    def format_only(self) -> None:
+        """Velocity limits (URDF only) and keyframes (MJCF only), listed where one side has them."""
+        if self.fmt_a == self.fmt_b:
+            return
+        for arm, fmt, side in ((self.a, self.fmt_a, "a"), (self.b, self.fmt_b, "b")):
+            if fmt == "URDF":
+                vel = np.asarray(arm.pinocchio.model.velocityLimit)[arm.pinocchio.perm]
+                if np.isfinite(vel).any():
+                    values = {n: float(v) for n, v in zip(arm.joint_names, vel, strict=True)}
+                    va, vb = (values, None) if side == "a" else (None, values)
+                    self.cannot("velocity limit", "joints", va, vb, "MJCF")
+            elif arm.keyframes:
+                names = sorted(arm.keyframes)
+                va, vb = (names, None) if side == "a" else (None, names)
+                self.cannot("keyframes", "model", va, vb, "URDF")
+
+    def reference_poses(self) -> tuple[Array, Array]:
+        qa = np.clip(np.zeros(self.a.nq), self.a.lower, self.a.upper)
+        return qa, self.to_b(qa)
+
+    def to_b(self, qa: Array) -> Array:
+        qb = np.clip(np.zeros(self.b.nq), self.b.lower, self.b.upper)
+        qb[self.ib] = qa[self.ia]
+        return qb
+
+    # -- poses -----------------------------------------------------------------------------
+    def poses(self, n: int, seed: int) -> Array:
+        lo_a, hi_a = sampling_ranges(self.a)
+        lo_b, hi_b = sampling_ranges(self.b)
+        lo, hi = lo_a.copy(), hi_a.copy()
+        # Draw where both ranges allow (a range only one file has is a structural difference).
+        lo[self.ia] = np.maximum(lo_a[self.ia], lo_b[self.ib])
+        hi[self.ia] = np.minimum(hi_a[self.ia], hi_b[self.ib])
+        empty = lo > hi
+        lo[empty], hi[empty] = lo_a[empty], hi_a[empty]
+        qs = [np.random.default_rng(seed).uniform(lo, hi, size=(n, self.a.nq))]
+        qs += [q[None, :] for q in self.a.keyframes.values()]
+        for q in self.b.keyframes.values():
+            qa = np.clip(np.zeros(self.a.nq), self.a.lower, self.a.upper)
+            qa[self.ia] = q[self.ib]
+            qs.append(qa[None, :])
+        return np.concatenate(qs) if qs else np.zeros((0, self.a.nq))
+
+    def pose_by_pose(self, n: int, seed: int) -> int:
+        qs = self.poses(n, seed)
+        perm = np.asarray(self.ib)
+        cols = np.asarray(self.ia)
+        full_m = self.armature_comparable
+        gravity_ok = not any(f.quantity == "gravity vector" for f in self.inexpressible)
+        worst: dict[str, tuple[float, int, Any, Any, str]] = {}
+        for p, qa in enumerate(qs):
+            qb = self.to_b(qa)
+            a, b = self.a, self.b
+            pa, ra = a.mujoco.site_pose(qa)
+            pb, rb = b.mujoco.site_pose(qb)
+            # Per quantity: A's value, B's value, and the axis that runs over joints (None
+            # for the tool pose), to name the joint with the largest difference.
+            values = {
+                "tool position": (pa, pb, None),
+                "tool rotation": (ra, rb, None),
+                "jacobian": (
+                    a.mujoco.site_jacobian(qa)[:, cols],
+                    b.mujoco.site_jacobian(qb)[:, perm],
+                    1,
+                ),
+                "mass matrix": (
+                    a.mujoco.mass_matrix(qa, full_m)[np.ix_(cols, cols)],
+                    b.mujoco.mass_matrix(qb, full_m)[np.ix_(perm, perm)],
+                    0,
+                ),
+            }
+            if gravity_ok:
+                gravity = (a.mujoco.gravity(qa)[cols], b.mujoco.gravity(qb)[perm], 0)
+                values["gravity torque"] = gravity
+            for quantity, (va, vb, axis) in values.items():
+                diff = np.abs(va - vb)
+                err = float(diff.max()) if diff.size else 0.0
+                if quantity not in worst or err > worst[quantity][0]:
+                    located = ""
+                    if axis is not None and err > self.tol:
+                        k = int(np.unravel_index(np.argmax(diff), diff.shape)[axis])
+                        located = f"largest at {self.where(self.ia[k])}"
+                    worst[quantity] = (err, p, va, vb, located)
+        for quantity, (err, p, va, vb, located) in worst.items():
+            bare = quantity == "mass matrix" and not full_m
+            name = quantity + (" (without armature)" if bare else "")
+            self.largest[name] = err
+            if err > self.tol:
+                note = f"worst at pose {p}, q_A = {np.array2string(qs[p], precision=4)}"
+                note += f"; {located}" if located else ""
+                self.diffs.append(Finding(name, "poses", va, vb, err, note))
+        return len(qs)
+
+    def run(self, n: int, seed: int) -> Comparison:
+        self.structure()
+        n_checked = self.pose_by_pose(n, seed) if self.matched else 0
+        part = None
+        if self.kinematic:
+            first = min(self.kinematic)
+            part = "tool frame (after the last joint)" if first >= self.a.nq else self.where(first)
+        return Comparison(
+            a=f"{self.a.source} ({self.fmt_a})",
+            b=f"{self.b.source} ({self.fmt_b})",
+            frame_a=self.a.site,
+            frame_b=self.b.site,
+            joint_map=tuple(self.pairs),
+            differences=tuple(self.diffs),
+            not_expressible=tuple(self.inexpressible),
+            chains_part=part,
+            largest=dict(self.largest),
+            n_poses=n_checked,
+            tol=self.tol,
+        )
+
+
+def _body_of(arm: Arm, i: int) -> str:
+    import mujoco
+
+    m = arm.mj_model
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.jnt_bodyid[i])) or f"#{i}"
+
+
+def _parent_joint(arm: Arm, i: int) -> str:
+    """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
+    m = arm.mj_model
+    body = int(m.body_parentid[m.jnt_bodyid[i]])
+    while body > 0 and m.body_jntnum[body] == 0:
+        body = int(m.body_parentid[body])
+    return "" if body == 0 else arm.joint_names[int(m.body_jntadr[body])]
+
+
+def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:
+    """The ``compare`` subcommand: 0 the same robot, 1 differences (bad input raises).
+
+    Args:
+        args: Parsed arguments (``a``, ``b``, ``frame_a``, ``frame_b``, ``joint_map``,
+            ``json``, ``poses``, ``seed``, ``tol``); the command line has checked the counts
+            and the JSON target.
+        write: Writes text to a path atomically (the audit's writer).
+    """
+    if not (math.isfinite(args.tol) and args.tol > 0):
+        raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
+    joint_map = read_joint_map(args.joint_map) if args.joint_map else None
+    result = compare(
+        args.a,
+        args.b,
+        frame_a=args.frame_a,
+        frame_b=args.frame_b,
+        joint_map=joint_map,
+        n_poses=args.poses,
+        seed=args.seed,
+        tol=args.tol,
+    )
+    document = json.dumps(result.to_dict(), indent=2)
+    if args.json == "-":
+        print(document)
+    else:
+        for line in result.lines():
+            print(line)
+        if args.json:
+            write(args.json, document + "\n")
+    sys.stdout.flush()
+    return 0 if result.equivalent else 1

@@ -1,0 +1,505 @@
+"""URDF in both engines: Pinocchio's URDF parser and MuJoCo's URDF compiler.
+
+Measured with MuJoCo 4.0 and Pinocchio 4.1 (``tests/test_urdf.py`` holds each case), the two
+importers read the same numbers for link inertials, joint origins, axes, ranges, effort limits
+(MuJoCo: ``actuatorfrcrange``), damping and friction (MuJoCo: ``frictionloss``). Where they
+part, this module decides:
+
+* **fixed links**: MuJoCo fuses them into their parent by default (a tool link then becomes a
+  ``<frame>`` and its name is gone); the library compiles with ``fusestatic`` off, so every
+  link stays a body and a tool link can carry the tool site (masses are unchanged: welded
+  bodies move as one).
+* **continuous joints**: Pinocchio makes them unbounded revolutes with two coordinates
+  (cos, sin); the library rebuilds them as one-coordinate revolutes without limits, as
+  MuJoCo's hinge (poses are sampled in [-pi, pi]).
+* **mesh paths**: MuJoCo opens ``package://`` and ``file://`` names as plain paths and fails;
+  the library resolves them (the URDF's directory and its parents, ``ROS_PACKAGE_PATH``) and
+  gives MuJoCo absolute paths; an unresolved path is the library's error, naming it.
+  Visual geoms are discarded (MuJoCo's default for URDF); Pinocchio's model reads no geometry.
+* **missing inertials**: MuJoCo infers the mass of a link without ``<inertial>`` from its
+  collision geoms (``inertiafromgeom`` auto), Pinocchio gives it none (URDF's meaning). The
+  library compiles with ``inertiafromgeom`` false, so both read a missing inertial as no
+  mass; a moving link left with no mass at all (with the links fixed to it) is refused,
+  naming it (MuJoCo would raise a mass error, Pinocchio a singular mass matrix).
+* **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: refused.
+* **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
+* **armature**: URDF cannot express it; both engines read 0.
+* **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
+* **self-collision**: URDF has no filter. MuJoCo's parent filter already skips a link and its
+  parent, except where the parent is welded to the world; the library excludes every pair of
+  links joined by a joint (with the links welded to each), the base included, plus the pairs
+  of an SRDF's ``<disable_collisions>`` or a list given to :func:`redundancy.load`.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from ..engines.mujoco import captured_warnings
+from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
+
+_XACRO_NS = "{http://www.ros.org/wiki/xacro}"
+_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+# MuJoCo compiler settings (the URDF's <mujoco><compiler> extension) that change masses or
+# inertias in MuJoCo only: Pinocchio reads the inertials as written.
+_MASS_SETTINGS = ("boundmass", "boundinertia", "settotalmass", "balanceinertia")
+# Numeric attributes of URDF elements (tag -> attribute -> count of numbers), checked before
+# either parser sees them: urdfdom prints its own complaint on stderr before Pinocchio raises.
+_NUMBERS = {
+    "origin": {"xyz": 3, "rpy": 3},
+    "axis": {"xyz": 3},
+    "limit": {"lower": 1, "upper": 1, "effort": 1, "velocity": 1},
+    "dynamics": {"damping": 1, "friction": 1},
+    "mass": {"value": 1},
+    "inertia": {k: 1 for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+    "box": {"size": 3},
+    "cylinder": {"radius": 1, "length": 1},
+    "sphere": {"radius": 1},
+    "capsule": {"radius": 1, "length": 1},
+    "mesh": {"scale": 3},
+}
+
+DisabledPairs = str | os.PathLike[str] | Iterable[Sequence[str]]
+
+
+@dataclass
+class UrdfTree:
+    """The link tree of a URDF, as written.
+
+    Attributes:
+        name: The robot's name.
+        links: Link names, in file order.
+        joints: Joint name -> (type, parent link, child link), in file order.
+        root: The root link (the one that is no joint's child).
+        groups: Link -> the links welded to it by fixed joints (itself included).
+    """
+
+    name: str
+    links: list[str]
+    joints: dict[str, tuple[str, str, str]]
+    root: str
+    groups: dict[str, frozenset[str]] = field(default_factory=dict)
+
+    @property
+    def moving_joints(self) -> list[str]:
+        """Joints that are not fixed, in file order."""
+        return [n for n, (t, _, _) in self.joints.items() if t != "fixed"]
+
+
+def is_urdf(root: ET.Element) -> bool:
+    """True when the parsed XML is a URDF (root element ``<robot>``)."""
+    return root.tag == "robot" or root.tag.endswith("}robot")
+
+
+def check_urdf(root: ET.Element, source: str) -> UrdfTree:
+    """Refuse what the engines would read differently, and return the link tree.
+
+    Args:
+        root: The parsed URDF.
+        source: File name or ``"<string>"``, for messages.
+
+    Raises:
+        UnsupportedFeatureError: xacro macros, floating or planar joints, mimic joints,
+            a moving link without inertial, MuJoCo compiler settings that change masses.
+        ModelError: Not a valid URDF (missing names, unknown link, several roots).
+    """
+    _check_xacro(root, source)
+    _check_numbers(root, source)
+    if root.tag != "robot":
+        raise UnsupportedFeatureError(
+            f"<{root.tag}> root element", source, "a URDF's root element is <robot>"
+        )
+    links = [el.get("name", "") for el in root.findall("link")]
+    if "" in links:
+        raise ModelError(f"URDF {source}: a <link> has no name")
+    if not links:
+        raise ModelError(f"URDF {source}: no <link> elements")
+    joints: dict[str, tuple[str, str, str]] = {}
+    for el in root.findall("joint"):
+        name, kind = el.get("name", ""), el.get("type", "")
+        parent, child = el.find("parent"), el.find("child")
+        if not name or parent is None or child is None:
+            raise ModelError(f"URDF {source}: joint {name!r} needs a name, <parent> and <child>")
+        if kind not in _JOINT_TYPES:
+            raise ModelError(
+                f"URDF {source}: joint {name!r} has type {kind!r}; "
+                f"valid URDF joint types: {list(_JOINT_TYPES)}"
+            )
+        where = f"joint {name!r} in {source}"
+        if kind in ("floating", "planar"):
+            raise UnsupportedFeatureError(
+                f"{kind} joint",
+                where,
+                "only revolute, continuous, prismatic and fixed joints are supported "
+                "(a fixed-base arm)",
+            )
+        if el.find("mimic") is not None:
+            raise UnsupportedFeatureError(
+                "mimic joint",
+                where,
+                "MuJoCo couples it with an equality constraint and Pinocchio's parser ignores "
+                "it, so the engines would see different arms; make it an independent joint",
+            )
+        for link in (parent.get("link", ""), child.get("link", "")):
+            if link not in links:
+                raise UnknownNameError("link", link, links)
+        joints[name] = (kind, parent.get("link", ""), child.get("link", ""))
+    for kind, names in (("joint", list(joints)), ("link", links)):
+        if "universe" in names:
+            raise UnsupportedFeatureError(
+                f"{kind} named 'universe'",
+                f"{kind} 'universe' in {source}",
+                "Pinocchio reserves the name for its world joint and frame; rename it",
+            )
+    children = {c for _, _, c in joints.values()}
+    roots = [n for n in links if n not in children]
+    if len(roots) != 1:
+        raise ModelError(
+            f"URDF {source}: the links must form one tree with one root; roots found: {roots}"
+        )
+    tree = UrdfTree(root.get("name", ""), links, joints, roots[0])
+    if not tree.moving_joints:
+        raise UnsupportedFeatureError(
+            "no joints", source, "an arm needs at least one revolute, continuous or prismatic joint"
+        )
+    tree.groups = _weld_groups(tree)
+    _check_inertials(root, tree, source)
+    _check_mujoco_extension(root, source)
+    return tree
+
+
+def _check_xacro(root: ET.Element, source: str) -> None:
+    for el in root.iter():
+        macro = el.tag.startswith(_XACRO_NS)
+        substitution = any("${" in v or "$(" in v for v in el.attrib.values())
+        if macro or substitution:
+            shown = el.tag.replace(_XACRO_NS, "xacro:")
+            raise UnsupportedFeatureError(
+                "xacro macros",
+                f"<{shown}> in {source}",
+                "this is a xacro file, not URDF; expand it first "
+                "(`xacro robot.urdf.xacro > robot.urdf`) and load the result",
+            )
+
+
+def _check_numbers(root: ET.Element, source: str) -> None:
+    for el in root.iter():
+        for attr, count in _NUMBERS.get(el.tag, {}).items():
+            value = el.get(attr)
+            if value is None:
+                continue
+            try:
+                numbers = [float(x) for x in value.split()]
+            except ValueError:
+                numbers = []
+            if len(numbers) != count or not all(np.isfinite(numbers)):
+                what = "a finite number" if count == 1 else f"{count} finite numbers"
+                raise ModelError(f"URDF {source}: <{el.tag} {attr}={value!r}> must be {what}")
+
+
+def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
+    parent_of: dict[str, str] = {}
+    for kind, parent, child in tree.joints.values():
+        if kind == "fixed":
+            parent_of[child] = parent
+
+    def top(link: str) -> str:
+        while link in parent_of:
+            link = parent_of[link]
+        return link
+
+    members: dict[str, set[str]] = {}
+    for link in tree.links:
+        members.setdefault(top(link), set()).add(link)
+    return {link: frozenset(members[top(link)]) for link in tree.links}
+
+
+def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
+    """Every moving link (with the links welded to it) must carry a positive mass."""
+    mass: dict[str, float] = {}
+    for el in root.findall("link"):
+        inertial = el.find("inertial")
+        m = inertial.find("mass") if inertial is not None else None
+        try:
+            mass[el.get("name", "")] = float(m.get("value", "0")) if m is not None else 0.0
+        except ValueError as err:
+            raise ModelError(f"URDF {source}: link {el.get('name')!r} mass: {err}") from err
+    for link, value in mass.items():
+        if not value >= 0:  # negative or NaN
+            raise ModelError(
+                f"URDF {source}: link {link!r} has mass {value:g} [kg]; a mass must be >= 0"
+            )
+    for joint in tree.moving_joints:
+        child = tree.joints[joint][2]
+        group = tree.groups[child]
+        if sum(mass[link] for link in group) <= 0:
+            raise UnsupportedFeatureError(
+                "moving link without inertial",
+                f"link {child!r} (moved by joint {joint!r}) in {source}",
+                "a URDF link without <inertial> has no mass, and a moving body needs one "
+                "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an "
+                "<inertial> with its mass, centre of mass and inertia",
+            )
+
+
+def _check_mujoco_extension(root: ET.Element, source: str) -> None:
+    for compiler in root.iterfind("mujoco/compiler"):
+        for attr in _MASS_SETTINGS:
+            if compiler.get(attr) is not None:
+                raise UnsupportedFeatureError(
+                    f"MuJoCo compiler {attr}",
+                    f"<mujoco><compiler {attr}={compiler.get(attr)!r}> in {source}",
+                    "it changes MuJoCo's masses only (Pinocchio reads the inertials as written)",
+                )
+        if compiler.get("inertiafromgeom") == "true":
+            raise UnsupportedFeatureError(
+                "MuJoCo compiler inertiafromgeom",
+                f"<mujoco><compiler inertiafromgeom='true'> in {source}",
+                "MuJoCo would replace the inertials by its geoms' (Pinocchio reads the inertials)",
+            )
+
+
+def resolve_frame(tree: UrdfTree, frame: str) -> str:
+    """The link that carries the tool frame: ``frame`` names a link or a fixed joint.
+
+    Raises:
+        UnknownNameError: Neither a link nor a fixed joint (the message lists the links).
+    """
+    if frame in tree.links and frame != "world":
+        return frame
+    if frame in tree.joints and tree.joints[frame][0] == "fixed":
+        return tree.joints[frame][2]  # a fixed joint's frame is its child link's frame
+    raise UnknownNameError("link", frame, [n for n in tree.links if n != "world"])
+
+
+def _package_dirs(base: Path) -> list[Path]:
+    dirs = [base, *base.parents]
+    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if entry:
+            dirs.append(Path(entry))
+    return dirs
+
+
+def resolve_mesh(filename: str, base: Path, source: str) -> Path:
+    """Absolute path of a URDF mesh file name.
+
+    ``package://pkg/rest`` is looked up as ``pkg/rest`` in the URDF's directory, each of its
+    parents and each ``ROS_PACKAGE_PATH`` entry (and as ``rest`` in a directory named ``pkg``
+    among them); ``file://`` and plain relative names are taken from the URDF's directory.
+
+    Raises:
+        ModelError: No such file (the message names the mesh and where it was looked for).
+    """
+    tried: list[Path] = []
+    if filename.startswith("package://"):
+        rest = filename[len("package://") :]
+        pkg, _, inner = rest.partition("/")
+        for d in _package_dirs(base):
+            for candidate in (d / rest, d / pkg / inner) + ((d / inner,) if d.name == pkg else ()):
+                tried.append(candidate)
+                if candidate.is_file():
+                    return candidate.resolve()
+    else:
+        name = filename[len("file://") :] if filename.startswith("file://") else filename
+        candidate = Path(name) if Path(name).is_absolute() else base / name
+        tried.append(candidate)
+        if candidate.is_file():
+            return candidate.resolve()
+    shown = ", ".join(str(t) for t in dict.fromkeys(tried))
+    raise ModelError(f"URDF {source}: mesh file {filename!r} not found (looked for: {shown})")
+
+
+def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tuple[str, str]]:
+    """Link pairs that must never collide: an SRDF file's ``<disable_collisions>``, or pairs.
+
+    Args:
+        pairs: Path of an SRDF file, or an iterable of (link, link) pairs, or None.
+        tree: The URDF's tree (link names are checked against it).
+
+    Raises:
+        ModelError: Unreadable SRDF, or a pair that is not two names.
+        UnknownNameError: A link the URDF does not have.
+    """
+    if pairs is None:
+        return []
+    out: list[tuple[str, str]] = []
+    if isinstance(pairs, str | os.PathLike):
+        p = Path(pairs)
+        try:
+            srdf = ET.fromstring(p.read_bytes())
+        except (OSError, ET.ParseError) as err:
+            raise ModelError(f"cannot read the SRDF file {str(p)!r}: {err}") from err
+        for el in srdf.iter("disable_collisions"):
+            out.append((el.get("link1", ""), el.get("link2", "")))
+    else:
+        for pair in pairs:
+            if isinstance(pair, str) or len(pair) != 2:
+                raise ModelError(f"a disabled collision pair is two link names, got {pair!r}")
+            out.append((str(pair[0]), str(pair[1])))
+    for a, b in out:
+        for link in (a, b):
+            if link not in tree.links:
+                raise UnknownNameError("link", link, tree.links)
+    return out
+
+
+def adjacent_pairs(tree: UrdfTree) -> list[tuple[str, str]]:
+    """Pairs of links joined by a moving joint, each side with the links welded to it."""
+    out = []
+    for joint in tree.moving_joints:
+        _, parent, child = tree.joints[joint]
+        out += [(a, b) for a in sorted(tree.groups[parent]) for b in sorted(tree.groups[child])]
+    return out
+
+
+def build_mujoco(
+    text: str,
+    base: Path,
+    source: str,
+    tree: UrdfTree,
+    tool_link: str,
+    site: str,
+    disabled: Sequence[tuple[str, str]],
+) -> mujoco.MjModel:
+    """Compile a URDF with MuJoCo, keeping fixed links as bodies, with a site on the tool link.
+
+    Args:
+        text: The URDF text.
+        base: Directory relative mesh paths are taken from.
+        source: File name or ``"<string>"``, for messages.
+        tree: The URDF's tree (from :func:`check_urdf`).
+        tool_link: Link that carries the tool frame.
+        site: Name of the site added at the tool link's origin.
+        disabled: Extra link pairs excluded from collision.
+
+    Raises:
+        ModelError: MuJoCo cannot compile it (the message carries MuJoCo's).
+    """
+    try:
+        with captured_warnings():
+            spec = mujoco.MjSpec.from_string(text)
+            # URDF keeps every link: the tool link must stay a body to carry the site, and
+            # welded bodies change no mass, no inertia and no contact (weld groups are filtered).
+            spec.compiler.fusestatic = False
+            # A link without <inertial> has no mass in URDF (and in Pinocchio); MuJoCo's
+            # default would infer one from the link's collision geoms.
+            spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+            for mesh in spec.meshes:
+                mesh.file = str(resolve_mesh(mesh.file, base, source))
+            body = spec.body(tool_link)
+            if body is None:
+                raise ModelError(f"URDF {source}: MuJoCo has no body for link {tool_link!r}")
+            body.add_site(name=site)
+            bodies = {b.name for b in spec.bodies}
+            for a, b in dict.fromkeys([*adjacent_pairs(tree), *disabled]):
+                if a in bodies and b in bodies and a != b:  # "world" is MuJoCo's world body
+                    spec.add_exclude(bodyname1=a, bodyname2=b)
+            return spec.compile()
+    except (ValueError, TypeError) as err:
+        raise ModelError(f"MuJoCo could not compile the URDF {source}: {err}") from err
+
+
+def build_pinocchio(text: str, source: str) -> object:
+    """Pinocchio's model of a URDF, continuous joints as one-coordinate unbounded revolutes.
+
+    Raises:
+        ModelError: Pinocchio cannot read it (the message carries Pinocchio's).
+    """
+    import pinocchio as pin
+
+    try:
+        model = pin.buildModelFromXML(text)
+    except Exception as err:  # Pinocchio raises bare RuntimeError/ValueError from C++.
+        raise ModelError(f"Pinocchio could not read the URDF {source}: {err}") from err
+    return _bounded_revolutes(model)
+
+
+_NV_FIELDS = (
+    "effortLimit",
+    "lowerEffortLimit",
+    "upperEffortLimit",
+    "velocityLimit",
+    "lowerVelocityLimit",
+    "damping",
+    "friction",
+    "lowerDryFrictionLimit",
+    "upperDryFrictionLimit",
+    "armature",
+    "rotorInertia",
+    "rotorGearRatio",
+)
+_NQ_FIELDS = ("lowerPositionLimit", "upperPositionLimit", "positionLimitMargin")
+
+
+def _bounded_revolutes(model: object) -> object:
+    """Rebuild a Pinocchio model with each (cos, sin) revolute as a one-angle revolute.
+
+    Same joint placements, inertias, frames and per-dof values; the configuration of a
+    continuous joint becomes its angle, without limits, as MuJoCo's unlimited hinge.
+    """
+    import pinocchio as pin
+
+    assert isinstance(model, pin.Model)
+    axes = {"JointModelRUBX": pin.JointModelRX, "JointModelRUBY": pin.JointModelRY}
+    axes["JointModelRUBZ"] = pin.JointModelRZ
+    unaligned = "JointModelRevoluteUnboundedUnaligned"
+    kinds = [model.joints[j].shortname() for j in range(model.njoints)]
+    if not any(k in axes or k == unaligned for k in kinds):
+        return model
+    new = pin.Model()
+    new.name = model.name
+    jmap = {0: 0}
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if kinds[j] in axes:
+            joint = axes[kinds[j]]()
+        elif kinds[j] == unaligned:
+            # The axis is not exposed; the motion subspace S = (0, axis) at angle 0 carries it.
+            data = joint.createData()
+            joint.calc(data, np.array([1.0, 0.0]))
+            joint = pin.JointModelRevoluteUnaligned(np.asarray(data.S).reshape(6)[3:].copy())
+        parent = jmap[model.parents[j]]
+        jmap[j] = new.addJoint(parent, joint, model.jointPlacements[j], model.names[j])
+        new.appendBodyToJoint(jmap[j], model.inertias[j], pin.SE3.Identity())
+    new.inertias[0] = model.inertias[0].copy()
+    fmap = {0: 0}
+    for i in range(1, model.nframes):
+        f = model.frames[i]
+        copy = pin.Frame(
+            f.name, jmap[f.parentJoint], fmap[f.parentFrame], f.placement, f.type, f.inertia
+        )
+        fmap[i] = new.addFrame(copy, False)  # the inertia is already in the joint's body
+    for name in _NV_FIELDS + _NQ_FIELDS:
+        old, out = np.asarray(getattr(model, name)), np.asarray(getattr(new, name)).copy()
+        for j in range(1, model.njoints):
+            a, b = model.joints[j], new.joints[jmap[j]]
+            if name not in _NQ_FIELDS:
+                out[b.idx_v : b.idx_v + b.nv] = old[a.idx_v : a.idx_v + a.nv]
+            elif kinds[j] in axes or kinds[j] == unaligned:
+                out[b.idx_q] = {"lowerPositionLimit": -np.inf, "upperPositionLimit": np.inf}.get(
+                    name, 0.0
+                )
+            else:
+                out[b.idx_q : b.idx_q + b.nq] = old[a.idx_q : a.idx_q + a.nq]
+        setattr(new, name, out)
+    new.gravity = model.gravity
+    return new
+
+
+def frame_clash(pin_model: object, name: str) -> list[str]:
+    """Kinds of the Pinocchio frames named ``name`` when there are several (else empty)."""
+    frames = [f for f in pin_model.frames if f.name == name]  # type: ignore[attr-defined]
+    return [str(f.type).rsplit(".", 1)[-1] for f in frames] if len(frames) > 1 else []
+
+
+def strip_declaration(text: str) -> str:
+    """The text without its XML declaration (an encoding it names no longer applies)."""
+    return re.sub(r"^\s*<\?xml[^>]*\?>", "", text, count=1)

@@ -1,0 +1,105 @@
+"""Writing a report file: only where the user pointed, only a regular file, atomically.
+
+Rules (checked by :func:`check_target` before any work, so a bad path fails at once):
+
+* the path must name a regular file or nothing yet, in an existing directory; a directory,
+  a device, a FIFO or a socket is refused;
+* a symbolic link is followed to the file it names, which is replaced and the link kept; a
+  link to nothing (dangling) is refused;
+* an existing file keeps its permission bits; a new one gets ``0o666`` less the umask, as
+  ``open()`` would give it;
+* the new content goes to a temporary file in the same directory, is flushed to disk, then
+  renamed over the target: a crash leaves the old content or the new, never half of one.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import tempfile
+from pathlib import Path
+
+from ..errors import RedundancyError
+
+
+class OutputPathError(RedundancyError):
+    """A report cannot be written where the user pointed (the message says why)."""
+
+
+def check_target(path: str | os.PathLike[str]) -> Path:
+    """The regular file a report will replace or create, after the rules above.
+
+    Returns:
+        The resolved path (the file a symbolic link names).
+
+    Raises:
+        OutputPathError: A directory, device, FIFO or socket; a dangling link; a missing or
+            unwritable directory.
+    """
+    p = Path(path)
+    shown = str(p)
+    if p.is_symlink():
+        target = Path(os.path.realpath(p))
+        if not target.exists():
+            raise OutputPathError(f"{shown!r} is a symbolic link to nothing ({str(target)!r})")
+        p = target
+    if p.exists():
+        mode = p.stat().st_mode
+        if not stat.S_ISREG(mode):
+            kind = (
+                "a directory"
+                if stat.S_ISDIR(mode)
+                else "a FIFO"
+                if stat.S_ISFIFO(mode)
+                else "a device"
+                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "a socket"
+                if stat.S_ISSOCK(mode)
+                else "not a regular file"
+            )
+            raise OutputPathError(f"{shown!r} is {kind}: reports are written to regular files only")
+    parent = p.parent
+    if not parent.is_dir():
+        raise OutputPathError(f"directory {str(parent)!r} of {shown!r} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputPathError(f"directory {str(parent)!r} of {shown!r} is not writable")
+    return p
+
+
+def _umask() -> int:
+    """The process umask, read without changing it where /proc allows."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
+    """Write ``text`` to the regular file ``path`` names, atomically, keeping its mode.
+
+    Returns:
+        The file written (a symbolic link's target).
+
+    Raises:
+        OutputPathError: The path breaks a rule of this module.
+        OSError: The write itself failed (the old file is left whole).
+    """
+    p = check_target(path)
+    mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else 0o666 & ~_umask()
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fchmod(f.fileno(), mode)
+            os.fsync(f.fileno())
+        os.replace(tmp, p)  # atomic on POSIX within one filesystem
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return p

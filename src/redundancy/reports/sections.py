@@ -1,0 +1,476 @@
+"""The sections both reports are made of, each computed once: joints, keyframes, gravity, contacts.
+
+The lesson's tables and the audit format and judge these; neither computes them again. The
+numbers come from the :class:`~redundancy.Arm`, :mod:`redundancy.analysis.batch` and
+:mod:`redundancy.collision`; what MuJoCo simulates beyond them (integrator, flags, actuator
+ranges, servo damping, gravity compensation) from :mod:`redundancy.model.actuators`.
+
+Sweeps over random poses run in chunks of at most :data:`CHUNK` poses drawn from one
+generator, so memory stays flat in the number of poses and the chunks are exactly the poses
+of :func:`redundancy.random_poses` ``(arm, n, seed)``.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import linalg
+from ..analysis import batch
+from ..arm import Arm, sampling_ranges
+from ..collision import CollisionStatistics, collision_statistics
+from ..engines.mujoco import MujocoEngine
+from ..model import actuators
+from ..model.actuators import Simulation
+
+Array = NDArray[np.float64]
+
+#: Poses per chunk of a sweep (a few KB of work arrays per pose).
+CHUNK = 10_000
+#: Explicit controller damping assumed on a joint driven by a torque motor (or none) when no
+#: ``kd`` is given: the lesson's kd [N m s/rad]. A servo-driven joint's damping is the servo's.
+LESSON_KD = 5.0
+
+
+def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> Iterator[Array]:
+    """``n`` random poses in the joint ranges, in chunks of ``size`` (default :data:`CHUNK`) rows.
+
+    Concatenated, the chunks equal :func:`redundancy.random_poses` ``(arm, n, seed)``.
+    """
+    size = size or CHUNK
+    lo, hi = sampling_ranges(arm)
+    rng = np.random.default_rng(seed)
+    for start in range(0, n, size):
+        yield rng.uniform(lo, hi, size=(min(size, n - start), arm.nq))
+
+
+def reference_keyframe(arm: Arm) -> tuple[str, Array]:
+    """The pose the joint table is taken at: ``home``, else the first keyframe, else qpos0."""
+    keys = arm.keyframes
+    name = "home" if "home" in keys else next(iter(keys), "qpos0")
+    return name, keys.get(name, arm.mj_model.qpos0.copy())
+
+
+# -- joints ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class JointRow:
+    """One joint at the reference pose.
+
+    Attributes:
+        name: Joint name.
+        type: ``"hinge"`` or ``"slide"``.
+        axis: ``"x"``, ``"y"`` or ``"z"``: the largest component of the joint axis (body frame).
+        lower: Lower range limit (``-inf``: unlimited) [rad or m].
+        upper: Upper range limit [rad or m].
+        armature: Armature as M sees it [kg m^2].
+        damping: Joint plus actuator damping b [N m s/rad].
+        servo_kv: A servo's velocity feedback on the joint [N m s/rad].
+        kd: Controller damping written to ctrl that the bound assumes [N m s/rad].
+        effort_lower: Most negative torque the actuators give at the reference pose [N m].
+        effort_upper: Most positive torque [N m].
+        actuated: Whether an actuator drives the joint.
+        m_ii: Diagonal of M with armature [kg m^2].
+        m_ii_bare: Without armature [kg m^2].
+        implicit: Damping the integrator treats implicitly [N m s/rad].
+        explicit: Damping it treats explicitly, kd included [N m s/rad].
+        h_max: Largest stable timestep with armature [s] (``inf``: any).
+        h_max_bare: Without armature [s].
+    """
+
+    name: str
+    type: str
+    axis: str
+    lower: float
+    upper: float
+    armature: float
+    damping: float
+    servo_kv: float
+    kd: float
+    effort_lower: float
+    effort_upper: float
+    actuated: bool
+    m_ii: float
+    m_ii_bare: float
+    implicit: float
+    explicit: float
+    h_max: float
+    h_max_bare: float
+
+    @property
+    def armature_share(self) -> float:
+        """Armature / M_ii [-]."""
+        return self.armature / self.m_ii if self.m_ii else 0.0
+
+    @property
+    def effort_limit(self) -> float:
+        """max(-lower, upper) effort [N m or N] (the lesson's symmetric "limit")."""
+        return max(-self.effort_lower, self.effort_upper)
+
+
+@dataclass(frozen=True)
+class JointSection:
+    """Joints at a reference pose, with the timestep bound for the model's integrator.
+
+    Attributes:
+        rows: One per joint.
+        keyframe: Name of the reference pose.
+        simulation: The model's simulation settings.
+        kd: The explicit kd asked about (``None``: the model's own, see :func:`joints`).
+        note: How the integrator treats damping, in one sentence.
+        engine_diff: Largest |Pinocchio - MuJoCo| on M_ii, with and without armature [kg m^2].
+    """
+
+    rows: tuple[JointRow, ...]
+    keyframe: str
+    simulation: Simulation
+    kd: float | None
+    note: str
+    engine_diff: float
+
+
+def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSection:
+    """The joint table: ranges, armature, damping, effort, M_ii and the timestep bound.
+
+    Args:
+        arm: The arm.
+        kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: the
+            lesson's :data:`LESSON_KD` on joints driven by torque motors (or nothing), 0 on
+            servo-driven joints (their damping is the servo's ``kv``, read from the model).
+        key: Reference keyframe (default: :func:`reference_keyframe`).
+    """
+    if key is None:
+        key, q = reference_keyframe(arm)
+    else:
+        q = arm.keyframe(key)
+    m = arm.mj_model
+    sim = actuators.simulation(m)
+    M = np.diag(arm.mass_matrix(q))
+    bare = np.diag(arm.mass_matrix(q, armature=False))
+    diff = max(
+        float(np.max(np.abs(np.diag(arm.mass_matrix(q, a, "pinocchio")) - (M if a else bare))))
+        for a in (True, False)
+    )
+    b = arm.damping()
+    kv = actuators.servo_damping(m)
+    kd_each = np.where(kv > 0, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
+    split = actuators.damping_split(sim, b, kv, kd_each)
+    h = actuators.max_stable_timestep(M, split)
+    hb = actuators.max_stable_timestep(bare, split)
+    effort = actuators.effort_range(m, q)
+    arma = arm.armature()
+    rows = tuple(
+        JointRow(
+            name,
+            arm.joint_types[i],
+            "xyz"[int(np.argmax(np.abs(m.jnt_axis[i])))],
+            float(arm.lower[i]),
+            float(arm.upper[i]),
+            float(arma[i]),
+            float(b[i]),
+            float(kv[i]),
+            float(kd_each[i]),
+            float(effort.lower[i]),
+            float(effort.upper[i]),
+            bool(effort.actuated[i]),
+            float(M[i]),
+            float(bare[i]),
+            float(split.implicit[i]),
+            float(split.explicit[i]),
+            float(h[i]),
+            float(hb[i]),
+        )
+        for i, name in enumerate(arm.joint_names)
+    )
+    return JointSection(rows, key, sim, kd, split.note, diff)
+
+
+# -- keyframes ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class KeyframeRow:
+    """The site Jacobian at a keyframe, and whether the actuators can hold it.
+
+    Attributes:
+        name: Keyframe name.
+        q: Its pose [rad or m].
+        svd: SVD of MuJoCo's site Jacobian.
+        engine_diff: Largest |Pinocchio - MuJoCo| singular value [m/rad or rad/rad].
+        hold: Torque the actuators must give to hold it still (gravity minus passive
+            gravity compensation) [N m or N].
+        effort_lower: Most negative torque they can give there [N m or N].
+        effort_upper: Most positive [N m or N].
+    """
+
+    name: str
+    q: Array
+    svd: linalg.JacobianSVD
+    engine_diff: float
+    hold: Array
+    effort_lower: Array
+    effort_upper: Array
+
+    @property
+    def unheld(self) -> tuple[int, ...]:
+        """Joints whose actuators cannot give the holding torque."""
+        bad = (self.hold < self.effort_lower) | (self.hold > self.effort_upper)
+        return tuple(int(i) for i in np.flatnonzero(bad))
+
+
+def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeRow, ...]:
+    """Singular values and holding torque at each keyframe (all by default)."""
+    keys = arm.keyframes
+    rows = []
+    load = _Load(arm)
+    for name in names if names is not None else tuple(keys):
+        q = keys[name] if name in keys else arm.keyframe(name)
+        s = arm.svd(q)
+        sp = arm.svd(q, "pinocchio")
+        hold, effort = load(q[None, :], arm.gravity(q)[None, :])
+        rows.append(
+            KeyframeRow(
+                name,
+                q,
+                s,
+                float(np.max(np.abs(s.sigma - sp.sigma))),
+                hold[0],
+                effort.lower[0],
+                effort.upper[0],
+            )
+        )
+    return tuple(rows)
+
+
+# -- gravity against the actuators ----------------------------------------------------------------
+class _Load:
+    """Holding torque and the actuators' range at a stack of poses, gravity compensation in.
+
+    MuJoCo's ``gravcomp`` applies ``gravcomp_b m_b`` of each body's weight upward at its
+    centre of mass; that is gravity's torque on an arm whose masses are scaled by the
+    factors, computed by a MuJoCo engine of such a copy (by one multiplication when every
+    body has the same factor: gravity's torque is linear in the masses). Passive
+    compensation relieves the motors; ``actuatorgravcomp`` sends it through the actuators,
+    where the joint's ``actuatorfrcrange`` clamps it with the motors' torque.
+    """
+
+    def __init__(self, arm: Arm) -> None:
+        m = arm.mj_model
+        self.model = m
+        self.routed = np.zeros(arm.nq, dtype=bool)
+        factors = m.body_gravcomp[1:][m.body_mass[1:] > 0]
+        self.uniform: float | None = None
+        self.engine: MujocoEngine | None = None
+        if not np.any(m.body_gravcomp):
+            self.uniform = 0.0
+        elif np.all(factors == factors[0]):
+            self.uniform = float(factors[0])
+        else:
+            scaled = copy.copy(m)
+            scaled.body_mass[:] = m.body_mass * m.body_gravcomp
+            self.engine = MujocoEngine(scaled, arm.site, arm.armature())
+        self.routed[m.jnt_dofadr[m.jnt_actgravcomp.astype(bool)]] = True
+
+    def __call__(self, Q: Array, tau: Array) -> tuple[Array, actuators.EffortRange]:
+        """Torque the actuators must give at each pose, and what they can give."""
+        if self.engine is not None:
+            comp = np.array([self.engine.gravity(q) for q in Q]).reshape(tau.shape)
+        else:
+            comp = tau * self.uniform
+        routed = np.where(self.routed, comp, 0.0)
+        # With routed compensation the actuators' sum (motors + compensation) must equal
+        # gravity; otherwise the motors give gravity minus the passive compensation.
+        need = tau - np.where(self.routed, 0.0, comp)
+        return need, actuators.effort_range(self.model, Q, routed)
+
+
+@dataclass(frozen=True)
+class GravityBudget:
+    """Gravity against the actuators over random poses, per joint and direction.
+
+    Attributes:
+        n_poses: Poses drawn.
+        seed: Their seed.
+        low: Most negative torque the actuators must give, per joint [N m or N].
+        high: Most positive [N m or N].
+        limit_lower: Most negative torque they can give, per joint; where it depends on the
+            pose (servos), its least negative value over the poses [N m or N].
+        limit_upper: Most positive torque they can give; where it varies, its smallest [N m].
+        varies: Per joint, whether the limits depend on the pose.
+        over_low: Per joint, poses needing more negative torque than the actuators give.
+        over_high: Per joint, poses needing more positive torque than they give.
+        worst_low: Per joint, (need, limit) at the pose with the largest negative shortfall
+            (NaN where there is none) [N m or N].
+        worst_high: The same for the positive direction [N m or N].
+        n_over: Poses where some joint's need is outside its range.
+        engine_diff: Largest |Pinocchio - MuJoCo| gravity torque [N m or N].
+        gravcomp: Whether gravity compensation is subtracted.
+        gravity_enabled: False when the model disables gravity (the needs are then 0).
+    """
+
+    n_poses: int
+    seed: int | None
+    low: Array
+    high: Array
+    limit_lower: Array
+    limit_upper: Array
+    varies: NDArray[np.bool_]
+    over_low: NDArray[np.int_]
+    over_high: NDArray[np.int_]
+    worst_low: Array
+    worst_high: Array
+    n_over: int
+    engine_diff: float
+    gravcomp: bool
+    gravity_enabled: bool
+
+    @property
+    def peak(self) -> Array:
+        """Largest |torque| the actuators must give, per joint [N m or N]."""
+        return np.maximum(-self.low, self.high)
+
+    @property
+    def ratio(self) -> Array:
+        """Per joint, limit / need in the direction that binds (``inf``: never loaded) [-]."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            up = np.where(self.high > 1e-9, self.limit_upper / self.high, np.inf)
+            down = np.where(self.low < -1e-9, self.limit_lower / self.low, np.inf)
+        return np.minimum(up, down)
+
+
+class _Worst:
+    """Per joint, the largest shortfall seen so far and the (need, limit) where it occurred."""
+
+    def __init__(self, nv: int) -> None:
+        self.short = np.zeros(nv)
+        self.at = np.full((nv, 2), np.nan)
+
+    def add(self, short: Array, need: Array, limit: Array) -> None:
+        rows = np.argmax(short, axis=0)
+        cols = np.arange(short.shape[1])
+        better = short[rows, cols] > self.short
+        self.short[better] = short[rows, cols][better]
+        self.at[better] = np.stack([need[rows, cols], limit[rows, cols]], axis=1)[better]
+
+
+def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudget:
+    """Holding torque over ``n_poses`` random poses against the actuators, in chunks."""
+    nv = arm.nq
+    load = _Load(arm)
+    low, high = np.zeros(nv), np.zeros(nv)
+    lim_lo, lim_hi = np.full(nv, -np.inf), np.full(nv, np.inf)
+    lo_min, hi_max = np.full(nv, np.inf), np.full(nv, -np.inf)
+    over_low = np.zeros(nv, dtype=int)
+    over_high = np.zeros(nv, dtype=int)
+    worst_low, worst_high = _Worst(nv), _Worst(nv)
+    n_over, diff = 0, 0.0
+    for Q in pose_chunks(arm, n_poses, seed):
+        tau = batch.gravities(arm, Q, "mujoco")
+        tau_p = batch.gravities(arm, Q, "pinocchio")
+        diff = max(diff, float(np.max(np.abs(tau - tau_p))))
+        need, effort = load(Q, tau)
+        low, high = np.minimum(low, need.min(axis=0)), np.maximum(high, need.max(axis=0))
+        lim_lo = np.maximum(lim_lo, effort.lower.max(axis=0))
+        lim_hi = np.minimum(lim_hi, effort.upper.min(axis=0))
+        lo_min = np.minimum(lo_min, effort.lower.min(axis=0))
+        hi_max = np.maximum(hi_max, effort.upper.max(axis=0))
+        with np.errstate(invalid="ignore"):  # inf - inf where unlimited: no shortfall
+            worst_low.add(np.nan_to_num(effort.lower - need, nan=0.0), need, effort.lower)
+            worst_high.add(np.nan_to_num(need - effort.upper, nan=0.0), need, effort.upper)
+        below, above = need < effort.lower, need > effort.upper
+        over_low += below.sum(axis=0)
+        over_high += above.sum(axis=0)
+        n_over += int(np.sum((below | above).any(axis=1)))
+    sim = actuators.simulation(arm.mj_model)
+    return GravityBudget(
+        n_poses,
+        seed,
+        low,
+        high,
+        lim_lo,
+        lim_hi,
+        (lo_min != lim_lo) | (hi_max != lim_hi),
+        over_low,
+        over_high,
+        worst_low.at,
+        worst_high.at,
+        n_over,
+        diff,
+        load.uniform != 0.0,
+        sim.gravity_enabled,
+    )
+
+
+# -- self-collision -------------------------------------------------------------------------------
+def contacts(
+    arm: Arm, n_poses: int, seed: int | None = 1, distances: str | None = "mujoco"
+) -> CollisionStatistics:
+    """Self-collision over random poses (:func:`redundancy.collision_statistics`), in chunks.
+
+    Chunk results are merged exactly: counts add, the closest approach is the minimum (its
+    pose index counted over the whole sample), the sweep time adds up.
+    """
+    merged: CollisionStatistics | None = None
+    offset = 0
+    for Q in pose_chunks(arm, n_poses, seed):
+        part = collision_statistics(arm, distances=distances, poses=Q)  # type: ignore[arg-type]
+        merged = part if merged is None else _merge(merged, part, offset)
+        offset += len(Q)
+    if merged is None:  # no poses: the keyframes alone
+        merged = collision_statistics(arm, distances=distances, poses=np.zeros((0, arm.nq)))  # type: ignore[arg-type]
+    return dataclasses.replace(merged, seed=seed)
+
+
+def _merge(a: CollisionStatistics, b: CollisionStatistics, offset: int) -> CollisionStatistics:
+    pairs = []
+    for p, r in zip(a.pairs, b.pairs, strict=True):
+        closer = r.closest < p.closest
+        pairs.append(
+            dataclasses.replace(
+                p,
+                poses=p.poses + r.poses,
+                contacts=p.contacts + r.contacts,
+                closest=r.closest if closer else p.closest,
+                closest_pose=r.closest_pose + offset if closer else p.closest_pose,
+            )
+        )
+    return dataclasses.replace(
+        a,
+        n_poses=a.n_poses + b.n_poses,
+        poses_with_contact=a.poses_with_contact + b.poses_with_contact,
+        pairs=tuple(pairs),
+        disagreements=a.disagreements + b.disagreements if a.disagreements >= 0 else -1,
+        seconds=a.seconds + b.seconds,
+    )
+
+
+# -- all four -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Sections:
+    """The four sections, computed once for the lesson and the audit."""
+
+    joints: JointSection
+    keyframes: tuple[KeyframeRow, ...]
+    gravity: GravityBudget
+    contacts: CollisionStatistics
+
+
+def compute(
+    arm: Arm,
+    n_poses: int,
+    seed: int = 0,
+    kd: float | None = None,
+    distances: str | None = "mujoco",
+) -> Sections:
+    """Every section: gravity over ``seed``'s poses, contacts over ``seed + 1``'s.
+
+    With ``seed=0`` these are the lesson's samples (its tables (3) and (4)).
+    """
+    return Sections(
+        joints(arm, kd),
+        keyframes(arm),
+        gravity_budget(arm, n_poses, seed),
+        contacts(arm, n_poses, seed + 1, distances),
+    )

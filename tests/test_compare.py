@@ -1,0 +1,279 @@
+"""``rd.compare`` and ``redundancy compare``: deliberate differences caught, named and located;
+the same robot in different clothes reported equivalent."""
+
+from __future__ import annotations
+
+import json
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import redundancy as rd
+from redundancy.analysis.compare import compare, read_joint_map
+from redundancy.cli import main
+
+from .test_urdf import (
+    MODELS,
+    element,
+    random_rotation,
+    rotate_link_frame,
+    shuffle_declarations,
+    split_link,
+    urdf_root,
+    write,
+)
+
+ARM7_URDF, ARM7_XML = MODELS / "arm7.urdf", MODELS / "arm7.xml"
+PANDA_URDF, PANDA_XML = MODELS / "panda.urdf", MODELS / "panda.xml"
+
+
+def quantities(result: rd.Comparison) -> dict[str, list[str]]:
+    out: dict[str, list[str]] = {}
+    for d in result.differences:
+        out.setdefault(d.quantity, []).append(d.where)
+    return out
+
+
+# -- the bundled pairs -------------------------------------------------------------------
+@pytest.mark.parametrize(("urdf", "mjcf"), [(ARM7_URDF, ARM7_XML), (PANDA_URDF, PANDA_XML)])
+def test_bundled_urdf_is_the_same_robot_as_its_mjcf(urdf: Path, mjcf: Path) -> None:
+    result = compare(urdf, mjcf)
+    assert result.equivalent, result.lines()
+    assert result.verdict == "same robot" and result.chains_part is None
+    assert result.n_poses == 200 + len(rd.load(mjcf).keyframes)
+    # Armature, velocity limits and keyframes are listed as what one format cannot express.
+    listed = {n.quantity: n for n in result.not_expressible}
+    assert set(listed) == {"armature", "velocity limit", "keyframes"}
+    assert listed["armature"].a is None and len(listed["armature"].b) == 7
+    assert listed["velocity limit"].b is None
+    assert max(result.largest.values()) < 1e-12
+    assert "mass matrix (without armature)" in result.largest  # URDF has no armature
+
+
+def test_a_file_is_the_same_robot_as_itself() -> None:
+    result = compare(PANDA_XML, PANDA_XML)
+    assert result.equivalent and not result.not_expressible
+    assert max(result.largest.values()) == 0.0
+    assert "mass matrix" in result.largest  # armature compared, so M with armature
+
+
+def test_different_robots() -> None:
+    result = compare(PANDA_URDF, ARM7_XML)
+    assert not result.equivalent
+    assert quantities(result)["presence"][0] == "joint 'joint1'"
+    assert result.chains_part == "joint 'joint1'"
+    assert result.n_poses == 0  # no pose can be mapped
+
+
+# -- deliberate differences ---------------------------------------------------------------
+def test_flipped_axis_is_caught_named_and_located(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    element(root, "joint", "j4").find("axis").set("xyz", "0 -1 0")  # type: ignore[union-attr]
+    result = compare(write(root, tmp_path / "flipped.urdf"), ARM7_XML)
+    assert result.verdict == "different"
+    found = quantities(result)
+    assert found["joint axis (world)"] == ["joint 'j4'"]
+    assert result.chains_part == "joint 'j4'"
+    axis = next(d for d in result.differences if d.quantity == "joint axis (world)")
+    np.testing.assert_array_equal(axis.a, [0, -1, 0])
+    np.testing.assert_array_equal(axis.b, [0, 1, 0])
+    assert axis.error == 2.0
+    assert {"jacobian", "tool position", "gravity torque"} <= set(found)
+
+
+def test_moved_centre_of_mass_is_caught_named_and_located(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    origin = element(root, "link", "link3").find("inertial/origin")
+    origin.set("xyz", "0 0 0.0955")  # type: ignore[union-attr]  # was 0.0855
+    result = compare(write(root, tmp_path / "com.urdf"), ARM7_XML)
+    found = quantities(result)
+    assert found["centre of mass (world)"] == ["body 'link3' (moved by 'j3')"]
+    com = next(d for d in result.differences if d.quantity == "centre of mass (world)")
+    assert com.error == pytest.approx(0.01, abs=1e-12)
+    assert result.chains_part is None  # the kinematics are the same
+    assert "inertia about the centre of mass (world)" not in found
+    assert {"mass matrix (without armature)", "gravity torque"} <= set(found)
+    assert "jacobian" not in found and "tool position" not in found
+
+
+def test_missing_armature_is_caught_named_and_located(tmp_path: Path) -> None:
+    text = ARM7_XML.read_text().replace(
+        '<joint name="j5" axis="0 0 1"/>', '<joint name="j5" axis="0 0 1" armature="0"/>'
+    )
+    path = tmp_path / "arm7_no_armature.xml"
+    path.write_text(text)
+    result = compare(ARM7_XML, path)
+    found = quantities(result)
+    assert found["armature"] == ["joint 'j5'"]
+    armature = next(d for d in result.differences if d.quantity == "armature")
+    assert (armature.a, armature.b) == (0.05, 0.0)
+    mass = next(d for d in result.differences if d.quantity == "mass matrix")
+    assert mass.error == pytest.approx(0.05) and "largest at joint 'j5'" in mass.note
+    assert set(found) == {"armature", "mass matrix"}
+    assert result.chains_part is None
+
+
+def test_offset_tool_frame_is_caught_named_and_located(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    element(root, "joint", "link7_ee").find("origin").set("xyz", "0 0 0.135")  # type: ignore[union-attr]
+    result = compare(write(root, tmp_path / "tool.urdf"), ARM7_XML)
+    found = quantities(result)
+    assert found["tool frame position (world)"] == ["tool frame 'ee'"]
+    assert result.chains_part == "tool frame (after the last joint)"
+    assert "joint axis (world)" not in found and "centre of mass (world)" not in found
+    assert {"tool position", "jacobian"} <= set(found)
+    assert result.largest["tool frame position (world)"] == pytest.approx(0.005, abs=1e-12)
+
+
+def test_renamed_joints_need_a_map(tmp_path: Path) -> None:
+    root = urdf_root("panda")
+    for joint in root.findall("joint"):
+        joint.set("name", joint.get("name", "").replace("joint", "panda_joint"))
+    renamed = write(root, tmp_path / "renamed.urdf")
+    assert not compare(renamed, PANDA_XML).equivalent
+    mapping = tmp_path / "map.txt"
+    mapping.write_text(
+        "# renamed.urdf -> panda.xml\n" + "".join(f"panda_joint{i} joint{i}\n" for i in range(1, 8))
+    )
+    result = compare(renamed, PANDA_XML, joint_map=mapping)
+    assert result.equivalent, result.lines()
+    assert result.joint_map[0] == ("panda_joint1", "joint1")
+    as_json = tmp_path / "map.json"
+    as_json.write_text(json.dumps({f"panda_joint{i}": f"joint{i}" for i in range(1, 8)}))
+    assert read_joint_map(as_json) == read_joint_map(mapping)
+
+
+# -- same robot, different clothes ----------------------------------------------------------
+def test_rotated_link_frames_are_equivalent(tmp_path: Path) -> None:
+    root = urdf_root("panda")
+    for k, link in enumerate(("link2", "link4", "link7")):
+        rotate_link_frame(root, link, random_rotation(k))
+    rotated = write(root, tmp_path / "rotated.urdf")
+    for other in (PANDA_URDF, PANDA_XML):
+        result = compare(rotated, other)
+        assert result.equivalent, result.lines()
+    # The frames really moved: the link's own axis and inertial are written differently.
+    assert element(root, "joint", "joint4").find("axis").get("xyz") != "0 0 1"  # type: ignore[union-attr]
+
+
+@given(link=st.sampled_from([f"link{i}" for i in range(1, 8)]), seed=st.integers(0, 2**16))
+def test_any_rotated_link_frame_is_equivalent(link: str, seed: int) -> None:
+    root = urdf_root("arm7")
+    rotate_link_frame(root, link, random_rotation(seed))
+    arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
+    result = compare(arm, ARM7_URDF, n_poses=20)
+    assert result.equivalent, result.lines()
+
+
+def test_reordered_declarations_are_equivalent(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    shuffle_declarations(root, seed=7)
+    first = [c.get("name") for c in root if c.tag == "joint"][:3]
+    assert first != ["j1", "j2", "j3"]
+    result = compare(write(root, tmp_path / "shuffled.urdf"), ARM7_XML)
+    assert result.equivalent, result.lines()
+
+
+def test_fused_fixed_link_is_equivalent(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    split_link(root, "link4")
+    split_link(root, "link7")
+    result = compare(write(root, tmp_path / "split.urdf"), ARM7_XML)
+    assert result.equivalent, result.lines()
+
+
+def _in_degrees(text: str) -> str:
+    def convert(match: re.Match[str]) -> str:
+        lo, hi = (float(np.degrees(float(x))) for x in match.group(1).split())
+        return f'range="{lo!r} {hi!r}"'
+
+    text = text.replace('angle="radian"', 'angle="degree"')
+    return re.sub(r'(?<=\s)range="([^"]+)"', convert, text)
+
+
+@pytest.mark.parametrize("name", ["arm7", "panda"])
+def test_degrees_against_radians_are_equivalent(tmp_path: Path, name: str) -> None:
+    path = tmp_path / f"{name}_degrees.xml"
+    path.write_text(_in_degrees((MODELS / f"{name}.xml").read_text()))
+    assert 'range="-166.' in path.read_text()
+    result = compare(MODELS / f"{name}.xml", path)
+    assert result.equivalent, result.lines()
+    assert result.largest["joint range"] < 1e-14
+
+
+# -- the command -------------------------------------------------------------------------------
+def test_cli_same_robot(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["compare", str(PANDA_URDF), str(PANDA_XML), "--poses", "20"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[-1] == "verdict: same robot"
+    assert "NOT EXPRESSIBLE  armature of joints" in out
+
+
+def test_cli_differences_and_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    root = urdf_root("arm7")
+    element(root, "joint", "j4").find("axis").set("xyz", "0 -1 0")  # type: ignore[union-attr]
+    flipped = write(root, tmp_path / "flipped.urdf")
+    report = tmp_path / "report.json"
+    assert main(["compare", str(flipped), str(ARM7_XML), "--json", str(report)]) == 1
+    out = capsys.readouterr().out
+    assert "the chains part at: joint 'j4'" in out
+    data = json.loads(report.read_text())
+    assert data["verdict"] == "different" and data["chains_part"] == "joint 'j4'"
+    assert data["differences"][0]["quantity"] == "joint axis (world)"
+    assert main(["compare", str(flipped), str(ARM7_XML), "--json", "-", "--poses", "5"]) == 1
+    assert json.loads(capsys.readouterr().out)["equivalent"] is False
+
+
+def test_cli_frames_and_joint_map(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    root = urdf_root("arm7")
+    element(root, "link", "ee").set("name", "tool0")
+    element(root, "joint", "link7_ee").find("child").set("link", "tool0")  # type: ignore[union-attr]
+    element(root, "joint", "j7").set("name", "wrist3")
+    path = write(root, tmp_path / "renamed.urdf")
+    mapping = tmp_path / "map.json"
+    mapping.write_text('{"wrist3": "j7"}')
+    argv = ["compare", str(path), str(ARM7_XML), "--frame-a", "tool0", "--poses", "5"]
+    assert main([*argv, "--joint-map", str(mapping)]) == 0
+    assert "tool frame 'tool0'" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--poses", "-1"], "redundancy compare: error: argument --poses: must be >= 0, got -1"),
+        (["--tol", "nan"], "redundancy: error: --tol must be a finite number > 0, got nan"),
+        (["--frame-a", "tool9"], "redundancy: error: unknown link 'tool9'; valid link names: "),
+        (["--joint-map", "/nonexistent/map"], "redundancy: error: cannot read the joint map"),
+        (
+            ["--json", "/nonexistent/dir/out.json"],
+            "redundancy: error: directory '/nonexistent/dir' of '/nonexistent/dir/out.json' "
+            "does not exist",
+        ),
+    ],
+)
+def test_cli_bad_input(extra: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["compare", str(ARM7_URDF), str(ARM7_XML), *extra]) == 2
+    assert capsys.readouterr().err.startswith(message)
+
+
+def test_cli_missing_file(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["compare", "/nonexistent.urdf", str(ARM7_XML)]) == 2
+    assert (
+        capsys.readouterr().err == "redundancy: error: model file not found: '/nonexistent.urdf'\n"
+    )
+
+
+def test_bad_arguments() -> None:
+    with pytest.raises(rd.ModelError, match="tol must be a finite number > 0"):
+        compare(ARM7_XML, ARM7_XML, tol=float("inf"))
+    with pytest.raises(rd.ModelError, match="n_poses must be an integer >= 0"):
+        compare(ARM7_XML, ARM7_XML, n_poses=-3)
+    with pytest.raises(rd.UnknownNameError, match="unknown joint 'j9'"):
+        compare(ARM7_XML, ARM7_XML, joint_map={"j9": "j1"})
+    with pytest.raises(rd.ModelError, match="sends two joints of A to one joint of B"):
+        compare(ARM7_XML, ARM7_XML, joint_map={"j1": "j2"})

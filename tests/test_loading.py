@@ -1,0 +1,148 @@
+"""Reading model files: bytes decoded as XML says, paths versus text, the loader's errors."""
+
+from __future__ import annotations
+
+import codecs
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redundancy as rd
+from redundancy.arm import random_poses
+from redundancy.model.loading import decode_xml, model_format
+
+MODELS = Path(rd.model_path("arm7")).parent
+# Names and comments outside ASCII: a file in another encoding must reach both engines intact.
+ACCENTED = ('<mujoco model="arm7">', '<mujoco model="arm7">\n  <!-- bras à sept axes -->')
+
+
+def _arm7_text(kind: str) -> str:
+    text = (MODELS / f"arm7.{kind}").read_text(encoding="utf-8")
+    text = text.replace(*ACCENTED) if kind == "xml" else text.replace("<!--", "<!-- à", 1)
+    assert not text.isascii()
+    return text.replace('<?xml version="1.0"?>\n', "")
+
+
+@pytest.mark.parametrize("kind", ["xml", "urdf"])
+@pytest.mark.parametrize(
+    ("encoding", "declared", "bom"),
+    [
+        ("utf-16", "UTF-16", b""),  # Python writes the BOM itself
+        ("utf-16-le", "UTF-16", b""),  # no BOM: detected from "<\0"
+        ("utf-16-be", "UTF-16", codecs.BOM_UTF16_BE),
+        ("latin-1", "ISO-8859-1", b""),
+        ("cp1252", "windows-1252", b""),
+        ("utf-8", "UTF-8", codecs.BOM_UTF8),
+    ],
+)
+def test_encodings_load_in_both_engines(
+    tmp_path: Path, kind: str, encoding: str, declared: str, bom: bytes
+) -> None:
+    text = f'<?xml version="1.0" encoding="{declared}"?>\n' + _arm7_text(kind)
+    path = tmp_path / f"arm7.{kind}"
+    path.write_bytes(bom + text.encode(encoding))
+    arm = rd.load(path, site="ee")
+    reference = rd.load(MODELS / f"arm7.{kind}", site="ee")
+    for q in random_poses(arm, 5, seed=2):
+        for engine in ("mujoco", "pinocchio"):
+            np.testing.assert_array_equal(
+                arm.mass_matrix(q, engine=engine), reference.mass_matrix(q, engine=engine)
+            )
+            np.testing.assert_array_equal(
+                arm.jacobian(q, engine=engine), reference.jacobian(q, engine=engine)
+            )
+    assert model_format(arm) == ("URDF" if kind == "urdf" else "MJCF")
+
+
+def test_non_ascii_names_reach_both_engines(tmp_path: Path) -> None:
+    text = '<?xml version="1.0" encoding="ISO-8859-1"?>\n' + _arm7_text("xml").replace(
+        'name="ee"', 'name="outil_é"'
+    )
+    path = tmp_path / "arm7_latin1.xml"
+    path.write_bytes(text.encode("latin-1"))
+    arm = rd.load(path, site="outil_é")
+    assert arm.site == "outil_é"
+    q = arm.keyframe("home")
+    np.testing.assert_allclose(arm.site_pose(q)[0], arm.site_pose(q, "pinocchio")[0], atol=1e-12)
+
+
+def test_bytes_not_in_the_declared_encoding(tmp_path: Path) -> None:
+    path = tmp_path / "bad.xml"
+    path.write_bytes(_arm7_text("xml").encode("latin-1"))  # no declaration: UTF-8 assumed
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(path)
+    assert str(err.value).startswith(f"{path}: not valid utf-8 text: 'utf-8' codec can't decode")
+
+
+def test_unknown_declared_encoding(tmp_path: Path) -> None:
+    path = tmp_path / "bad.xml"
+    path.write_bytes(b'<?xml version="1.0" encoding="klingon-8"?>\n<mujoco/>')
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(path)
+    assert str(err.value) == f"{path}: unknown encoding 'klingon-8' in the XML declaration"
+
+
+def test_decode_xml_reports_whether_bytes_were_utf8() -> None:
+    assert decode_xml(b'<?xml version="1.0" encoding="utf-8"?><a/>', "x") == ("<a/>", True)
+    assert decode_xml("<a>é</a>".encode("utf-16"), "x") == ("<a>é</a>", False)
+    assert decode_xml(codecs.BOM_UTF8 + b"<a/>", "x") == ("<a/>", False)  # the BOM goes
+
+
+@pytest.mark.parametrize("kind", ["xml", "urdf"])
+def test_xml_text_where_a_path_is_expected(kind: str) -> None:
+    text = (MODELS / f"arm7.{kind}").read_text()
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(text)
+    assert str(err.value).startswith("load() takes a file path, and this looks like XML text (")
+    assert str(err.value).endswith("...); use load_string() for model text")
+    assert rd.load_string(text, site="ee").nq == 7  # what the message suggests works
+
+
+def test_bytes_where_a_path_is_expected() -> None:
+    data = (MODELS / "arm7.urdf").read_bytes()
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(data)  # type: ignore[arg-type]
+    assert str(err.value) == "load() takes a file path; for XML text or bytes use load_string()"
+    assert rd.load_string(data, frame="ee").nq == 7
+
+
+@pytest.mark.parametrize(
+    ("path", "message"),
+    [
+        ("/nonexistent/arm.xml", "model file not found: '/nonexistent/arm.xml'"),
+        (".", "model path is a directory, not a file: '.'"),
+    ],
+)
+def test_path_errors(path: str, message: str) -> None:
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(path)
+    assert str(err.value) == message
+
+
+def test_path_of_wrong_type() -> None:
+    with pytest.raises(rd.ModelError, match="load\\(\\) takes a file path, got int"):
+        rd.load(3)  # type: ignore[arg-type]
+    with pytest.raises(rd.ModelError, match="model text must be a str or bytes, got list"):
+        rd.load_string(["<mujoco/>"])  # type: ignore[arg-type]
+
+
+def test_urdf_without_inertials_is_the_librarys_error() -> None:
+    """Issue 12: not MuJoCo's mass error, but the library's, naming the link."""
+    text = (
+        '<robot name="r"><link name="base"/><link name="l1"/>'
+        '<joint name="j1" type="continuous"><parent link="base"/><child link="l1"/></joint>'
+        "</robot>"
+    )
+    with pytest.raises(rd.UnsupportedFeatureError) as err:
+        rd.load_string(text, frame="l1")
+    assert "moving link without inertial (link 'l1' (moved by joint 'j1')" in str(err.value)
+
+
+def test_mjcf_site_and_frame() -> None:
+    by_frame = rd.load(MODELS / "arm7.xml", frame="ee")
+    assert by_frame.site == "ee"
+    with pytest.raises(
+        rd.UnknownNameError, match="unknown site 'tool0'; valid site names: \\['ee'\\]"
+    ):
+        rd.load(MODELS / "arm7.xml", frame="tool0")

@@ -1,0 +1,556 @@
+"""URDF in both engines: the bundled URDFs, what each importer reads, and bad input.
+
+The helpers at the top build URDF variants (rotated link frames, split links, shuffled
+declarations) and are shared with ``test_compare.py``.
+"""
+
+from __future__ import annotations
+
+import pickle
+import struct
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redundancy as rd
+from redundancy.analysis.crosscheck import crosscheck
+from redundancy.arm import random_poses, sampling_ranges
+from redundancy.collision import collision_pairs
+from redundancy.model.equivalence import compare_models
+
+MODELS = Path(rd.model_path("arm7")).parent
+
+
+# -- helpers: URDF text and variants -------------------------------------------------------
+def urdf_root(name: str) -> ET.Element:
+    """The bundled URDF ``name`` (arm7 or panda), parsed."""
+    return ET.parse(MODELS / f"{name}.urdf").getroot()
+
+
+def write(root: ET.Element, path: Path) -> Path:
+    path.write_text(ET.tostring(root, encoding="unicode"))
+    return path
+
+
+def element(root: ET.Element, tag: str, name: str) -> ET.Element:
+    found = root.find(f"{tag}[@name='{name}']")
+    assert found is not None, (tag, name)
+    return found
+
+
+def _vec(text: str | None) -> np.ndarray:
+    return np.array([float(x) for x in (text or "0 0 0").split()])
+
+
+def _text(v: np.ndarray) -> str:
+    return " ".join(repr(float(x)) for x in v)
+
+
+def rpy_matrix(rpy: np.ndarray) -> np.ndarray:
+    """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = rpy
+    cx, sx, cy, sy, cz, sz = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def matrix_rpy(R: np.ndarray) -> np.ndarray:
+    return np.array(
+        [np.arctan2(R[2, 1], R[2, 2]), np.arcsin(-R[2, 0]), np.arctan2(R[1, 0], R[0, 0])]
+    )
+
+
+def _origin(el: ET.Element) -> ET.Element:
+    origin = el.find("origin")
+    if origin is None:
+        origin = ET.SubElement(el, "origin", xyz="0 0 0", rpy="0 0 0")
+    return origin
+
+
+def rotate_link_frame(root: ET.Element, link: str, R: np.ndarray) -> None:
+    """Express ``link`` in a frame rotated by ``R`` (same robot, different clothes).
+
+    The link's frame becomes F R: its joint's origin turns by R, and everything written in
+    the link's frame (joint axis, inertial, collisions, child joint origins) by R^T.
+    """
+    for joint in root.findall("joint"):
+        origin = _origin(joint)
+        rot = rpy_matrix(_vec(origin.get("rpy")))
+        if joint.find("child").get("link") == link:  # type: ignore[union-attr]
+            origin.set("rpy", _text(matrix_rpy(rot @ R)))
+            axis = joint.find("axis")
+            if axis is not None:
+                axis.set("xyz", _text(R.T @ _vec(axis.get("xyz"))))
+        if joint.find("parent").get("link") == link:  # type: ignore[union-attr]
+            origin.set("xyz", _text(R.T @ _vec(origin.get("xyz"))))
+            origin.set("rpy", _text(matrix_rpy(R.T @ rot)))
+    el = element(root, "link", link)
+    for part in [*el.findall("inertial"), *el.findall("collision"), *el.findall("visual")]:
+        origin = _origin(part)
+        origin.set("xyz", _text(R.T @ _vec(origin.get("xyz"))))
+        origin.set("rpy", _text(matrix_rpy(R.T @ rpy_matrix(_vec(origin.get("rpy"))))))
+
+
+def split_link(root: ET.Element, link: str) -> None:
+    """Move half of ``link``'s inertial to a new link fixed to it (MuJoCo and Pinocchio fuse)."""
+    el = element(root, "link", link)
+    inertial = el.find("inertial")
+    assert inertial is not None
+    half = ET.fromstring(ET.tostring(inertial))
+    for part in (inertial, half):
+        mass = part.find("mass")
+        mass.set("value", repr(float(mass.get("value")) / 2))  # type: ignore[union-attr, arg-type]
+        inertia = part.find("inertia")
+        for key, value in inertia.attrib.items():  # type: ignore[union-attr]
+            inertia.set(key, repr(float(value) / 2))  # type: ignore[union-attr]
+    extra = ET.SubElement(root, "link", name=f"{link}_extra")
+    extra.append(half)
+    joint = ET.SubElement(root, "joint", name=f"{link}_extra_joint", type="fixed")
+    ET.SubElement(joint, "parent", link=link)
+    ET.SubElement(joint, "child", link=f"{link}_extra")
+    ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
+
+
+def shuffle_declarations(root: ET.Element, seed: int) -> None:
+    """Declare links and joints in another order (URDF's tree comes from parent/child)."""
+    children = [c for c in root if c.tag in ("link", "joint")]
+    for c in children:
+        root.remove(c)
+    for i in np.random.default_rng(seed).permutation(len(children)):
+        root.append(children[i])
+
+
+def random_rotation(seed: int) -> np.ndarray:
+    q = np.random.default_rng(seed).normal(size=4)
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def tiny_urdf(body: str = "", joint_type: str = "revolute", extra: str = "") -> str:
+    """A two-link URDF (base -> l1 -> tool) to vary one feature at a time."""
+    limit = '<limit lower="-1" upper="1" effort="5" velocity="1"/>'
+    return f"""<robot name="tiny">
+  <link name="base"/>
+  <joint name="j1" type="{joint_type}">
+    <parent link="base"/><child link="l1"/><origin xyz="0 0 0.1"/><axis xyz="0 1 0"/>
+    {limit if joint_type in ("revolute", "prismatic") else ""}
+    <dynamics damping="0.2" friction="0.05"/>
+    {extra}
+  </joint>
+  <link name="l1">
+    {
+        body
+        or '''<inertial><origin xyz="0 0 0.1"/><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial>'''
+    }
+    <collision><origin xyz="0 0 0.1"/><geometry><box size="0.05 0.05 0.2"/></geometry></collision>
+  </link>
+  <joint name="tool_joint" type="fixed">
+    <parent link="l1"/><child link="tool"/><origin xyz="0 0 0.25"/>
+  </joint>
+  <link name="tool"/>
+</robot>"""
+
+
+def write_stl(path: Path) -> None:
+    """A binary STL tetrahedron (0.1 m edges)."""
+    tris = [
+        ((0, 0, 0), (1, 0, 0), (0, 1, 0)),
+        ((0, 0, 0), (0, 0, 1), (1, 0, 0)),
+        ((0, 0, 0), (0, 1, 0), (0, 0, 1)),
+        ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
+    ]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("wb") as f:
+        f.write(b"\0" * 80 + struct.pack("<I", len(tris)))
+        for tri in tris:
+            f.write(struct.pack("<3f", 0, 0, 0))
+            for v in tri:
+                f.write(struct.pack("<3f", *(0.1 * x for x in v)))
+            f.write(b"\0\0")
+
+
+# -- the bundled URDFs ---------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["arm7", "panda"])
+def test_bundled_urdf_crosschecks(name: str) -> None:
+    arm = rd.load(MODELS / f"{name}.urdf", frame="ee")
+    assert arm.nq == 7 and arm.site == "ee"
+    assert arm.bridges == ()  # both importers read every value the library uses
+    report = crosscheck(arm, random_poses(arm, 100, seed=3))
+    assert report.ok, report.lines()
+    for agreement in report.agreements:
+        assert agreement.max_error <= 1e-9
+    assert compare_models(arm).equivalent, compare_models(arm).lines()
+
+
+@pytest.mark.parametrize("name", ["arm7", "panda"])
+def test_bundled_urdf_is_its_mjcf_without_armature(name: str) -> None:
+    urdf = rd.load(MODELS / f"{name}.urdf", frame="ee")
+    mjcf = rd.load(MODELS / f"{name}.xml", site="ee")
+    for q in random_poses(mjcf, 20, seed=4):
+        np.testing.assert_allclose(urdf.jacobian(q), mjcf.jacobian(q), atol=1e-12)
+        np.testing.assert_allclose(
+            urdf.mass_matrix(q), mjcf.mass_matrix(q, armature=False), atol=1e-12
+        )
+        np.testing.assert_allclose(urdf.gravity(q), mjcf.gravity(q), atol=1e-12)
+    np.testing.assert_array_equal(urdf.effort_limit, mjcf.effort_limit)
+    np.testing.assert_array_equal(urdf.damping(), mjcf.damping())
+    np.testing.assert_array_equal(urdf.lower, mjcf.lower)
+    assert not urdf.armature().any() and mjcf.armature().all()
+
+
+def test_what_each_importer_reads() -> None:
+    """Limits, effort, damping and friction reach both engines; velocity only Pinocchio."""
+    arm = rd.load_string(tiny_urdf(), frame="tool")
+    mj, pm = arm.mj_model, arm.pinocchio.model
+    assert (arm.lower[0], arm.upper[0]) == (-1.0, 1.0)
+    assert arm.effort_limit[0] == 5.0 == pm.effortLimit[0]
+    assert arm.damping()[0] == 0.2 == pm.damping[0]
+    assert mj.dof_frictionloss[0] == 0.05 == pm.friction[0]
+    assert mj.dof_armature[0] == 0.0 == pm.armature[0]
+    assert pm.velocityLimit[0] == 1.0  # MuJoCo has no velocity limit
+    # The fixed tool link stays a body in MuJoCo (fusestatic off), carrying the tool site.
+    assert "tool" in [mj.body(i).name for i in range(mj.nbody)]
+    assert mj.site(arm.mujoco.site_id).name == "tool"
+
+
+def test_tool_as_fixed_joint_name_and_unknown_tool() -> None:
+    by_link = rd.load_string(tiny_urdf(), frame="tool")
+    by_joint = rd.load_string(tiny_urdf(), frame="tool_joint")
+    q = np.array([0.3])
+    np.testing.assert_array_equal(by_link.site_pose(q)[0], by_joint.site_pose(q)[0])
+    with pytest.raises(rd.UnknownNameError) as err:
+        rd.load_string(tiny_urdf(), frame="flange")
+    assert str(err.value) == "unknown link 'flange'; valid link names: ['base', 'l1', 'tool']"
+
+
+def test_site_argument_names_the_link_too() -> None:
+    assert rd.load_string(tiny_urdf(), site="tool").site == "tool"
+
+
+def test_continuous_joint_is_one_unbounded_angle() -> None:
+    root = urdf_root("arm7")
+    element(root, "joint", "j1").set("type", "continuous")
+    j1 = element(root, "joint", "j1")
+    j1.remove(j1.find("limit"))  # type: ignore[arg-type]
+    arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
+    assert arm.pinocchio.model.nq == 7  # not Pinocchio's (cos, sin) pair
+    assert (arm.lower[0], arm.upper[0]) == (-np.inf, np.inf)
+    lo, hi = sampling_ranges(arm)
+    assert (lo[0], hi[0]) == (-np.pi, np.pi)
+    poses = random_poses(arm, 200, seed=5)
+    assert poses[:, 0].min() < -3 and poses[:, 0].max() > 3
+    assert crosscheck(arm, poses).ok
+    # The same arm with j1 limited to +-pi: identical numbers inside the range.
+    limited = rd.load(MODELS / "arm7.urdf", frame="ee")
+    q = poses[0].copy()
+    q[0] = 2.5
+    np.testing.assert_allclose(arm.mass_matrix(q), limited.mass_matrix(q), atol=1e-15)
+    np.testing.assert_allclose(
+        arm.jacobian(q, engine="pinocchio"), limited.jacobian(q, engine="pinocchio"), atol=1e-15
+    )
+
+
+def test_unaligned_continuous_axis() -> None:
+    text = tiny_urdf(joint_type="continuous").replace(
+        '<axis xyz="0 1 0"/>', '<axis xyz="0.6 0 0.8"/>'
+    )
+    arm = rd.load_string(text, frame="tool")
+    assert arm.pinocchio.model.nq == 1
+    assert crosscheck(arm, np.linspace(-3, 3, 13)[:, None]).ok
+
+
+def test_prismatic_joint() -> None:
+    arm = rd.load_string(tiny_urdf(joint_type="prismatic"), frame="tool")
+    assert arm.joint_types == ("slide",)
+    assert crosscheck(arm, np.linspace(-1, 1, 9)[:, None]).ok
+
+
+def test_pickle_rebuilds_a_urdf_arm() -> None:
+    arm = rd.load(MODELS / "panda.urdf", frame="ee")
+    copy = pickle.loads(pickle.dumps(arm))
+    q = random_poses(arm, 1, seed=2)[0]
+    np.testing.assert_array_equal(copy.gravity(q), arm.gravity(q))
+    np.testing.assert_array_equal(copy.jacobian(q, "pinocchio"), arm.jacobian(q, "pinocchio"))
+
+
+# -- collision: adjacent links and SRDF pairs ------------------------------------------------
+def _body_pairs(arm: rd.Arm) -> set[frozenset[str]]:
+    m = arm.mj_model
+    return {
+        frozenset((m.body(m.geom_bodyid[p.geom1]).name, m.body(m.geom_bodyid[p.geom2]).name))
+        for p in collision_pairs(arm)
+    }
+
+
+def test_adjacent_links_never_collide() -> None:
+    """URDF has no filter: links joined by a joint are excluded, the base included."""
+    urdf = rd.load(MODELS / "panda.urdf", frame="ee")
+    pairs = _body_pairs(urdf)
+    assert frozenset(("link0", "link1")) not in pairs  # MuJoCo alone would keep this one
+    for i in range(7):
+        assert frozenset((f"link{i}", f"link{i + 1}")) not in pairs
+    # The MJCF excludes link0/link1 explicitly: the two files give the same body pairs.
+    assert pairs == _body_pairs(rd.load(MODELS / "panda.xml", site="ee"))
+
+
+def test_srdf_and_listed_disabled_pairs(tmp_path: Path) -> None:
+    srdf = tmp_path / "panda.srdf"
+    srdf.write_text(
+        '<robot name="panda"><disable_collisions link1="link0" link2="link7" reason="Never"/>'
+        '<disable_collisions link1="link1" link2="link6" reason="Never"/></robot>'
+    )
+    plain = _body_pairs(rd.load(MODELS / "panda.urdf", frame="ee"))
+    assert {frozenset(("link0", "link7")), frozenset(("link1", "link6"))} <= plain
+    by_file = _body_pairs(rd.load(MODELS / "panda.urdf", frame="ee", disabled_collisions=srdf))
+    assert plain - by_file == {frozenset(("link0", "link7")), frozenset(("link1", "link6"))}
+    listed = rd.load(
+        MODELS / "panda.urdf",
+        frame="ee",
+        disabled_collisions=[("link7", "link0"), ("link1", "link6")],
+    )
+    assert _body_pairs(listed) == by_file
+    assert pickle.loads(pickle.dumps(listed)).mj_model.nexclude == listed.mj_model.nexclude
+
+
+def test_disabled_pairs_bad_input(tmp_path: Path) -> None:
+    path = MODELS / "panda.urdf"
+    with pytest.raises(rd.UnknownNameError, match="unknown link 'link9'"):
+        rd.load(path, frame="ee", disabled_collisions=[("link0", "link9")])
+    with pytest.raises(rd.ModelError, match="two link names"):
+        rd.load(path, frame="ee", disabled_collisions=[("link0", "link1", "link2")])
+    with pytest.raises(rd.ModelError, match="cannot read the SRDF file"):
+        rd.load(path, frame="ee", disabled_collisions=tmp_path / "missing.srdf")
+    with pytest.raises(rd.ModelError, match="disabled_collisions is for URDF"):
+        rd.load(MODELS / "panda.xml", disabled_collisions=[("link0", "link1")])
+
+
+def test_audit_runs_on_a_urdf(capsys: pytest.CaptureFixture[str]) -> None:
+    from redundancy.cli import main
+
+    code = main(["audit", str(MODELS / "arm7.urdf"), "--site", "ee", "--poses", "200"])
+    assert code in (0, 1)
+    assert "Traceback" not in capsys.readouterr().err
+
+
+# -- meshes ----------------------------------------------------------------------------------
+def _mesh_urdf(filename: str) -> str:
+    return tiny_urdf().replace(
+        '<geometry><box size="0.05 0.05 0.2"/></geometry>',
+        f'<geometry><mesh filename="{filename}"/></geometry>',
+    )
+
+
+@pytest.mark.parametrize(
+    "filename", ["meshes/tet.stl", "package://mypkg/meshes/tet.stl", "file://{root}/meshes/tet.stl"]
+)
+def test_mesh_paths_resolve(tmp_path: Path, filename: str) -> None:
+    pkg = tmp_path / "mypkg"
+    write_stl(pkg / "meshes" / "tet.stl")
+    (pkg / "urdf").mkdir()
+    urdf = pkg / ("urdf/robot.urdf" if filename.startswith("package") else "robot.urdf")
+    urdf.write_text(_mesh_urdf(filename.format(root=pkg)))
+    arm = rd.load(urdf, frame="tool")
+    assert arm.mj_model.nmesh == 1
+    # The inertial is explicit: the mesh changes no mass in either engine.
+    assert crosscheck(arm, np.linspace(-1, 1, 5)[:, None]).ok
+
+
+def test_unresolved_mesh_is_named(tmp_path: Path) -> None:
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(_mesh_urdf("package://nopkg/meshes/arm.stl"))
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(urdf, frame="tool")
+    message = str(err.value)
+    assert message.startswith(
+        f"URDF {urdf}: mesh file 'package://nopkg/meshes/arm.stl' not found (looked for: "
+    )
+    assert str(tmp_path / "nopkg" / "meshes" / "arm.stl") in message
+
+
+# -- bad input ------------------------------------------------------------------------------
+def test_missing_inertial_is_refused_not_a_mujoco_mass_error() -> None:
+    text = tiny_urdf(body="<visual><geometry><box size='0.1 0.1 0.1'/></geometry></visual>")
+    with pytest.raises(rd.UnsupportedFeatureError) as err:
+        rd.load_string(text, frame="tool")
+    assert str(err.value) == (
+        "unsupported feature: moving link without inertial (link 'l1' (moved by joint 'j1') "
+        "in <string>): a URDF link without <inertial> has no mass, and a moving body needs one "
+        "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an <inertial> "
+        "with its mass, centre of mass and inertia"
+    )
+
+
+def test_no_inertials_at_all(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    for link in root.findall("link"):
+        for inertial in link.findall("inertial"):
+            link.remove(inertial)
+    with pytest.raises(rd.UnsupportedFeatureError, match="link 'link1' \\(moved by joint 'j1'\\)"):
+        rd.load(write(root, tmp_path / "arm7.urdf"), frame="ee")
+
+
+def test_inertial_on_a_fixed_child_is_enough() -> None:
+    """A moving link whose mass sits on a link fixed to it is fine (both engines fuse).
+
+    link4 keeps its collision geom: MuJoCo's default would give it a mass from that geom
+    (0.609 kg, measured), Pinocchio none; the library reads it as massless in both.
+    """
+    root = urdf_root("arm7")
+    split_link(root, "link4")
+    link4 = element(root, "link", "link4")
+    link4.remove(link4.find("inertial"))  # type: ignore[arg-type]
+    arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
+    assert element(root, "link", "link4").find("collision") is not None
+    assert crosscheck(arm, random_poses(arm, 20, seed=1)).ok
+    half = rd.load(MODELS / "arm7.urdf", frame="ee").mj_model.body("link4").mass[0] / 2
+    assert arm.mj_model.body("link4").mass[0] == 0.0
+    assert arm.mj_model.body("link4_extra").mass[0] == half
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (
+            lambda t: t.replace('type="revolute"', 'type="floating"', 1),
+            "unsupported feature: floating joint (joint 'j1' in <string>): only revolute, "
+            "continuous, prismatic and fixed joints are supported (a fixed-base arm)",
+        ),
+        (
+            lambda t: t.replace('type="revolute"', 'type="planar"', 1),
+            "unsupported feature: planar joint (joint 'j1' in <string>): only revolute, "
+            "continuous, prismatic and fixed joints are supported (a fixed-base arm)",
+        ),
+        (
+            lambda t: t.replace('type="revolute"', 'type="hinge"', 1),
+            "URDF <string>: joint 'j1' has type 'hinge'; valid URDF joint types: "
+            "['revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar']",
+        ),
+        (
+            lambda t: t.replace('lower="-1"', 'lower="nan"'),
+            "URDF <string>: <limit lower='nan'> must be a finite number",
+        ),
+        (
+            lambda t: t.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 1"/>'),
+            "URDF <string>: <axis xyz='0 1'> must be 3 finite numbers",
+        ),
+        (
+            lambda t: t.replace('<origin xyz="0 0 0.1"/><axis', '<origin xyz="inf 0 0.1"/><axis'),
+            "URDF <string>: <origin xyz='inf 0 0.1'> must be 3 finite numbers",
+        ),
+        (
+            lambda t: t.replace('<mass value="1"/>', '<mass value="-1"/>'),
+            "URDF <string>: link 'l1' has mass -1 [kg]; a mass must be >= 0",
+        ),
+        (
+            lambda t: t.replace('name="j1"', 'name="universe"'),
+            "unsupported feature: joint named 'universe' (joint 'universe' in <string>): "
+            "Pinocchio reserves the name for its world joint and frame; rename it",
+        ),
+        (
+            lambda t: t.replace('<link name="base"/>', '<link name="base"/><link name="stray"/>'),
+            "URDF <string>: the links must form one tree with one root; "
+            "roots found: ['base', 'stray']",
+        ),
+        (
+            lambda t: t.replace('<child link="tool"/>', '<child link="tol"/>'),
+            "unknown link 'tol'; valid link names: ['base', 'l1', 'tool']",
+        ),
+        (
+            lambda t: t.replace(
+                '<robot name="tiny">',
+                '<robot name="tiny"><mujoco><compiler boundmass="0.1"/></mujoco>',
+            ),
+            "unsupported feature: MuJoCo compiler boundmass (<mujoco><compiler boundmass='0.1'> "
+            "in <string>): it changes MuJoCo's masses only (Pinocchio reads the inertials as "
+            "written)",
+        ),
+    ],
+)
+def test_bad_urdf(change: object, expected: str) -> None:
+    with pytest.raises(rd.RedundancyError) as err:
+        rd.load_string(change(tiny_urdf()), frame="tool")  # type: ignore[operator]
+    assert str(err.value) == expected
+
+
+def test_mimic_joint_is_refused() -> None:
+    root = urdf_root("panda")
+    ET.SubElement(element(root, "joint", "joint7"), "mimic", joint="joint6", multiplier="1")
+    with pytest.raises(rd.UnsupportedFeatureError) as err:
+        rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
+    assert str(err.value).startswith(
+        "unsupported feature: mimic joint (joint 'joint7' in <string>): MuJoCo couples it with "
+        "an equality constraint and Pinocchio's parser ignores it"
+    )
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:property name="l" value="0.3"/><link name="base"/></robot>',
+        '<robot name="r"><link name="base"><inertial><mass value="${m}"/></inertial></link></robot>',
+    ],
+)
+def test_xacro_is_refused(tmp_path: Path, text: str) -> None:
+    path = tmp_path / "robot.urdf.xacro"
+    path.write_text(text)
+    with pytest.raises(rd.UnsupportedFeatureError) as err:
+        rd.load(path, frame="base")
+    assert "xacro macros" in str(err.value)
+    assert str(err.value).endswith(
+        "this is a xacro file, not URDF; expand it first (`xacro robot.urdf.xacro > robot.urdf`) "
+        "and load the result"
+    )
+
+
+def test_tool_frame_name_used_twice() -> None:
+    text = tiny_urdf().replace('name="tool_joint"', 'name="tool"')
+    with pytest.raises(rd.UnsupportedFeatureError) as err:
+        rd.load_string(text, frame="tool")
+    assert str(err.value) == (
+        "unsupported feature: tool frame name used twice (link 'tool' in <string>): Pinocchio "
+        "has 2 frames of that name (FIXED_JOINT, BODY); rename the link or the joint"
+    )
+
+
+def test_no_engine_abort_on_bad_urdf(tmp_path: Path) -> None:
+    """Malformed variants end in the library's error, in a subprocess (an abort would show)."""
+    cases = [
+        tiny_urdf().replace('lower="-1"', 'lower="nan"'),
+        tiny_urdf().replace('lower="-1"', 'lower="2"'),
+        tiny_urdf().replace('<origin xyz="0 0 0.1"/><axis', '<origin xyz="inf 0 0.1"/><axis'),
+        tiny_urdf().replace('<mass value="1"/>', '<mass value="-1"/>'),
+        tiny_urdf().replace('izz="0.002"', 'izz="-0.002"'),
+        tiny_urdf().replace('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>'),
+        tiny_urdf().replace('<parent link="base"/>', ""),
+        "<robot name='empty'/>",
+    ]
+    script = (
+        "import sys, redundancy as rd\n"
+        "try:\n"
+        "    rd.load_string(open(sys.argv[1]).read(), frame='tool')\n"
+        "    print('loaded')\n"
+        "except rd.RedundancyError as e:\n"
+        "    print('error', type(e).__name__)\n"
+    )
+    for i, text in enumerate(cases):
+        path = tmp_path / f"case{i}.urdf"
+        path.write_text(text)
+        run = subprocess.run(
+            [sys.executable, "-c", script, str(path)], capture_output=True, text=True, timeout=60
+        )
+        assert run.returncode == 0, (i, run.stderr[-2000:])
+        assert run.stdout.startswith(("error", "loaded")), (i, run.stdout)
