@@ -24,8 +24,16 @@ Tolerances (each with its reason):
 
 from __future__ import annotations
 
+import copy
+import gc
 import itertools
+import os
+import pickle
 import struct
+import threading
+import weakref
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import mujoco
@@ -1205,3 +1213,145 @@ def sweep_mesh_agreement(arm: rd.Arm, n: int, seed: int) -> None:
     assert stats.disagreements == 0
     assert stats.poses_with_contact > n // 10
     print(f"mesh pairs, {n} poses: largest |coal - MuJoCo| {worst}")
+
+
+# ==========================================================================================
+# Threads, copies, memory, bad poses
+# ==========================================================================================
+
+
+def checker_answers(ch: col.CollisionChecker, Q: np.ndarray) -> list:
+    """Everything a checker says at each pose, as plain numbers (for bit-for-bit equality)."""
+    out = []
+    for q in Q:
+        contacts = [(c.pair.label, c.distance, *c.position, *c.normal) for c in ch.contacts(q)]
+        coal = ch.distances(q, "coal")
+        mj_ = ch.distances(q, "mujoco")
+        out.append(
+            (
+                contacts,
+                coal.values.tolist(),
+                np.concatenate([[e.point1, e.point2] for e in coal.pairs]).tolist(),
+                mj_.values.tolist(),
+                ch.distance_values(q, "coal").tolist(),
+            )
+        )
+    return out
+
+
+def run_threads(n: int, work: Callable[[int], object]) -> list:
+    """``work(i)`` for i < n, each on its own thread, started together; results in order."""
+    barrier = threading.Barrier(n)
+
+    def job(i: int) -> object:
+        barrier.wait()
+        return work(i)
+
+    with ThreadPoolExecutor(n) as pool:
+        return list(pool.map(job, range(n)))
+
+
+def test_checker_from_eight_threads_gives_the_sequential_answers() -> None:
+    """One fresh arm's checker hammered from 8 threads (each building its own scenes) gives
+    the sequential numbers bit for bit: contacts, coal and MuJoCo distances, nearest points."""
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    Q = col.random_poses(arm, 160, seed=11)
+    Q[::7, 3] = 2.85  # folded elbows: contacts and overlaps too
+    ch = col.checker(arm)
+    parts = np.array_split(Q, 8)
+    got = run_threads(8, lambda i: checker_answers(ch, parts[i]))
+    assert [x for part in got for x in part] == checker_answers(ch, Q)
+
+
+def test_statistics_from_threads_give_the_sequential_answer() -> None:
+    """collision_statistics on one arm from 4 threads at once (this segfaulted before)."""
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+
+    def stats(i: int) -> tuple:
+        s = col.collision_statistics(arm, 400, seed=i % 2, distances=("coal", "mujoco")[i % 2])
+        return (s.poses_with_contact, s.pairs, s.disagreements)
+
+    alone = [stats(0), stats(1)]
+    assert run_threads(4, stats) == alone * 2
+
+
+def test_batch_coal_distances_from_threads_are_right() -> None:
+    """batch.distances(engine="coal") reads the checker's scene of the calling thread."""
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    Q = col.random_poses(arm, 150, seed=5)
+    expected = rd.batch.distances(arm, Q, engine="coal")
+    got = run_threads(4, lambda i: rd.batch.distances(arm, Q, engine="coal"))
+    for g in got:
+        np.testing.assert_array_equal(g, expected)
+
+
+def test_checker_cache_does_not_keep_the_arm_alive() -> None:
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    col.collision_statistics(arm, 20, distances="coal")
+    pc.check_path(arm, [arm.keyframe("zero"), arm.keyframe("home")])
+    ref = weakref.ref(arm)
+    del arm
+    gc.collect()
+    assert ref() is None
+
+
+def rss_mb() -> float:
+    """Resident memory of this process [MB] (Linux)."""
+    pages = int(Path("/proc/self/statm").read_text().split()[1])
+    return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
+
+
+def test_memory_stays_bounded_over_many_loads_with_collision_use() -> None:
+    """Loads of arm7, each used for distances, contacts and a path check, then dropped.
+
+    Before the fix every Arm stayed in the checker cache (about 0.8 MB each)."""
+
+    def use() -> None:
+        arm = rd.load(rd.model_path("arm7"), site="ee")
+        q = arm.keyframe("home")
+        col.distances(arm, q, "coal")
+        col.distances(arm, q, "mujoco")
+        col.contacts(arm, q)
+        pc.check_path(arm, [arm.keyframe("zero"), q])
+
+    for _ in range(20):  # warm up allocators and caches
+        use()
+    gc.collect()
+    before = rss_mb()
+    for _ in range(150):
+        use()
+    gc.collect()
+    assert rss_mb() - before < 40.0
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_collision_works_on_a_copied_arm(arm7: rd.Arm, how: str) -> None:
+    other = copy.deepcopy(arm7) if how == "deepcopy" else pickle.loads(pickle.dumps(arm7))
+    assert col.checker(other) is not col.checker(arm7)
+    Q = col.random_poses(arm7, 30, seed=9)
+    assert checker_answers(col.checker(other), Q) == checker_answers(col.checker(arm7), Q)
+
+
+def test_complex_poses_are_refused(arm7: rd.Arm) -> None:
+    q = arm7.keyframe("home") + 0j
+    with pytest.raises(rd.PoseError, match="complex"):
+        col.distances(arm7, q)
+    with pytest.raises(rd.PoseError, match="complex"):
+        col.collision_statistics(arm7, poses=[q])
+    with pytest.raises(rd.PoseError, match="complex"):
+        pc.check_path(arm7, [q, q])
+
+
+def test_a_model_without_collision_pairs_gives_empty_results() -> None:
+    xml = """
+<mujoco><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
+  <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+  <geom size="0.1" contype="0" conaffinity="0" mass="0"/><site name="ee"/>
+</body></worldbody></mujoco>"""
+    arm = rd.load_string(xml)
+    ch = col.checker(arm)
+    assert ch.pairs == () and ch.contacts([0.2]) == ()
+    assert ch.distances([0.2]).closest is None and ch.distances([0.2], "mujoco").pairs == ()
+    stats = col.collision_statistics(arm, 30)
+    assert stats.pairs == () and stats.poses_with_contact == 0 and stats.disagreements == 0
+    assert pc.check_path(arm, [[0.0], [1.0]]).free

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
+from ..errors import ModelError, PoseError, UnknownNameError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
 from .pairs import DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, collision_pairs, find_pair
@@ -256,11 +256,11 @@ def _probe_pose(arm: Arm) -> Array:
     return lo + frac * (hi - lo)
 
 
-_BUILD = threading.Lock()
+_BUILD = threading.RLock()  # reentrant: a cached object may build another
 T = TypeVar("T")
 
 
-def _cached(arm: Arm, key: str, build: Callable[[], T]) -> T:
+def cached(arm: Arm, key: str, build: Callable[[], T]) -> T:
     """One object per arm, stored on the arm itself so that it never keeps the arm alive."""
     cache = arm.__dict__.setdefault("_collision_cache", {})
     obj = cache.get(key)
@@ -278,7 +278,7 @@ def checker(arm: Arm) -> CollisionChecker:
     The cache lives with the arm (it never keeps an arm alive) and is safe to fill from
     several threads at once.
     """
-    return _cached(arm, "checker", lambda: CollisionChecker(arm))
+    return cached(arm, "checker", lambda: CollisionChecker(arm))
 
 
 def distances(arm: Arm, q: ArrayLike, engine: DistanceEngine = "coal") -> Distances:
@@ -289,3 +289,20 @@ def distances(arm: Arm, q: ArrayLike, engine: DistanceEngine = "coal") -> Distan
 def contacts(arm: Arm, q: ArrayLike) -> tuple[Contact, ...]:
     """MuJoCo's contact list at ``q`` (see :class:`CollisionChecker`)."""
     return checker(arm).contacts(q)
+
+
+def pose_stack(arm: Arm, poses: ArrayLike, what: str = "poses", least: int = 0) -> Array:
+    """Poses as a float64 array of shape (n, nq), each checked by :meth:`Arm.pose`.
+
+    Raises:
+        PoseError: Not a stack of ``least`` or more poses, or a bad pose (complex values
+            included: they are refused, never cast).
+    """
+    try:
+        Q = np.asarray(poses)
+    except (TypeError, ValueError) as err:
+        raise PoseError(f"{what} must be an array of shape (n, {arm.nq}): {err}") from err
+    if Q.ndim != 2 or Q.shape[0] < least or (len(Q) and Q.shape[1] != arm.nq):
+        at_least = f" with n >= {least}" if least else ""
+        raise PoseError(f"{what} must have shape (n, {arm.nq}){at_least}, got {Q.shape}")
+    return np.array([arm.pose(q) for q in Q], dtype=float).reshape(-1, arm.nq)

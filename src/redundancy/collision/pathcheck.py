@@ -35,7 +35,6 @@ the path is not declared free (it errs on the side of reporting).
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -44,7 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PoseError, UnknownNameError, UnsupportedFeatureError
-from .checker import CollisionChecker, checker
+from .checker import CollisionChecker, cached, checker, pose_stack
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair
 from .shapes import bounding_radius
 
@@ -288,17 +287,7 @@ class PathChecker:
         eps = AMBIGUITY_BAND
         if not tol > eps:
             raise PoseError(f"tol must exceed the engines' accuracy {eps:g} m, got {tol!r}")
-        try:
-            Q = np.asarray(waypoints, dtype=float)
-        except (TypeError, ValueError) as err:
-            raise PoseError(
-                f"waypoints must be an array of shape (k, {self.arm.nq}): {err}"
-            ) from err
-        if Q.ndim != 2 or Q.shape[0] < 1:
-            raise PoseError(
-                f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got {Q.shape}"
-            )
-        Q = np.array([self.arm.pose(q) for q in Q])
+        Q = pose_stack(self.arm, waypoints, "waypoints", least=1)
         nseg = len(Q) - 1
         thr = self.thresholds
         evals = 0
@@ -384,12 +373,9 @@ def check_path(
     return path_checker(arm).check(waypoints, tol, engine)
 
 
-_PATH_CHECKERS: weakref.WeakKeyDictionary[Arm, PathChecker] = weakref.WeakKeyDictionary()
-
-
 def path_checker(arm: Arm) -> PathChecker:
-    """The :class:`PathChecker` of an arm with its full pair set, built once and cached."""
-    pc = _PATH_CHECKERS.get(arm)
-    if pc is None:
-        pc = _PATH_CHECKERS[arm] = PathChecker(checker(arm))
-    return pc
+    """The :class:`PathChecker` of an arm with its full pair set, built once and cached.
+
+    The cache lives with the arm (it never keeps an arm alive).
+    """
+    return cached(arm, "path checker", lambda: PathChecker(checker(arm)))

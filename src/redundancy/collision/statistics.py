@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import sampling_ranges
 from ..errors import PoseError, UnknownNameError
-from .checker import CollisionChecker, PairDistance, checker
+from .checker import CollisionChecker, PairDistance, checker, pose_stack
 from .coal_scene import CoalScene
 from .mujoco_scene import MujocoScene
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
@@ -187,13 +187,7 @@ def collision_statistics(
             rng.uniform(lo, hi, size=(min(CHUNK, n - i), arm.nq)) for i in range(0, n, CHUNK)
         )
     else:
-        try:
-            Q = np.asarray(poses, dtype=float)
-        except (TypeError, ValueError) as err:
-            raise PoseError(f"poses must be an array of shape (n, {arm.nq}): {err}") from err
-        if Q.ndim != 2 or Q.shape[1] != arm.nq:
-            raise PoseError(f"poses must have shape (n, {arm.nq}), got {Q.shape}")
-        Q = np.array([arm.pose(q) for q in Q]).reshape(-1, arm.nq)
+        Q = pose_stack(arm, poses)
         n = len(Q)
         chunks = (Q[i : i + CHUNK] for i in range(0, n, CHUNK))
     sweep = _Sweep(ch, distances, prune)
