@@ -285,8 +285,8 @@ def crosscheck_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
         "bare pin J": b.pin_jacobians,
         "bare pin M": b.pin_mass,
         "bare pin g": b.pin_gravity,
-        "cc 1t": lambda: batch.crosscheck_batch(arm, Q, names),
-        "cc 2t": lambda: batch.crosscheck_batch(arm, Q, names, threads=2),
+        "cc 1t": lambda: rd.crosscheck_batch(arm, Q, names),
+        "cc 2t": lambda: rd.crosscheck_batch(arm, Q, names, threads=2),
         "per pose (1/20)": lambda: rd.crosscheck(arm, small, names),
     }
     t = rounds(cases, repeats)
@@ -304,7 +304,7 @@ def crosscheck_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
         f"  rd.crosscheck pose by pose (timed on {len(small)} poses, scaled): "
         f"{ms(t, 'per pose (1/20)') * scale:.0f} ms"
     )
-    report = batch.crosscheck_batch(arm, Q, names)
+    report = rd.crosscheck_batch(arm, Q, names)
     out += ["  " + line for line in report.lines()]
     return out
 
@@ -411,6 +411,7 @@ def controller_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
         return 1e6 * statistics.median(t[k]) / calls
 
     r = ratio(t, "lib step", "bare step")
+    rj = ratio(t, "lib J", "bare J")
     return [
         f"Single-pose controller path (J, N = I - J^+ J, one null-space step), {calls} calls",
         f"  bare (mj_kinematics + mj_comPos + mj_jacSite + np.linalg.pinv): "
@@ -420,6 +421,40 @@ def controller_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
         f"  of which: J bare {us('bare J'):.2f} us, arm.jacobian {us('lib J'):.2f} us "
         f"(arm.pose alone {us('arm.pose'):.2f} us); pinv projector bare {us('bare pinv'):.2f} us, "
         f"linalg {us('lib projector'):.2f} us",
+        f"  arm.jacobian / bare J: ratio {rj:.2f} (target 1.50) {'ok' if rj <= 1.5 else 'OVER'}",
+    ]
+
+
+def rtb_section(calls: int, repeats: int) -> list[str]:
+    """arm.manipulability on the panda against Robotics Toolbox's on its Panda, one process."""
+    try:
+        import roboticstoolbox as rtb  # the `bench` extra
+    except ImportError:
+        return ["Manipulability against Robotics Toolbox: not run (pip install '.[bench]')"]
+    robot = rtb.models.Panda()
+    arm = rd.load(rd.model_path("panda"), site="ee")
+    qs = random_poses(arm, calls, seed=11)
+    qs_list = [np.array(q) for q in qs]
+
+    def ours() -> None:
+        for q in qs_list:
+            _ = arm.manipulability(q).full
+
+    def theirs() -> None:
+        for q in qs_list:
+            robot.manipulability(q)
+
+    t = rounds({"ours": ours, "rtb": theirs}, repeats)
+    r = ratio(t, "ours", "rtb")
+
+    def us(k: str) -> float:
+        return 1e6 * statistics.median(t[k]) / calls
+
+    return [
+        f"Manipulability on the Panda, {calls} random poses: arm.manipulability(q).full "
+        f"{us('ours'):.2f} us, Robotics Toolbox {rtb.__version__} Panda.manipulability(q) "
+        f"{us('rtb'):.2f} us",
+        f"  ratio {r:.2f} (target 1.00) {'ok' if r <= 1 else 'OVER'}",
     ]
 
 
@@ -442,7 +477,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines), flush=True)
     for section in (batched_section, crosscheck_section, gram_section):
         print("\n".join(section(arm, Q, args.repeats)) + "\n", flush=True)
-    print("\n".join(controller_section(arm, args.calls, args.repeats)), flush=True)
+    print("\n".join(controller_section(arm, args.calls, args.repeats)) + "\n", flush=True)
+    print("\n".join(rtb_section(args.calls, args.repeats)), flush=True)
     print(f"\n(total {time.perf_counter() - t0:.0f} s)")
     return 0
 

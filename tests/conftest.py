@@ -2,16 +2,32 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import pytest
 
 import redundancy as rd
 from redundancy.testing import register_profiles
 
+from .models import SKEW7
+
 PROFILE = register_profiles()
+
+#: The arms the core properties run on: the lesson's, the Panda, and the oddities of SKEW7.
+ARM_NAMES = ("arm7", "panda", "skew7")
+
+_LOG = pytest.StashKey[dict]()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.stash[_LOG] = {"worst": {}, "examples": {}}
 
 
 def pytest_report_header(config: pytest.Config) -> str:
-    return f"hypothesis profile: {PROFILE}"
+    seed = config.getoption("hypothesis_seed", None)
+    if PROFILE == "default":
+        return f"hypothesis profile: {PROFILE} (derandomized)"
+    return f"hypothesis profile: {PROFILE}, seed {seed} (rerun with --hypothesis-seed={seed})"
 
 
 @pytest.fixture(scope="session")
@@ -19,12 +35,45 @@ def arm7() -> rd.Arm:
     return rd.load(rd.model_path("arm7"), site="ee")
 
 
-def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
-    from . import test_core
+@pytest.fixture(scope="session")
+def panda() -> rd.Arm:
+    return rd.load(rd.model_path("panda"), site="ee")
 
-    if test_core.WORST:
+
+@pytest.fixture(scope="session")
+def skew7() -> rd.Arm:
+    return rd.load_string(SKEW7, site="tool")
+
+
+@pytest.fixture(scope="session")
+def arms(arm7: rd.Arm, panda: rd.Arm, skew7: rd.Arm) -> dict[str, rd.Arm]:
+    return {"arm7": arm7, "panda": panda, "skew7": skew7}
+
+
+class EngineLog:
+    """Largest engine difference seen per (arm, quantity), printed at the end of the run."""
+
+    def __init__(self, store: dict) -> None:
+        self.worst: dict[tuple[str, str], float] = store["worst"]
+        self.examples: dict[str, int] = store["examples"]
+
+    def record(self, name: str, report: rd.CrossCheckReport) -> None:
+        self.examples[name] = self.examples.get(name, 0) + 1
+        for a in report.agreements:
+            key = (name, a.quantity)
+            self.worst[key] = max(self.worst.get(key, 0.0), a.max_error)
+
+
+@pytest.fixture(scope="session")
+def engine_log(pytestconfig: pytest.Config) -> Iterator[EngineLog]:
+    yield EngineLog(pytestconfig.stash[_LOG])
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    log = EngineLog(terminalreporter.config.stash[_LOG])
+    if log.worst:
         tr = terminalreporter
         tr.section("largest engine differences (|MuJoCo - Pinocchio| / max(1, |value|))")
-        for name, n in sorted(test_core.EXAMPLES.items()):
-            row = ", ".join(f"{q} {e:.1e}" for (a, q), e in test_core.WORST.items() if a == name)
+        for name, n in sorted(log.examples.items()):
+            row = ", ".join(f"{q} {e:.1e}" for (a, q), e in log.worst.items() if a == name)
             tr.write_line(f"{name} ({n} examples): {row}")

@@ -331,16 +331,68 @@ def cases(tmp: str) -> dict[str, Case]:
             )
             + "$",
         ),
-        "settotalmass": Case(
-            _load(chain().replace("<mujoco>", '<mujoco><compiler settotalmass="10"/>')),
+        "compiler after worldbody": Case(
+            _load(chain().replace("</worldbody>", '</worldbody><compiler angle="radian"/>')),
             rd.UnsupportedFeatureError,
             "^"
             + re.escape(
-                UF + "compiler settotalmass (<compiler settotalmass='10'>): Pinocchio's "
-                "MJCF parser ignores it, so the engines' masses would differ; write the "
-                "masses and inertias out"
+                UF + "<compiler> after <worldbody> (<compiler>): Pinocchio's MJCF parser reads "
+                "the file in order and applies it only to what follows (MuJoCo applies it "
+                "everywhere); move <compiler> before <worldbody>"
             )
             + "$",
+        ),
+        "default after worldbody": Case(
+            _load(
+                chain().replace(
+                    "</worldbody>", '</worldbody><default><joint damping="1"/></default>'
+                )
+            ),
+            rd.UnsupportedFeatureError,
+            r"^unsupported feature: <default> after <worldbody> \(<default>\)",
+        ),
+        "second worldbody": Case(
+            _load(
+                chain().replace("</mujoco>", '<worldbody><geom size="0.1"/></worldbody></mujoco>')
+            ),
+            rd.UnsupportedFeatureError,
+            r"^unsupported feature: several <worldbody> elements \(2 in the model\): Pinocchio's "
+            r"MJCF parser reads the first one again for each of them; merge them into one$",
+        ),
+        "joint named universe": Case(
+            _load(chain(joints='<joint name="universe" axis="0 1 0"/>')),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "joint named 'universe' (joint 'universe'): Pinocchio reserves the name "
+                "'universe' for its world joint (its parser aborts on it); rename the joint"
+            )
+            + "$",
+        ),
+        "site named like a body": Case(
+            _load(chain(body_extra='<site name="l1"/>')),
+            rd.UnsupportedFeatureError,
+            "^"
+            + re.escape(
+                UF + "site named like another frame (site 'l1' and body 'l1'): Pinocchio "
+                "makes one frame per body, joint and site and finds a site by name; give the "
+                "site a name of its own"
+            )
+            + "$",
+        ),
+        "site named like a joint": Case(
+            _load(chain(body_extra='<site name="a"/>'), site="a"),
+            rd.UnsupportedFeatureError,
+            r"^unsupported feature: site named like another frame \(site 'a' and joint 'a'\)",
+        ),
+        "sdf geom": Case(
+            _load(
+                chain(body_extra='<geom name="blob" type="sdf" mesh="cube"/>').replace(
+                    "<mujoco>", "<mujoco>" + CUBE
+                )
+            ),
+            rd.ModelError,
+            r"sdf|SDF",
         ),
         "extrinsic eulerseq": Case(
             _load(chain().replace("<mujoco>", '<mujoco><compiler eulerseq="ZYX"/>')),
@@ -360,39 +412,6 @@ def cases(tmp: str) -> dict[str, Case]:
                 UF + "axisangle with a non-unit axis (<body name='l2' axisangle='0 0 2 "
                 "30'>): Pinocchio's MJCF parser does not normalise the axis; write a unit "
                 "axis"
-            )
-            + "$",
-        ),
-        "mesh geom": Case(
-            _load(
-                chain(body_extra='<geom name="hull" type="mesh" mesh="cube"/>').replace(
-                    "<mujoco>", "<mujoco>" + CUBE
-                )
-            ),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "mesh, sdf or height-field geom (geom 'hull'): Pinocchio's MJCF "
-                "parser gives meshes a placeholder inertia; use primitive geoms"
-            )
-            + "$",
-        ),
-        "posed fixed root": Case(
-            _load(
-                chain()
-                .replace(
-                    '<body name="l1" pos="0 0 0.1">',
-                    '<body name="base" pos="0 0 0.5"><geom size="0.05"/>'
-                    '<body name="l1" pos="0 0 0.1">',
-                )
-                .replace("</worldbody>", "</body></worldbody>")
-            ),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "fixed root body with a pose (body 'base'): Pinocchio's MJCF parser "
-                "drops the pose of a root body without joints; move its pos/quat to its "
-                "children"
             )
             + "$",
         ),
@@ -449,7 +468,7 @@ def cases(tmp: str) -> dict[str, Case]:
         "NaN pose in crosscheck": Case(
             lambda: rd.crosscheck(ARM, np.full((2, 7), np.nan)),
             rd.PoseError,
-            r"^pose has non-finite values: q1=nan, q2=nan",
+            r"^pose 0 has non-finite values: q1=nan, q2=nan",
         ),
         "inf pose in compare_models": Case(
             lambda: rd.compare_models(ARM, np.full(7, np.inf)),

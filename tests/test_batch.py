@@ -7,12 +7,12 @@ import pytest
 
 import redundancy as rd
 from redundancy import batch
-from redundancy.analysis.crosscheck import TOLERANCES
+from redundancy.analysis.crosscheck import BATCH_QUANTITIES, TOLERANCES, worst
 from redundancy.collision import checker, random_poses
+from redundancy.engines import ENGINES
+from redundancy.engines.threads import MIN_POSES_PER_THREAD, spans
 
 from .models import SKEW7
-
-ENGINES = ("mujoco", "pinocchio")
 
 
 @pytest.fixture(scope="module", params=["arm7", "panda", "skew7"])
@@ -101,8 +101,8 @@ def test_distances_equal_single_pose(arm: rd.Arm, engine: str) -> None:
 
 def test_crosscheck_batch_equals_crosscheck(arm: rd.Arm) -> None:
     Q = sample(arm, 80)
-    names = batch.BATCH_QUANTITIES
-    report = batch.crosscheck_batch(arm, Q, names)
+    names = BATCH_QUANTITIES
+    report = rd.crosscheck_batch(arm, Q, names)
     assert report == rd.crosscheck(arm, Q, names)
     assert report.ok
     assert report.n_poses == len(Q)
@@ -111,18 +111,18 @@ def test_crosscheck_batch_equals_crosscheck(arm: rd.Arm) -> None:
 def test_crosscheck_batch_delegates_the_other_quantities(arm7: rd.Arm) -> None:
     Q = sample(arm7, 5)
     names = ("manipulability gradient", "gravity", "jacobian derivative")
-    report = batch.crosscheck_batch(arm7, Q, names, tolerances={"gravity": 1e-10})
+    report = rd.crosscheck_batch(arm7, Q, names, tolerances={"gravity": 1e-10})
     assert [a.quantity for a in report.agreements] == list(names)
     assert report == rd.crosscheck(arm7, Q, names, tolerances={"gravity": 1e-10})
     assert report["gravity"].tol == 1e-10
-    assert [a.quantity for a in batch.crosscheck_batch(arm7, Q[:2]).agreements] == list(TOLERANCES)
+    assert [a.quantity for a in rd.crosscheck_batch(arm7, Q[:2]).agreements] == list(TOLERANCES)
 
 
 def test_worst_pose_follows_crosscheck_rules() -> None:
-    assert batch._worst(np.array([0.0, 2.0, 1.0, 2.0])) == (2.0, 1)  # first maximum
-    assert batch._worst(np.zeros(3)) == (0.0, 0)
-    assert batch._worst(np.zeros(0)) == (0.0, 0)
-    err, where = batch._worst(np.array([1.0, np.inf, 5.0, np.nan, 7.0]))
+    assert worst(np.array([0.0, 2.0, 1.0, 2.0])) == (2.0, 1)  # first maximum
+    assert worst(np.zeros(3)) == (0.0, 0)
+    assert worst(np.zeros(0)) == (0.0, 0)
+    err, where = worst(np.array([1.0, np.inf, 5.0, np.nan, 7.0]))
     assert np.isnan(err) and where == 3  # the last non-finite error wins
 
 
@@ -130,8 +130,8 @@ def test_worst_pose_follows_crosscheck_rules() -> None:
 
 
 def test_threads_give_identical_results(arm7: rd.Arm) -> None:
-    Q = random_poses(arm7, 2 * batch.MIN_POSES_PER_THREAD + 10, seed=5)
-    assert len(batch._spans(len(Q), 2)) == 2
+    Q = random_poses(arm7, 2 * MIN_POSES_PER_THREAD + 10, seed=5)
+    assert len(spans(len(Q), 2)) == 2
     for engine in ENGINES:
         assert np.array_equal(
             batch.jacobians(arm7, Q, engine), batch.jacobians(arm7, Q, engine, threads=2)
@@ -151,19 +151,20 @@ def test_threads_give_identical_results(arm7: rd.Arm) -> None:
         batch.distances(arm7, Q, "mujoco"), batch.distances(arm7, Q, "mujoco", threads=2)
     )
     names = ("jacobian", "mass matrix", "mass matrix (bare)", "gravity", "site position")
-    assert batch.crosscheck_batch(arm7, Q, names) == batch.crosscheck_batch(
-        arm7, Q, names, threads=2
-    )
+    assert rd.crosscheck_batch(arm7, Q, names) == rd.crosscheck_batch(arm7, Q, names, threads=2)
 
 
-def test_batch_leaves_the_arms_data_alone(arm7: rd.Arm) -> None:
+def test_batch_between_single_pose_calls_changes_nothing(arm7: rd.Arm) -> None:
+    # The engines keep the last pose's kinematics per thread; a stack evaluated in the same
+    # thread must invalidate them, so the next single-pose query recomputes.
     q = arm7.keyframe("home")
-    J = arm7.jacobian(q)
-    qpos = arm7.mujoco.data.qpos.copy()
-    batch.jacobians(arm7, random_poses(arm7, 10))
-    batch.gravities(arm7, random_poses(arm7, 10), "pinocchio")
-    assert np.array_equal(arm7.mujoco.data.qpos, qpos)
-    assert np.array_equal(arm7.jacobian(q), J)
+    for engine in ENGINES:
+        J, g = arm7.jacobian(q, engine), arm7.gravity(q, engine)
+        batch.jacobians(arm7, random_poses(arm7, 10), engine)
+        batch.gravities(arm7, random_poses(arm7, 10), engine)
+        assert np.array_equal(arm7.jacobian(q, engine), J)
+        assert np.array_equal(arm7.gravity(q, engine), g)
+        assert np.array_equal(arm7.site_pose(q, engine)[0], arm7.site_pose(q, engine)[0])
 
 
 # -- shapes and errors -------------------------------------------------------------------
@@ -176,7 +177,7 @@ def test_empty_stack(arm7: rd.Arm) -> None:
     assert batch.mass_matrices(arm7, Q, engine="pinocchio").shape == (0, 7, 7)
     assert batch.gravities(arm7, Q, "pinocchio").shape == (0, 7)
     assert batch.distances(arm7, Q).shape == (0, len(checker(arm7).pairs))
-    assert batch.crosscheck_batch(arm7, Q, batch.BATCH_QUANTITIES).n_poses == 0
+    assert rd.crosscheck_batch(arm7, Q, BATCH_QUANTITIES).n_poses == 0
 
 
 def test_accepts_lists(arm7: rd.Arm) -> None:
@@ -197,8 +198,9 @@ def test_accepts_lists(arm7: rd.Arm) -> None:
 def test_bad_poses(arm7: rd.Arm, Q: object, match: str) -> None:
     with pytest.raises(rd.PoseError, match=match):
         batch.jacobians(arm7, Q)  # type: ignore[arg-type]
-    with pytest.raises(rd.PoseError):
-        batch.crosscheck_batch(arm7, Q)  # type: ignore[arg-type]
+    if np.ndim(Q) != 1:  # one pose is a valid input to a cross-check
+        with pytest.raises(rd.PoseError):
+            rd.crosscheck_batch(arm7, Q)  # type: ignore[arg-type]
 
 
 def test_bad_arguments(arm7: rd.Arm) -> None:
@@ -209,9 +211,11 @@ def test_bad_arguments(arm7: rd.Arm) -> None:
         batch.distances(arm7, Q, "pinocchio")  # type: ignore[arg-type]
     with pytest.raises(rd.UnknownNameError, match="manipulability kind"):
         batch.manipulabilities(arm7, Q, kind="volume")  # type: ignore[arg-type]
-    with pytest.raises(rd.RedundancyError, match="length must be > 0"):
+    with pytest.raises(
+        rd.ParameterError, match=r"^length must be a finite number > 0 \[m\], got 0.0$"
+    ):
         batch.manipulabilities(arm7, Q, kind="scaled", length=0.0)
     with pytest.raises(rd.RedundancyError, match="threads must be an integer >= 1"):
         batch.gravities(arm7, Q, threads=0)
     with pytest.raises(rd.UnknownNameError, match="unknown quantity 'torque'"):
-        batch.crosscheck_batch(arm7, Q, ("torque",))
+        rd.crosscheck_batch(arm7, Q, ("torque",))

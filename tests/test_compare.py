@@ -68,6 +68,15 @@ def test_different_robots() -> None:
     assert quantities(result)["presence"][0] == "joint 'joint1'"
     assert result.chains_part == "joint 'joint1'"
     assert result.n_poses == 0  # no pose can be mapped
+    document = json.loads(json.dumps(result.to_dict()))
+    assert document["differences"][0] == {
+        "quantity": "presence",
+        "where": "joint 'joint1'",
+        "a": "present",
+        "b": "absent",
+        "error": "inf",
+        "note": "",
+    }
 
 
 # -- deliberate differences ---------------------------------------------------------------
@@ -113,7 +122,8 @@ def test_missing_armature_is_caught_named_and_located(tmp_path: Path) -> None:
     armature = next(d for d in result.differences if d.quantity == "armature")
     assert (armature.a, armature.b) == (0.05, 0.0)
     mass = next(d for d in result.differences if d.quantity == "mass matrix")
-    assert mass.error == pytest.approx(0.05) and "largest at joint 'j5'" in mass.note
+    assert mass.error == pytest.approx(0.05) and mass.where == "joint 'j5'"
+    assert (mass.a - mass.b) == pytest.approx(0.05)
     assert set(found) == {"armature", "mass matrix"}
     assert result.chains_part is None
 

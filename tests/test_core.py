@@ -16,11 +16,7 @@ from redundancy.engines.mujoco import MujocoEngine
 from redundancy.engines.pinocchio import PinocchioEngine
 from redundancy.testing import poses
 
-from .models import SKEW7
-
-ARM7 = rd.load(rd.model_path("arm7"), site="ee")
-SKEW = rd.load_string(SKEW7, site="tool")
-ARMS = {"arm7": ARM7, "panda": rd.load(rd.model_path("panda"), site="ee"), "skew7": SKEW}
+from .conftest import ARM_NAMES
 
 # Tolerances. Engines: both evaluate the same rigid-body algorithms in double precision, so
 # 1e-9 (relative to max(1, |value|)) leaves five orders of magnitude for rounding. Central
@@ -31,32 +27,24 @@ FD_STEP = 1e-6
 FD_TOL = 1e-7
 
 
-EACH_ARM = pytest.mark.parametrize("name", sorted(ARMS))
-POSES = {name: poses(arm) for name, arm in ARMS.items()}
-
-
-#: Largest engine difference seen per (arm, quantity) in this run, printed at the end.
-WORST: dict[tuple[str, str], float] = {}
-EXAMPLES: dict[str, int] = {}
+EACH_ARM = pytest.mark.parametrize("name", ARM_NAMES)
 
 
 @EACH_ARM
 @given(data=st.data())
-def test_engines_agree(name, data):
-    q = data.draw(POSES[name])
-    report = rd.crosscheck(ARMS[name], q)
-    EXAMPLES[name] = EXAMPLES.get(name, 0) + 1
-    for a in report.agreements:
-        WORST[name, a.quantity] = max(WORST.get((name, a.quantity), 0.0), a.max_error)
+def test_engines_agree(arms, engine_log, name, data):
+    q = data.draw(poses(arms[name]))
+    report = rd.crosscheck(arms[name], q)
+    engine_log.record(name, report)
     assert report.ok, "\n".join(report.lines())
 
 
 @EACH_ARM
 @pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
-def test_jacobian_matches_finite_differences(name, engine, data):
-    q = data.draw(POSES[name])
-    arm = ARMS[name]
+def test_jacobian_matches_finite_differences(arms, name, engine, data):
+    q = data.draw(poses(arms[name]))
+    arm = arms[name]
     eng = arm.engine(engine)
     J = eng.site_jacobian(q)
     fd = np.zeros_like(J)
@@ -73,9 +61,9 @@ def test_jacobian_matches_finite_differences(name, engine, data):
 @EACH_ARM
 @pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
-def test_manipulability_gradient_matches_finite_differences(name, engine, data):
-    q = data.draw(POSES[name])
-    arm = ARMS[name]
+def test_manipulability_gradient_matches_finite_differences(arms, name, engine, data):
+    q = data.draw(poses(arms[name]))
+    arm = arms[name]
     # w = prod(sigma) has a kink where a singular value reaches 0 (like |x| at 0): keep the
     # finite-difference stencil well away from singular poses.
     assume(linalg.jacobian_svd(arm.jacobian(q)).sigma[-1] > 1e-3)
@@ -96,9 +84,9 @@ def test_manipulability_gradient_matches_finite_differences(name, engine, data):
 @EACH_ARM
 @pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
-def test_singular_values_and_projector_laws(name, engine, data):
-    q = data.draw(POSES[name])
-    J = ARMS[name].jacobian(q, engine)
+def test_singular_values_and_projector_laws(arms, name, engine, data):
+    q = data.draw(poses(arms[name]))
+    J = arms[name].jacobian(q, engine)
     s = linalg.jacobian_svd(J)
     assert np.all(s.sigma >= 0) and np.all(np.diff(s.sigma) <= 0)
     # prod(sigma)^2 = det(J J^T); det's rounding error is ~ eps * sigma_max^12, so compare
@@ -123,9 +111,9 @@ def test_singular_values_and_projector_laws(name, engine, data):
 @EACH_ARM
 @pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
-def test_mass_matrix_symmetric_positive_definite(name, engine, data):
-    q = data.draw(POSES[name])
-    M = ARMS[name].mass_matrix(q, engine=engine)
+def test_mass_matrix_symmetric_positive_definite(arms, name, engine, data):
+    q = data.draw(poses(arms[name]))
+    M = arms[name].mass_matrix(q, engine=engine)
     assert np.array_equal(M, M.T)
     assert np.linalg.eigvalsh(M)[0] > 0
 
@@ -142,37 +130,39 @@ def _without_armature(arm: rd.Arm) -> tuple[MujocoEngine, PinocchioEngine]:
     )
 
 
-BARE = {name: _without_armature(a) for name, a in ARMS.items()}
+@pytest.fixture(scope="module")
+def bare(arms):
+    return {name: _without_armature(a) for name, a in arms.items()}
 
 
 @EACH_ARM
 @given(data=st.data())
-def test_armature_changes_only_the_diagonal_by_its_value(name, data):
-    q = data.draw(POSES[name])
-    arm = ARMS[name]
-    for eng, bare in zip((arm.mujoco, arm.pinocchio), BARE[name], strict=True):
-        delta = eng.mass_matrix(q) - bare.mass_matrix(q)
+def test_armature_changes_only_the_diagonal_by_its_value(arms, bare, name, data):
+    q = data.draw(poses(arms[name]))
+    arm = arms[name]
+    for eng, bare_eng in zip((arm.mujoco, arm.pinocchio), bare[name], strict=True):
+        delta = eng.mass_matrix(q) - bare_eng.mass_matrix(q)
         assert np.allclose(delta, np.diag(arm.armature("mujoco")), rtol=0, atol=1e-12)
         assert np.allclose(
-            eng.mass_matrix(q, armature=False), bare.mass_matrix(q), rtol=0, atol=1e-12
+            eng.mass_matrix(q, armature=False), bare_eng.mass_matrix(q), rtol=0, atol=1e-12
         )
 
 
-def test_arm7_zero_pose_loses_exactly_the_lessons_three_directions():
+def test_arm7_zero_pose_loses_exactly_the_lessons_three_directions(arm7):
     # Lesson 5.2, "Why the straight-up pose has rank 3": translation along y and z and
     # rotation about x are lost.
     for engine in rd.engines.ENGINES:
-        s = ARM7.svd(ARM7.keyframe("zero"), engine)
+        s = arm7.svd(arm7.keyframe("zero"), engine)
         assert s.rank == 3
         assert s.lost_direction_names() == ["translation y", "translation z", "rotation x"]
         assert s.condition == float("inf")
         assert s.manipulability == pytest.approx(0.0, abs=1e-15)
 
 
-def test_home_pose_is_full_rank_and_damped_inverse_is_bounded():
-    J = ARM7.jacobian(ARM7.keyframe("home"))
+def test_home_pose_is_full_rank_and_damped_inverse_is_bounded(arm7):
+    J = arm7.jacobian(arm7.keyframe("home"))
     assert linalg.jacobian_svd(J).rank == 6
-    J0 = ARM7.jacobian(ARM7.keyframe("zero"))
+    J0 = arm7.jacobian(arm7.keyframe("zero"))
     lam = 0.05
     D = linalg.damped_pinv(J0, lam)
     # Each singular value s maps to s / (s^2 + lam^2) <= 1 / (2 lam).
@@ -180,9 +170,10 @@ def test_home_pose_is_full_rank_and_damped_inverse_is_bounded():
     assert np.allclose(linalg.damped_pinv(J, 0.0), np.linalg.pinv(J), atol=1e-10)
 
 
-@given(poses(ARM7))
-def test_dynamically_consistent_nullspace_produces_no_tool_acceleration(q):
-    J, M = ARM7.jacobian(q), ARM7.mass_matrix(q)
+@given(data=st.data())
+def test_dynamically_consistent_nullspace_produces_no_tool_acceleration(arm7, data):
+    q = data.draw(poses(arm7))
+    J, M = arm7.jacobian(q), arm7.mass_matrix(q)
     assume(linalg.jacobian_svd(J).sigma[-1] > 1e-3)  # Lambda is undefined at a singular pose
     N = linalg.dynamic_nullspace_projector(J, M)
     tau = np.linspace(-1, 1, 7)
@@ -190,8 +181,8 @@ def test_dynamically_consistent_nullspace_produces_no_tool_acceleration(q):
     assert np.max(np.abs(J @ np.linalg.solve(M, N.T @ tau))) < 1e-9 * np.linalg.cond(M)
 
 
-def test_manipulability_blocks_and_scaling():
-    J = ARM7.jacobian(ARM7.keyframe("home"))
+def test_manipulability_blocks_and_scaling(arm7):
+    J = arm7.jacobian(arm7.keyframe("home"))
     m = linalg.manipulability(J, length=0.5)
     assert m.full == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-12)
     assert m.position == pytest.approx(np.sqrt(np.linalg.det(J[:3] @ J[:3].T)), rel=1e-12)

@@ -117,7 +117,7 @@ def test_malformed_models(xml, match):
         ),
         (
             chain(joints='<joint axis="0 1 0"/>'),
-            "unsupported feature: unnamed joint (joint #0): joints are matched across engines by "
+            "unsupported feature: unnamed joint (joint 'l1 joint 0'): joints are matched across engines by "
             "name; name every joint",
         ),
         (
@@ -171,7 +171,9 @@ def test_everything_is_a_redundancy_error():
 
 
 def test_bad_characteristic_length():
-    with pytest.raises(rd.RedundancyError, match=r"^characteristic length must be > 0 m, got 0$"):
+    with pytest.raises(
+        rd.ParameterError, match=r"^length must be a finite number > 0 \[m\], got 0$"
+    ):
         ARM.manipulability(np.zeros(7), length=0)
 
 
@@ -186,3 +188,32 @@ def test_unknown_crosscheck_quantity_lists_the_valid_ones():
                 np.zeros(7) if check is rd.crosscheck else np.zeros((1, 7)),
                 quantities=("jacobain",),
             )
+
+
+def test_a_model_without_geoms_loads_and_is_checked():
+    """Issue 12: a model with no geoms raised a bare ValueError in the loader's checks."""
+    xml = (
+        '<mujoco><worldbody><body name="l1"><joint name="a" axis="0 1 0"/>'
+        '<inertial pos="0 0 0.1" mass="1" diaginertia=".1 .1 .1"/>'
+        '<body name="l2" pos="0 0 .3"><joint name="b" axis="0 1 0"/>'
+        '<inertial pos="0 0 0.1" mass="1" diaginertia=".1 .1 .1"/><site name="tip" pos="0 0 .2"/>'
+        "</body></body></worldbody></mujoco>"
+    )
+    arm = rd.load_string(xml, site="tip")
+    assert arm.mj_model.ngeom == 0
+    assert rd.compare_models(arm).equivalent
+    assert rd.crosscheck(arm, np.array([[0.1, 0.2], [-1.0, 2.0]])).ok
+    assert rd.collision_pairs(arm) == ()
+    assert rd.collision_statistics(arm, n_poses=5).poses_with_contact == 0
+
+
+def test_body_and_joint_may_share_a_name():
+    """Pinocchio keeps a BODY and a JOINT frame of the same name apart by type."""
+    xml = (
+        chain(joints='<joint name="l1" axis="0 1 0"/>')
+        .replace('<site name="tip" pos="0 0 0.3"/>', '<site name="tip"/>')
+        .replace("<mujoco>", '<mujoco><default><site pos="0 0 0.3"/></default>')
+    )
+    arm = rd.load_string(xml, site="tip")
+    assert "site placement" in {b.quantity for b in arm.bridges}  # looks the body frame up
+    assert rd.crosscheck(arm, np.array([0.3, -0.4])).ok

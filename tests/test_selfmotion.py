@@ -30,10 +30,14 @@ from redundancy.analysis.selfmotion import (
 from redundancy.testing import poses
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-ARM = rd.load(rd.model_path("arm7"), site="ee")
-HOME = ARM.keyframe("home")
-J6 = ARM.joint_index("j6")
-WRIST = [ARM.joint_index(n) for n in ("j5", "j6", "j7")]
+J6 = 5  # index of j6 in arm7's joint order (checked in test_arm7_joint_indices)
+WRIST = [4, 5, 6]  # j5, j6, j7
+
+
+def test_arm7_joint_indices(arm7):
+    assert arm7.joint_index("j6") == J6
+    assert [arm7.joint_index(n) for n in ("j5", "j6", "j7")] == WRIST
+
 
 # Tolerances and their reasons.
 # Rank loss: a singular value that is exactly 0 in exact arithmetic comes out of LAPACK at
@@ -78,9 +82,10 @@ def with_j6(q: np.ndarray, value: float) -> np.ndarray:
 # ------------------------------------------------------------------------------------------
 
 
-def test_wrist_block_is_singular_at_j6_zero_on_the_home_sweep():
-    values = np.linspace(ARM.lower[J6], ARM.upper[J6], 441)  # step 0.01, includes 0
-    sweep = EXERCISE.sweep(ARM, HOME, "j6", values)
+def test_wrist_block_is_singular_at_j6_zero_on_the_home_sweep(arm7):
+    HOME = arm7.keyframe("home")
+    values = np.linspace(arm7.lower[J6], arm7.upper[J6], 441)  # step 0.01, includes 0
+    sweep = EXERCISE.sweep(arm7, HOME, "j6", values)
     wrist = sweep.series("wrist_orientation")
     i = int(np.argmin(wrist))
     assert abs(values[i]) < 0.5 * (values[1] - values[0])
@@ -92,34 +97,36 @@ def test_wrist_block_is_singular_at_j6_zero_on_the_home_sweep():
     assert sweep.series("position").min() > 0.2
     # The refined minimiser is 0 to the golden-section tolerance.
     j6_star = EXERCISE.refine_minimum(
-        lambda v: EXERCISE.blocks(ARM, with_j6(HOME, v)).wrist_orientation, -0.01, 0.01
+        lambda v: EXERCISE.blocks(arm7, with_j6(HOME, v)).wrist_orientation, -0.01, 0.01
     )
     assert abs(j6_star) < 1e-9
 
 
-def test_j5_and_j7_are_the_collinear_axes_at_the_wrist_singularity():
+def test_j5_and_j7_are_the_collinear_axes_at_the_wrist_singularity(arm7):
+    HOME = arm7.keyframe("home")
     q = with_j6(HOME, 0.0)
-    assert EXERCISE.collinear_axes(ARM, q) == [("j5", "j7")]
-    J = ARM.jacobian(q)
-    c5, c7 = ARM.joint_index("j5"), ARM.joint_index("j7")
+    assert EXERCISE.collinear_axes(arm7, q) == [("j5", "j7")]
+    J = arm7.jacobian(q)
+    c5, c7 = arm7.joint_index("j5"), arm7.joint_index("j7")
     assert np.max(np.abs(J[3:, c5] - J[3:, c7])) < SINGULAR_TOL
     # Their position columns vanish: the tool point is on their common axis.
     assert np.linalg.norm(J[:3, c5]) < SINGULAR_TOL
     assert np.linalg.norm(J[:3, c7]) < SINGULAR_TOL
     # The full 3 x 7 orientation block keeps rank 3: j1..j4 supply the lost rotation.
     assert linalg.jacobian_svd(J[3:]).rank == 3
-    assert EXERCISE.collinear_axes(ARM, HOME) == []
+    assert EXERCISE.collinear_axes(arm7, HOME) == []
 
 
-@given(poses(ARM), st.floats(0.05, 2.2) | st.floats(-2.2, -0.05))
-def test_j5_j7_collinear_exactly_when_j6_is_zero(q, j6):
+@given(data=st.data(), j6=st.floats(0.05, 2.2) | st.floats(-2.2, -0.05))
+def test_j5_j7_collinear_exactly_when_j6_is_zero(arm7, data, j6):
+    q = data.draw(poses(arm7))
     singular, regular = with_j6(q, 0.0), with_j6(q, j6)
-    assert ("j5", "j7") in EXERCISE.collinear_axes(ARM, singular)
-    assert EXERCISE.blocks(ARM, singular).wrist_orientation < SINGULAR_TOL
-    assert ("j5", "j7") not in EXERCISE.collinear_axes(ARM, regular)
+    assert ("j5", "j7") in EXERCISE.collinear_axes(arm7, singular)
+    assert EXERCISE.blocks(arm7, singular).wrist_orientation < SINGULAR_TOL
+    assert ("j5", "j7") not in EXERCISE.collinear_axes(arm7, regular)
     # sigma_min of the wrist block grows like |sin j6| / sqrt(2) near 0; 0.03 is below
     # sin(0.05) / sqrt(2) = 0.035, the smallest value the strategy allows.
-    assert EXERCISE.blocks(ARM, regular).wrist_orientation > 0.03
+    assert EXERCISE.blocks(arm7, regular).wrist_orientation > 0.03
 
 
 # ------------------------------------------------------------------------------------------
@@ -127,8 +134,9 @@ def test_j5_j7_collinear_exactly_when_j6_is_zero(q, j6):
 # ------------------------------------------------------------------------------------------
 
 
-def test_corrected_self_motion_keeps_the_tool_over_one_radian():
-    path = self_motion(ARM, HOME, total=1.0, step=0.01)
+def test_corrected_self_motion_keeps_the_tool_over_one_radian(arm7):
+    HOME = arm7.keyframe("home")
+    path = self_motion(arm7, HOME, total=1.0, step=0.01)
     assert path.stopped == ""
     assert path.total == pytest.approx(1.0, abs=1e-3)  # corrections shorten steps by O(h^2)
     assert path.max_position_drift < CORRECTED_DRIFT
@@ -138,33 +146,35 @@ def test_corrected_self_motion_keeps_the_tool_over_one_radian():
     assert abs(path.q[-1][2] - HOME[2]) > 0.3
 
 
-def drift(step: float, integrator: str, total: float = 1.0) -> float:
-    path = self_motion(ARM, HOME, total, step, correct=False, integrator=integrator)
+def drift(arm7, step: float, integrator: str, total: float = 1.0) -> float:
+    HOME = arm7.keyframe("home")
+    path = self_motion(arm7, HOME, total, step, correct=False, integrator=integrator)
     assert path.stopped == ""
     return float(path.position_drift[-1])
 
 
-def test_uncorrected_drift_is_second_order_per_step():
+def test_uncorrected_drift_is_second_order_per_step(arm7):
     # One step of h moves the tool by O(h^2): halving h divides the drift by 4.
-    ratio = drift(0.02, "euler", total=0.02) / drift(0.01, "euler", total=0.01)
+    ratio = drift(arm7, 0.02, "euler", total=0.02) / drift(arm7, 0.01, "euler", total=0.01)
     assert ratio == pytest.approx(4.0, rel=RATIO_TOL)
 
 
-def test_uncorrected_euler_drift_over_one_radian_is_first_order():
+def test_uncorrected_euler_drift_over_one_radian_is_first_order(arm7):
     # 1/h steps of O(h^2) each: O(h) over the whole motion, halving h halves the drift.
-    ratio = drift(0.02, "euler") / drift(0.01, "euler")
+    ratio = drift(arm7, 0.02, "euler") / drift(arm7, 0.01, "euler")
     assert ratio == pytest.approx(2.0, rel=RATIO_TOL)
 
 
-def test_uncorrected_midpoint_drift_over_one_radian_is_second_order():
-    ratio = drift(0.02, "midpoint") / drift(0.01, "midpoint")
+def test_uncorrected_midpoint_drift_over_one_radian_is_second_order(arm7):
+    ratio = drift(arm7, 0.02, "midpoint") / drift(arm7, 0.01, "midpoint")
     assert ratio == pytest.approx(4.0, rel=RATIO_TOL)
 
 
-@given(poses(ARM, margin=0.3), st.sampled_from([1, -1]))
-def test_corrected_self_motion_keeps_the_tool_from_any_regular_pose(q, direction):
-    assume(ARM.svd(q).sigma[-1] > 0.05)  # away from singular poses, where J^+ blows up
-    path = self_motion(ARM, q, total=0.2, step=0.02, direction=direction)
+@given(data=st.data(), direction=st.sampled_from([1, -1]))
+def test_corrected_self_motion_keeps_the_tool_from_any_regular_pose(arm7, data, direction):
+    q = data.draw(poses(arm7, margin=0.3))
+    assume(arm7.svd(q).sigma[-1] > 0.05)  # away from singular poses, where J^+ blows up
+    path = self_motion(arm7, q, total=0.2, step=0.02, direction=direction)
     assert path.max_position_drift < CORRECTED_DRIFT
     assert path.max_orientation_drift < CORRECTED_DRIFT
     if not path.stopped:
@@ -176,21 +186,22 @@ def test_corrected_self_motion_keeps_the_tool_from_any_regular_pose(q, direction
 # ------------------------------------------------------------------------------------------
 
 
-def asymmetric_start() -> np.ndarray:
+def asymmetric_start(arm7) -> np.ndarray:
+    HOME = arm7.keyframe("home")
     # Home is mirror-symmetric, so every symmetric objective is stationary there.
-    return self_motion(ARM, HOME, total=0.5, step=0.05).q[-1]
+    return self_motion(arm7, HOME, total=0.5, step=0.05).q[-1]
 
 
 @pytest.mark.parametrize("make", [manipulability_objective, joint_limit_objective])
-def test_objective_rises_along_the_self_motion_to_its_maximum(make):
-    objective: Objective = make(ARM)
-    path = self_motion(ARM, asymmetric_start(), total=3.0, step=0.02, objective=objective)
+def test_objective_rises_along_the_self_motion_to_its_maximum(arm7, make):
+    objective: Objective = make(arm7)
+    path = self_motion(arm7, asymmetric_start(arm7), total=3.0, step=0.02, objective=objective)
     assert path.stopped == STOP_MAXIMUM
     assert path.objective[-1] > path.objective[0]
     assert path.max_position_drift < CORRECTED_DRIFT
     # At the stop, a further null-space step either way does not raise it by more than the
     # change over one step (the maximum lies within one step).
-    basis = ARM.nullspace_basis(path.q[-1])[:, 0]
+    basis = arm7.nullspace_basis(path.q[-1])[:, 0]
     best = max(objective(path.q[-1] + 0.02 * basis), objective(path.q[-1] - 0.02 * basis))
     assert best - path.objective[-1] < np.max(np.abs(np.diff(path.objective)))
 
@@ -199,13 +210,13 @@ def test_objective_rises_along_the_self_motion_to_its_maximum(make):
 # 0.9 rad the folded forearm meets it near the face's middle, where the self-motion cannot
 # raise the clearance (measured: escapes fail for |j3| < 0.9 at 3 mm, succeed from 0.9 to 1.5).
 @given(st.floats(0.9, 1.5), st.floats(0.5e-3, 3e-3))
-def test_self_motion_escapes_a_link2_link4_contact_within_one_millimetre(roll, depth):
-    q = CHALLENGE.contact_pose(ARM, roll, depth)
-    result = CHALLENGE.escape(ARM, q, margin=1e-3, step=0.01)
+def test_self_motion_escapes_a_link2_link4_contact_within_one_millimetre(arm7, roll, depth):
+    q = CHALLENGE.contact_pose(arm7, roll, depth)
+    result = CHALLENGE.escape(arm7, q, margin=1e-3, step=0.01)
     assert "link2 / link4" in result.start_contacts
     assert result.start_depth == pytest.approx(depth, abs=1e-9)  # bisection to 1e-12 rad
     assert not result.final_contacts
-    assert no_contact(ARM)(result.path.q[-1])
+    assert no_contact(arm7)(result.path.q[-1])
     # Out of contact; up to the 1 mm margin unless the clearance peaks below it on the way.
     assert result.final_clearance > 0
     if result.path.stopped != STOP_MAXIMUM:
@@ -214,15 +225,15 @@ def test_self_motion_escapes_a_link2_link4_contact_within_one_millimetre(roll, d
     assert result.tool_drift < ESCAPE_DRIFT
     assert result.tool_drift < CORRECTED_DRIFT  # what the correction actually achieves
     # The elbow angle is set by the shoulder-to-wrist distance: the self-motion keeps it.
-    k4 = ARM.joint_index("j4")
+    k4 = arm7.joint_index("j4")
     assert abs(result.path.q[-1][k4] - q[k4]) < 1e-9
 
 
-def test_no_contact_predicate_for_one_pair():
-    q = CHALLENGE.contact_pose(ARM, 0.6, 2e-3)
-    assert not no_contact(ARM)(q)
-    assert not no_contact(ARM, ("link4", "link2"))(q)
-    assert no_contact(ARM, ("flange", "link1"))(q)
+def test_no_contact_predicate_for_one_pair(arm7):
+    q = CHALLENGE.contact_pose(arm7, 0.6, 2e-3)
+    assert not no_contact(arm7)(q)
+    assert not no_contact(arm7, ("link4", "link2"))(q)
+    assert no_contact(arm7, ("flange", "link1"))(q)
 
 
 # ------------------------------------------------------------------------------------------
@@ -254,28 +265,39 @@ def test_rotation_log_inverts_the_exponential(axis, angle):
         assert np.linalg.norm(got - w) < 1e-7
 
 
-def test_bad_arguments_raise_library_errors():
-    with pytest.raises(rd.RedundancyError, match="step and total must be > 0 rad"):
-        self_motion(ARM, HOME, total=1.0, step=0.0)
+def test_bad_arguments_raise_library_errors(arm7):
+    HOME = arm7.keyframe("home")
+    with pytest.raises(
+        rd.ParameterError, match=r"^step must be a finite number in \[1e-05, 1\] \[rad\], got 0.0$"
+    ):
+        self_motion(arm7, HOME, total=1.0, step=0.0)
+    # An endless walk is refused up front: infinite total, or a step too small to finish.
+    with pytest.raises(
+        rd.ParameterError, match=r"^total must be a finite number > 0 \[rad\], got inf$"
+    ):
+        self_motion(arm7, HOME, total=float("inf"))
+    with pytest.raises(rd.ParameterError, match=r"^step must be a finite number in \[1e-05, 1\]"):
+        self_motion(arm7, HOME, total=1.0, step=1e-12)
     with pytest.raises(rd.RedundancyError, match="direction must be"):
-        self_motion(ARM, HOME, direction=0)
+        self_motion(arm7, HOME, direction=0)
     with pytest.raises(rd.UnknownNameError, match="valid integrator names"):
-        self_motion(ARM, HOME, integrator="rk4")  # type: ignore[arg-type]
+        self_motion(arm7, HOME, integrator="rk4")  # type: ignore[arg-type]
     with pytest.raises(rd.UnknownNameError, match="valid joint names"):
-        self_motion(ARM, HOME, elbow="elbow")
+        self_motion(arm7, HOME, elbow="elbow")
     with pytest.raises(rd.PoseError):
-        self_motion(ARM, HOME[:6])
+        self_motion(arm7, HOME[:6])
 
 
-def test_joint_limit_stops_the_motion():
+def test_joint_limit_stops_the_motion(arm7):
+    HOME = arm7.keyframe("home")
     q = HOME.copy()
-    q[2] = ARM.upper[2] - 0.05  # j3 near its limit; the self-motion turns j3
-    up = self_motion(ARM, q, total=2.0, step=0.02, direction=1)
-    down = self_motion(ARM, q, total=2.0, step=0.02, direction=-1)
+    q[2] = arm7.upper[2] - 0.05  # j3 near its limit; the self-motion turns j3
+    up = self_motion(arm7, q, total=2.0, step=0.02, direction=1)
+    down = self_motion(arm7, q, total=2.0, step=0.02, direction=-1)
     stops = {up.stopped, down.stopped}
     assert any(s.startswith("joint limit") for s in stops)
     for path in (up, down):
-        assert np.all(path.q <= ARM.upper + 1e-12) and np.all(path.q >= ARM.lower - 1e-12)
+        assert np.all(path.q <= arm7.upper + 1e-12) and np.all(path.q >= arm7.lower - 1e-12)
 
 
 # ------------------------------------------------------------------------------------------

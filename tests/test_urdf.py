@@ -224,6 +224,8 @@ def test_what_each_importer_reads() -> None:
     # The fixed tool link stays a body in MuJoCo (fusestatic off), carrying the tool site.
     assert "tool" in [mj.body(i).name for i in range(mj.nbody)]
     assert mj.site(arm.mujoco.site_id).name == "tool"
+    # MuJoCo leaves URDF geoms unnamed; the library names them after their link.
+    assert [mj.geom(i).name for i in range(mj.ngeom)] == ["l1"]
 
 
 def test_tool_as_fixed_joint_name_and_unknown_tool() -> None:
@@ -247,6 +249,7 @@ def test_continuous_joint_is_one_unbounded_angle() -> None:
     j1.remove(j1.find("limit"))  # type: ignore[arg-type]
     arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
     assert arm.pinocchio.model.nq == 7  # not Pinocchio's (cos, sin) pair
+    assert [(b.quantity, b.joint) for b in arm.bridges] == [("continuous joint as one angle", "j1")]
     assert (arm.lower[0], arm.upper[0]) == (-np.inf, np.inf)
     lo, hi = sampling_ranges(arm)
     assert (lo[0], hi[0]) == (-np.pi, np.pi)
@@ -366,6 +369,16 @@ def test_mesh_paths_resolve(tmp_path: Path, filename: str) -> None:
     assert arm.mj_model.nmesh == 1
     # The inertial is explicit: the mesh changes no mass in either engine.
     assert crosscheck(arm, np.linspace(-1, 1, 5)[:, None]).ok
+
+
+def test_visual_meshes_are_not_opened(tmp_path: Path) -> None:
+    """Visual geoms are discarded, so a visual mesh MuJoCo cannot read (or find) is harmless."""
+    text = tiny_urdf().replace(
+        "<collision>",
+        '<visual><geometry><mesh filename="package://gone/l1.dae"/></geometry></visual><collision>',
+    )
+    arm = rd.load_string(text, frame="tool")
+    assert arm.mj_model.nmesh == 0 and arm.mj_model.ngeom == 1
 
 
 def test_unresolved_mesh_is_named(tmp_path: Path) -> None:

@@ -9,11 +9,16 @@ Example:
 
 from __future__ import annotations
 
-from . import collision
+from . import collision, engines
 from .analysis import batch, selfmotion
-from .analysis.batch import crosscheck_batch
 from .analysis.compare import Comparison, compare
-from .analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport, crosscheck
+from .analysis.crosscheck import (
+    TOLERANCES,
+    Agreement,
+    CrossCheckReport,
+    crosscheck,
+    crosscheck_batch,
+)
 from .arm import Arm
 from .collision import (
     CollisionChecker,
@@ -26,6 +31,7 @@ from .errors import (
     MissingDependencyError,
     ModelError,
     OutOfRangeError,
+    ParameterError,
     PoseError,
     RedundancyError,
     UnknownNameError,
@@ -55,6 +61,7 @@ __all__ = [
     "MissingDependencyError",
     "ModelError",
     "OutOfRangeError",
+    "ParameterError",
     "PoseError",
     "RedundancyError",
     "UnknownNameError",
@@ -69,6 +76,7 @@ __all__ = [
     "compare_models",
     "crosscheck",
     "crosscheck_batch",
+    "engines",
     "load",
     "load_string",
     "max_stable_kd",

@@ -7,6 +7,7 @@ Arm itself only dispatches: every number comes from an engine of :mod:`redundanc
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -15,12 +16,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import linalg
+from .checks import check_count, check_number, check_pose
 from .engines import ENGINES, EngineName
+from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
 from .engines.pinocchio import PinocchioEngine
 from .errors import OutOfRangeError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
+_F64 = np.dtype(np.float64)
 
 __all__ = ["ENGINES", "Arm", "EngineName", "random_poses", "sampling_ranges"]
 
@@ -67,10 +71,11 @@ class Arm:
         self.lower = np.where(limited, mj_model.jnt_range[:, 0], -np.inf)
         self.upper = np.where(limited, mj_model.jnt_range[:, 1], np.inf)
         self.effort_limit = np.asarray(effort_limit, dtype=float)
-        self._damping = np.asarray(damping, dtype=float)
         self.bridges = tuple(bridges)
-        self.mujoco = MujocoEngine(mj_model, site, armature)
+        self.mujoco = MujocoEngine(mj_model, site, armature, damping)
         self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names)
+        self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
+        self._shape = (self.nq,)
         self._recipe = recipe
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
@@ -90,10 +95,8 @@ class Arm:
     def keyframes(self) -> dict[str, Array]:
         """Keyframe name -> joint configuration [rad or m]."""
         m = self.mj_model
-        return {
-            (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) or f"key{k}"): m.key_qpos[k].copy()
-            for k in range(m.nkey)
-        }
+        names = object_names(m, mujoco.mjtObj.mjOBJ_KEY)
+        return {(names[k] or f"key{k}"): m.key_qpos[k].copy() for k in range(m.nkey)}
 
     def keyframe(self, name: str) -> Array:
         """Joint configuration of a named keyframe [rad or m]."""
@@ -108,13 +111,20 @@ class Arm:
             raise UnknownNameError("joint", name, self.joint_names)
         return self.joint_names.index(name)
 
-    def engine(self, name: EngineName) -> MujocoEngine | PinocchioEngine:
-        """The wrapper of one engine, by name."""
+    def engine(self, name: EngineName) -> Engine:
+        """One engine, by name (``"mujoco"`` or ``"pinocchio"``)."""
         if name == "mujoco":
             return self.mujoco
         if name == "pinocchio":
             return self.pinocchio
         raise UnknownNameError("engine", str(name), ENGINES)
+
+    def _pose(self, q: ArrayLike) -> Array:
+        # check_pose's fast path, inlined (a float64 vector of the right length, finite).
+        if type(q) is np.ndarray and q.dtype is _F64 and q.shape == self._shape:
+            if math.isfinite(sum(q.tolist())):
+                return q
+        return check_pose(q, self.joint_names)
 
     def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
         """Validate a joint configuration and return it as a float64 array of shape (nq,).
@@ -125,28 +135,12 @@ class Arm:
             tol: Slack on the range check [rad or m].
 
         Raises:
-            PoseError: Wrong shape or type, NaN or infinite values.
+            PoseError: Wrong shape or type, complex, NaN or infinite values.
             OutOfRangeError: A value outside its range (only with ``check_range``).
         """
-        try:
-            arr = np.asarray(q)
-            if np.iscomplexobj(arr):  # float64 conversion would drop the imaginary part silently
-                raise PoseError("pose must be real, got complex values")
-            arr = np.asarray(arr, dtype=np.float64)
-        except PoseError:
-            raise
-        except (TypeError, ValueError) as err:
-            raise PoseError(f"pose must be numeric, got {type(q).__name__}: {err}") from err
-        if arr.shape != (self.nq,):
-            raise PoseError(
-                f"pose must have shape ({self.nq},) for joints {list(self.joint_names)}, got "
-                f"shape {arr.shape}"
-            )
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            which = [f"{self.joint_names[i]}={arr[i]}" for i in np.flatnonzero(bad)]
-            raise PoseError(f"pose has non-finite values: {', '.join(which)}")
+        arr = self._pose(q)
         if check_range:
+            tol = check_number("tol", tol, 0.0, unit="rad or m")
             for i in range(self.nq):
                 if not (self.lower[i] - tol <= arr[i] <= self.upper[i] + tol):
                     raise OutOfRangeError(
@@ -160,27 +154,42 @@ class Arm:
     # -- quantities, from either engine -----------------------------------------------------
     def site_pose(self, q: ArrayLike, engine: EngineName = "mujoco") -> tuple[Array, Array]:
         """Tool site position [m] and rotation matrix, world frame."""
-        return self.engine(engine).site_pose(self.pose(q))
+        return self.engine(engine).site_pose(self._pose(q))
 
     def jacobian(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
-        return self.engine(engine).site_jacobian(self.pose(q))
+        # The hot path of a controller: the engine by dict lookup, the pose by the fast check.
+        try:
+            eng = self._engines[engine]
+        except (KeyError, TypeError):
+            eng = self.engine(engine)
+        return eng.site_jacobian(self._pose(q))
 
     def svd(
         self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL
     ) -> linalg.JacobianSVD:
-        """SVD of the site Jacobian, with rank, lost directions and condition number."""
+        """SVD of the site Jacobian, with rank, lost directions and condition number.
+
+        Args:
+            q: Pose [rad or m].
+            engine: ``"mujoco"`` or ``"pinocchio"``.
+            rtol: Rank threshold relative to the largest singular value, in (0, 1).
+        """
         return linalg.jacobian_svd(self.jacobian(q, engine), rtol)
 
     def manipulability(
         self, q: ArrayLike, length: float = 1.0, engine: EngineName = "mujoco"
     ) -> linalg.Manipulability:
-        """Yoshikawa's measure of J, its blocks, and J with position rows divided by length [m]."""
+        """Yoshikawa's measure of J, its blocks, and J with position rows divided by length [m].
+
+        The measures are computed when read: ``arm.manipulability(q).full`` costs one J and
+        one determinant.
+        """
         return linalg.manipulability(self.jacobian(q, engine), length)
 
     def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gradient d sqrt(det(J J^T)) / dq from second-order kinematics, shape (nq,)."""
-        q = self.pose(q)
+        q = self._pose(q)
         eng = self.engine(engine)
         return linalg.manipulability_gradient(eng.site_jacobian(q), eng.jacobian_derivatives(q))
 
@@ -196,42 +205,51 @@ class Arm:
         self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco"
     ) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
-        return self.engine(engine).mass_matrix(self.pose(q), armature)
+        return self.engine(engine).mass_matrix(self._pose(q), armature)
 
     def gravity(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gravity torque the motors must supply to hold ``q`` [N m or N]."""
-        return self.engine(engine).gravity(self.pose(q))
+        return self.engine(engine).gravity(self._pose(q))
 
     def armature(self, engine: EngineName = "mujoco") -> Array:
         """Armature per joint as the engine's mass matrix sees it [kg m^2]."""
-        if engine == "pinocchio":
-            return np.asarray(self.pinocchio.model.armature)[self.pinocchio.perm].copy()
-        return self.engine(engine).armature.copy()  # type: ignore[union-attr]
+        return self.engine(engine).armature
 
-    def damping(self) -> Array:
+    def damping(self, engine: EngineName = "mujoco") -> Array:
         """Damping b per joint: dof damping plus gear^2 x actuator damping [N m s/rad]."""
-        return self._damping.copy()
+        return self.engine(engine).damping
 
     def __repr__(self) -> str:
         return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"
 
 
-def sampling_ranges(arm: Arm) -> tuple[Array, Array]:
+def sampling_ranges(
+    arm: Arm, unlimited: float = np.pi, unlimited_slide: float | None = None
+) -> tuple[Array, Array]:
     """Lower and upper bounds used to draw random poses [rad or m].
 
-    The joint ranges; an unlimited hinge is drawn in [-pi, pi].
+    The joint ranges; an unlimited hinge is drawn in [-pi, pi] (the one place this rule
+    lives: sampling, hypothesis strategies, sliders and reach bounds all read it here).
+
+    Args:
+        arm: The arm.
+        unlimited: Half-width of the interval for an unlimited hinge [rad].
+        unlimited_slide: Half-width for an unlimited slide [m]; None refuses one.
 
     Raises:
-        PoseError: An unlimited slide joint (no range to draw from).
+        PoseError: An unlimited slide joint and no ``unlimited_slide`` (no range to draw from).
     """
     lo, hi = arm.lower.copy(), arm.upper.copy()
     for i, kind in enumerate(arm.joint_types):
         if not (np.isfinite(lo[i]) and np.isfinite(hi[i])):
+            if kind != "hinge" and unlimited_slide is not None:
+                lo[i], hi[i] = -unlimited_slide, unlimited_slide
+                continue
             if kind != "hinge":
                 raise PoseError(
                     f"joint {arm.joint_names[i]!r} is an unlimited slide: no range to sample"
                 )
-            lo[i], hi[i] = -np.pi, np.pi
+            lo[i], hi[i] = -unlimited, unlimited
     return lo, hi
 
 
@@ -240,6 +258,12 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
 
     Draws in the same order as ``rng = np.random.default_rng(seed)`` followed by
     ``rng.uniform(lo, hi)`` once per pose, so a seed reproduces the lesson's sample.
+
+    Raises:
+        ParameterError: ``n`` not an integer >= 0, or ``seed`` not None or an integer >= 0.
     """
+    n = check_count("n", n, 0)
+    if seed is not None:
+        seed = check_count("seed", seed, 0)
     lo, hi = sampling_ranges(arm)
-    return np.random.default_rng(seed).uniform(lo, hi, size=(int(n), arm.nq))
+    return np.random.default_rng(seed).uniform(lo, hi, size=(n, arm.nq))

@@ -136,11 +136,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _check_files(args: argparse.Namespace) -> None:
-    """Paths: the model must be a file; the JSON target must obey reports.files' rules."""
-    from pathlib import Path
-
-    if getattr(args, "model", None) is not None and not Path(args.model).is_file():
-        raise _BadInput(f"MJCF file not found: {args.model!r}")
+    """The JSON target must obey reports.files' rules (the loader checks the model file)."""
     if getattr(args, "json", None) not in (None, "-"):
         from .reports.files import check_target
 
@@ -218,8 +214,12 @@ def _audit(args: argparse.Namespace) -> int:
     def say(line: str = "") -> None:
         print(line, file=stream, flush=True)
 
+    def progress(label: str) -> None:  # on a terminal only: a log or a pipe stays clean
+        if sys.stderr.isatty():
+            print(f"  ... {label}", file=sys.stderr, flush=True)
+
     arm = load(args.model or model_path("arm7"), site=args.site, strict=not args.lenient)
-    computed = sections.compute(arm, args.poses, args.seed, args.kd)
+    computed = sections.compute(arm, args.poses, args.seed, args.kd, progress=progress)
     if args.model is None and not args.no_lesson:
         from .reports.lesson import print_tables
 
@@ -229,9 +229,8 @@ def _audit(args: argparse.Namespace) -> int:
         shared = computed if args.seed == 0 and args.kd in (None, 5.0) else None
         print_tables(arm, n_poses=args.poses, out=say, computed=shared)
         say()
-    report = audit(
-        arm, args.poses, args.seed, args.kd, computed, "lenient" if args.lenient else "strict"
-    )
+    mode = "lenient" if args.lenient else "strict"
+    report = audit(arm, args.poses, args.seed, args.kd, computed, mode, progress)
     for line in format_report(report):
         say(line)
     if to_stdout:

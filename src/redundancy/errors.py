@@ -76,6 +76,20 @@ class OutOfRangeError(PoseError):
         )
 
 
+class ParameterError(RedundancyError, ValueError):
+    """A parameter outside its valid range (a tolerance, a count, a step), or of the wrong type.
+
+    Attributes:
+        name: The parameter's name.
+        value: The value given.
+    """
+
+    def __init__(self, name: str, value: object, valid: str) -> None:
+        self.name = name
+        self.value = value
+        super().__init__(f"{name} must be {valid}, got {value!r}")
+
+
 class MissingDependencyError(RedundancyError, ImportError):
     """An optional dependency is not installed; the message says how to install it."""
 

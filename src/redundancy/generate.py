@@ -41,7 +41,6 @@ EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx"
 
 #: Features :func:`refused_arms` can add, each the ``feature`` of the loader's refusal.
 REFUSED_FEATURES = (
-    "fixed root body with a pose",
     "extrinsic eulerseq",
     "axisangle with a non-unit axis",
     "<frame> element",
@@ -53,17 +52,25 @@ REFUSED_FEATURES = (
     "tendon",
     "equality constraint",
     "unnamed joint",
-    "mesh, sdf or height-field geom",
     "no joints",
     "class inside a different childclass",
     "joint pos in a default class",
-    "geom mass in a default class",
-    "compiler boundmass",
     "<replicate> element",
     "shell inertia",
 )
 
-#: What each refusal adds: (default classes, lines in the last body, compiler attributes).
+#: Features Pinocchio's parser reads differently and the loader bridges (issue 11): :func:`arms`
+#: draws up to two of them per model, and both engines must still agree.
+BRIDGED_FEATURES = (
+    "fixed root body with a pose",
+    "mesh geom",
+    "geom mass in a default class",
+    "compiler boundmass",
+    "compiler settotalmass",
+)
+
+#: What each refusal or bridged feature adds: (default classes, lines in the last body,
+#: compiler attributes).
 _REFUSAL_PARTS = {
     "class inside a different childclass": (
         '<default class="X"><joint damping="0.5"/></default>'
@@ -77,8 +84,13 @@ _REFUSAL_PARTS = {
         "",
         "",
     ),
-    "geom mass in a default class": ('<default class="G"><geom mass="1"/></default>', "", ""),
+    "geom mass in a default class": (
+        '<default class="G"><geom mass="1"/></default>',
+        '<body name="gm" pos="0 0.01 0" childclass="G"><geom type="sphere" size="0.02"/></body>',
+        "",
+    ),
     "compiler boundmass": ("", "", ' boundmass="0.01"'),
+    "compiler settotalmass": ("", "", ' settotalmass="7"'),
     "<replicate> element": (
         "",
         '<replicate count="2" offset="0 0 0.05"><geom type="sphere" size="0.01"/></replicate>',
@@ -330,7 +342,18 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
     seq = draw(st.sampled_from(EULER_SEQUENCES))
     if refuse == "extrinsic eulerseq":
         seq = seq.upper()
-    extra_defaults, extra_lines, extra_compiler = _REFUSAL_PARTS.get(refuse or "", ("", "", ""))
+    extras = (
+        {refuse}
+        if refuse
+        else draw(st.sets(st.sampled_from(BRIDGED_FEATURES), max_size=2))
+        if draw(st.booleans())
+        else set()
+    )
+    ctx.features.update(e for e in extras if e in BRIDGED_FEATURES)
+    parts = [_REFUSAL_PARTS.get(e, ("", "", "")) for e in sorted(extras)]
+    extra_defaults = "".join(p[0] for p in parts)
+    extra_lines = "".join(p[1] for p in parts)
+    extra_compiler = "".join(p[2] for p in parts)
     unit = "degree" if ctx.degree else "radian"
     compiler = f'<compiler angle="{unit}" autolimits="true" eulerseq="{seq}"{extra_compiler}/>'
     option = ""
@@ -364,7 +387,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         jointed.insert(draw(st.integers(0, len(jointed))), False)
     if refuse == "free joint":
         jointed[0] = True
-    if refuse == "fixed root body with a pose":
+    if "fixed root body with a pose" in extras:
         jointed[0] = False
         if not any(jointed):
             jointed.append(True)
@@ -395,7 +418,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
             attrs += ' pos="0 0 0.1" axisangle="1 1 0 30"'
         elif i > 0 or jointed[0]:
             attrs += draw(_pose(ctx))
-        elif refuse == "fixed root body with a pose":
+        elif "fixed root body with a pose" in extras:
             attrs += ' pos="0 0 0.1" quat="0.9 0.1 0 0"'
         lines = [f"<body {attrs}>"]
         if jointed[i]:
@@ -431,8 +454,8 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
             geoms.append(draw(_geom(ctx, None, visual=draw(st.booleans()))))
         if refuse == "<frame> element" and i == n - 1:
             geoms.append('<frame pos="0 0 0.1"><geom type="sphere" size="0.02"/></frame>')
-        if refuse == "mesh, sdf or height-field geom" and i == n - 1:
-            geoms.append('<geom type="mesh" mesh="cube"/>')
+        if "mesh geom" in extras and i == n - 1:
+            geoms.append('<geom type="mesh" mesh="cube" contype="0" conaffinity="0"/>')
         if extra_lines and i == n - 1:
             geoms.append(extra_lines)
         lines += geoms
@@ -469,7 +492,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
     if refuse == "equality constraint":
         tail += f'  <equality><joint joint1="{joint_names[0]}"/></equality>\n'
     asset = ""
-    if refuse == "mesh, sdf or height-field geom":
+    if "mesh geom" in extras:
         verts = "0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"
         asset = f'  <asset><mesh name="cube" vertex="{verts}"/></asset>\n'
     xml = (
@@ -501,4 +524,11 @@ def refused_arms(
     return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
 
 
-__all__ = ["EULER_SEQUENCES", "REFUSED_FEATURES", "GeneratedArm", "arms", "refused_arms"]
+__all__ = [
+    "BRIDGED_FEATURES",
+    "EULER_SEQUENCES",
+    "REFUSED_FEATURES",
+    "GeneratedArm",
+    "arms",
+    "refused_arms",
+]

@@ -57,9 +57,3 @@ def max_stable_kd(inertia: ArrayLike, timestep: float, damping: ArrayLike) -> Ar
         damping: Joint damping b (implicit) [N m s/rad].
     """
     return np.asarray(damping, float) + 2.0 * np.asarray(inertia, float) / timestep
-
-
-def damping_step_factor(inertia: ArrayLike, kd: ArrayLike, damping: ArrayLike, h: float) -> Array:
-    """Per-step speed multiplier (I - h kd) / (I + h b) of semi-implicit Euler [-]."""
-    inertia = np.asarray(inertia, float)
-    return (inertia - h * np.asarray(kd, float)) / (inertia + h * np.asarray(damping, float))

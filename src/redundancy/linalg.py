@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import check_number
+
 Array = NDArray[np.float64]
 
 #: Relative tolerance for the numerical rank: sigma_i counts when sigma_i > RANK_RTOL * sigma_max.
@@ -82,20 +84,26 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
 
     Args:
         J: Jacobian, shape (m, n).
-        rtol: Relative rank tolerance (singular values below ``rtol * sigma_max`` are zero).
+        rtol: Relative rank tolerance (singular values below ``rtol * sigma_max`` are zero),
+            in (0, 1).
+
+    Raises:
+        ParameterError: ``rtol`` not a finite number in (0, 1).
     """
+    rtol = check_number("rtol", rtol, 0.0, 1.0, low_open=True, high_open=True)
     U, s, Vt = np.linalg.svd(J)
     rank = int(np.sum(s > rtol * s[0])) if s[0] > 0 else 0
     return JacobianSVD(sigma=s, U=U, V=Vt.T, rank=rank, rtol=rtol)
 
 
-@dataclass(frozen=True)
 class Manipulability:
     """Yoshikawa's manipulability sqrt(det(J J^T)) of the whole Jacobian and of its blocks.
 
     Singular values of the full J mix m/rad and rad/rad, so ``full`` depends on the unit of
     length; ``position`` and ``orientation`` do not mix units, and ``scaled`` divides the
     position rows by a characteristic length of the task, making every row rad/rad.
+
+    Each measure is computed when first read (one SVD each), so asking for one costs one.
 
     Attributes:
         full: sqrt(det(J J^T)) of the 6 x n Jacobian [mixed units].
@@ -105,11 +113,44 @@ class Manipulability:
         length: The characteristic length used for ``scaled`` [m].
     """
 
-    full: float
-    position: float
-    orientation: float
-    scaled: float
-    length: float
+    __slots__ = ("_J", "_values", "length")
+
+    def __init__(self, J: Array, length: float = 1.0) -> None:
+        self._J = J
+        self._values: dict[str, float] = {}
+        self.length = float(length)
+
+    def _get(self, kind: str) -> float:
+        value = self._values.get(kind)
+        if value is None:
+            J = self._J
+            block = {
+                "full": J,
+                "position": J[:3],
+                "orientation": J[3:],
+                "scaled": np.vstack([J[:3] / self.length, J[3:]]) if kind == "scaled" else J,
+            }[kind]
+            value = self._values[kind] = yoshikawa(block)
+        return value
+
+    full = property(lambda self: self._get("full"), doc="sqrt(det(J J^T)) of J [mixed units].")
+    position = property(lambda self: self._get("position"), doc="Linear rows [m^3/rad^3].")
+    orientation = property(lambda self: self._get("orientation"), doc="Angular rows [-].")
+    scaled = property(lambda self: self._get("scaled"), doc="Linear rows / length [-].")
+
+    def __repr__(self) -> str:
+        return (
+            f"Manipulability(full={self.full!r}, position={self.position!r}, "
+            f"orientation={self.orientation!r}, scaled={self.scaled!r}, length={self.length!r})"
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Manipulability):
+            return NotImplemented
+        fields = ("full", "position", "orientation", "scaled", "length")
+        return all(getattr(self, f) == getattr(other, f) for f in fields)
+
+    __hash__ = None  # type: ignore[assignment]
 
 
 def yoshikawa(J: Array) -> float:
@@ -123,19 +164,12 @@ def manipulability(J: Array, length: float = 1.0) -> Manipulability:
     Args:
         J: Site Jacobian, shape (6, n): linear rows first.
         length: Characteristic length [m] that turns m/rad into rad/rad.
-    """
-    if not length > 0:
-        from .errors import RedundancyError
 
-        raise RedundancyError(f"characteristic length must be > 0 m, got {length!r}")
-    scaled = np.vstack([J[:3] / length, J[3:]])
-    return Manipulability(
-        full=yoshikawa(J),
-        position=yoshikawa(J[:3]),
-        orientation=yoshikawa(J[3:]),
-        scaled=yoshikawa(scaled),
-        length=float(length),
-    )
+    Raises:
+        ParameterError: ``length`` not a finite number > 0.
+    """
+    length = check_number("length", length, 0.0, low_open=True, unit="m")
+    return Manipulability(np.array(J, dtype=float), length)
 
 
 def manipulability_gradient(J: Array, dJ: Array) -> Array:

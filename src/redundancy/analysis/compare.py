@@ -132,9 +132,9 @@ class Comparison:
             f"compared: structure at the reference pose, and {self.n_poses} poses "
             f"(tolerance {self.tol:g})",
         ]
-        out += [f"DIFFERS  {d}" for d in self.differences]
         if self.chains_part:
             out.append(f"the chains part at: {self.chains_part}")
+        out += [f"DIFFERS  {d}" for d in self.differences]
         out += [f"NOT EXPRESSIBLE  {n}" for n in self.not_expressible]
         out.append("largest difference per quantity:")
         width = max((len(k) for k in self.largest), default=0)
@@ -495,19 +495,22 @@ class _Comparer:
                 diff = np.abs(va - vb)
                 err = float(diff.max()) if diff.size else 0.0
                 if quantity not in worst or err > worst[quantity][0]:
-                    located = ""
-                    if axis is not None and err > self.tol:
-                        k = int(np.unravel_index(np.argmax(diff), diff.shape)[axis])
-                        located = f"largest at {self.where(self.ia[k])}"
-                    worst[quantity] = (err, p, va, vb, located)
-        for quantity, (err, p, va, vb, located) in worst.items():
+                    worst[quantity] = (err, p, va, vb, axis)
+        for quantity, (err, p, va, vb, axis) in worst.items():
             bare = quantity == "mass matrix" and not full_m
             name = quantity + (" (without armature)" if bare else "")
             self.largest[name] = err
-            if err > self.tol:
-                note = f"worst at pose {p}, q_A = {np.array2string(qs[p], precision=4)}"
-                note += f"; {located}" if located else ""
-                self.diffs.append(Finding(name, "poses", va, vb, err, note))
+            if err <= self.tol:
+                continue
+            note = f"worst at pose {p}, q_A = {np.array2string(qs[p], precision=4)}"
+            if quantity == "tool position":
+                self.diffs.append(Finding(name, "the tool frame", va, vb, err, note))
+                continue
+            # The entry that differs most, and the joint its row or column belongs to.
+            entry = np.unravel_index(np.argmax(np.abs(va - vb)), va.shape)
+            where = "the tool frame" if axis is None else self.where(self.ia[int(entry[axis])])
+            note = f"entry {tuple(int(i) for i in entry)}; " + note
+            self.diffs.append(Finding(name, where, float(va[entry]), float(vb[entry]), err, note))
         return len(qs)
 
     def run(self, n: int, seed: int) -> Comparison:

@@ -1,4 +1,10 @@
-"""Pose-by-pose agreement of the two engines, with a stated tolerance per quantity."""
+"""Pose-by-pose agreement of the two engines, with a stated tolerance per quantity.
+
+One error measure, |mujoco - pinocchio| / max(1, |mujoco|) elementwise, its maximum per pose
+and over the poses (:func:`pose_errors`, :func:`worst`), serves the single-pose and the
+stacked cross-check alike: :func:`crosscheck` and :func:`crosscheck_batch` are one
+computation, over stacks of poses taken in chunks so memory stays flat in their number.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm
-from ..errors import UnknownNameError
+from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
+from ..engines.contract import Engine, Stacks
+from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..linalg import manipulability_gradient
 from ..model.bridges import Bridge
 
@@ -26,19 +34,6 @@ TOLERANCES: dict[str, float] = {
     "mass matrix (bare)": 1e-9,
     "gravity": 1e-9,
     "manipulability gradient": 1e-8,
-}
-
-_QUANTITIES: dict[str, Callable[[object, Array], Array]] = {
-    "site position": lambda e, q: e.site_pose(q)[0],  # type: ignore[attr-defined]
-    "site rotation": lambda e, q: e.site_pose(q)[1],  # type: ignore[attr-defined]
-    "jacobian": lambda e, q: e.site_jacobian(q),  # type: ignore[attr-defined]
-    "jacobian derivative": lambda e, q: e.jacobian_derivatives(q),  # type: ignore[attr-defined]
-    "mass matrix": lambda e, q: e.mass_matrix(q, True),  # type: ignore[attr-defined]
-    "mass matrix (bare)": lambda e, q: e.mass_matrix(q, False),  # type: ignore[attr-defined]
-    "gravity": lambda e, q: e.gravity(q),  # type: ignore[attr-defined]
-    "manipulability gradient": lambda e, q: manipulability_gradient(  # type: ignore[attr-defined]
-        e.site_jacobian(q), e.jacobian_derivatives(q)
-    ),
 }
 
 
@@ -79,9 +74,17 @@ class CrossCheckReport:
     n_poses: int
 
     @property
+    def checked(self) -> bool:
+        """True when at least one pose and one quantity were compared."""
+        return self.n_poses > 0 and bool(self.agreements)
+
+    @property
     def ok(self) -> bool:
-        """True when every quantity agrees within its tolerance."""
-        return all(a.ok for a in self.agreements)
+        """True when something was checked and every quantity agrees within its tolerance.
+
+        A check over no poses is not ok: nothing was shown to agree.
+        """
+        return self.checked and all(a.ok for a in self.agreements)
 
     def __getitem__(self, quantity: str) -> Agreement:
         for a in self.agreements:
@@ -91,6 +94,8 @@ class CrossCheckReport:
 
     def lines(self) -> list[str]:
         """Human-readable table lines."""
+        if not self.checked:
+            return [f"nothing checked: {self.n_poses} poses, {len(self.agreements)} quantities"]
         out = [f"{'quantity':<26}{'max rel. diff':>14}{'tol':>9}  over {self.n_poses} poses"]
         for a in self.agreements:
             flag = "ok" if a.ok else "DISAGREE"
@@ -109,20 +114,195 @@ def quantity_names(quantities: Iterable[str] | None) -> tuple[str, ...]:
     Raises:
         UnknownNameError: A name that is not a key of :data:`TOLERANCES` (lists the valid ones).
     """
+    if isinstance(quantities, str):
+        quantities = (quantities,)
     names = tuple(TOLERANCES) if quantities is None else tuple(quantities)
     for name in names:
-        if name not in TOLERANCES:
-            raise UnknownNameError("quantity", name, list(TOLERANCES))
+        check_choice("quantity", name, tuple(TOLERANCES))
     return names
+
+
+def tolerances_for(names: Iterable[str], overrides: dict[str, float] | None) -> dict[str, float]:
+    """:data:`TOLERANCES` with overrides, each checked to be a finite number >= 0.
+
+    Raises:
+        UnknownNameError: An override for a quantity that does not exist.
+        ParameterError: A tolerance that is NaN, infinite or negative.
+    """
+    tols = dict(TOLERANCES)
+    for name, tol in (overrides or {}).items():
+        check_choice("quantity", name, tuple(TOLERANCES))
+        tols[name] = check_number(f"tolerance for {name!r}", tol, 0.0)
+    return {n: tols[n] for n in names}
+
+
+def pose_errors(a: Array, b: Array) -> Array:
+    """Per pose, max |a - b| / max(1, |a|) over the elements: the library's error measure.
+
+    Args:
+        a: MuJoCo's values, stacked (n, ...).
+        b: Pinocchio's values, same shape.
+
+    Returns:
+        Errors, shape (n,); NaN or inf where a value is not finite.
+    """
+    n = len(a)
+    if n == 0:
+        return np.zeros(0)
+    a, b = a.reshape(n, -1), b.reshape(n, -1)
+    return np.max(np.abs(a - b) / np.maximum(1.0, np.abs(a)), axis=1)
+
+
+def worst(err: Array) -> tuple[float, int]:
+    """Largest error and its pose: the first strict maximum; any non-finite error wins.
+
+    A non-finite error (an engine returned NaN) outranks every finite one, and the last
+    non-finite one is kept, so a report never hides a NaN behind a small number.
+    """
+    if len(err) == 0:
+        return 0.0, 0
+    nonfinite = np.flatnonzero(~np.isfinite(err))
+    if len(nonfinite):
+        p = int(nonfinite[-1])
+        return float(err[p]), p
+    p = int(np.argmax(err))
+    if err[p] > 0.0:
+        return float(err[p]), p
+    return 0.0, 0
+
+
+def _merge(old: tuple[float, int], new: tuple[float, int], offset: int) -> tuple[float, int]:
+    """Combine the worst of an earlier chunk with a later chunk's, by :func:`worst`'s rules."""
+    (e0, p0), (e1, p1) = old, new
+    if not np.isfinite(e1):
+        return e1, p1 + offset
+    if not np.isfinite(e0) or e1 <= e0:
+        return e0, p0
+    return e1, p1 + offset
+
+
+#: Quantities computed by the engines' stacked evaluation (one kinematics pass per pose);
+#: the others (second-order kinematics) are computed pose by pose.
+BATCH_QUANTITIES: tuple[str, ...] = (
+    "site position",
+    "site rotation",
+    "jacobian",
+    "mass matrix",
+    "mass matrix (bare)",
+    "gravity",
+)
+
+_PER_POSE: dict[str, Callable[[Engine, Array], Array]] = {
+    "jacobian derivative": lambda e, q: e.jacobian_derivatives(q),
+    "manipulability gradient": lambda e, q: manipulability_gradient(
+        e.site_jacobian(q), e.jacobian_derivatives(q)
+    ),
+}
+
+#: Poses per chunk: the stacks of one chunk take about 4 KB per pose for a 7-dof arm.
+CHUNK = 2048
+
+
+def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) -> dict[str, Array]:
+    """Every requested quantity over the stack ``Q`` from one engine."""
+    n, nv = len(Q), engine.nv
+    want = set(names)
+    need_m = bool(want & {"mass matrix", "mass matrix (bare)"})
+    out: dict[str, Array] = {}
+    stacks = Stacks(
+        X=np.empty((n, 3)) if "site position" in want else None,
+        R=np.empty((n, 3, 3)) if "site rotation" in want else None,
+        J=np.empty((n, 6, nv)) if "jacobian" in want else None,
+        M=np.empty((n, nv, nv)) if need_m else None,
+        G=np.empty((n, nv)) if "gravity" in want else None,
+    )
+    engine.evaluate(Q, stacks, threads)
+    for name, value in (
+        ("site position", stacks.X),
+        ("site rotation", stacks.R),
+        ("jacobian", stacks.J),
+        ("mass matrix", stacks.M),
+        ("gravity", stacks.G),
+    ):
+        if value is not None:
+            out[name] = value
+    if "mass matrix (bare)" in want:
+        bare = stacks.M.copy()  # type: ignore[union-attr]
+        k = np.arange(nv)
+        bare[:, k, k] -= engine.armature
+        out["mass matrix (bare)"] = bare
+    for name in names:
+        if name in _PER_POSE:
+            values = [_PER_POSE[name](engine, q) for q in Q]
+            out[name] = np.array(values) if values else np.zeros((0,))
+    return out
+
+
+def crosscheck_batch(
+    arm: Arm,
+    Q: ArrayLike,
+    quantities: Iterable[str] | None = None,
+    tolerances: dict[str, float] | None = None,
+    threads: int = 1,
+    chunk: int = CHUNK,
+) -> CrossCheckReport:
+    """Compare MuJoCo and Pinocchio over a stack of poses (or one pose).
+
+    The stacks are taken ``chunk`` poses at a time, so memory does not grow with the number
+    of poses; errors, worst poses and the report do not depend on ``chunk`` or ``threads``.
+
+    Args:
+        arm: The arm.
+        Q: Poses, shape (n, nq), or one pose (nq,) [rad or m].
+        quantities: Subset of :data:`TOLERANCES` keys; all by default.
+        tolerances: Overrides for :data:`TOLERANCES` (finite, >= 0).
+        threads: With 2 or more, MuJoCo runs in a worker thread (its ``mj_*`` calls release
+            the GIL) beside Pinocchio in the caller's thread, on up to ``threads - 1``
+            threads, and Pinocchio's gravity uses that many OpenMP threads.
+        chunk: Poses per chunk (>= 1).
+
+    Returns:
+        The report; over zero poses it says that nothing was checked and is not ``ok``.
+
+    Raises:
+        UnknownNameError: A quantity that is not a key of :data:`TOLERANCES`.
+        ParameterError: A bad tolerance, thread count or chunk size.
+        PoseError: Bad poses.
+    """
+    names = quantity_names(quantities)
+    tols = tolerances_for(names, tolerances)
+    threads = check_threads(threads)
+    chunk = check_count("chunk", chunk, 1)
+    Q = check_pose_or_poses(Q, arm.joint_names)
+    found = dict.fromkeys(names, (0.0, 0))
+    for lo in range(0, len(Q), chunk):
+        part = Q[lo : lo + chunk]
+        ours: dict[str, Array] = {}
+        theirs: dict[str, Array] = {}
+
+        def run_mujoco(part: Array = part, ours: dict[str, Array] = ours) -> None:
+            ours.update(_evaluate(arm.mujoco, part, names, max(1, threads - 1)))
+
+        def run_pinocchio(part: Array = part, theirs: dict[str, Array] = theirs) -> None:
+            theirs.update(_evaluate(arm.pinocchio, part, names, threads))
+
+        beside = threads > 1 and len(part) >= MIN_POSES_PER_THREAD
+        run_beside(run_pinocchio, run_mujoco if beside else None)
+        if not beside:
+            run_mujoco()
+        for name in names:
+            found[name] = _merge(found[name], worst(pose_errors(ours[name], theirs[name])), lo)
+    agreements = tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names)
+    return CrossCheckReport(agreements, arm.bridges, len(Q))
 
 
 def crosscheck(
     arm: Arm,
     poses: ArrayLike,
-    quantities: tuple[str, ...] | None = None,
+    quantities: Iterable[str] | None = None,
     tolerances: dict[str, float] | None = None,
 ) -> CrossCheckReport:
-    """Compare MuJoCo and Pinocchio at one pose or many.
+    """Compare MuJoCo and Pinocchio at one pose or many (:func:`crosscheck_batch`, 1 thread).
 
     Args:
         arm: The loaded arm.
@@ -130,18 +310,4 @@ def crosscheck(
         quantities: Subset of :data:`TOLERANCES` keys; all by default.
         tolerances: Overrides for :data:`TOLERANCES`.
     """
-    tols = {**TOLERANCES, **(tolerances or {})}
-    names = quantity_names(quantities)
-    qs = np.atleast_2d(np.asarray(poses, dtype=float))
-    worst = dict.fromkeys(names, 0.0)
-    where = dict.fromkeys(names, 0)
-    for p, q in enumerate(qs):
-        q = arm.pose(q)
-        for name in names:
-            a = np.asarray(_QUANTITIES[name](arm.mujoco, q))
-            b = np.asarray(_QUANTITIES[name](arm.pinocchio, q))
-            err = float(np.max(np.abs(a - b) / np.maximum(1.0, np.abs(a))))
-            if err > worst[name] or not np.isfinite(err):
-                worst[name], where[name] = err, p
-    agreements = tuple(Agreement(n, worst[n], tols[n], where[n]) for n in names)
-    return CrossCheckReport(agreements, arm.bridges, len(qs))
+    return crosscheck_batch(arm, poses, quantities, tolerances)

@@ -32,8 +32,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import linalg
-from ..arm import Arm, EngineName
-from ..errors import RedundancyError, UnknownNameError
+from ..arm import ENGINES, Arm, EngineName
+from ..checks import check_choice, check_count, check_number, check_pose
+from ..errors import ParameterError
 
 if TYPE_CHECKING:
     from ..collision import DistanceEngine, GeomPair
@@ -43,6 +44,9 @@ Integrator = Literal["euler", "midpoint"]
 INTEGRATORS: tuple[Integrator, ...] = ("euler", "midpoint")
 
 #: Reasons a self-motion ends before its total joint motion (``SelfMotionPath.stopped``).
+#: Most steps one self-motion may take (``total / step``): a bound on its run time.
+MAX_STEPS = 100_000
+
 STOP_PREDICATE = "stop condition met"
 STOP_MAXIMUM = "objective at its maximum along the self-motion"
 STOP_STATIONARY = "objective does not change along the null space"
@@ -213,11 +217,6 @@ class SelfMotionPath:
     integrator: str = "euler"
 
     @property
-    def steps(self) -> int:
-        """Number of steps taken."""
-        return len(self.q) - 1
-
-    @property
     def total(self) -> float:
         """Joint motion covered [rad]."""
         return float(self.joint_motion[-1])
@@ -302,17 +301,22 @@ def self_motion(
         respect_limits: Stop before a step that would leave a joint's range.
 
     Raises:
-        RedundancyError: ``step`` or ``total`` not positive, bad ``direction``.
-        UnknownNameError: Unknown ``elbow`` joint or ``integrator``.
+        ParameterError: ``total`` not finite and > 0, ``step`` outside
+            [total / MAX_STEPS, total], bad ``direction``, ``tol``, ``max_corrections`` or
+            ``fd_step``.
+        UnknownNameError: Unknown ``elbow`` joint, ``integrator`` or ``engine``.
         PoseError: Bad ``q0``.
     """
-    if not (step > 0 and total > 0):
-        raise RedundancyError(f"step and total must be > 0 rad, got step={step!r}, total={total!r}")
-    if direction not in (1, -1):
-        raise RedundancyError(f"direction must be +1 or -1, got {direction!r}")
-    if integrator not in INTEGRATORS:
-        raise UnknownNameError("integrator", str(integrator), INTEGRATORS)
-    q = arm.pose(q0)
+    total = check_number("total", total, 0.0, low_open=True, unit="rad")
+    step = check_number("step", step, total / MAX_STEPS, total, unit="rad")
+    if direction not in (1, -1) or isinstance(direction, bool):
+        raise ParameterError("direction", direction, "+1 or -1")
+    check_choice("integrator", integrator, INTEGRATORS)
+    check_choice("engine", engine, ENGINES)
+    tol = check_number("tol", tol, 0.0, low_open=True, unit="m and rad")
+    max_corrections = check_count("max_corrections", max_corrections, 0)
+    fd_step = check_number("fd_step", fd_step, 0.0, low_open=True, unit="rad")
+    q = check_pose(q0, arm.joint_names)
     elbow_idx = arm.nq // 2 if elbow is None else arm.joint_index(elbow)
     p0, R0 = arm.site_pose(q, engine)
 

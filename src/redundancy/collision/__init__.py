@@ -24,6 +24,7 @@ from .checker import (
 )
 from .pairs import AMBIGUITY_BAND, GeomPair, collision_pairs, find_pair
 from .pathcheck import PathCheck, PathChecker, check_path
+from .stacks import distance_stack
 from .statistics import (
     CollisionStatistics,
     KeyframeClearance,
@@ -51,6 +52,7 @@ __all__ = [
     "collision_pairs",
     "collision_statistics",
     "contacts",
+    "distance_stack",
     "distances",
     "find_pair",
     "keyframe_clearance",

@@ -1,8 +1,8 @@
-"""MuJoCo side of the two-engine core: a thin wrapper that owns its ``MjData``.
+"""MuJoCo's side of the engine contract: one compiled model, one ``MjData`` per thread.
 
-All MuJoCo calls of the library live here. Arrays come back in the library's joint order,
-which is MuJoCo's own (``jnt`` order; hinge and slide joints only, so qpos, qvel and dof
-orders coincide).
+Every MuJoCo call for kinematics and dynamics lives here. Arrays come back in the library's
+joint order, which is MuJoCo's own (``jnt`` order; hinge and slide joints only, so qpos, qvel
+and dof orders coincide).
 """
 
 from __future__ import annotations
@@ -13,6 +13,9 @@ from collections.abc import Iterator
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
+
+from .contract import Stacks
+from .threads import PerThread, run_split
 
 Array = NDArray[np.float64]
 
@@ -39,73 +42,141 @@ def object_names(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int | None = None
     return [mujoco.mj_id2name(model, obj, i) or "" for i in range(n)]
 
 
+class _Work:
+    """One thread's ``MjData`` and output buffers, with the pose its kinematics are for."""
+
+    __slots__ = (
+        "M",
+        "data",
+        "have_J",
+        "have_M",
+        "jac",
+        "jacp",
+        "jacr",
+        "key",
+        "qpos",
+        "qvel",
+        "tau",
+    )
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.data = mujoco.MjData(model)
+        # Each attribute access on MjData builds a new array view: keep the ones used per call.
+        self.qpos, self.qvel = self.data.qpos, self.data.qvel
+        # mj_jacSite writes into contiguous row views of one 6 x nv array (no vstack).
+        self.jac = np.zeros((6, model.nv))
+        self.jacp, self.jacr = self.jac[:3], self.jac[3:]
+        self.M = np.zeros((model.nv, model.nv))
+        self.tau = np.zeros(model.nv)
+        self.key: list[float] | None = None  # the pose the kinematics stage holds
+        self.have_M = False  # M is current for that pose
+        self.have_J = False  # jac is current for that pose
+
+
 class MujocoEngine:
-    """MuJoCo model and data for one site, evaluated at joint configurations.
+    """MuJoCo model for one tool site, evaluated at joint configurations.
+
+    Each thread that calls gets its own ``MjData`` (created on its first call, freed with the
+    thread), so an engine may be shared by threads; within a thread, the kinematics of the
+    last pose are kept and queries at the same pose read them (mink's ``update(q)`` pattern).
 
     Args:
         model: Compiled model (hinge and slide joints only; checked by the loader).
         site: Name of the tool site.
         armature: Armature per dof as M sees it: the joint's own plus what its actuators
             reflect [kg m^2].
+        damping: Viscous damping per dof: the joint's own plus what its actuators reflect
+            [N m s/rad or N s/m].
     """
 
     name = "mujoco"
 
-    def __init__(self, model: mujoco.MjModel, site: str, armature: Array) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, site: str, armature: Array, damping: Array | None = None
+    ) -> None:
         self.model = model
-        self.data = mujoco.MjData(model)
         self.site_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        self.site_body = int(model.site_bodyid[self.site_id])
         self.nv = model.nv
-        # Armature as M sees it: the joint's own plus what its actuators reflect.
-        self.armature = np.array(armature, dtype=float)
-        # mj_jacSite and mj_jacDot write into contiguous row views of one 6 x nv array, so the
-        # stacked Jacobian needs no vstack; qpos/qvel views are kept because each attribute
-        # access on MjData builds a new array view.
-        self._jac = np.zeros((6, model.nv))
-        self._jacp, self._jacr = self._jac[:3], self._jac[3:]
-        self._qpos, self._qvel = self.data.qpos, self.data.qvel
-        self._M = np.zeros((model.nv, model.nv))
-        self._tau = np.zeros(model.nv)
+        self._armature = np.array(armature, dtype=float)
+        self._damping = np.array(model.dof_damping if damping is None else damping, dtype=float)
+        limited = model.jnt_limited.astype(bool)
+        self._limits = (
+            np.where(limited, model.jnt_range[:, 0], -np.inf),
+            np.where(limited, model.jnt_range[:, 1], np.inf),
+        )
+        # This thread's data; a bound method, so a query pays one call to reach it.
+        self._work = PerThread(lambda: _Work(model)).get
 
-    def _kinematics(self, q: Array) -> None:
-        d = self.data
-        self._qpos[:] = q
-        self._qvel[:] = 0.0
-        # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
-        # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read.
-        mujoco.mj_kinematics(self.model, d)
-        mujoco.mj_comPos(self.model, d)
+    # -- the contract's per-joint vectors ---------------------------------------------------
+    @property
+    def armature(self) -> Array:
+        """Armature per dof as M sees it [kg m^2] (a copy)."""
+        return self._armature.copy()
 
+    @property
+    def damping(self) -> Array:
+        """Viscous damping per dof [N m s/rad or N s/m] (a copy)."""
+        return self._damping.copy()
+
+    @property
+    def limits(self) -> tuple[Array, Array]:
+        """Lower and upper limits, ``-inf``/``inf`` where unlimited [rad or m] (copies)."""
+        return self._limits[0].copy(), self._limits[1].copy()
+
+    # -- per-thread data --------------------------------------------------------------------
+    def update(self, q: Array) -> _Work:
+        """Bring this thread's data to pose ``q`` (a validated (nv,) array); return it.
+
+        The kinematics run once per pose: a query at the pose already held reads it.
+        """
+        w = self._work()
+        key = q.tolist()
+        if key != w.key:
+            w.qpos[:] = q
+            # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
+            # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read. qvel stays 0.
+            mujoco.mj_kinematics(self.model, w.data)
+            mujoco.mj_comPos(self.model, w.data)
+            w.key = key
+            w.have_M = w.have_J = False
+        return w
+
+    # -- one pose ---------------------------------------------------------------------------
     def site_pose(self, q: Array) -> tuple[Array, Array]:
         """Site position [m] and rotation matrix (world frame)."""
-        self._kinematics(q)
+        d = self.update(q).data
         i = self.site_id
-        return self.data.site_xpos[i].copy(), self.data.site_xmat[i].reshape(3, 3).copy()
+        return d.site_xpos[i].copy(), d.site_xmat[i].reshape(3, 3).copy()
 
     def site_jacobian(self, q: Array) -> Array:
         """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular [rad/rad], world axes."""
-        self._kinematics(q)
-        mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self.site_id)
-        return self._jac.copy()
+        w = self.update(q)
+        if not w.have_J:
+            mujoco.mj_jacSite(self.model, w.data, w.jacp, w.jacr, self.site_id)
+            w.have_J = True
+        return w.jac.copy()
 
     def mass_matrix(self, q: Array, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
-        self._kinematics(q)
-        # mj_crb fills d.M (sparse, armature included); mj_fullM makes it dense.
-        mujoco.mj_crb(self.model, self.data)
-        mujoco.mj_fullM(self.model, self.data, self._M)
-        M = self._M.copy()
+        w = self.update(q)
+        if not w.have_M:
+            # mj_crb fills d.M (sparse, armature included); mj_fullM makes it dense.
+            mujoco.mj_crb(self.model, w.data)
+            mujoco.mj_fullM(self.model, w.data, w.M)
+            w.have_M = True
+        M = w.M.copy()
         if not armature:
-            M[np.diag_indices(self.nv)] -= self.armature
+            M[np.diag_indices(self.nv)] -= self._armature
         return M
 
     def gravity(self, q: Array) -> Array:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
-        self._kinematics(q)
+        w = self.update(q)
         # With qvel = 0 (and cvel = 0, see jacobian_derivatives) and flg_acc = 0, RNE returns
         # the bias force, which is then gravity alone.
-        mujoco.mj_rne(self.model, self.data, 0, self._tau)
-        return self._tau.copy()
+        mujoco.mj_rne(self.model, w.data, 0, w.tau)
+        return w.tau.copy()
 
     def jacobian_derivatives(self, q: Array) -> Array:
         """dJ/dq_k for every k, shape (nv, 6, nv), from ``mj_jacDot`` with qvel = e_k.
@@ -113,28 +184,28 @@ class MujocoEngine:
         ``mj_jacDot`` returns dJ/dt = sum_k dJ/dq_k qdot_k, so a unit velocity on one dof
         gives that dof's partial derivative exactly (no finite differences).
         """
-        m, d = self.model, self.data
-        self._kinematics(q)
-        body = m.site_bodyid[self.site_id]
+        m = self.model
+        w = self.update(q)
+        d = w.data
         point = d.site_xpos[self.site_id].copy()
         out = np.zeros((self.nv, 6, self.nv))
+        w.have_J = False  # mj_jacDot writes into the Jacobian buffers below
         for k in range(self.nv):
-            d.qvel[:] = 0.0
-            d.qvel[k] = 1.0
+            w.qvel[:] = 0.0
+            w.qvel[k] = 1.0
             # mj_comVel computes cvel and cdof_dot, which mj_jacDot reads.
             mujoco.mj_comVel(m, d)
-            mujoco.mj_jacDot(m, d, self._jacp, self._jacr, point, body)
-            out[k, :3] = self._jacp
-            out[k, 3:] = self._jacr
+            mujoco.mj_jacDot(m, d, w.jacp, w.jacr, point, self.site_body)
+            out[k] = w.jac
         # Leave no velocity behind: mj_rne (gravity) reads cvel and cdof_dot.
-        d.qvel[:] = 0.0
+        w.qvel[:] = 0.0
         mujoco.mj_comVel(m, d)
         return out
 
     def integrate(self, q: Array, dq: Array) -> Array:
         """Configuration reached from ``q`` after the displacement ``dq`` [rad or m]."""
         out = np.array(q, dtype=float)
-        mujoco.mj_integratePos(self.model, out, dq, 1.0)
+        mujoco.mj_integratePos(self.model, out, np.asarray(dq, dtype=float), 1.0)
         return out
 
     def link_inertias(self, q: Array) -> tuple[Array, Array, Array]:
@@ -142,8 +213,8 @@ class MujocoEngine:
 
         Bodies welded to a moving body are lumped into it, as Pinocchio does.
         """
-        m, d = self.model, self.data
-        self._kinematics(q)
+        m = self.model
+        d = self.update(q).data
         masses = np.zeros(self.nv)
         coms = np.zeros((self.nv, 3))
         inertias = np.zeros((self.nv, 3, 3))
@@ -167,8 +238,58 @@ class MujocoEngine:
 
     def joint_axes(self, q: Array) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
-        self._kinematics(q)
-        return self.data.xaxis.copy(), self.data.xanchor.copy()
+        d = self.update(q).data
+        return d.xaxis.copy(), d.xanchor.copy()
+
+    # -- stacks of poses ----------------------------------------------------------------------
+    def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
+        """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
+
+        One kinematics pass per pose serves every output; ``mj_jacSite``, ``mj_fullM`` and
+        ``mj_rne`` write straight into the rows of the stacks. MuJoCo releases the GIL inside
+        ``mj_*``, so ``threads`` > 1 runs spans of poses in parallel, each thread on its own
+        ``MjData``.
+        """
+        m, sid = self.model, self.site_id
+        kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
+        crb, full, rne = mujoco.mj_crb, mujoco.mj_fullM, mujoco.mj_rne
+        X, J, M, G = out.X, out.J, out.M, out.G
+        dyn = out.dynamics
+        R9 = None if out.R is None else out.R.reshape(len(Q), 9)
+
+        def body(lo: int, hi: int) -> None:
+            w = self._work()
+            w.key = None  # this thread's data is about to hold other poses
+            d, qpos = w.data, w.qpos
+            sx, sm = d.site_xpos, d.site_xmat
+            for i in range(lo, hi):
+                qpos[:] = Q[i]
+                kin(m, d)
+                if X is not None:
+                    X[i] = sx[sid]
+                if R9 is not None:
+                    R9[i] = sm[sid]
+                if not dyn:
+                    continue
+                com(m, d)
+                if J is not None:
+                    Ji = J[i]
+                    jac(m, d, Ji[:3], Ji[3:], sid)
+                if M is not None:
+                    crb(m, d)
+                    full(m, d, M[i])
+                if G is not None:
+                    rne(m, d, 0, G[i])
+
+        run_split(len(Q), threads, body)
+        if M is not None and not out.armature:
+            k = np.arange(self.nv)
+            M[:, k, k] -= self._armature
+
+    def geom_poses(self, q: Array) -> tuple[Array, Array]:
+        """World positions [m] and rotation matrices (flattened, (ngeom, 9)) of every geom."""
+        d = self.update(q).data
+        return d.geom_xpos.copy(), d.geom_xmat.copy()
 
 
 @contextlib.contextmanager

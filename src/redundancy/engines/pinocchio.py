@@ -1,8 +1,8 @@
-"""Pinocchio side of the two-engine core: a thin wrapper that owns its ``pinocchio.Data``.
+"""Pinocchio's side of the engine contract: one model, one ``pinocchio.Data`` per thread.
 
-All Pinocchio calls of the library live here. Pinocchio orders joints by its own tree
-traversal; the wrapper maps them to the library's order (MuJoCo's) by joint name, so every
-array it returns is in the same order as :mod:`redundancy.mujoco_engine`'s.
+Every Pinocchio call for kinematics and dynamics lives here. Pinocchio orders joints by its
+own tree traversal; the engine maps them to the library's order (MuJoCo's) by joint name, so
+every array it returns is in the same order as :mod:`redundancy.engines.mujoco`'s.
 """
 
 from __future__ import annotations
@@ -12,6 +12,9 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
+
+from .contract import Stacks
+from .threads import PerThread
 
 Array = NDArray[np.float64]
 
@@ -28,11 +31,28 @@ def joint_kind(joint: pin.JointModel) -> str:
     return name
 
 
+class _Work:
+    """One thread's ``pinocchio.Data``, its configuration buffer and the pose it holds."""
+
+    __slots__ = ("J", "data", "key", "pools", "q")
+
+    def __init__(self, model: pin.Model) -> None:
+        self.data = model.createData()
+        self.q = np.zeros(model.nq)
+        self.J = np.zeros((6, model.nv))  # the site Jacobian at that pose
+        self.key: list[float] | None = None  # pose of the kinematics, J and site frame held
+        self.pools: dict[int, pin.ModelPool] = {}  # rneaInParallel's data, per thread count
+
+
 class PinocchioEngine:
-    """Pinocchio model and data for one site frame, evaluated at joint configurations.
+    """Pinocchio model for one tool frame, evaluated at joint configurations.
+
+    Each thread that calls gets its own ``pinocchio.Data`` (freed with the thread), so an
+    engine may be shared by threads; within a thread, the joint Jacobians and frame
+    placements of the last pose are kept and site queries at the same pose read them.
 
     Args:
-        model: Model built by Pinocchio's MJCF parser.
+        model: Pinocchio model (bridged by the loader).
         site: Name of the tool site (an ``OP_FRAME`` frame in Pinocchio).
         joint_names: Joint names in the library's order.
     """
@@ -41,49 +61,94 @@ class PinocchioEngine:
 
     def __init__(self, model: pin.Model, site: str, joint_names: Sequence[str]) -> None:
         self.model = model
-        self.data = model.createData()
         self.frame_id = model.getFrameId(site)
         self.nv = model.nv
         # perm[i] is Pinocchio's index of the library's joint i (nq == nv: 1-dof joints only).
         self.perm = np.array(
             [model.joints[model.getJointId(n)].idx_v for n in joint_names], dtype=int
         )
-        self._q = np.zeros(model.nq)
+        self.identity = bool(np.array_equal(self.perm, np.arange(len(self.perm))))
+        self._joint_ids = [model.getJointId(n) for n in joint_names]
+        # This thread's data; a bound method, so a query pays one call to reach it.
+        self._work = PerThread(lambda: _Work(model)).get
 
-    def _pin_q(self, q: Array) -> Array:
-        self._q[self.perm] = q
-        return self._q
+    # -- the contract's per-joint vectors ---------------------------------------------------
+    @property
+    def armature(self) -> Array:
+        """Armature per joint as ``crba`` adds it [kg m^2] (a copy)."""
+        return self._vec(self.model.armature)
+
+    @property
+    def damping(self) -> Array:
+        """Viscous damping per joint [N m s/rad or N s/m] (a copy)."""
+        return self._vec(self.model.damping)
+
+    @property
+    def limits(self) -> tuple[Array, Array]:
+        """Lower and upper position limits [rad or m] (copies)."""
+        return self._vec(self.model.lowerPositionLimit), self._vec(self.model.upperPositionLimit)
+
+    # -- per-thread data and joint order ----------------------------------------------------
+    def _pin_q(self, w: _Work, q: Array) -> Array:
+        w.q[self.perm] = q
+        return w.q
 
     def _vec(self, x: Array) -> Array:
         return np.asarray(x)[self.perm].copy()
 
+    def _order(self, Q: Array) -> Array:
+        """A stack of poses in Pinocchio's joint order."""
+        if self.identity:
+            return Q
+        Qp = np.empty_like(Q)
+        Qp[:, self.perm] = Q
+        return Qp
+
+    def update(self, q: Array) -> _Work:
+        """Bring this thread's data to pose ``q``: joint placements, site frame and site J.
+
+        They are computed once per pose; site queries at the pose already held read them.
+        """
+        w = self._work()
+        key = q.tolist()
+        if key != w.key:
+            # computeFrameJacobian runs the forward kinematics (oMi) and returns the site's
+            # Jacobian; LOCAL_WORLD_ALIGNED is MuJoCo's convention: velocity of the site
+            # origin, along world axes. updateFramePlacement then places the site from oMi.
+            J = pin.computeFrameJacobian(self.model, w.data, self._pin_q(w, q), self.frame_id, _LWA)
+            # eigenpy returns a 6 x 1 matrix as a vector of shape (6,): keep it a matrix.
+            w.J[:] = np.reshape(J, (6, self.nv))
+            pin.updateFramePlacement(self.model, w.data, self.frame_id)
+            w.key = key
+        return w
+
+    # -- one pose ---------------------------------------------------------------------------
     def site_pose(self, q: Array) -> tuple[Array, Array]:
         """Site position [m] and rotation matrix (world frame)."""
-        # framesForwardKinematics = forwardKinematics + updateFramePlacements.
-        pin.framesForwardKinematics(self.model, self.data, self._pin_q(q))
-        oMf = self.data.oMf[self.frame_id]
+        oMf = self.update(q).data.oMf[self.frame_id]
         return oMf.translation.copy(), oMf.rotation.copy()
 
     def site_jacobian(self, q: Array) -> Array:
         """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular, world axes."""
-        # computeFrameJacobian runs the forward pass itself; LOCAL_WORLD_ALIGNED is MuJoCo's
-        # convention: velocity of the site origin, expressed along world axes.
-        J = pin.computeFrameJacobian(self.model, self.data, self._pin_q(q), self.frame_id, _LWA)
-        # eigenpy returns a 6 x 1 matrix as a vector of shape (6,): keep it a matrix.
-        return np.reshape(J, (6, self.nv))[:, self.perm]
+        J = self.update(q).J
+        return J.copy() if self.identity else J[:, self.perm]
 
     def mass_matrix(self, q: Array, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
+        w = self._work()
+        w.key = None  # crba overwrites the kinematics the key stands for
         # crba adds model.armature to the diagonal and fills the upper triangle only.
-        M = pin.crba(self.model, self.data, self._pin_q(q))
+        M = pin.crba(self.model, w.data, self._pin_q(w, q))
         M = np.triu(M) + np.triu(M, 1).T
         if not armature:
             M[np.diag_indices(self.nv)] -= self.model.armature
-        return M[np.ix_(self.perm, self.perm)]
+        return M if self.identity else M[np.ix_(self.perm, self.perm)]
 
     def gravity(self, q: Array) -> Array:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
-        return self._vec(pin.computeGeneralizedGravity(self.model, self.data, self._pin_q(q)))
+        w = self._work()
+        w.key = None  # the RNEA pass overwrites the kinematics the key stands for
+        return self._vec(pin.computeGeneralizedGravity(self.model, w.data, self._pin_q(w, q)))
 
     def jacobian_derivatives(self, q: Array) -> Array:
         """dJ/dq_k for every k, shape (nv, 6, nv), from Pinocchio's Jacobian time variation.
@@ -91,33 +156,35 @@ class PinocchioEngine:
         With a unit velocity on one dof, dJ/dt of the LOCAL_WORLD_ALIGNED frame Jacobian is
         that dof's partial derivative: second-order kinematics, no finite differences.
         """
+        w = self._work()
+        w.key = None
         out = np.zeros((self.nv, 6, self.nv))
-        qp = self._pin_q(q).copy()
+        qp = self._pin_q(w, q).copy()
         v = np.zeros(self.nv)
         for i, k in enumerate(self.perm):
             v[:] = 0.0
             v[k] = 1.0
-            pin.computeJointJacobiansTimeVariation(self.model, self.data, qp, v)
+            pin.computeJointJacobiansTimeVariation(self.model, w.data, qp, v)
             # The frame's placement must be current for the frame-level variation.
-            pin.updateFramePlacements(self.model, self.data)
-            dJ = pin.getFrameJacobianTimeVariation(self.model, self.data, self.frame_id, _LWA)
+            pin.updateFramePlacements(self.model, w.data)
+            dJ = pin.getFrameJacobianTimeVariation(self.model, w.data, self.frame_id, _LWA)
             out[i] = np.reshape(dJ, (6, self.nv))[:, self.perm]
         return out
 
     def integrate(self, q: Array, dq: Array) -> Array:
         """Configuration reached from ``q`` after the displacement ``dq`` [rad or m]."""
+        w = self._work()
         v = np.zeros(self.nv)
         v[self.perm] = dq
-        return self._vec(pin.integrate(self.model, self._pin_q(q).copy(), v))
+        return self._vec(pin.integrate(self.model, self._pin_q(w, q).copy(), v))
 
     def link_inertias(self, q: Array) -> tuple[Array, Array, Array]:
         """Mass [kg], centre of mass [m] and world inertia about it [kg m^2] per joint's body."""
-        pin.forwardKinematics(self.model, self.data, self._pin_q(q))
+        data = self.update(q).data  # oMi, from update's forward pass
         n = self.nv
         masses, coms, inertias = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3))
-        for i, k in enumerate(self.perm):
-            jid = self._joint_id(k)
-            world = self.data.oMi[jid].act(self.model.inertias[jid])
+        for i, jid in enumerate(self._joint_ids):
+            world = data.oMi[jid].act(self.model.inertias[jid])
             masses[i] = world.mass
             coms[i] = world.lever
             inertias[i] = world.inertia
@@ -125,20 +192,68 @@ class PinocchioEngine:
 
     def joint_axes(self, q: Array) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
-        pin.computeJointJacobians(self.model, self.data, self._pin_q(q))
+        w = self._work()
+        w.key = None
+        data = w.data
+        # Every joint's Jacobian, not only the site's: computeJointJacobians stores them all.
+        pin.computeJointJacobians(self.model, data, self._pin_q(w, q))
         axes, anchors = np.zeros((self.nv, 3)), np.zeros((self.nv, 3))
-        for i, k in enumerate(self.perm):
-            jid = self._joint_id(k)
-            J = np.reshape(pin.getJointJacobian(self.model, self.data, jid, _LWA), (6, self.nv))[
-                :, k
-            ]
+        for i, jid in enumerate(self._joint_ids):
+            k = self.perm[i]
+            J = np.reshape(pin.getJointJacobian(self.model, data, jid, _LWA), (6, self.nv))[:, k]
             kind = joint_kind(self.model.joints[jid])
             axes[i] = J[3:] if kind == "hinge" else J[:3]
-            anchors[i] = self.data.oMi[jid].translation
+            anchors[i] = data.oMi[jid].translation
         return axes, anchors
 
-    def _joint_id(self, idx_v: int) -> int:
-        for jid in range(1, self.model.njoints):
-            if self.model.joints[jid].idx_v == idx_v:
-                return jid
-        raise IndexError(idx_v)
+    # -- stacks of poses ----------------------------------------------------------------------
+    def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
+        """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
+
+        Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread;
+        gravity is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
+        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads.
+        """
+        model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
+        X, R, J, M, G = out.X, out.R, out.J, out.M, out.G
+        w = self._work()
+        w.key = None
+        data = w.data
+        Qp = self._order(Q)
+        if X is not None or R is not None:
+            ffk, oMf = pin.framesForwardKinematics, data.oMf
+            for i, q in enumerate(Qp):
+                ffk(model, data, q)
+                T = oMf[fid]
+                if X is not None:
+                    X[i] = T.translation
+                if R is not None:
+                    R[i] = T.rotation
+        if J is not None:
+            cfj = pin.computeFrameJacobian  # the forward pass and the frame's Jacobian
+            shape = (6, nv)
+            for i, q in enumerate(Qp):
+                J[i] = np.reshape(cfj(model, data, q, fid, _LWA), shape)
+            if not self.identity:
+                J[:] = J[:, :, self.perm]
+        if M is not None:
+            crba = pin.crba
+            for i, q in enumerate(Qp):
+                M[i] = crba(model, data, q)
+            # crba fills the upper triangle (armature on the diagonal).
+            M[:] = np.triu(M) + np.triu(M, 1).transpose(0, 2, 1)
+            if not out.armature:
+                k = np.arange(nv)
+                M[:, k, k] -= model.armature
+            if not self.identity:
+                M[:] = M[:, self.perm][:, :, self.perm]
+        if G is not None and n:
+            pool = w.pools.get(threads)
+            if pool is None:
+                pool = w.pools[threads] = pin.ModelPool(model, threads)
+            # rneaInParallel takes (nq, n) column stacks: the transpose of a C-contiguous
+            # (n, nq) stack is one, without a copy; tau is written in place.
+            zeros = np.zeros((nv, n), order="F")
+            tau = np.zeros((nv, n), order="F")
+            pin.rneaInParallel(threads, pool, Qp.T, zeros, zeros, tau)
+            G[:] = tau.T if self.identity else tau.T[:, self.perm]

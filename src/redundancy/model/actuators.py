@@ -9,7 +9,7 @@ computation).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -86,14 +86,17 @@ def effort_range(
     """Torque range per dof that the actuators can apply while the arm is held still at ``q``.
 
     For each actuator with a joint transmission (gear ``g``, length ``L = g q``, velocity 0):
-    force ``= gain(L) u + bias(L)`` for ``u`` in its input range (``ctrlrange``, or
-    ``actrange`` for stateful actuators; none under ``clampctrl`` disabled), with fixed or
-    affine gain and bias (a position servo gives ``kp u - kp L``); clamped to ``forcerange``
-    when force-limited; times ``g`` at the joint. Whichever of ``ctrlrange`` and
-    ``forcerange`` binds, binds. Several actuators on one dof add up, plus ``routed`` (gravity
-    compensation sent through the actuators by ``actuatorgravcomp``), and the joint's
-    ``actuatorfrcrange`` clamps the sum. A dof without an actuator gets ``(-inf, inf)`` and
-    ``actuated`` False. Muscle and user gains or biases count as unlimited.
+    force ``= gain u + bias`` for ``u`` in its input range (``ctrlrange``, or ``actrange`` for
+    stateful actuators; none under ``clampctrl`` disabled); clamped to ``forcerange`` when
+    force-limited; times ``g`` at the joint. Whichever of ``ctrlrange`` and ``forcerange``
+    binds, binds. A *servo* (gain or bias depending on the length: a position actuator's
+    ``kp u - kp L``) is limited by its ``forcerange`` alone: its input is a target position,
+    and a held servo settles ``tau / kp`` away from its target, so its ``ctrlrange`` bounds
+    where the arm can be held (to within that offset), not the torque. Several actuators on
+    one dof add up, plus ``routed`` (gravity compensation sent through the actuators by
+    ``actuatorgravcomp``), and the joint's ``actuatorfrcrange`` clamps the sum. A dof without
+    an actuator gets ``(-inf, inf)`` and ``actuated`` False. Muscle and user gains or biases
+    count as unlimited.
 
     Args:
         model: Compiled MuJoCo model.
@@ -118,7 +121,7 @@ def effort_range(
         bias = _affine(
             int(model.actuator_biastype[a]), model.actuator_biasprm[a], length, gain=False
         )
-        u0, u1 = _input_range(model, a)
+        u0, u1 = (-np.inf, np.inf) if _is_servo(model, a) else _input_range(model, a)
         with np.errstate(invalid="ignore"):  # 0 x inf: a zero gain gives the bias alone
             f0 = np.where(gain == 0, bias, bias + gain * u0)
             f1 = np.where(gain == 0, bias, bias + gain * u1)
@@ -157,10 +160,9 @@ def _affine(kind: int, prm: Array, length: Array, gain: bool) -> Array:
 def joint_force_limits(model: mujoco.MjModel) -> Array:
     """Largest force or torque the actuators can apply at each dof, either direction.
 
-    ``max(-lower, upper)`` of :func:`effort_range` for the actuators whose range does not
-    depend on the pose (a servo's does, through its bias, unless ``forcerange`` caps it);
-    ``inf`` where unlimited or without an actuator. This is the symmetric limit Pinocchio's
-    ``effortLimit`` holds; the audit uses :func:`effort_range`, per direction and pose.
+    ``max(-lower, upper)`` of :func:`effort_range`; ``inf`` where unlimited or without an
+    actuator. This is the symmetric limit Pinocchio's ``effortLimit`` holds; the audit uses
+    :func:`effort_range`, per direction.
 
     Args:
         model: Compiled MuJoCo model.
@@ -169,21 +171,21 @@ def joint_force_limits(model: mujoco.MjModel) -> Array:
         Limits, shape (nv,) [N m for hinges, N for slides].
     """
     r = effort_range(model)
-    limit = np.maximum(-r.lower, r.upper)
-    for a, dof, _, _ in _joint_actuators(model):
-        pose_dependent = (
+    return np.maximum(-r.lower, r.upper)
+
+
+def _is_servo(model: mujoco.MjModel, a: int) -> bool:
+    """Whether an actuator's force depends on its length (a position-type servo)."""
+    return bool(
+        (
             model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_AFFINE
             and model.actuator_gainprm[a, 1] != 0
-        ) or (
+        )
+        or (
             model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
             and model.actuator_biasprm[a, 1] != 0
         )
-        if pose_dependent and not model.actuator_forcelimited[a]:
-            limit[dof] = np.inf
-    for j in np.flatnonzero(model.jnt_actfrclimited):
-        dof = model.jnt_dofadr[j]
-        limit[dof] = min(limit[dof], float(np.max(np.abs(model.jnt_actfrcrange[j]))))
-    return limit
+    )
 
 
 def _reflected_per_dof(model: mujoco.MjModel, values: Array) -> Array:
@@ -218,6 +220,37 @@ def servo_damping(model: mujoco.MjModel) -> Array:
         if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
             kv[dof] -= gear**2 * float(model.actuator_biasprm[a, 2])
     return kv
+
+
+def servo_stiffness(model: mujoco.MjModel) -> Array:
+    """Stiffness on each dof that every integrator treats explicitly [N m/rad].
+
+    A servo's position feedback (a position actuator's ``kp``, a general actuator's
+    ``biasprm[1]``: ``-gear^2 biasprm[1]`` at the joint) plus the joint's own ``stiffness``.
+    MuJoCo's implicit integrators take only velocity derivatives implicitly.
+    """
+    k = np.zeros(model.nv)
+    for a, dof, _, gear in _joint_actuators(model):
+        if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
+            k[dof] -= gear**2 * float(model.actuator_biasprm[a, 1])
+    for j in range(model.njnt):
+        k[model.jnt_dofadr[j]] += float(model.jnt_stiffness[j])
+    return k
+
+
+def servo_driven(model: mujoco.MjModel) -> NDArray[np.bool_]:
+    """Per dof, whether a servo drives it rather than a torque motor.
+
+    A servo's force feeds back position or velocity (an affine bias: position, velocity and
+    general servos); a motor's is its control times a gain.
+    """
+    driven = np.zeros(model.nv, dtype=bool)
+    for a, dof, _, _ in _joint_actuators(model):
+        if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE and np.any(
+            model.actuator_biasprm[a, 1:3] != 0
+        ):
+            driven[dof] = True
+    return driven
 
 
 # -- how MuJoCo steps the model ----------------------------------------------------------------
@@ -281,24 +314,39 @@ class DampingSplit:
     """Per dof, the damping MuJoCo's integrator treats implicitly and explicitly [N m s/rad].
 
     One step multiplies a joint's speed by ``(I - h D_explicit) / (I + h D_implicit)`` (Euler
-    family), stable while ``h < 2 I / (D_explicit - D_implicit)``; RK4 treats everything
-    explicitly and is stable while ``h < 2.785 I / D_explicit``.
+    family), stable while ``h < 2 I / (D_explicit - D_implicit)``. With an explicit stiffness
+    ``k`` (a servo's ``kp``) the step is an oscillator's, stable while
+    ``k h^2 + 2 h (D_explicit - D_implicit) < 4 I`` (Jury's test on its 2 x 2 step), which is
+    the stricter bound ``h < (sqrt(e^2 + 4 k I) - e) / k`` with ``e = D_explicit - D_implicit``:
+    a stiff servo on a light joint needs a small step even when all damping is implicit.
+    RK4 treats the model's
+    damping explicitly, stable while ``h < 2.785 I / D``; a kd written to ``ctrl`` is held
+    constant over the step (an Euler term), so with one the bound takes Euler's 2, which is
+    conservative for the mix (at ``h D / I = 2`` the RK4 step's multiplier stays in [-1, 1]).
 
     Attributes:
         implicit: Damping integrated implicitly.
         explicit: Damping integrated explicitly, the controller's ``kd`` included.
-        factor: 2 (Euler, implicit, implicitfast) or :data:`RK4_STABILITY`.
+        factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a
+            joint without a ``ctrl``-written kd :data:`RK4_STABILITY`.
         note: Why, in one sentence.
+        stiffness: Explicit stiffness per dof (0 under RK4, whose bound here is damping's
+            alone) [N m/rad].
     """
 
     implicit: Array
     explicit: Array
-    factor: float
+    factor: Array
     note: str
+    stiffness: Array | None = None
 
 
 def damping_split(
-    sim: Simulation, joint_damping: ArrayLike, servo: ArrayLike, kd: ArrayLike
+    sim: Simulation,
+    joint_damping: ArrayLike,
+    servo: ArrayLike,
+    kd: ArrayLike,
+    stiffness: ArrayLike = 0.0,
 ) -> DampingSplit:
     """Which damping the integrator treats implicitly, for the bound on the timestep.
 
@@ -313,33 +361,46 @@ def damping_split(
         joint_damping: Joint plus actuator damping per dof, b [N m s/rad].
         servo: Servo velocity feedback per dof, kv (:func:`servo_damping`) [N m s/rad].
         kd: Controller damping written to ``ctrl`` per dof [N m s/rad].
+        stiffness: Explicit stiffness per dof (:func:`servo_stiffness`) [N m/rad].
     """
+    split = _split(sim, joint_damping, servo, kd)
+    k = np.broadcast_to(np.asarray(stiffness, dtype=float), split.implicit.shape)
+    return replace(split, stiffness=np.zeros_like(k) if sim.integrator == "RK4" else k.copy())
+
+
+def _split(
+    sim: Simulation, joint_damping: ArrayLike, servo: ArrayLike, kd: ArrayLike
+) -> DampingSplit:
     b, kv, kd = (np.asarray(x, dtype=float) for x in np.broadcast_arrays(joint_damping, servo, kd))
-    zero = np.zeros_like(b)
+    zero, two = np.zeros_like(b), np.full_like(b, 2.0)
     if sim.integrator in ("implicit", "implicitfast"):
         return DampingSplit(
             b + kv,
             kd,
-            2.0,
+            two,
             f"{sim.integrator} integrates joint damping and servo kv implicitly; only a kd "
             "written to ctrl is explicit",
         )
     if sim.integrator == "RK4":
         return DampingSplit(
-            zero, b + kv + kd, RK4_STABILITY, "RK4 integrates all damping explicitly"
+            zero,
+            b + kv + kd,
+            np.where(kd > 0, 2.0, RK4_STABILITY),
+            "RK4 integrates all damping explicitly (stable to h D / I = 2.785; 2 with a kd "
+            "written to ctrl, which it holds over the step)",
         )
     if sim.eulerdamp:
         return DampingSplit(
             b,
             kv + kd,
-            2.0,
+            two,
             "Euler integrates joint damping implicitly; servo kv and a kd written to ctrl "
             "are explicit",
         )
     return DampingSplit(
         zero,
         b + kv + kd,
-        2.0,
+        two,
         "Euler with eulerdamp disabled integrates all damping explicitly, joint damping included",
     )
 
@@ -352,4 +413,12 @@ def max_stable_timestep(inertia: ArrayLike, split: DampingSplit) -> Array:
         split: The damping split (:func:`damping_split`).
     """
     bound = inertia_bound(inertia, split.explicit, split.implicit)  # 2 I / (D_e - D_i)
-    return bound * (split.factor / 2.0)
+    bound = bound * (split.factor / 2.0)
+    if split.stiffness is None or not np.any(split.stiffness > 0):
+        return bound
+    k = split.stiffness
+    e = split.explicit - split.implicit
+    inertia = np.asarray(inertia, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        oscillator = (np.sqrt(e * e + 4.0 * k * inertia) - e) / np.where(k > 0, k, 1.0)
+    return np.where(k > 0, oscillator, bound)

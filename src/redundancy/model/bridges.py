@@ -7,6 +7,7 @@ seen different arms.
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -17,6 +18,8 @@ from numpy.typing import NDArray
 
 from ..engines.pinocchio import joint_kind
 from ..errors import UnsupportedFeatureError
+from .names import body_name
+from .support import inertia_causes
 
 Array = NDArray[np.float64]
 
@@ -86,13 +89,23 @@ def bridge(
     damping: Array,
     lower: Array,
     upper: Array,
+    xml_root: ET.Element | None = None,
 ) -> tuple[Bridge, ...]:
     """Copy into Pinocchio what its MJCF parser leaves out or reads differently.
 
     Each value is compared first and copied only when Pinocchio's differs, so the list
-    says exactly where the engines would otherwise have seen different arms.
+    says exactly where the engines would otherwise have seen different arms. Bridged: effort
+    limits, armature, damping and joint ranges per dof; gravity (``<option gravity>`` and
+    ``<flag gravity="disable"/>``); the pose of a fixed root body; the mass, centre of mass
+    and inertia of bodies whose inertia Pinocchio derives from what it reads differently
+    (see :func:`redundancy.model.support.inertia_causes`, which needs ``xml_root``); a site
+    placed by site defaults.
     """
     bridges: list[Bridge] = []
+    # The root pose first: the site bridge below compares frames placed from the root.
+    bridges += _bridge_root_pose(pm, mm)
+    if xml_root is not None:
+        bridges += _bridge_inertia(pm, mm, inertia_causes(xml_root, mm))
     # Per-dof values Pinocchio keeps in a vector of its own: (name, its vector, ours, source).
     per_dof = (
         (
@@ -119,9 +132,14 @@ def bridge(
         if (pm.lowerPositionLimit[k], pm.upperPositionLimit[k]) != rng:
             bridges.append(Bridge("joint range", name, rng, "jnt_range and jnt_limited"))
             pm.lowerPositionLimit[k], pm.upperPositionLimit[k] = rng
-    g = mm.opt.gravity.copy()
+    g = effective_gravity(mm)
     if not np.array_equal(pm.gravity.linear, g):
-        bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), "<option gravity>"))
+        source = (
+            '<flag gravity="disable"/>'
+            if mm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
+            else "<option gravity>"
+        )
+        bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), source))
         pm.gravity = pin.Motion(g, np.zeros(3))
     bridges += _bridge_site(pm, mm, joint_names, site)
     return tuple(bridges)
@@ -145,16 +163,18 @@ def _bridge_site(
         q[pm.joints[pm.getJointId(name)].idx_q] = mm.qpos0[i]
     pin.framesForwardKinematics(pm, pd, q)
     sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
-    fid = pm.getFrameId(site)
+    # An MJCF site is an OP_FRAME (a body or joint may share its name); a URDF tool is a link.
+    op = pin.FrameType.OP_FRAME
+    fid = pm.getFrameId(site, op) if pm.existFrame(site, op) else pm.getFrameId(site)
     site_mj = pin.SE3(data.site_xmat[sid].reshape(3, 3).copy(), data.site_xpos[sid].copy())
     if np.max(np.abs((site_mj.inverse() * pd.oMf[fid]).homogeneous - np.eye(4))) < 1e-12:
         return []
     body = mm.site_bodyid[sid]
     bname = mujoco.mj_id2name(mm, mujoco.mjtObj.mjOBJ_BODY, body) or ""
     body_mj = pin.SE3(data.xmat[body].reshape(3, 3).copy(), data.xpos[body].copy())
-    if not pm.existFrame(bname):
+    if not pm.existFrame(bname, pin.FrameType.BODY):
         return []
-    bf = pm.getFrameId(bname)
+    bf = pm.getFrameId(bname, pin.FrameType.BODY)
     if np.max(np.abs((body_mj.inverse() * pd.oMf[bf]).homogeneous - np.eye(4))) > 1e-12:
         return []
     frame = pm.frames[fid]
@@ -169,3 +189,132 @@ def _bridge_site(
             "site_pos and site_quat (site defaults)",
         )
     ]
+
+
+def effective_gravity(mm: mujoco.MjModel) -> Array:
+    """The gravity MuJoCo simulates [m/s^2]: ``opt.gravity``, or zero when the flag disables it."""
+    if mm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+        return np.zeros(3)
+    return mm.opt.gravity.copy()
+
+
+def _root_body(mm: mujoco.MjModel) -> int | None:
+    """The first body in ``<worldbody>`` (the one Pinocchio's parser reads), if any."""
+    roots = [b for b in range(1, mm.nbody) if mm.body_parentid[b] == 0]
+    return roots[0] if roots else None
+
+
+def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
+    """Place a posed fixed root body where MuJoCo places it.
+
+    Pinocchio's parser attaches a root body without joints to the world at the identity and
+    drops its ``pos``/``quat`` (``addRootJoint``), so everything below it sits where the root
+    pose would have put it without the pose (measured: a site 1.65 m off on a UR5e). Every
+    joint and frame attached to Pinocchio's world is moved by that pose: the joint
+    placements of the root's child joints and the frames (bodies, fixed bodies, sites)
+    whose parent joint is the world.
+    """
+    root = _root_body(mm)
+    if root is None or mm.body_jntnum[root] > 0:
+        return []  # a root with a joint: Pinocchio composes its pose into the joint placement
+    pos, quat = mm.body_pos[root].copy(), mm.body_quat[root].copy()
+    if not (np.any(pos != 0) or np.any(quat != [1, 0, 0, 0])):
+        return []
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    pose = pin.SE3(rot.reshape(3, 3), pos)
+    for j in range(1, pm.njoints):
+        if pm.parents[j] == 0:
+            pm.jointPlacements[j] = pose * pm.jointPlacements[j]
+    for f in range(1, len(pm.frames)):
+        frame = pm.frames[f]
+        if frame.parentJoint == 0:
+            frame.placement = pose * frame.placement
+            pm.frames[f] = frame
+    return [
+        Bridge(
+            "root pose",
+            body_name(mm, root),
+            tuple(float(x) for x in (*pos, *quat)),
+            "body_pos and body_quat of the fixed root body (pos, then quat w x y z)",
+        )
+    ]
+
+
+def _mujoco_joint_inertias(mm: mujoco.MjModel) -> dict[int, pin.Inertia]:
+    """MuJoCo's compiled inertia of each joint's bodies, in Pinocchio's joint frame.
+
+    A joint moves its body and every body welded to it; Pinocchio's joint frame is the body
+    frame shifted to the joint's ``pos`` (MJCF joints have no orientation). Computed at
+    ``qpos0`` from MuJoCo's world poses: the relative placements do not depend on the pose.
+    """
+    data = mujoco.MjData(mm)
+    mujoco.mj_kinematics(mm, data)  # body and inertial frames at qpos0 (world placements)
+    out: dict[int, pin.Inertia] = {}
+    for j in range(mm.njnt):
+        b = int(mm.jnt_bodyid[j])
+        joint_world = pin.SE3(
+            data.xmat[b].reshape(3, 3).copy(),
+            data.xpos[b] + data.xmat[b].reshape(3, 3) @ mm.jnt_pos[j],
+        )
+        total = pin.Inertia.Zero()
+        for w in range(1, mm.nbody):
+            if mm.body_weldid[w] != b:
+                continue
+            local = pin.Inertia(
+                float(mm.body_mass[w]), np.zeros(3), np.diag(mm.body_inertia[w].astype(float))
+            )
+            inertial_world = pin.SE3(data.ximat[w].reshape(3, 3).copy(), data.xipos[w].copy())
+            total += (joint_world.inverse() * inertial_world).act(local)
+        out[j] = total
+    return out
+
+
+def _inertia_differs(a: pin.Inertia, b: pin.Inertia, tol: float = 1e-12) -> bool:
+    scale = max(1.0, abs(a.mass), abs(b.mass))
+    return bool(
+        abs(a.mass - b.mass) > tol * scale
+        or np.max(np.abs(a.lever - b.lever)) > tol
+        or np.max(np.abs(a.inertia - b.inertia)) > tol * scale
+    )
+
+
+def _bridge_inertia(
+    pm: pin.Model, mm: mujoco.MjModel, causes: dict[int, tuple[str, ...]]
+) -> list[Bridge]:
+    """Copy MuJoCo's mass, centre of mass and inertia where Pinocchio computed its own.
+
+    Only joints carrying a body of ``causes`` (inertia summed from geoms, or changed by a
+    compiler option) are considered, and each is copied only when Pinocchio's value differs;
+    a body read from an explicit ``<inertial>`` is never overwritten, so an unexplained
+    difference there stays a difference in :func:`redundancy.compare_models`.
+    """
+    if not causes:
+        return []
+    ours = _mujoco_joint_inertias(mm)
+    bridges: list[Bridge] = []
+    for j, mine in ours.items():
+        b = int(mm.jnt_bodyid[j])
+        welded = [w for w in range(1, mm.nbody) if mm.body_weldid[w] == b]
+        if not any(w in causes for w in welded):
+            continue
+        name = mujoco.mj_id2name(mm, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
+        if not pm.existJointName(name):
+            continue
+        jid = pm.getJointId(name)
+        if not _inertia_differs(pm.inertias[jid], mine):
+            continue
+        pm.inertias[jid] = mine
+        reasons = [c for w in welded for c in causes.get(w, ())]
+        bodies = ", ".join(body_name(mm, w) for w in welded)
+        bridges.append(
+            Bridge(
+                "body inertia",
+                bodies,
+                (float(mine.mass), *(float(x) for x in mine.lever)),
+                "body_mass, body_ipos, body_iquat and body_inertia (mass, then centre of mass "
+                "in the joint frame); "
+                + ("; ".join(reasons) if reasons else "Pinocchio's parser sums the geoms itself"),
+            )
+        )
+    return bridges

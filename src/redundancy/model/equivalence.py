@@ -3,16 +3,24 @@
 Quantities are compared in the world frame at a reference pose, so that Pinocchio's and
 MuJoCo's different internal frames (joint frame vs body frame, lumped fixed bodies) do not
 matter; only what the physics depends on is compared.
+
+The report also lists what MuJoCo *simulates* that neither engine's numbers (mass matrix,
+gravity torque, Jacobian) include: body gravity compensation, limits that differ per
+direction, friction loss, joint springs, the integrator and the flags that change it. Two
+engines agreeing says nothing about those; the report says they are there.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+import mujoco
 import numpy as np
 
 from ..arm import Arm
-from .bridges import Bridge
+from ..errors import RedundancyError
+from .bridges import Bridge, effective_gravity
+from .names import display_names
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,26 @@ def _fmt(x: object) -> str:
 
 
 @dataclass(frozen=True)
+class SimulatedOnly:
+    """Something MuJoCo simulates that neither engine's numbers include.
+
+    Attributes:
+        feature: e.g. ``"gravity compensation"``, ``"asymmetric force range"``.
+        item: Body, joint, actuator or ``"model"``.
+        value: The model's value (text).
+        effect: What it changes in the simulated arm, and what the numbers leave out.
+    """
+
+    feature: str
+    item: str
+    value: str
+    effect: str
+
+    def __str__(self) -> str:
+        return f"{self.feature} ({self.item}: {self.value}): {self.effect}"
+
+
+@dataclass(frozen=True)
 class EquivalenceReport:
     """Result of :func:`compare_models`.
 
@@ -57,12 +85,16 @@ class EquivalenceReport:
         bridges: Values copied from MuJoCo into Pinocchio because its parser does not read them.
         tol: Absolute tolerance used [SI units of each quantity].
         checked: Names of the quantities compared.
+        largest: Largest absolute difference per compared quantity, within tolerance or not.
+        simulated: What MuJoCo simulates that neither engine's numbers include.
     """
 
     differences: tuple[Difference, ...]
     bridges: tuple[Bridge, ...]
     tol: float
     checked: tuple[str, ...]
+    largest: dict[str, float] = field(default_factory=dict)
+    simulated: tuple[SimulatedOnly, ...] = ()
 
     @property
     def equivalent(self) -> bool:
@@ -79,15 +111,16 @@ class EquivalenceReport:
             out += [f"DIFFERS  {d}" for d in self.differences]
         else:
             out.append("no differences")
-        by_kind: dict[str, list[Bridge]] = {}
+        by_kind: dict[tuple[str, str], list[Bridge]] = {}
         for b in self.bridges:
-            by_kind.setdefault(b.quantity, []).append(b)
-        for kind, items in by_kind.items():
+            by_kind.setdefault((b.quantity, b.source), []).append(b)
+        for (kind, source), items in by_kind.items():
             vals = ", ".join(f"{b.joint}={b.value_text}" for b in items)
             out.append(
-                f"BRIDGED  {kind} (from MuJoCo's {items[0].source}; Pinocchio's parser does "
+                f"BRIDGED  {kind} (from MuJoCo's {source}; Pinocchio's parser does "
                 f"not read it as MuJoCo does): {vals}"
             )
+        out += [f"SIMULATED  {s}" for s in self.simulated]
         return out
 
 
@@ -99,10 +132,13 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         q: Reference pose [rad or m]; defaults to zeros clipped into the joint ranges.
         tol: Absolute tolerance [SI units].
     """
+    if not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol >= 0):
+        raise RedundancyError(f"tol must be a finite number >= 0, got {tol!r}")
     mj, pn = arm.mujoco, arm.pinocchio
     q = np.clip(np.zeros(arm.nq), arm.lower, arm.upper) if q is None else arm.pose(q)
     names = arm.joint_names
     diffs: list[Difference] = []
+    largest: dict[str, float] = {}
 
     def cmp(quantity: str, item: str, a: object, b: object) -> None:
         a_arr, b_arr = np.asarray(a, float), np.asarray(b, float)
@@ -113,6 +149,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
             same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
         )
         e = float(np.max(err)) if err.size else 0.0
+        largest[quantity] = max(largest.get(quantity, 0.0), e)
         if e > tol:
             diffs.append(Difference(quantity, item, a, b, e))
 
@@ -166,7 +203,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     p_p, R_p = pn.site_pose(q)
     cmp("site position", arm.site, p_m, p_p)
     cmp("site orientation", arm.site, R_m, R_p)
-    cmp("gravity vector", "model", arm.mj_model.opt.gravity, np.asarray(pm.gravity.linear))
+    cmp("gravity vector", "model", effective_gravity(arm.mj_model), np.asarray(pm.gravity.linear))
     checked = (
         "parent joint",
         "joint type",
@@ -181,7 +218,9 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         "site frame",
         "gravity",
     )
-    return EquivalenceReport(tuple(diffs), arm.bridges, tol, checked)
+    return EquivalenceReport(
+        tuple(diffs), arm.bridges, tol, checked, largest, simulated_only(arm.mj_model)
+    )
 
 
 def _mj_joint_of_body(arm: Arm, body: int) -> str:
@@ -192,3 +231,167 @@ def _mj_joint_of_body(arm: Arm, body: int) -> str:
     if body == 0:
         return ""
     return arm.joint_names[m.body_jntadr[body]]
+
+
+_INTEGRATORS = {
+    int(mujoco.mjtIntegrator.mjINT_EULER): "Euler",
+    int(mujoco.mjtIntegrator.mjINT_RK4): "RK4",
+    int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
+    int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast",
+}
+
+
+def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
+    """What MuJoCo simulates for this model that neither engine's numbers include.
+
+    Read from MuJoCo's compiled model: per-body ``gravcomp``; force, control and joint
+    actuator-force ranges that differ per direction; friction loss and joint springs; the
+    integrator; ``eulerdamp`` and ``gravity`` flags and any other disabled physics.
+
+    Args:
+        model: MuJoCo's compiled model.
+    """
+    out: list[SimulatedOnly] = []
+    bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
+    joints = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    actuators = [
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator {a}"
+        for a in range(model.nu)
+    ]
+    gravity_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+    for b in range(1, model.nbody):
+        gc = float(model.body_gravcomp[b])
+        if gc != 0:
+            out.append(
+                SimulatedOnly(
+                    "gravity compensation",
+                    f"body {bodies[b]}",
+                    f"gravcomp={gc:g}",
+                    f"MuJoCo pushes up {gc:g} x the body's weight at its centre of mass, so the "
+                    "motors hold gravity minus that; the gravity torque both engines give "
+                    "leaves it out",
+                )
+            )
+    for j in range(model.njnt):
+        if model.jnt_actgravcomp[j] and np.any(model.body_gravcomp != 0):
+            out.append(
+                SimulatedOnly(
+                    "gravity compensation through the actuators",
+                    f"joint {joints[j]}",
+                    "actuatorgravcomp=true",
+                    "the compensation is added to the actuator force and clamped by its "
+                    "force range, not applied as a free external force",
+                )
+            )
+    for a in range(model.nu):
+        motor_like = (
+            model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
+            and model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
+        )
+        ranges = []
+        if model.actuator_forcelimited[a]:
+            ranges.append(("force range", model.actuator_forcerange[a]))
+        if model.actuator_ctrllimited[a] and motor_like:
+            ranges.append(("control range", model.actuator_ctrlrange[a]))
+        for what, (lo, hi) in ranges:
+            if lo != -hi:
+                out.append(
+                    SimulatedOnly(
+                        f"asymmetric {what}",
+                        f"actuator {actuators[a]}",
+                        f"[{lo:g}, {hi:g}]",
+                        "the limit differs per direction; an effort limit of "
+                        f"max(|lo|, |hi|) = {max(abs(lo), abs(hi)):g} overstates the "
+                        f"{'negative' if abs(lo) < abs(hi) else 'positive'} direction",
+                    )
+                )
+    friction: list[str] = []
+    for j in range(model.njnt):
+        dof = model.jnt_dofadr[j]
+        if model.jnt_actfrclimited[j]:
+            lo, hi = model.jnt_actfrcrange[j]
+            if lo != -hi:
+                out.append(
+                    SimulatedOnly(
+                        "asymmetric actuator force range",
+                        f"joint {joints[j]}",
+                        f"[{lo:g}, {hi:g}]",
+                        "the joint's actuator force is clamped per direction",
+                    )
+                )
+        if model.dof_frictionloss[dof] > 0:
+            friction.append(f"{joints[j]}={model.dof_frictionloss[dof]:g}")
+        if model.jnt_stiffness[j] > 0:
+            out.append(
+                SimulatedOnly(
+                    "joint spring",
+                    f"joint {joints[j]}",
+                    f"stiffness={model.jnt_stiffness[j]:g}, springref={model.qpos_spring[j]:g}",
+                    "MuJoCo adds -stiffness x (q - springref); the gravity torque leaves it out",
+                )
+            )
+    if friction:
+        out.append(
+            SimulatedOnly(
+                "friction loss",
+                "joints",
+                ", ".join(friction),
+                "MuJoCo resists motion with up to this much dry friction [N m or N]; the "
+                "gravity and hold numbers leave it out",
+            )
+        )
+    integrator = _INTEGRATORS.get(int(model.opt.integrator), str(model.opt.integrator))
+    euler = integrator == "Euler"
+    eulerdamp_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+    out.append(
+        SimulatedOnly(
+            "integrator",
+            "model",
+            f"{integrator}, timestep {model.opt.timestep:g} s",
+            {
+                "Euler": "joint damping is integrated implicitly (eulerdamp), actuator "
+                "damping (position kv, velocity actuators) explicitly",
+                "RK4": "everything is integrated explicitly",
+                "implicit": "joint and actuator damping are integrated implicitly",
+                "implicitfast": "joint and actuator damping are integrated implicitly",
+            }.get(integrator, "see MuJoCo's documentation"),
+        )
+    )
+    if eulerdamp_off:
+        out.append(
+            SimulatedOnly(
+                "eulerdamp disabled",
+                "model",
+                '<flag eulerdamp="disable"/>',
+                "joint damping is integrated explicitly: the explicit stability bound on the "
+                "timestep applies to it"
+                if euler
+                else f"no effect under the {integrator} integrator",
+            )
+        )
+    if gravity_off:
+        out.append(
+            SimulatedOnly(
+                "gravity disabled",
+                "model",
+                '<flag gravity="disable"/>',
+                "MuJoCo simulates without gravity; both engines' gravity torque is zero "
+                f"(Pinocchio's gravity is bridged), whatever <option gravity> says "
+                f"({' '.join(f'{g:g}' for g in model.opt.gravity)})",
+            )
+        )
+    known = int(mujoco.mjtDisableBit.mjDSBL_GRAVITY) | int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+    for key, bit in mujoco.mjtDisableBit.__members__.items():
+        if key == "mjNDISABLE" or int(bit) & known:
+            continue
+        if int(bit) & int(model.opt.disableflags):
+            name = bit.name.removeprefix("mjDSBL_").lower()
+            out.append(
+                SimulatedOnly(
+                    f"{name} disabled",
+                    "model",
+                    f'<flag {name}="disable"/>',
+                    "MuJoCo leaves this part of the physics out of the simulation",
+                )
+            )
+    return tuple(out)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import codecs
+import math
 import os
 import re
 import tempfile
@@ -16,7 +17,7 @@ from ..arm import Arm
 from ..engines.mujoco import captured_warnings, object_names
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
-from .bridges import bridge, check_pinocchio
+from .bridges import Bridge, bridge, check_pinocchio
 from .support import check_supported
 from .urdf import (
     DisabledPairs,
@@ -190,10 +191,10 @@ def load(
     if as_is:
         mj = _read_mujoco(None, p)
         check_supported(mj, root, strict)
-        return _build(mj, _read_pinocchio(p), tool, str(p), recipe)
+        return _build(mj, _read_pinocchio(p), tool, str(p), recipe, xml_root=root)
     mj = _read_mujoco(text, None, p.resolve().parent)
     check_supported(mj, root, strict)
-    return _build(mj, _pinocchio_from_text(text), tool, str(p), recipe)
+    return _build(mj, _pinocchio_from_text(text), tool, str(p), recipe, xml_root=root)
 
 
 def load_string(
@@ -231,7 +232,7 @@ def load_string(
         )
     mj = _read_mujoco(xml, None)
     check_supported(mj, root, strict)
-    return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe)
+    return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe, xml_root=root)
 
 
 def model_format(arm: Arm) -> str:
@@ -288,7 +289,7 @@ def _load_urdf(
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, tool)
     disabled = read_disabled_pairs(pairs, tree)
-    pm = build_pinocchio(text, source)
+    pm, continuous = build_pinocchio(text, source)
     clash = frame_clash(pm, tool_link)
     if clash:
         raise UnsupportedFeatureError(
@@ -301,7 +302,16 @@ def _load_urdf(
     # URDF inertials are explicit and the joints are checked above: only the generic
     # refusals apply (non-finite values, negative damping, inverted ranges, several trees).
     check_supported(mj, None, strict=False)
-    return _build(mj, pm, tool_link, source, recipe)
+    rebuilt = tuple(
+        Bridge(
+            "continuous joint as one angle",
+            name,
+            (-math.inf, math.inf),
+            "URDF continuous joint (Pinocchio's parser makes it a cos/sin pair)",
+        )
+        for name in continuous
+    )
+    return _build(mj, pm, tool_link, source, recipe, rebuilt)
 
 
 def _build(
@@ -310,8 +320,13 @@ def _build(
     site: str,
     source: str,
     recipe: tuple[object, tuple[object, ...]],
+    bridged: tuple[Bridge, ...] = (),
+    xml_root: ET.Element | None = None,
 ) -> Arm:
-    """Check that both engines see the same joints and tool, bridge, and build the Arm."""
+    """Check that both engines see the same joints and tool, bridge, and build the Arm.
+
+    ``bridged`` lists what the loader has already changed in Pinocchio's model.
+    """
     sites = object_names(mj, mujoco.mjtObj.mjOBJ_SITE)
     if site not in sites:
         raise UnknownNameError("site", site, [s for s in sites if s])
@@ -325,7 +340,7 @@ def _build(
     armature = mj.dof_armature + actuator_armature(mj)
     damping = mj.dof_damping + actuator_damping(mj)
     effort = joint_force_limits(mj)
-    bridges = bridge(
+    bridges = bridged + bridge(
         pm,
         mj,
         joint_names,
@@ -335,6 +350,7 @@ def _build(
         damping,
         lower,
         upper,  # type: ignore[arg-type]
+        xml_root=xml_root,
     )
     return Arm(
         mj,

@@ -14,6 +14,18 @@ import numpy as np
 from ..engines.mujoco import JOINT_TYPES as _JOINT_TYPES
 from ..engines.mujoco import object_names as _names
 from ..errors import ModelError, UnsupportedFeatureError
+from .names import body_name, display_names, geom_name
+
+#: Geom types Pinocchio's MJCF parser cannot read at all (it raises on them).
+_UNREADABLE_GEOMS = {int(mujoco.mjtGeom.mjGEOM_SDF), int(mujoco.mjtGeom.mjGEOM_HFIELD)}
+#: Joint names Pinocchio gives its own joints: its parser corrupts its heap and aborts the
+#: process on a joint of that name (measured with Pinocchio 4.1: ``realloc(): invalid next
+#: size``, exit 134), so the name is refused before Pinocchio is called.
+RESERVED_JOINT_NAMES = ("universe",)
+#: Compiler options that change masses: Pinocchio's parser ignores ``settotalmass`` and
+#: applies ``boundmass`` / ``boundinertia`` to ``<inertial>`` elements only; ``inertiagrouprange``
+#: it ignores (it counts every geom that is not visual).
+_MASS_OPTIONS = ("settotalmass", "boundmass", "boundinertia")
 
 
 def check_supported(
@@ -46,9 +58,10 @@ def check_supported(
             "no joints", "model", "an arm needs at least one hinge or slide joint"
         )
     names = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    joint_labels = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for j in range(model.njnt):
         kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
-        where = f"joint {names[j]!r}" if names[j] else f"joint #{j}"
+        where = f"joint {joint_labels[j]!r}"
         if kind in ("ball", "free"):
             raise UnsupportedFeatureError(
                 f"{kind} joint",
@@ -61,7 +74,9 @@ def check_supported(
                 where,
                 "joints are matched across engines by name; name every joint",
             )
-    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    bodies = list(display_names(model, mujoco.mjtObj.mjOBJ_BODY))
+    geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
+    sites = display_names(model, mujoco.mjtObj.mjOBJ_SITE)
     # Values no arm can have: MuJoCo compiles some of them (an infinite pos, a NaN axis, a
     # negative armature, range="1 -1") and both engines would then compute nonsense.
     arrays = {
@@ -75,21 +90,19 @@ def check_supported(
         "jnt_range": (model.jnt_range, names, "joint"),
         "dof_armature": (model.dof_armature, names, "joint"),
         "dof_damping": (model.dof_damping, names, "joint"),
-        "geom_pos": (model.geom_pos, _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom), "geom"),
-        "geom_size": (
-            model.geom_size,
-            _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom),
-            "geom",
-        ),
-        "site_pos": (model.site_pos, _names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite), "site"),
+        "geom_pos": (model.geom_pos, geoms, "geom"),
+        "geom_size": (model.geom_size, geoms, "geom"),
+        "site_pos": (model.site_pos, sites, "site"),
     }
     for field, (values, labels, kind) in arrays.items():
+        if len(values) == 0:  # a model without geoms or sites
+            continue
         bad = ~np.isfinite(np.asarray(values, dtype=float).reshape(len(values), -1)).all(axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise ModelError(
                 f"non-finite value in the compiled model: {field} of {kind} "
-                f"{labels[i] or f'#{i}'!r} is {np.asarray(values[i]).tolist()}"
+                f"{labels[i]!r} is {np.asarray(values[i]).tolist()}"
             )
     if not np.isfinite(model.opt.gravity).all():
         raise ModelError(
@@ -138,30 +151,17 @@ def check_supported(
             "Pinocchio's MJCF parser reads only the first body in <worldbody>; "
             "nest them in one body",
         )
+    for g in range(model.ngeom):
+        if int(model.geom_type[g]) in _UNREADABLE_GEOMS:
+            raise UnsupportedFeatureError(
+                "sdf or height-field geom",
+                f"geom {geom_name(model, g)!r}",
+                "Pinocchio's MJCF parser cannot read it; use primitive or mesh geoms",
+            )
+    if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
+        check_names(model)
     if not strict:
         return
-    root = root_bodies[0]
-    posed = np.any(model.body_pos[root] != 0) or np.any(model.body_quat[root] != [1, 0, 0, 0])
-    if model.body_jntnum[root] == 0 and posed:
-        raise UnsupportedFeatureError(
-            "fixed root body with a pose",
-            f"body {bodies[root]!r}",
-            "Pinocchio's MJCF parser drops the pose of a root body without joints; "
-            "move its pos/quat to its children",
-        )
-    for g in range(model.ngeom):
-        non_primitive = (
-            mujoco.mjtGeom.mjGEOM_MESH,
-            mujoco.mjtGeom.mjGEOM_SDF,
-            mujoco.mjtGeom.mjGEOM_HFIELD,
-        )
-        if int(model.geom_type[g]) in {int(t) for t in non_primitive}:
-            gname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
-            raise UnsupportedFeatureError(
-                "mesh, sdf or height-field geom",
-                f"geom {gname!r}",
-                "Pinocchio's MJCF parser gives meshes a placeholder inertia; use primitive geoms",
-            )
     if xml_root is not None:
         check_xml(xml_root)
 
@@ -244,8 +244,27 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
                 "Pinocchio's MJCF parser cannot compute it; "
                 "use a solid geom or an explicit <inertial>",
             )
+    tags = [child.tag for child in root]
+    if tags.count("worldbody") > 1:
+        raise UnsupportedFeatureError(
+            "several <worldbody> elements",
+            f"{tags.count('worldbody')} in the model",
+            "Pinocchio's MJCF parser reads the first one again for each of them; "
+            "merge them into one",
+        )
     if not strict:
         return
+    if "worldbody" in tags:
+        first_body = tags.index("worldbody")
+        for later in ("compiler", "default"):
+            if later in tags[first_body:]:
+                raise UnsupportedFeatureError(
+                    f"<{later}> after <worldbody>",
+                    f"<{later}>",
+                    "Pinocchio's MJCF parser reads the file in order and applies it only to "
+                    f"what follows (MuJoCo applies it everywhere); move <{later}> before "
+                    "<worldbody>",
+                )
     compiler = root.find("compiler")
     seq = compiler.get("eulerseq", "xyz") if compiler is not None else "xyz"
     if seq != seq.lower():
@@ -254,15 +273,6 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             f"<compiler eulerseq={seq!r}>",
             "Pinocchio's MJCF parser reads it as intrinsic",
         )
-    for el in root.iter("compiler"):
-        for attr in ("boundmass", "boundinertia", "settotalmass", "inertiagrouprange"):
-            if el.get(attr) is not None:
-                raise UnsupportedFeatureError(
-                    f"compiler {attr}",
-                    f"<compiler {attr}={el.get(attr)!r}>",
-                    "Pinocchio's MJCF parser ignores it, so the engines' masses would differ; "
-                    "write the masses and inertias out",
-                )
     for el in root.iter():
         aa = el.get("axisangle")
         if aa is not None:
@@ -288,16 +298,6 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
         )
     for default in root.iter("default"):
         where = f"<default class={default.get('class', 'main')!r}>"
-        for geom in default.findall("geom"):
-            # mass 0 on visual-only geoms is harmless: Pinocchio leaves those out of the inertia.
-            visual = geom.get("contype") == "0" and geom.get("conaffinity") == "0"
-            if geom.get("mass") is not None and not (visual and float(geom.get("mass", 1)) == 0):
-                raise UnsupportedFeatureError(
-                    "geom mass in a default class",
-                    where,
-                    "Pinocchio's MJCF parser ignores a default geom mass (it reads density); "
-                    "give the mass on each geom",
-                )
         for joint in default.findall("joint"):
             if joint.get("pos") is not None:
                 raise UnsupportedFeatureError(
@@ -336,3 +336,206 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
 
     for world in root.iter("worldbody"):
         walk(world, None)
+
+
+def check_names(model: mujoco.MjModel) -> None:
+    """Refuse names Pinocchio cannot tell apart, before Pinocchio reads the model.
+
+    Pinocchio makes one frame per body, joint and site (and ``<body>_fixed`` for a body
+    without a joint) and finds a site's frame by name: a site named like another frame makes
+    that lookup ambiguous ("Several frames match the filter"). A joint named ``universe``
+    aborts Pinocchio's parser. Bodies and joints may share a name: the library looks their
+    frames up with the frame type.
+
+    Raises:
+        UnsupportedFeatureError: A reserved joint name or a site named like another frame.
+    """
+    joints = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    for n in joints:
+        if n in RESERVED_JOINT_NAMES:
+            raise UnsupportedFeatureError(
+                f"joint named {n!r}",
+                f"joint {n!r}",
+                f"Pinocchio reserves the name {n!r} for its world joint (its parser aborts on "
+                "it); rename the joint",
+            )
+    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    owners: dict[str, str] = {}
+    for b in range(1, model.nbody):
+        if bodies[b]:
+            owners.setdefault(bodies[b], f"body {bodies[b]!r}")
+            if model.body_jntnum[b] == 0:
+                owners.setdefault(
+                    f"{bodies[b]}_fixed", f"the frame Pinocchio names after body {bodies[b]!r}"
+                )
+    for n in joints:
+        owners.setdefault(n, f"joint {n!r}")
+    for s in _names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite):
+        if s and s in owners:
+            raise UnsupportedFeatureError(
+                "site named like another frame",
+                f"site {s!r} and {owners[s]}",
+                "Pinocchio makes one frame per body, joint and site and finds a site by name; "
+                "give the site a name of its own",
+            )
+
+
+class _Defaults:
+    """MuJoCo's default classes: an element's attribute as MuJoCo resolves it."""
+
+    def __init__(self, root: ET.Element) -> None:
+        self.elements: dict[str, dict[str, dict[str, str]]] = {}
+        self.parent: dict[str, str | None] = {}
+        for top in root.findall("default"):
+            self._add(top, None)
+
+    def _add(self, el: ET.Element, parent: str | None) -> None:
+        name = el.get("class", "main")
+        self.parent.setdefault(name, parent)
+        tags = self.elements.setdefault(name, {})
+        for child in el:
+            if child.tag == "default":
+                self._add(child, name)
+            else:
+                tags.setdefault(child.tag, {}).update(child.attrib)
+
+    def lookup(self, cls: str, tag: str, attr: str) -> tuple[str, str] | None:
+        """(value, class it was found in) for ``attr`` of ``tag`` in ``cls`` or its parents."""
+        seen: set[str] = set()
+        current: str | None = cls
+        while current is not None and current not in seen:
+            seen.add(current)
+            value = self.elements.get(current, {}).get(tag, {}).get(attr)
+            if value is not None:
+                return value, current
+            current = self.parent.get(current)
+        return None
+
+
+def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[str, ...]]:
+    """Bodies whose inertia Pinocchio's parser derives from what it reads differently.
+
+    Pinocchio's MJCF parser (4.1, ``mjcf-graph.cpp``) takes a body's ``<inertial>`` when it
+    has one (and ``inertiafromgeom`` is not ``true``); otherwise it sums the body's geoms,
+    and there it differs from MuJoCo: a mesh geom gets a placeholder inertia (1 kg, unit
+    inertia); a geom's mass is read from the geom element only, not from its default class;
+    visual geoms (``contype = conaffinity = 0``) are left out although MuJoCo counts their
+    mass; ``inertiagrouprange`` is ignored. ``settotalmass``, ``boundmass`` and
+    ``boundinertia`` change MuJoCo's masses beyond what Pinocchio applies. Each such body is
+    returned with the causes found (possibly none: the body's inertia still comes from its
+    geoms), for :func:`redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
+    where Pinocchio's differs.
+
+    Args:
+        root: The parsed MJCF.
+        model: MuJoCo's compiled model of the same text.
+
+    Returns:
+        MuJoCo body id -> causes, for every body whose inertia may be read differently.
+        Empty when the XML's bodies cannot be matched one to one with the compiled model's.
+    """
+    compiler: dict[str, str] = {}
+    for el in root.iter("compiler"):
+        compiler.update(el.attrib)
+    from_geoms_always = compiler.get("inertiafromgeom", "auto") == "true"
+    group_range = [int(x) for x in compiler.get("inertiagrouprange", "0 5").split()[:2]]
+    global_causes = tuple(
+        f"<compiler {a}={compiler[a]!r}> (Pinocchio's parser does not apply it as MuJoCo does)"
+        for a in _MASS_OPTIONS
+        if a in compiler
+    )
+    defaults = _Defaults(root)
+    found: list[tuple[ET.Element, str | None]] = []
+
+    def walk(el: ET.Element, active: str | None) -> None:
+        for child in el:
+            if child.tag == "body":
+                inner = child.get("childclass", active)
+                found.append((child, inner))
+                walk(child, inner)
+            elif child.tag == "frame":
+                walk(child, child.get("childclass", active))
+
+    for world in root.findall("worldbody"):
+        walk(world, None)
+    if len(found) != model.nbody - 1:
+        return {}
+    out: dict[int, tuple[str, ...]] = {}
+    geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
+    for b, (el, active) in enumerate(found, start=1):
+        from_geoms = from_geoms_always or el.find("inertial") is None
+        if not from_geoms and not global_causes:
+            continue
+        causes = list(global_causes)
+        if not el.get("name"):
+            causes.append(
+                f"unnamed body {body_name(model, b)!r} (Pinocchio's parser names it after its "
+                "parent and can lose it)"
+            )
+        if any(f.iter("geom") for f in el.findall("frame")):
+            causes.append(
+                f"geoms inside <frame> in body {body_name(model, b)!r} (Pinocchio's parser "
+                "drops the contents of <frame>)"
+            )
+        elements = el.findall("geom")
+        if from_geoms and len(elements) == model.body_geomnum[b]:
+            for k, geom in enumerate(elements):
+                g = int(model.body_geomadr[b]) + k
+                causes += _geom_causes(
+                    model,
+                    g,
+                    geoms[g],
+                    geom,
+                    geom.get("class", active or "main"),
+                    defaults,
+                    group_range,
+                )
+        out[b] = tuple(causes)
+    return out
+
+
+def _geom_causes(
+    model: mujoco.MjModel,
+    g: int,
+    name: str,
+    el: ET.Element,
+    cls: str,
+    defaults: _Defaults,
+    group_range: list[int],
+) -> list[str]:
+    """What Pinocchio's parser reads differently from MuJoCo in one geom of a geom-sum body."""
+    visual = model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0
+    counted_by_mujoco = group_range[0] <= model.geom_group[g] <= group_range[1]
+    mass = el.get("mass")
+    from_class = defaults.lookup(cls, "geom", "mass") if mass is None else None
+    if from_class is not None:
+        mass = from_class[0]
+    density = el.get("density") or (defaults.lookup(cls, "geom", "density") or ("1000",))[0]
+    try:
+        has_mass = float(mass) != 0 if mass is not None else float(density) != 0
+    except ValueError:  # MuJoCo has refused such a value already
+        has_mass = True
+    causes = []
+    if not visual and not counted_by_mujoco:
+        causes.append(
+            f"geom {name!r} in group {model.geom_group[g]} outside inertiagrouprange "
+            "(Pinocchio's parser counts it)"
+        )
+    if visual:
+        if has_mass and counted_by_mujoco:
+            causes.append(
+                f"visual geom {name!r} has mass in MuJoCo (Pinocchio's parser leaves "
+                "contype=conaffinity=0 geoms out of the inertia)"
+            )
+        return causes
+    if int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_MESH):
+        causes.append(
+            f"mesh geom {name!r} (Pinocchio's parser gives a mesh a placeholder inertia: "
+            "1 kg, unit inertia)"
+        )
+    if from_class is not None:
+        causes.append(
+            f"geom {name!r} takes mass={from_class[0]} from default class {from_class[1]!r} "
+            "(Pinocchio's parser reads a geom's mass from the geom element only)"
+        )
+    return causes

@@ -394,6 +394,7 @@ def build_mujoco(
             spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
             for mesh in spec.meshes:
                 mesh.file = str(resolve_mesh(mesh.file, base, source))
+            _name_geoms(spec)
             body = spec.body(tool_link)
             if body is None:
                 raise ModelError(f"URDF {source}: MuJoCo has no body for link {tool_link!r}")
@@ -407,8 +408,28 @@ def build_mujoco(
         raise ModelError(f"MuJoCo could not compile the URDF {source}: {err}") from err
 
 
-def build_pinocchio(text: str, source: str) -> object:
+def _name_geoms(spec: mujoco.MjSpec) -> None:
+    """Name MuJoCo's unnamed URDF geoms after their link, so reports can say which is which.
+
+    A link's only collision geom takes the link's name, several take ``link/1``, ``link/2``...
+    (MuJoCo's URDF import leaves them unnamed; names already given are kept).
+    """
+    taken = {g.name for g in spec.geoms if g.name}
+    for body in spec.bodies:
+        unnamed = [g for g in body.geoms if not g.name]
+        for k, geom in enumerate(unnamed, 1):
+            name = body.name if len(unnamed) == 1 else f"{body.name}/{k}"
+            while name in taken:
+                name += "'"
+            geom.name = name
+            taken.add(name)
+
+
+def build_pinocchio(text: str, source: str) -> tuple[object, list[str]]:
     """Pinocchio's model of a URDF, continuous joints as one-coordinate unbounded revolutes.
+
+    Returns:
+        The model, and the names of the continuous joints that were rebuilt.
 
     Raises:
         ModelError: Pinocchio cannot read it (the message carries Pinocchio's).
@@ -420,6 +441,17 @@ def build_pinocchio(text: str, source: str) -> object:
     except Exception as err:  # Pinocchio raises bare RuntimeError/ValueError from C++.
         raise ModelError(f"Pinocchio could not read the URDF {source}: {err}") from err
     return _bounded_revolutes(model)
+
+
+def continuous_joints(model: object) -> list[str]:
+    """Names of the joints Pinocchio read as (cos, sin) pairs."""
+    kinds = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
+    kinds += ("JointModelRevoluteUnboundedUnaligned",)
+    return [
+        model.names[j]  # type: ignore[attr-defined]
+        for j in range(1, model.njoints)  # type: ignore[attr-defined]
+        if model.joints[j].shortname() in kinds  # type: ignore[attr-defined]
+    ]
 
 
 _NV_FIELDS = (
@@ -439,7 +471,7 @@ _NV_FIELDS = (
 _NQ_FIELDS = ("lowerPositionLimit", "upperPositionLimit", "positionLimitMargin")
 
 
-def _bounded_revolutes(model: object) -> object:
+def _bounded_revolutes(model: object) -> tuple[object, list[str]]:
     """Rebuild a Pinocchio model with each (cos, sin) revolute as a one-angle revolute.
 
     Same joint placements, inertias, frames and per-dof values; the configuration of a
@@ -452,8 +484,9 @@ def _bounded_revolutes(model: object) -> object:
     axes["JointModelRUBZ"] = pin.JointModelRZ
     unaligned = "JointModelRevoluteUnboundedUnaligned"
     kinds = [model.joints[j].shortname() for j in range(model.njoints)]
-    if not any(k in axes or k == unaligned for k in kinds):
-        return model
+    rebuilt = continuous_joints(model)
+    if not rebuilt:
+        return model, []
     new = pin.Model()
     new.name = model.name
     jmap = {0: 0}
@@ -491,7 +524,7 @@ def _bounded_revolutes(model: object) -> object:
                 out[b.idx_q : b.idx_q + b.nq] = old[a.idx_q : a.idx_q + a.nq]
         setattr(new, name, out)
     new.gravity = model.gravity
-    return new
+    return new, rebuilt
 
 
 def frame_clash(pin_model: object, name: str) -> list[str]:

@@ -17,10 +17,15 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.batch import BATCH_QUANTITIES, crosscheck_batch
-from ..analysis.crosscheck import TOLERANCES, Agreement, CrossCheckReport
+from ..analysis.crosscheck import (
+    BATCH_QUANTITIES,
+    TOLERANCES,
+    Agreement,
+    CrossCheckReport,
+    crosscheck_batch,
+)
 from ..arm import Arm
-from ..errors import RedundancyError
+from ..checks import check_count, check_number
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
 from .sections import GravityBudget, JointSection, KeyframeRow, Sections
@@ -183,12 +188,6 @@ def _clean(x: Any) -> Any:
 
 
 # -- the audit ------------------------------------------------------------------------------------
-def _check_count(name: str, value: object, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise RedundancyError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def audit(
     arm: Arm,
     n_poses: int = 10_000,
@@ -196,7 +195,7 @@ def audit(
     kd: float | None = None,
     computed: Sections | None = None,
     mode: str = "strict",
-    progress: Callable[[str], None] | None = None,
+    progress: Callable[[str], object] | None = None,
 ) -> AuditReport:
     """Audit an arm: every section of the report, and the findings.
 
@@ -213,23 +212,21 @@ def audit(
         progress: Called with a short label as each part starts.
 
     Raises:
-        RedundancyError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
+        ParameterError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
     """
-    n_poses = _check_count("n_poses", n_poses, 1)
-    seed = _check_count("seed", seed, 0)
-    if kd is not None and not (isinstance(kd, int | float) and math.isfinite(kd) and kd >= 0):
-        raise RedundancyError(f"kd must be a finite number >= 0 [N m s/rad], got {kd!r}")
+    n_poses = check_count("n_poses", n_poses, 1)
+    seed = check_count("seed", seed, 0)
+    kd = None if kd is None else check_number("kd", kd, 0.0, unit="N m s/rad")
     say = progress or (lambda label: None)
     if computed is None:
-        say("joints, keyframes, gravity and self-collision")
-        computed = sections.compute(arm, n_poses, seed, kd)
+        computed = sections.compute(arm, n_poses, seed, kd, progress=say)
     say("engine cross-check")
     engines = _engines(arm, n_poses, seed)
     findings = (
         _joint_findings(computed.joints)
         + _simulation_findings(computed)
         + _keyframe_findings(arm, computed)
-        + _gravity_findings(arm, computed.gravity)
+        + _gravity_findings(arm, computed.gravity, computed.joints)
         + _engine_findings(engines)
     )
     return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
@@ -287,8 +284,9 @@ def _joint_findings(j: JointSection) -> list[Finding]:
                     "timestep",
                     f"timestep {h * 1e3:.3g} ms is above joint {r.name!r}'s h_max "
                     f"{r.h_max * 1e3:.3g} ms (M_ii {r.m_ii:.4g} kg m^2, explicit damping "
-                    f"{r.explicit:g}, implicit {r.implicit:g} N m s/rad; {j.note}): the "
-                    "joint's speed will grow step by step",
+                    f"{r.explicit:g}, implicit {r.implicit:g} N m s/rad"
+                    + (f", explicit stiffness {r.stiffness:g} N m/rad" if r.stiffness else "")
+                    + f"; {j.note}): the joint's speed will grow step by step",
                 )
             )
     if h <= 0:
@@ -358,10 +356,18 @@ def _unheld(arm: Arm, k: KeyframeRow) -> list[Finding]:
     ]
 
 
-def _gravity_findings(arm: Arm, g: GravityBudget) -> list[Finding]:
+def _gravity_findings(arm: Arm, g: GravityBudget, j: JointSection) -> list[Finding]:
     out = []
     comp = " after gravity compensation" if g.gravcomp else ""
     for i, name in enumerate(arm.joint_names):
+        if not j.rows[i].actuated and g.peak[i] > 1e-9:
+            out.append(
+                Finding(
+                    "gravity",
+                    f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
+                    f"{g.peak[i]:.3g} N m: nothing in the model holds it",
+                )
+            )
         for count, (need, limit), side in (
             (g.over_low[i], g.worst_low[i], "negative"),
             (g.over_high[i], g.worst_high[i], "positive"),
@@ -414,6 +420,7 @@ def format_report(r: AuditReport) -> list[str]:
                 "share",
                 "b",
                 "kv",
+                "kp",
                 "kd",
                 "effort N m",
                 "M_ii",
@@ -429,6 +436,7 @@ def format_report(r: AuditReport) -> list[str]:
                     f"{100 * x.armature_share:.1f}%",
                     fmt(x.damping, 3),
                     fmt(x.servo_kv, 3),
+                    fmt(x.stiffness, 3),
                     fmt(x.kd, 3),
                     f"[{fmt(x.effort_lower, 3)}, {fmt(x.effort_upper, 3)}]"
                     if x.actuated
@@ -439,7 +447,7 @@ def format_report(r: AuditReport) -> list[str]:
                 ]
                 for x in j.rows
             ],
-            "llrrrrrrrrrr",
+            "llrrrrrrrrrrr",
         ),
     ]
     out += ["", "keyframes (site Jacobian; torque the actuators must give to hold it):"]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +70,7 @@ class JointRow:
         armature: Armature as M sees it [kg m^2].
         damping: Joint plus actuator damping b [N m s/rad].
         servo_kv: A servo's velocity feedback on the joint [N m s/rad].
+        stiffness: Explicit stiffness, a servo's kp plus the joint's own [N m/rad].
         kd: Controller damping written to ctrl that the bound assumes [N m s/rad].
         effort_lower: Most negative torque the actuators give at the reference pose [N m].
         effort_upper: Most positive torque [N m].
@@ -90,6 +91,7 @@ class JointRow:
     armature: float
     damping: float
     servo_kv: float
+    stiffness: float
     kd: float
     effort_lower: float
     effort_upper: float
@@ -140,7 +142,8 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         arm: The arm.
         kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: the
             lesson's :data:`LESSON_KD` on joints driven by torque motors (or nothing), 0 on
-            servo-driven joints (their damping is the servo's ``kv``, read from the model).
+            servo-driven joints (their damping is the servo's ``kv`` and the joint's own,
+            read from the model).
         key: Reference keyframe (default: :func:`reference_keyframe`).
     """
     if key is None:
@@ -157,8 +160,10 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
     )
     b = arm.damping()
     kv = actuators.servo_damping(m)
-    kd_each = np.where(kv > 0, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
-    split = actuators.damping_split(sim, b, kv, kd_each)
+    servo = actuators.servo_driven(m)
+    kd_each = np.where(servo, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
+    stiffness = actuators.servo_stiffness(m)
+    split = actuators.damping_split(sim, b, kv, kd_each, stiffness)
     h = actuators.max_stable_timestep(M, split)
     hb = actuators.max_stable_timestep(bare, split)
     effort = actuators.effort_range(m, q)
@@ -173,6 +178,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
             float(arma[i]),
             float(b[i]),
             float(kv[i]),
+            float(stiffness[i]),
             float(kd_each[i]),
             float(effort.lower[i]),
             float(effort.upper[i]),
@@ -463,14 +469,24 @@ def compute(
     seed: int = 0,
     kd: float | None = None,
     distances: str | None = "mujoco",
+    progress: Callable[[str], object] | None = None,
 ) -> Sections:
     """Every section: gravity over ``seed``'s poses, contacts over ``seed + 1``'s.
 
     With ``seed=0`` these are the lesson's samples (its tables (3) and (4)).
+
+    Args:
+        arm: The arm.
+        n_poses: Random poses of each sweep.
+        seed: Seed of the gravity sweep.
+        kd: Controller damping written to ctrl (see :func:`joints`) [N m s/rad].
+        distances: Distance engine of the collision sweep (``None``: contacts only).
+        progress: Called with a short label as each sweep starts.
     """
-    return Sections(
-        joints(arm, kd),
-        keyframes(arm),
-        gravity_budget(arm, n_poses, seed),
-        contacts(arm, n_poses, seed + 1, distances),
-    )
+    say = progress or (lambda label: None)
+    say("joints and keyframes")
+    joint_section, keys = joints(arm, kd), keyframes(arm)
+    say(f"gravity over {n_poses} poses")
+    gravity = gravity_budget(arm, n_poses, seed)
+    say(f"self-collision over {n_poses} poses")
+    return Sections(joint_section, keys, gravity, contacts(arm, n_poses, seed + 1, distances))

@@ -1,0 +1,175 @@
+"""The one set of input validators: poses, stacks of poses, numbers, counts, names, threads.
+
+Every public function validates its inputs through these helpers (MuJoCo's ``rollout``
+style), so a bad input gets the same error and text wherever it enters the library.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import ParameterError, PoseError, UnknownNameError
+
+Array = NDArray[np.float64]
+
+_F64 = np.dtype(np.float64)
+
+
+def check_pose(q: ArrayLike, names: Sequence[str]) -> Array:
+    """A joint configuration as a float64 array of shape (nq,), every value finite.
+
+    Args:
+        q: Joint values in the order of ``names`` [rad or m].
+        names: Joint names (their number is nq; they name the bad values in messages).
+
+    Raises:
+        PoseError: Not numeric, complex, of another shape, or with NaN or infinite values.
+    """
+    # Fast path for the common case (a float64 vector of the right length): one C-level
+    # tolist and a Python sum find any NaN or inf (an overflowing sum of finite values only
+    # falls through to the exact check below).
+    if type(q) is np.ndarray and q.dtype is _F64 and q.shape == (len(names),):
+        if math.isfinite(sum(q.tolist())):
+            return q
+    return _check_pose_slow(q, names)
+
+
+def _as_real(x: ArrayLike, what: str) -> Array:
+    try:
+        arr = np.asarray(x)
+        if np.iscomplexobj(arr):  # a float64 conversion would drop the imaginary part
+            raise PoseError(f"{what} must be real, got complex values")
+        if arr.dtype.kind not in "biuf":
+            arr = np.asarray(arr, dtype=np.float64)  # strings, objects: may raise
+        return np.asarray(arr, dtype=np.float64)
+    except PoseError:
+        raise
+    except (TypeError, ValueError, OverflowError) as err:
+        raise PoseError(f"{what} must be numeric, got {type(x).__name__}: {err}") from err
+
+
+def _check_pose_slow(q: ArrayLike, names: Sequence[str]) -> Array:
+    arr = _as_real(q, "pose")
+    if arr.shape != (len(names),):
+        raise PoseError(
+            f"pose must have shape ({len(names)},) for joints {list(names)}, got shape {arr.shape}"
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        which = [f"{names[i]}={arr[i]}" for i in np.flatnonzero(bad)]
+        raise PoseError(f"pose has non-finite values: {', '.join(which)}")
+    return arr
+
+
+def check_poses(Q: ArrayLike, names: Sequence[str]) -> Array:
+    """A stack of joint configurations as C-contiguous float64 of shape (n, nq).
+
+    Raises:
+        PoseError: Not numeric, complex, not of shape (n, nq), or with NaN or infinite values
+            (the message names the first bad pose and its joints).
+    """
+    arr = _as_real(Q, "poses")
+    nq = len(names)
+    if arr.ndim != 2 or arr.shape[1] != nq:
+        raise PoseError(
+            f"poses must have shape (n, {nq}) for joints {list(names)}, got shape {arr.shape}"
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row = int(np.flatnonzero(bad.any(axis=1))[0])
+        which = [f"{names[j]}={arr[row, j]}" for j in np.flatnonzero(bad[row])]
+        raise PoseError(f"pose {row} has non-finite values: {', '.join(which)}")
+    return np.ascontiguousarray(arr)
+
+
+def check_pose_or_poses(q: ArrayLike, names: Sequence[str]) -> Array:
+    """One pose (nq,) or a stack (n, nq), returned as a stack of shape (n, nq)."""
+    arr = _as_real(q, "poses")
+    if arr.ndim == 1:
+        return _check_pose_slow(arr, names).reshape(1, -1)
+    return check_poses(arr, names)
+
+
+def check_number(
+    name: str,
+    value: object,
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+    unit: str = "",
+) -> float:
+    """A finite real number in [low, high] (or the open ends), as a float.
+
+    Raises:
+        ParameterError: Not a real number, NaN, infinite, or outside the range; the message
+            states the valid range.
+    """
+    if math.isinf(low) and math.isinf(high):
+        valid = "a finite number"
+    elif math.isinf(high):
+        valid = f"a finite number {'>' if low_open else '>='} {low:g}"
+    elif math.isinf(low):
+        valid = f"a finite number {'<' if high_open else '<='} {high:g}"
+    else:
+        lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
+        valid = f"a finite number in {lo_b}{low:g}, {high:g}{hi_b}"
+    valid += f" [{unit}]" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ParameterError(name, value, valid)
+    x = float(value)
+    if not math.isfinite(x):
+        raise ParameterError(name, value, valid)
+    if x < low or x > high or (low_open and x == low) or (high_open and x == high):
+        raise ParameterError(name, value, valid)
+    return x
+
+
+def check_count(name: str, value: object, minimum: int = 0, maximum: int | None = None) -> int:
+    """An integer in [minimum, maximum], as an int.
+
+    Raises:
+        ParameterError: Not an integer (bools and floats included) or out of range.
+    """
+    top = "" if maximum is None else f" and <= {maximum}"
+    valid = f"an integer >= {minimum}{top}"
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(name, value, valid)
+    n = int(value)
+    if n < minimum or (maximum is not None and n > maximum):
+        raise ParameterError(name, value, valid)
+    return n
+
+
+def max_threads() -> int:
+    """The most threads that can help: the CPUs this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_threads(threads: object) -> int:
+    """A thread count >= 1, capped at :func:`max_threads` (more cannot run at once).
+
+    Raises:
+        ParameterError: Not an integer >= 1.
+    """
+    return min(check_count("threads", threads, 1), max_threads())
+
+
+def check_choice(kind: str, value: object, choices: Sequence[str]) -> str:
+    """One of ``choices``.
+
+    Raises:
+        UnknownNameError: Anything else (the message lists the choices).
+    """
+    if not isinstance(value, str) or value not in choices:
+        raise UnknownNameError(kind, str(value), choices)
+    return value

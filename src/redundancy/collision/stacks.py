@@ -1,0 +1,99 @@
+"""Distances of every collision pair over a stack of poses, from coal or from MuJoCo."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+from ..arm import Arm
+from ..engines.threads import run_split
+from .checker import CollisionChecker
+from .pairs import DistanceEngine
+
+Array = NDArray[np.float64]
+
+
+def distance_stack(
+    ch: CollisionChecker, Q: Array, engine: DistanceEngine = "coal", threads: int = 1
+) -> Array:
+    """Signed distances of ``ch.pairs`` at each pose of a validated stack, shape (n, npairs) [m].
+
+    Args:
+        ch: The arm's collision checker.
+        Q: Validated poses, C-contiguous (n, nq) [rad or m].
+        engine: ``"coal"`` or ``"mujoco"``.
+        threads: Worker threads (MuJoCo only), validated.
+    """
+    out = np.empty((len(Q), len(ch.pairs)))
+    if engine == "coal":
+        _coal_distances(ch, Q, out)
+    else:
+        _mj_distances(ch.arm, ch, Q, out, threads)
+    return out
+
+
+def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_]) -> Array | None:
+    """A per-pair cap for ``mj_geomDistance`` that no pose can reach, or None.
+
+    The collision checker passes |centre1 - centre2| + 1 m per pose; a centre is never
+    further from the world origin than the sum of the body offsets along its chain, the
+    geom's offset in its body and the travel of slide joints on the way. The distance never
+    exceeds the centres' separation, so the cap never binds and the result is the same
+    (``mj_geomDistance`` returns the distance itself whenever it is below the cap). None when
+    an unlimited slide joint makes the reach unbounded.
+    """
+    m = arm.mj_model
+    reach = np.zeros(m.nbody)
+    for b in range(1, m.nbody):
+        travel = 0.0
+        for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+            if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
+                if not m.jnt_limited[j]:
+                    return None
+                travel += float(np.max(np.abs(m.jnt_range[j])))
+        reach[b] = reach[m.body_parentid[b]] + float(np.linalg.norm(m.body_pos[b])) + travel
+    geom = reach[m.geom_bodyid] + np.linalg.norm(m.geom_pos, axis=1)
+    return geom[g1] + geom[g2] + 1.0
+
+
+def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
+    # The checker's private scene: its GeometryData holds one distance request per pair,
+    # set up as the single-pose path uses them.
+    scene = ch._coal
+    model, data, gmodel, gdata = scene.pin_model, scene.pin_data, scene.geom_model, scene.geom_data
+    # The elements of distanceResults are references into GeometryData's vector: listing them
+    # once saves building 15+ wrappers per pose (the costliest part of reading the results).
+    results = list(gdata.distanceResults)
+    compute = pin.computeDistances
+    for q, row in zip(ch.arm.pinocchio._order(Q), out, strict=True):
+        compute(model, data, gmodel, gdata, q)
+        row[:] = [r.min_distance for r in results]
+    # coal reports a failed EPA as -DBL_MAX (or non-finite): redo those poses through the
+    # checker, whose retry with a looser EPA needs the geoms placed at that pose.
+    bad = np.flatnonzero((~np.isfinite(out) | (out < -1e6)).any(axis=1))
+    for i in bad:
+        out[i] = scene.distance_values(Q[i])
+
+
+def _mj_distances(arm: Arm, ch: CollisionChecker, Q: Array, out: Array, threads: int) -> None:
+    m = arm.mj_model
+    g1, g2 = ch._mj.g1, ch._mj.g2
+    cap = _distmax(arm, g1, g2)
+    kin, dist = mujoco.mj_kinematics, mujoco.mj_geomDistance
+    ids = list(zip(g1.tolist(), g2.tolist(), strict=True))
+
+    def body(lo: int, hi: int) -> None:
+        d = mujoco.MjData(m)  # this span's own data: threads never share one
+        qpos, xpos = d.qpos, d.geom_xpos
+        for q, row in zip(Q[lo:hi], out[lo:hi], strict=True):
+            qpos[:] = q
+            kin(m, d)
+            # mj_kinematics gives geom_xpos/xmat, all mj_geomDistance reads.
+            caps = (np.linalg.norm(xpos[g1] - xpos[g2], axis=1) + 1.0) if cap is None else cap
+            row[:] = [
+                dist(m, d, a, b, c, None) for (a, b), c in zip(ids, caps.tolist(), strict=True)
+            ]
+
+    run_split(len(Q), threads, body)

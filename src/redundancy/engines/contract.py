@@ -1,0 +1,113 @@
+"""The engine contract: what every engine computes, for one pose and for stacks of poses.
+
+Both :class:`~redundancy.engines.mujoco.MujocoEngine` and
+:class:`~redundancy.engines.pinocchio.PinocchioEngine` implement :class:`Engine`; the rest of
+the library is typed against it and never calls an engine library for these quantities.
+
+Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); poses are
+validated by the caller (:mod:`redundancy.checks`); the site Jacobian is the velocity of the
+site origin along world axes (linear rows first); gravity is the generalised force the
+motors must apply to hold a pose. Every method may be called from any number of threads:
+each thread computes with its own engine data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class Stacks:
+    """Output stacks that :meth:`Engine.evaluate` fills in place; None where not wanted.
+
+    Attributes:
+        X: Site positions (n, 3) [m].
+        R: Site rotation matrices (n, 3, 3).
+        J: Site Jacobians (n, 6, nv).
+        M: Mass matrices (n, nv, nv) [kg m^2], with armature unless ``armature`` is False.
+        G: Gravity torques (n, nv) [N m or N].
+        armature: Include armature in ``M``.
+    """
+
+    X: Array | None = None
+    R: Array | None = None
+    J: Array | None = None
+    M: Array | None = None
+    G: Array | None = None
+    armature: bool = True
+
+    @property
+    def dynamics(self) -> bool:
+        """True when anything beyond the site pose is wanted (J, M or gravity)."""
+        return self.J is not None or self.M is not None or self.G is not None
+
+
+@runtime_checkable
+class Engine(Protocol):
+    """One arm and tool site in one engine."""
+
+    name: str
+    nv: int
+
+    @property
+    def armature(self) -> Array:
+        """Armature per joint as the mass matrix sees it [kg m^2]."""
+        ...
+
+    @property
+    def damping(self) -> Array:
+        """Viscous damping per joint [N m s/rad or N s/m]."""
+        ...
+
+    @property
+    def limits(self) -> tuple[Array, Array]:
+        """Lower and upper joint limits (``-inf``/``inf`` where unlimited) [rad or m]."""
+        ...
+
+    def site_pose(self, q: Array) -> tuple[Array, Array]:
+        """Site position [m] and rotation matrix, world frame."""
+        ...
+
+    def site_jacobian(self, q: Array) -> Array:
+        """Site Jacobian, shape (6, nv) [m/rad; rad/rad]."""
+        ...
+
+    def jacobian_derivatives(self, q: Array) -> Array:
+        """dJ/dq_k for every k, shape (nv, 6, nv)."""
+        ...
+
+    def mass_matrix(self, q: Array, armature: bool = True) -> Array:
+        """Joint-space mass matrix [kg m^2], with or without armature."""
+        ...
+
+    def gravity(self, q: Array) -> Array:
+        """Gravity torque to hold ``q`` [N m or N]."""
+        ...
+
+    def integrate(self, q: Array, dq: Array) -> Array:
+        """Configuration reached from ``q`` after the displacement ``dq`` [rad or m]."""
+        ...
+
+    def link_inertias(self, q: Array) -> tuple[Array, Array, Array]:
+        """Mass [kg], world centre of mass [m] and inertia about it [kg m^2] per joint's body."""
+        ...
+
+    def joint_axes(self, q: Array) -> tuple[Array, Array]:
+        """World joint axes and anchors [m], shape (nv, 3) each."""
+        ...
+
+    def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
+        """Fill the stacks of ``out`` for every pose of ``Q`` (n, nv), in place.
+
+        Args:
+            Q: Poses, C-contiguous (n, nv) [rad or m].
+            out: The stacks to fill (None where not wanted).
+            threads: Worker threads (at most; validated by the caller).
+        """
+        ...

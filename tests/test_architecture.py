@@ -1,0 +1,236 @@
+"""The architecture, checked from the source: engine calls live in the engine layer, and the
+package import graph runs one way.
+
+A new MuJoCo or Pinocchio call for kinematics or dynamics outside ``redundancy/engines`` fails
+this test; the allow-list names each exception and why it is not an engine quantity.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "redundancy"
+
+#: MuJoCo functions that compute kinematics, dynamics, simulation or contacts.
+MUJOCO_COMPUTE = {
+    "MjData",
+    "mj_kinematics",
+    "mj_comPos",
+    "mj_comVel",
+    "mj_crb",
+    "mj_fullM",
+    "mj_rne",
+    "mj_jac",
+    "mj_jacSite",
+    "mj_jacBody",
+    "mj_jacBodyCom",
+    "mj_jacDot",
+    "mj_forward",
+    "mj_inverse",
+    "mj_step",
+    "mj_step1",
+    "mj_step2",
+    "mj_fwdPosition",
+    "mj_fwdVelocity",
+    "mj_collision",
+    "mj_geomDistance",
+    "mj_integratePos",
+    "mj_mulM",
+    "mj_solveM",
+    "mj_factorM",
+    "mj_energyPos",
+    "mj_rnePostConstraint",
+}
+
+#: Pinocchio functions that compute kinematics or dynamics.
+PINOCCHIO_COMPUTE = {
+    "forwardKinematics",
+    "framesForwardKinematics",
+    "updateFramePlacement",
+    "updateFramePlacements",
+    "computeFrameJacobian",
+    "computeJointJacobians",
+    "computeJointJacobiansTimeVariation",
+    "getFrameJacobian",
+    "getFrameJacobianTimeVariation",
+    "getJointJacobian",
+    "crba",
+    "rnea",
+    "rneaInParallel",
+    "aba",
+    "nonLinearEffects",
+    "computeGeneralizedGravity",
+    "computeAllTerms",
+    "integrate",
+    "difference",
+    "centerOfMass",
+    "jacobianCenterOfMass",
+    "computeDistances",
+    "computeDistance",
+    "computeCollisions",
+    "updateGeometryPlacements",
+}
+
+#: Modules (relative to src/redundancy) allowed to make such calls, and why.
+ALLOWED = {
+    "engines/": "the engine layer: every kinematics and dynamics quantity",
+    "collision/": "MuJoCo's narrow phase (mj_collision, mj_geomDistance) and coal's "
+    "geometry placed by Pinocchio: the collision package's own engines",
+    "lab/control.py": "simulation: the lesson's controller stepping MuJoCo (mj_step1/2)",
+    "lab/sim.py": "simulation: the lab's live MuJoCo run",
+    "lab/page.py": "drawing: geom poses of the running simulation for the browser",
+    "model/bridges.py": "bridging: compares the site's placement in both parsers' models "
+    "before the engines exist",
+}
+
+
+def _modules() -> list[Path]:
+    return sorted(p for p in SRC.rglob("*.py"))
+
+
+def _rel(path: Path) -> str:
+    return path.relative_to(SRC).as_posix()
+
+
+def _allowed(rel: str) -> bool:
+    return any(rel == key or (key.endswith("/") and rel.startswith(key)) for key in ALLOWED)
+
+
+def engine_calls(path: Path) -> list[str]:
+    """Calls of MuJoCo/Pinocchio compute functions and any coal call, as 'line: name'."""
+    tree = ast.parse(path.read_text(), str(path))
+    alias: dict[str, str] = {}  # local name -> library
+    direct: dict[str, str] = {}  # from-imported function -> library
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                root = a.name.split(".")[0]
+                if root in ("mujoco", "pinocchio", "coal"):
+                    alias[a.asname or root] = root
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            root = node.module.split(".")[0]
+            if root in ("mujoco", "pinocchio", "coal") and node.level == 0:
+                for a in node.names:
+                    direct[a.asname or a.name] = root
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        f = node.func
+        lib = name = None
+        if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name):
+            lib, name = alias.get(f.value.id), f.attr
+        elif isinstance(f, ast.Name) and f.id in direct:
+            lib, name = direct[f.id], f.id
+        if lib == "mujoco" and name in MUJOCO_COMPUTE:
+            found.append(f"{node.lineno}: mujoco.{name}")
+        elif lib == "pinocchio" and name in PINOCCHIO_COMPUTE:
+            found.append(f"{node.lineno}: pinocchio.{name}")
+        elif lib == "coal":
+            found.append(f"{node.lineno}: coal.{name}")
+    return found
+
+
+def test_engine_calls_only_in_the_engine_layer_and_the_allow_list() -> None:
+    offenders = {
+        _rel(p): calls for p in _modules() if not _allowed(_rel(p)) and (calls := engine_calls(p))
+    }
+    assert offenders == {}, (
+        "MuJoCo/Pinocchio/coal calls outside the engine layer (use arm.mujoco / "
+        f"arm.pinocchio / the collision package, or add to ALLOWED with a reason): {offenders}"
+    )
+
+
+def test_coal_only_in_the_collision_package() -> None:
+    offenders = {
+        _rel(p): [c for c in engine_calls(p) if "coal." in c]
+        for p in _modules()
+        if not _rel(p).startswith("collision/")
+    }
+    assert {k: v for k, v in offenders.items() if v} == {}
+
+
+def test_the_scanner_sees_calls(tmp_path: Path) -> None:
+    # The scanner itself must be able to fail: each spelling of an engine call is found.
+    src = tmp_path / "m.py"
+    src.write_text(
+        "import mujoco\nimport pinocchio as pin\nfrom mujoco import mj_rne\nimport coal\n"
+        "mujoco.mj_kinematics(m, d)\npin.crba(m, d, q)\nmj_rne(m, d, 0, t)\ncoal.Box(1, 1, 1)\n"
+        "mujoco.mj_id2name(m, 1, 0)\n"
+    )
+    assert engine_calls(src) == [
+        "5: mujoco.mj_kinematics",
+        "6: pinocchio.crba",
+        "7: mujoco.mj_rne",
+        "8: coal.Box",
+    ]
+
+
+#: Layers, lowest first: a module may import only from its own layer or below.
+LAYERS = [
+    {"errors", "checks", "caching"},
+    {"engines"},
+    {"linalg", "inertia"},
+    {"arm"},
+    {"model", "models"},
+    {"collision"},
+    {"analysis", "testing", "generate", "plotting"},
+    {"lab"},  # simulation and controller (the lesson's holds use them), page, browser
+    {"reports"},
+    {"cli", "__init__", "__main__"},
+]
+
+
+def _layer(top: str) -> int:
+    for i, layer in enumerate(LAYERS):
+        if top in layer:
+            return i
+    raise AssertionError(f"module {top!r} is in no layer of LAYERS")
+
+
+def _top(rel: str) -> str:
+    return rel.split("/")[0].removesuffix(".py")
+
+
+def _imports(path: Path) -> set[str]:
+    """Top-level redundancy modules a module imports (relative or absolute)."""
+    tree = ast.parse(path.read_text(), str(path))
+    pkg = _rel(path).split("/")[:-1]
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg[: len(pkg) - (node.level - 1)] if node.level > 1 else pkg
+                parts = base + (node.module.split(".") if node.module else [])
+                if parts:
+                    out.add(parts[0])
+                else:  # from . import x (at the package root)
+                    out.update(a.name for a in node.names)
+            elif node.module and node.module.split(".")[0] == "redundancy":
+                parts = node.module.split(".")
+                out.add(parts[1] if len(parts) > 1 else node.names[0].name)
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                parts = a.name.split(".")
+                if parts[0] == "redundancy" and len(parts) > 1:
+                    out.add(parts[1])
+    return out
+
+
+def test_import_graph_runs_one_way() -> None:
+    upward = []
+    for p in _modules():
+        me = _top(_rel(p))
+        for other in _imports(p) - {me}:
+            if _layer(other) > _layer(me):
+                upward.append(f"{_rel(p)} imports {other}")
+    assert upward == []
+
+
+@pytest.mark.parametrize("package", ["engines", "model", "collision", "analysis", "reports", "lab"])
+def test_each_package_says_what_it_owns(package: str) -> None:
+    doc = ast.get_docstring(ast.parse((SRC / package / "__init__.py").read_text()))
+    assert doc and len(doc) > 40

@@ -1,0 +1,183 @@
+"""Safe under ordinary use: one Arm shared by threads, copied, pickled, sent to processes.
+
+The contract (README, "Threads, copies and processes"): every public method of an Arm may be
+called from any number of threads and returns, bit for bit, what sequential calls return;
+an Arm pickles as its loader call and is rebuilt on arrival; caches never keep an Arm alive.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import copy
+import gc
+import multiprocessing
+import pickle
+import threading
+import weakref
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import redundancy as rd
+from redundancy import batch
+from redundancy.checks import check_threads, max_threads
+from redundancy.testing import poses
+
+from .models import SKEW7
+
+THREADS = 8
+#: Examples per threaded property: 5 under the default profile (60), 83 under "thorough".
+HAMMER_EXAMPLES = max(3, settings.default.max_examples // 12)
+
+
+def quantities(arm: rd.Arm, q: np.ndarray) -> list[np.ndarray]:
+    """Every single-pose quantity of the Arm, from both engines, as arrays."""
+    out: list[np.ndarray] = []
+    for engine in rd.engines.ENGINES:
+        p, R = arm.site_pose(q, engine)
+        out += [p, R, arm.jacobian(q, engine), arm.mass_matrix(q, True, engine)]
+        out += [arm.mass_matrix(q, False, engine), arm.gravity(q, engine)]
+        out += [arm.svd(q, engine).sigma, arm.nullspace_projector(q, engine)]
+        out += [np.array([arm.manipulability(q, 0.5, engine).scaled])]
+    out.append(arm.manipulability_gradient(q))
+    return out
+
+
+def hammer(work, n_items: int, threads: int = THREADS) -> list[dict[int, object]]:
+    """Run ``work(i)`` for every item in every thread, each thread in its own order."""
+    barrier = threading.Barrier(threads)
+    results: list[dict[int, object]] = [{} for _ in range(threads)]
+    errors: list[BaseException] = []
+
+    def run(k: int) -> None:
+        try:
+            barrier.wait()
+            order = np.random.default_rng(k).permutation(n_items)
+            for i in order.tolist():
+                results[k][i] = work(i)
+        except BaseException as err:  # reported by the test
+            errors.append(err)
+
+    workers = [threading.Thread(target=run, args=(k,)) for k in range(threads)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    assert not errors, errors
+    return results
+
+
+def same(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
+    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+@settings(max_examples=HAMMER_EXAMPLES)
+@given(data=st.data())
+def test_one_arm_from_eight_threads_equals_sequential(arm7, data):
+    Q = data.draw(st.lists(poses(arm7), min_size=8, max_size=24))
+    expected = [quantities(arm7, q) for q in Q]
+    for got in hammer(lambda i: quantities(arm7, Q[i]), len(Q)):
+        assert all(same(got[i], expected[i]) for i in range(len(Q)))
+
+
+@settings(max_examples=max(3, HAMMER_EXAMPLES // 4))
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(300, 600))
+def test_batched_calls_from_threads_equal_sequential(arm7, seed, n):
+    # Stacks long enough that threads=2 splits them (MIN_POSES_PER_THREAD = 256).
+    Q = rd.collision.random_poses(arm7, n, seed=seed)
+    calls = [
+        lambda: batch.jacobians(arm7, Q, threads=2),
+        lambda: batch.jacobians(arm7, Q, "pinocchio"),
+        lambda: batch.mass_matrices(arm7, Q, False, threads=2),
+        lambda: batch.gravities(arm7, Q, "pinocchio", threads=2),
+        lambda: batch.singular_values(arm7, Q, threads=2),
+    ]
+    expected = [f() for f in calls]
+    for got in hammer(lambda i: calls[i](), len(calls), threads=4):
+        assert all(np.array_equal(got[i], expected[i]) for i in range(len(calls)))
+    report = rd.crosscheck_batch(arm7, Q, threads=2)
+    assert all(
+        r == report
+        for r in hammer(lambda i: rd.crosscheck_batch(arm7, Q, threads=2), 1, 4)[0].values()
+    )
+
+
+def test_thread_counts_beyond_the_cpus_are_capped(arm7):
+    assert check_threads(8192) == max_threads()
+    Q = rd.collision.random_poses(arm7, 600, seed=2)
+    assert np.array_equal(batch.gravities(arm7, Q, threads=8192), batch.gravities(arm7, Q))
+    with pytest.raises(rd.ParameterError, match=r"^threads must be an integer >= 1, got 0$"):
+        batch.gravities(arm7, Q, threads=0)
+    with pytest.raises(rd.ParameterError, match=r"^threads must be an integer >= 1, got 2.0$"):
+        batch.gravities(arm7, Q, threads=2.0)  # type: ignore[arg-type]
+
+
+# -- copies, pickles, processes ------------------------------------------------------------
+
+
+def _numbers(arm: rd.Arm) -> list[np.ndarray]:
+    Q = rd.collision.random_poses(arm, 20, seed=4)
+    return [x for q in Q for x in quantities(arm, q)]
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "copy", "pickle"])
+def test_copies_and_pickles_give_the_same_numbers(arm7, skew7, how):
+    for arm in (arm7, skew7):
+        twin = {
+            "deepcopy": copy.deepcopy,
+            "copy": copy.copy,
+            "pickle": lambda a: pickle.loads(pickle.dumps(a)),
+        }[how](arm)
+        assert twin is not arm
+        assert twin.mujoco.model is not arm.mujoco.model  # independent engines
+        assert (twin.source, twin.site, twin.joint_names) == (arm.source, arm.site, arm.joint_names)
+        assert twin.bridges == arm.bridges
+        assert same(_numbers(twin), _numbers(arm))
+
+
+def test_pickled_arm_keeps_its_load_options(tmp_path):
+    arm = rd.load_string(SKEW7, site="tool", strict=False)
+    twin = pickle.loads(pickle.dumps(arm))
+    assert twin.site == "tool" and twin.source == "<string>"
+
+
+def _gravity_in_worker(arm: rd.Arm, Q: np.ndarray) -> np.ndarray:
+    return np.array([arm.gravity(q) for q in Q])
+
+
+@pytest.mark.parametrize("method", ["spawn", "fork"])
+def test_process_pool_workers_give_the_parents_numbers(arm7, method):
+    Q = rd.collision.random_poses(arm7, 50, seed=6)
+    expected = _gravity_in_worker(arm7, Q)
+    ctx = multiprocessing.get_context(method)
+    with cf.ProcessPoolExecutor(2, mp_context=ctx) as pool:
+        got = list(pool.map(_gravity_in_worker, [arm7, arm7], [Q, Q]))
+    assert all(np.array_equal(g, expected) for g in got)
+    assert np.abs(expected).max() > 1.0  # gravity is not all zeros
+
+
+# -- no leaks ------------------------------------------------------------------------------
+
+
+def _use(arm: rd.Arm) -> None:
+    q = arm.keyframe("home")
+    arm.jacobian(q)
+    arm.gravity(q, "pinocchio")
+    Q = rd.collision.random_poses(arm, 300, seed=1)
+    batch.jacobians(arm, Q, threads=2)
+    batch.gravities(arm, Q, "pinocchio", threads=2)
+    rd.crosscheck_batch(arm, Q[:5])
+    rd.selfmotion.self_motion(arm, q, total=0.05, step=0.01)
+
+
+def test_no_cache_keeps_an_arm_alive():
+    refs = []
+    for _ in range(5):
+        arm = rd.load(rd.model_path("arm7"))
+        _use(arm)
+        refs.append(weakref.ref(arm))
+        del arm
+    gc.collect()
+    assert [r() for r in refs] == [None] * 5
