@@ -881,8 +881,10 @@ def test_path_checker_edge_cases(arm7: rd.Arm) -> None:
     assert still.free and still.evaluations == 2
     with pytest.raises(rd.PoseError, match="tol must exceed"):
         pc.check_path(arm7, [home, q], tol=1e-7)
-    with pytest.raises(rd.PoseError, match="waypoints must have shape"):
+    with pytest.raises(rd.PoseError, match=r"poses must have shape \(n, 7\)"):
         pc.check_path(arm7, home)
+    with pytest.raises(rd.PoseError, match=r"waypoints must have shape \(k, 7\) with k >= 1"):
+        pc.check_path(arm7, np.zeros((0, 7)))
     with pytest.raises(rd.PoseError):
         pc.check_path(arm7, [home, home[:3]])
     with pytest.raises(rd.UnknownNameError, match="valid distance engine names"):

@@ -18,14 +18,17 @@ shared and only read; each thread gets its own scenes (``MjData``, Pinocchio ``D
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Sequence
+import weakref
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import ModelError, PoseError, UnknownNameError, UnsupportedFeatureError
+from ..caching import PerObject
+from ..checks import check_choice
+from ..errors import ModelError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
 from .pairs import DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, collision_pairs, find_pair
@@ -122,6 +125,9 @@ class CollisionChecker:
         arm: The loaded arm.
         pairs: The pairs to check; defaults to :func:`collision_pairs` of the arm's model.
 
+    Keyword Args:
+        weak: Hold the arm weakly (for caches kept alongside the arm).
+
     Attributes:
         arm: The arm.
         pairs: The pair set, shared by both engines.
@@ -135,13 +141,18 @@ class CollisionChecker:
     #: Largest difference allowed between the engines' geom placements in the self-check.
     PLACEMENT_TOL = 1e-9
 
-    def __init__(self, arm: Arm, pairs: Sequence[GeomPair] | None = None) -> None:
+    def __init__(
+        self, arm: Arm, pairs: Sequence[GeomPair] | None = None, *, weak: bool = False
+    ) -> None:
         m = arm.mj_model
         if m.nflex:
             raise UnsupportedFeatureError(
                 "flex", f"{m.nflex} in the model", "only rigid geoms are checked"
             )
-        self.arm = arm
+        # The cached checker of :func:`checker` lives as long as its arm and must not keep
+        # it alive: it holds the arm weakly (everything else it needs, it holds itself).
+        self._arm: Arm | None = None if weak else arm
+        self._arm_ref = weakref.ref(arm)
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
         self._mujoco_pairs = MujocoPairs(m, self.pairs)
         self._coal_pairs = CoalPairs(m, arm.pinocchio.model, arm.pinocchio.perm, self.pairs)
@@ -154,6 +165,14 @@ class CollisionChecker:
                     f"{np.round(q, 4).tolist()} (largest difference {err:.3g} in a position [m] "
                     "or a rotation-matrix entry); the engines do not see the same bodies"
                 )
+
+    @property
+    def arm(self) -> Arm:
+        """The arm."""
+        arm = self._arm if self._arm is not None else self._arm_ref()
+        if arm is None:
+            raise ReferenceError("the arm of this collision checker has been freed")
+        return arm
 
     # -- this thread's scenes -------------------------------------------------------------
     def mujoco_scene(self) -> MujocoScene:
@@ -220,11 +239,9 @@ class CollisionChecker:
         return self._scene(engine).distance_values(q)
 
     def _scene(self, engine: DistanceEngine) -> MujocoScene | CoalScene:
-        if engine == "coal":
+        if check_choice("distance engine", engine, DISTANCE_ENGINES) == "coal":
             return self.coal_scene()
-        if engine == "mujoco":
-            return self.mujoco_scene()
-        raise UnknownNameError("distance engine", str(engine), DISTANCE_ENGINES)
+        return self.mujoco_scene()
 
     def contacts(self, q: ArrayLike) -> tuple[Contact, ...]:
         """MuJoCo's contact list at ``q`` (``mj_kinematics`` + ``mj_collision``)."""
@@ -256,29 +273,17 @@ def _probe_pose(arm: Arm) -> Array:
     return lo + frac * (hi - lo)
 
 
-_BUILD = threading.RLock()  # reentrant: a cached object may build another
-T = TypeVar("T")
-
-
-def cached(arm: Arm, key: str, build: Callable[[], T]) -> T:
-    """One object per arm, stored on the arm itself so that it never keeps the arm alive."""
-    cache = arm.__dict__.setdefault("_collision_cache", {})
-    obj = cache.get(key)
-    if obj is None:
-        with _BUILD:
-            obj = cache.get(key)
-            if obj is None:
-                obj = cache[key] = build()
-    return obj
+_CHECKERS: PerObject[Arm, CollisionChecker] = PerObject(
+    lambda arm: CollisionChecker(arm, weak=True)
+)
 
 
 def checker(arm: Arm) -> CollisionChecker:
     """The :class:`CollisionChecker` of an arm with its full pair set, built once and cached.
 
-    The cache lives with the arm (it never keeps an arm alive) and is safe to fill from
-    several threads at once.
+    The cache never keeps an arm alive and is safe to fill from several threads at once.
     """
-    return cached(arm, "checker", lambda: CollisionChecker(arm))
+    return _CHECKERS.get(arm)
 
 
 def distances(arm: Arm, q: ArrayLike, engine: DistanceEngine = "coal") -> Distances:
@@ -289,20 +294,3 @@ def distances(arm: Arm, q: ArrayLike, engine: DistanceEngine = "coal") -> Distan
 def contacts(arm: Arm, q: ArrayLike) -> tuple[Contact, ...]:
     """MuJoCo's contact list at ``q`` (see :class:`CollisionChecker`)."""
     return checker(arm).contacts(q)
-
-
-def pose_stack(arm: Arm, poses: ArrayLike, what: str = "poses", least: int = 0) -> Array:
-    """Poses as a float64 array of shape (n, nq), each checked by :meth:`Arm.pose`.
-
-    Raises:
-        PoseError: Not a stack of ``least`` or more poses, or a bad pose (complex values
-            included: they are refused, never cast).
-    """
-    try:
-        Q = np.asarray(poses)
-    except (TypeError, ValueError) as err:
-        raise PoseError(f"{what} must be an array of shape (n, {arm.nq}): {err}") from err
-    if Q.ndim != 2 or Q.shape[0] < least or (len(Q) and Q.shape[1] != arm.nq):
-        at_least = f" with n >= {least}" if least else ""
-        raise PoseError(f"{what} must have shape (n, {arm.nq}){at_least}, got {Q.shape}")
-    return np.array([arm.pose(q) for q in Q], dtype=float).reshape(-1, arm.nq)

@@ -42,8 +42,10 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import PoseError, UnknownNameError, UnsupportedFeatureError
-from .checker import CollisionChecker, cached, checker, pose_stack
+from ..caching import PerObject
+from ..checks import check_choice, check_poses
+from ..errors import PoseError, UnsupportedFeatureError
+from .checker import CollisionChecker, checker
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair
 from .shapes import bounding_radius
 
@@ -252,10 +254,14 @@ class PathChecker:
 
     def __init__(self, arm: Arm | CollisionChecker) -> None:
         self.checker = arm if isinstance(arm, CollisionChecker) else checker(arm)
-        self.arm = self.checker.arm
         self.pairs = self.checker.pairs
         self.weights = motion_weights(self.arm.mj_model, self.pairs)
         self.thresholds = np.array([p.threshold for p in self.pairs])
+
+    @property
+    def arm(self) -> Arm:
+        """The arm (held by the collision checker, weakly when cached)."""
+        return self.checker.arm
 
     def check(
         self,
@@ -282,12 +288,13 @@ class PathChecker:
         Raises:
             PoseError: Bad waypoints, ``tol`` too small, or the evaluation budget exhausted.
         """
-        if engine not in DISTANCE_ENGINES:
-            raise UnknownNameError("distance engine", str(engine), DISTANCE_ENGINES)
+        check_choice("distance engine", engine, DISTANCE_ENGINES)
         eps = AMBIGUITY_BAND
         if not tol > eps:
             raise PoseError(f"tol must exceed the engines' accuracy {eps:g} m, got {tol!r}")
-        Q = pose_stack(self.arm, waypoints, "waypoints", least=1)
+        Q = check_poses(waypoints, self.arm.joint_names)
+        if not len(Q):
+            raise PoseError(f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got (0,)")
         nseg = len(Q) - 1
         thr = self.thresholds
         evals = 0
@@ -373,9 +380,12 @@ def check_path(
     return path_checker(arm).check(waypoints, tol, engine)
 
 
+_PATH_CHECKERS: PerObject[Arm, PathChecker] = PerObject(lambda arm: PathChecker(checker(arm)))
+
+
 def path_checker(arm: Arm) -> PathChecker:
     """The :class:`PathChecker` of an arm with its full pair set, built once and cached.
 
-    The cache lives with the arm (it never keeps an arm alive).
+    The cache never keeps an arm alive (the cached checker holds its arm weakly).
     """
-    return cached(arm, "path checker", lambda: PathChecker(checker(arm)))
+    return _PATH_CHECKERS.get(arm)

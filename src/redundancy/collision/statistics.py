@@ -11,8 +11,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import sampling_ranges
-from ..errors import PoseError, UnknownNameError
-from .checker import CollisionChecker, PairDistance, checker, pose_stack
+from ..checks import check_choice, check_count, check_poses
+from .checker import CollisionChecker, PairDistance, checker
 from .coal_scene import CoalScene
 from .mujoco_scene import MujocoScene
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
@@ -173,21 +173,21 @@ def collision_statistics(
         poses: Explicit poses, shape (n, nq) [rad or m], instead of random ones.
         prune: Skip far pairs (same results); False computes every pair at every pose.
     """
-    if distances is not None and distances not in DISTANCE_ENGINES:
-        raise UnknownNameError("distance engine", str(distances), DISTANCE_ENGINES)
+    if distances is not None:
+        check_choice("distance engine", distances, DISTANCE_ENGINES)
     ch = checker(arm)
     if poses is None:
+        n = check_count("n_poses", n_poses, 0)
+        if seed is not None:
+            seed = check_count("seed", seed, 0)
         lo, hi = sampling_ranges(arm)
-        n = int(n_poses)
-        if n < 0:
-            raise PoseError(f"n_poses must be >= 0, got {n_poses!r}")
         rng = np.random.default_rng(seed)
         # Drawn chunk by chunk from one generator: the same numbers as random_poses(arm, n).
         chunks: Iterable[Array] = (
             rng.uniform(lo, hi, size=(min(CHUNK, n - i), arm.nq)) for i in range(0, n, CHUNK)
         )
     else:
-        Q = pose_stack(arm, poses)
+        Q = check_poses(poses, arm.joint_names)
         n = len(Q)
         chunks = (Q[i : i + CHUNK] for i in range(0, n, CHUNK))
     sweep = _Sweep(ch, distances, prune)
