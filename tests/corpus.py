@@ -23,18 +23,23 @@ Sources, per model (the figures each model uses, and where they come from):
   / 2000, kv = kp / 10), armature, damping and friction loss: Menagerie's fr3.xml.
 * ``ur5e``, Universal Robots UR5e (6 DOF). Kinematics: UR's published DH parameters (d1 0.1625,
   a2 -0.425, a3 -0.3922, d4 0.1333, d5 0.0997, d6 0.0996 m) in the body layout of UR's
-  ur_description URDF (shoulder offset 0.138 m, elbow offset -0.131 m, which the DH table
-  folds into d4). Masses 3.761 / 8.058 / 2.846 / 1.37 / 1.3 / 0.365 kg and centres of mass:
-  UR's "DH parameters for calculations of kinematics and dynamics" page; inertias: uniform
-  cylinders of the link's length, as ur_description's URDF approximates them. Torque limits
-  150 / 150 / 150 / 28 / 28 / 28 N m: UR's "max joint torques" article. The base is posed
-  (rotated 180 degrees about z) as Menagerie's ur5e.xml poses it.
+  ur_description URDF (0.163, 0.138, -0.131, 0.425, 0.392, 0.127, 0.1 m, which the DH table
+  folds together). Masses 3.761 / 8.058 / 2.846 / 1.37 / 1.3 / 0.365 kg: UR's "DH parameters
+  for calculations of kinematics and dynamics" page; centres of mass on the link centre lines
+  as ur_description places them; inertias: uniform solid cylinders of the link's length and
+  a radius chosen here (ur_description approximates them the same way, with its own radii).
+  Torque limits 150 / 150 / 150 / 28 / 28 / 28 N m: UR's "max joint torques" article.
+  Armature 0.1, damping 200 / 15, kp 3500 / 3000: Menagerie's ur5e.xml. The base is rotated
+  180 degrees about z as Menagerie's ur5e.xml poses it, and raised 0.02 m here so that the
+  posed root has a translation too.
 * ``iiwa14``, KUKA LBR iiwa 14 R820 (7 DOF). Kinematics: KUKA's data sheet (0.36 / 0.42 /
   0.40 / 0.126 m between the axes, body split as in KUKA's URDF: 0.1575 + 0.2025, 0.2045 +
   0.2155, 0.1845 + 0.2155, 0.081 + 0.045). Ranges +-170 / 120 / 170 / 120 / 170 / 120 /
   175 deg and torque limits 320 / 320 / 176 / 176 / 110 / 40 / 40 N m: KUKA's specification.
   Masses and inertias: KUKA's iiwa14 URDF (drake's iiwa_description, as Menagerie's
-  iiwa14.xml carries them). Collision: 40 spheres laid along each link by this module.
+  iiwa14.xml carries them); servo gains (kp 2000, kv 200): Menagerie's iiwa14.xml. Chosen
+  here, not published: armature 0.1 kg m^2, damping 0.5 N m s/rad and friction loss 0.2 N m on
+  every joint. Collision: 40 spheres laid along each link by this module.
 
 Features, per model: explicit ``<inertial>`` on every moving body; visual meshes (OBJ,
 inline vertices) and collision meshes (binary STL) with mass 0 set in default classes

@@ -166,3 +166,18 @@ def test_lenient_audits_what_strict_refuses(tmp_path, capsys):
         assert lenient in (0, 1)
     else:  # the library bridges it: both modes agree
         assert strict == lenient
+
+
+def test_json_never_replaces_the_model_file(tmp_path, capsys, no_work):
+    model = tmp_path / "arm.xml"
+    model.write_text("<mujoco/>")
+    link = tmp_path / "link.json"
+    link.symlink_to(model)
+    for target in (model, link):
+        assert main(["audit", str(model), "--json", str(target)]) == 2
+        err = capsys.readouterr().err
+        assert err == (
+            f"redundancy: error: --json {str(target)!r} is the model file {str(model)!r}: "
+            "not replaced\n"
+        )
+    assert model.read_text() == "<mujoco/>"

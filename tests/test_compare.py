@@ -287,3 +287,51 @@ def test_bad_arguments() -> None:
         compare(ARM7_XML, ARM7_XML, joint_map={"j9": "j1"})
     with pytest.raises(rd.ModelError, match="sends two joints of A to one joint of B"):
         compare(ARM7_XML, ARM7_XML, joint_map={"j1": "j2"})
+
+
+# -- classes of input, not examples -------------------------------------------------------------
+JOINTS7 = [f"j{i}" for i in range(1, 8)]
+
+
+@given(joint=st.sampled_from(JOINTS7))
+def test_any_flipped_axis_is_located_at_its_joint(joint: str) -> None:
+    root = urdf_root("arm7")
+    axis = element(root, "joint", joint).find("axis")
+    axis.set("xyz", " ".join(str(-float(x)) for x in axis.get("xyz").split()))  # type: ignore[union-attr]
+    result = compare(rd.load_string(ET.tostring(root, encoding="unicode")), ARM7_XML, n_poses=20)
+    assert quantities(result)["joint axis (world)"] == [f"joint {joint!r}"]
+    assert result.chains_part == f"joint {joint!r}"
+
+
+@given(
+    link=st.integers(1, 7),
+    shift=st.tuples(*[st.floats(-0.05, 0.05)] * 3).filter(lambda v: max(map(abs, v)) > 1e-6),
+)
+def test_any_moved_centre_of_mass_is_located_at_its_link(
+    link: int, shift: tuple[float, float, float]
+) -> None:
+    root = urdf_root("arm7")
+    origin = element(root, "link", f"link{link}").find("inertial/origin")
+    xyz = [float(x) + d for x, d in zip(origin.get("xyz").split(), shift, strict=True)]  # type: ignore[union-attr]
+    origin.set("xyz", " ".join(repr(x) for x in xyz))  # type: ignore[union-attr]
+    result = compare(rd.load_string(ET.tostring(root, encoding="unicode")), ARM7_XML, n_poses=20)
+    com = [d for d in result.differences if d.quantity == "centre of mass (world)"]
+    assert [d.where for d in com] == [f"body 'link{link}' (moved by 'j{link}')"]
+    assert com[0].error == pytest.approx(max(map(abs, shift)), abs=1e-12)
+    assert result.chains_part is None
+
+
+@given(
+    seed=st.integers(0, 2**16),
+    links=st.sets(st.sampled_from([f"link{i}" for i in range(1, 8)]), max_size=3),
+)
+def test_panda_in_any_clothes_is_the_same_robot(seed: int, links: set[str]) -> None:
+    """Rotated link frames, a split link and shuffled declarations at once."""
+    root = urdf_root("panda")
+    for k, link in enumerate(sorted(links)):
+        rotate_link_frame(root, link, random_rotation(seed + k))
+    split_link(root, f"link{seed % 7 + 1}")
+    shuffle_declarations(root, seed)
+    arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
+    result = compare(arm, PANDA_XML, n_poses=20)
+    assert result.equivalent, result.lines()

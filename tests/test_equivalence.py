@@ -156,6 +156,8 @@ INERTIA_RULES = [
     ("visual geom with mass", '<geom size="0.05" pos="0 0 0.35" contype="0" conaffinity="0" '
      'mass="0.5"/><geom size="0.05"/>', "", True, "visual geom 'l2 geom 1' has mass in MuJoCo"),
     ("settotalmass", "", '<compiler settotalmass="9"/>', True, "settotalmass"),
+    ("mesh beside an inertial under inertiafromgeom=true", INERTIAL + '<geom type="mesh" '
+     'mesh="cube"/>', CUBE + '<compiler inertiafromgeom="true"/>', True, "mesh geom 'l2 geom 1'"),
 ]  # fmt: skip
 
 
@@ -175,6 +177,27 @@ def test_inertia_rules(body_extra: str, head: str, pinocchio_alone_differs: bool
         assert line.startswith("BRIDGED  body inertia") and cause in line
     else:
         assert not bridged
+    _agree(arm)
+
+
+def test_an_unnamed_body_pinocchio_loses_is_bridged():
+    """Pinocchio names an unnamed body after its parent ("l2Bis") and, here, drops it."""
+    xml = (
+        chain()
+        .replace(
+            '<body name="l1" pos="0 0 0.1">',
+            '<body name="l1" pos="0 0 0.1"><body><geom size="0.1"/></body>',
+        )
+        .replace(
+            '<site name="tip" pos="0 0 0.3"/>',
+            '<site name="tip" pos="0 0 0.3"/><body><inertial pos="0 0 0.2" mass="3" '
+            'diaginertia=".1 .1 .1"/></body>',
+        )
+    )
+    arm = rd.load_string(xml, site="tip")
+    assert _raw_differs(xml, arm)
+    (bridged,) = [b for b in arm.bridges if b.joint == "l2, l2 body 0"]
+    assert "unnamed body 'l2 body 0'" in bridged.source
     _agree(arm)
 
 

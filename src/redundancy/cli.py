@@ -136,11 +136,20 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _check_files(args: argparse.Namespace) -> None:
-    """The JSON target must obey reports.files' rules (the loader checks the model file)."""
+    """The JSON target must obey reports.files' rules and not be an input model file.
+
+    The loader checks the model files themselves.
+    """
     if getattr(args, "json", None) not in (None, "-"):
+        import os
+
         from .reports.files import check_target
 
-        check_target(args.json)
+        target = check_target(args.json)
+        inputs = [getattr(args, name, None) for name in ("model", "a", "b")]
+        for model in (m for m in inputs if isinstance(m, str) and os.path.isfile(m)):
+            if target.exists() and os.path.samefile(target, model):
+                raise _BadInput(f"--json {args.json!r} is the model file {model!r}: not replaced")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -438,7 +438,12 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     for el in root.iter("compiler"):
         compiler.update(el.attrib)
     from_geoms_always = compiler.get("inertiafromgeom", "auto") == "true"
-    group_range = [int(x) for x in compiler.get("inertiagrouprange", "0 5").split()[:2]]
+    try:
+        group_range = [int(x) for x in compiler.get("inertiagrouprange", "0 5").split()[:2]]
+    except ValueError:  # MuJoCo refuses such a value before this is reached
+        group_range = [0, 5]
+    if len(group_range) != 2:
+        group_range = [0, 5]
     global_causes = tuple(
         f"<compiler {a}={compiler[a]!r}> (Pinocchio's parser does not apply it as MuJoCo does)"
         for a in _MASS_OPTIONS
@@ -464,7 +469,7 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
     for b, (el, active) in enumerate(found, start=1):
         from_geoms = from_geoms_always or el.find("inertial") is None
-        if not from_geoms and not global_causes:
+        if not from_geoms and not global_causes and el.get("name"):
             continue
         causes = list(global_causes)
         if not el.get("name"):
