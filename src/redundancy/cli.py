@@ -109,10 +109,17 @@ def _parser() -> argparse.ArgumentParser:
     lab.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
     lab.add_argument("--site", default="ee", help="tool site name (default: ee)")
     lab.add_argument(
-        "--host", default="127.0.0.1", help="interface to listen on (default: 127.0.0.1)"
+        "--host",
+        default="127.0.0.1",
+        help="interface to listen on (default: 127.0.0.1; any other is reachable from other "
+        "machines, without authentication: a warning is printed)",
     )
     lab.add_argument(
-        "--port", type=int, default=8080, help="TCP port (default: 8080; if taken, the next free)"
+        "--port",
+        type=int,
+        default=8080,
+        help="TCP port, 0..65535 (default: 8080; 0: any free port; if taken, the next free "
+        "one, with a warning)",
     )
     cmp = sub.add_parser(
         "compare",
@@ -195,9 +202,10 @@ def _run(args: argparse.Namespace) -> int:
         lesson.print_tables(arm, n_poses=args.poses)
         return OK
     if args.command == "lab":
-        arm = load(args.model or model_path("arm7"), site=args.site)
         from .lab import page  # MissingDependencyError without the `lab` extra
 
+        page.check_address(args.host, args.port)  # before any work
+        arm = load(args.model or model_path("arm7"), site=args.site)
         page.serve(arm, host=args.host, port=args.port)
         return OK
     if args.command == "compare":

@@ -4,7 +4,7 @@ Used by the lab's browser test and by ``scripts/lab_screenshot.py``. Playwright'
 download is not needed: the browser is the system's Chromium (Debian's ``chromium``
 package), found at ``$REDUNDANCY_CHROMIUM``, ``/usr/bin/chromium`` or on ``PATH``.
 
-Controls are found by their labels (:mod:`redundancy.lab` exports them), readouts by their
+Controls are found by their labels (:mod:`redundancy.lab.page` exports them), readouts by their
 ``data-readout`` keys.
 """
 
@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..errors import MissingDependencyError
 
@@ -48,6 +48,39 @@ def find_chromium() -> str | None:
         if found:
             return found
     return None
+
+
+def project(
+    points: Any,
+    position: Any,
+    wxyz: Any,
+    fov: float,
+    box: dict[str, float],
+) -> list[tuple[float, float]]:
+    """Page coordinates of world points seen by a viser camera [CSS px].
+
+    Args:
+        points: World points, shape (n, 3) [m].
+        position: Camera position [m].
+        wxyz: Camera orientation: R in p_world = R p_camera + position, with viser's
+            OpenCV-style camera axes (+z forward, +y down).
+        fov: Vertical field of view [rad].
+        box: The canvas on the page (:meth:`LabBrowser.scene_box`).
+    """
+    import numpy as np
+
+    w, x, y, z = (float(c) for c in wxyz)
+    R = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    cam = (np.asarray(points, dtype=float).reshape(-1, 3) - np.asarray(position, float)) @ R
+    f = 0.5 * box["height"] / np.tan(0.5 * fov)
+    cx, cy = box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"]
+    return [(cx + f * p[0] / p[2], cy + f * p[1] / p[2]) for p in cam]
 
 
 class LabBrowser:
@@ -221,6 +254,66 @@ class LabBrowser:
                     f"readout {key!r}: waited for {what or 'a value'}; last {last!r}"
                 )
             self.page.wait_for_timeout(200)
+
+    # -- plots ----------------------------------------------------------------------------
+    def plots(self) -> dict[str, dict[str, Any]]:
+        """Each live plot's data and x window, as the browser holds them, by title.
+
+        Read from the uPlot charts that viser's client registers for tests
+        (``window.__viserTestpoints.uplots``).
+
+        Returns:
+            ``{title: {"x": [...], "y": [...], "min": x_min, "max": x_max, "ymin": ...,
+            "ymax": ..., "created": times the chart was built}}``.
+        """
+        return self.page.evaluate(
+            """() => {
+              const out = {};
+              const reg = (window.__viserTestpoints || {}).uplots || {};
+              for (const {chart, createCount} of Object.values(reg)) {
+                const title = chart.root.querySelector('.u-title')?.textContent || '';
+                out[title] = {
+                  x: Array.from(chart.data[0] || []),
+                  y: Array.from(chart.data[1] || []),
+                  min: chart.scales.x.min, max: chart.scales.x.max,
+                  ymin: chart.scales.y.min, ymax: chart.scales.y.max,
+                  created: createCount,
+                };
+              }
+              return out;
+            }"""
+        )
+
+    # -- the 3D scene --------------------------------------------------------------------
+    def scene_box(self) -> dict[str, float]:
+        """The 3D view's canvas on the page: x, y, width, height [CSS px]."""
+        box = self.page.evaluate(
+            """() => {
+              let best = null;
+              for (const c of document.querySelectorAll('canvas')) {
+                if (c.closest('.uplot')) continue;
+                const r = c.getBoundingClientRect();
+                if (!best || r.width * r.height > best.width * best.height) best = r;
+              }
+              return best && {x: best.x, y: best.y, width: best.width, height: best.height};
+            }"""
+        )
+        if not box:
+            raise LookupError("no 3D canvas on the page")
+        return box
+
+    def drag(self, start: tuple[float, float], end: tuple[float, float], steps: int = 12) -> None:
+        """Press the left button at ``start``, move to ``end`` in steps, release [CSS px]."""
+        mouse = self.page.mouse
+        mouse.move(*start)
+        self.page.wait_for_timeout(200)  # let the scene see the pointer over the handle
+        mouse.down()
+        self.page.wait_for_timeout(100)
+        for k in range(1, steps + 1):
+            f = k / steps
+            mouse.move(start[0] + f * (end[0] - start[0]), start[1] + f * (end[1] - start[1]))
+            self.page.wait_for_timeout(50)
+        mouse.up()
 
     def screenshot(self, path: str | os.PathLike[str]) -> Path:
         """Save a PNG of the page and return its path."""

@@ -1,13 +1,26 @@
 """The lab: lesson 5.2's interactive arm, served as a local web page with viser.
 
-``redundancy lab [MODEL.xml]`` starts it. The page shows the arm drawn from its geoms, held by
-:class:`redundancy.lab_sim.LabSim` (PD control with gravity compensation, stepped in real
-time by :class:`redundancy.lab_sim.RealTimeRunner`), with sliders for the joint targets and
-the controller's damping, a choice of armature, readouts and two live plots.
+``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its
+geoms (a colour per link), held by :class:`redundancy.lab.sim.LabSim` (PD control with
+gravity compensation, stepped in real time by :class:`redundancy.lab.sim.RealTimeRunner`),
+with sliders for the joint targets and the controller's damping, a choice of armature,
+readouts, the six singular values as bars and three live plots.
 
-The page's state lives in the server: a browser that disconnects and reconnects (or a second
-browser) gets the current scene, controls and plots, and the physics never waits for a
-browser.
+Redundancy to touch: a self-motion slider moves the elbow along the null space with the tool
+held; a gizmo at the tool drags it (damped least squares with a null-space posture term);
+the tool's translational velocity ellipsoid and, near a singular pose, the lost directions
+are drawn at the tool.
+
+**One bench, shared.** The state lives in the server: a browser that disconnects and
+reconnects gets the current scene, controls and plots, and the physics never waits for a
+browser; a second browser sees and drives the same arm (the readouts count the browsers).
+"reset pose" puts the arm back at its keyframe and keeps the settings; "reset all" also
+restores kd, armature, contact forces, pause and speed, so the next user starts from the
+lesson's defaults.
+
+The plots show time relative to now (``t - now``, fixed windows ending at 0), with axis
+ranges and tick labels computed here: symmetric speed and torque axes with the limits drawn
+as dashed lines, and sigma_min on a log axis from 1e-6 up.
 
 Readouts are rendered as an HTML table whose value cells carry ``data-readout`` attributes
 (:data:`READOUT_KEYS`), so tests and scripts can read them from the DOM.
@@ -15,7 +28,13 @@ Readouts are rendered as an HTML table whose value cells carry ``data-readout`` 
 
 from __future__ import annotations
 
+import contextlib
 import html
+import io
+import ipaddress
+import json
+import math
+import socket
 import sys
 import threading
 from collections.abc import Callable
@@ -26,8 +45,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm
-from ..errors import MissingDependencyError
-from .sim import KD, SIGMA_WINDOW, SPEED_WINDOW, LabReadouts, LabSim, RealTimeRunner
+from ..errors import MissingDependencyError, RedundancyError
+from .sim import (
+    KD,
+    LOST_SIGMA,
+    RATES,
+    SIGMA_WINDOW,
+    SPEED_WINDOW,
+    LabReadouts,
+    LabSim,
+    RealTimeRunner,
+    solve_ik,
+)
 
 try:
     import trimesh
@@ -40,6 +69,9 @@ Array = NDArray[np.float64]
 
 #: Label of the kd slider.
 KD_LABEL = "kd (N m s/rad)"
+#: Largest kd on its slider [N m s/rad]: the lesson's 5 fits, and the bare wrist's
+#: threshold (about 0.62) is marked.
+KD_MAX = 6.0
 #: Label of the armature choice.
 ARMATURE_LABEL = "armature"
 #: Choice meaning "the armature as modelled" / "no armature".
@@ -47,33 +79,155 @@ ARMATURE_MODELLED = "as modelled"
 ARMATURE_ZERO = "0 (bare links)"
 #: Buttons.
 NUDGE_LABEL = "nudge"
-RESET_LABEL = "reset to home"
+RESET_LABEL = "reset pose"
+RESET_ALL_LABEL = "reset all"
+PAUSE_LABEL = "pause"
+RESUME_LABEL = "resume"
+STEP_LABEL = "single step"
+CSV_LABEL = "download plotted data (CSV)"
+#: Slow-motion choice and its options.
+RATE_LABEL = "speed"
+RATE_OPTIONS = {f"{r:g}x real time": r for r in RATES}
 #: Checkbox that turns contact forces on.
 COLLIDE_LABEL = "links collide"
+#: The self-motion slider [rad of joint motion along the null space].
+SELF_MOTION_LABEL = "self-motion (rad)"
+SELF_MOTION_RANGE = 3.0
+#: View checkboxes.
+GIZMO_LABEL = "drag the tool (gizmo)"
+ELLIPSOID_LABEL = "velocity ellipsoid"
+NAMES_LABEL = "link names"
+#: Camera presets (buttons of one group).
+VIEW_LABEL = "camera"
+VIEWS = ("front", "side", "top")
 #: The readout cells' ``data-readout`` keys, with their row labels.
 READOUT_KEYS = {
     "sigma_min": "σ_min of J",
     "manipulability": "manipulability",
     "contacts": "self-contacts",
+    "lost": "lost directions (σ < 1e-3)",
     "speed": "{joint} speed (rad/s)",
     "peak": "{joint} |speed| peak, 0.2 s (rad/s)",
     "torque": "{joint} motor torque (N m)",
+    "ellipsoid": "tool speed ellipsoid semi-axes (m/s per rad/s)",
+    "drift": "self-motion: tool drift (m)",
+    "elbow": "self-motion: elbow moved (m)",
+    "ik": "gizmo: tool error of the IK (m)",
+    "picked": "clicked link",
     "time": "simulated time (s)",
+    "rtf": "real-time factor",
+    "browsers": "browsers connected",
 }
 #: Trail of the tool site: this many positions, one per frame in which it moved by 1 mm.
 TRAIL_POINTS = 300
 #: Opacity of the links while they are in self-contact, so that the contact markers show.
 CONTACT_OPACITY = 0.45
+#: Colour of links in self-contact.
+CONTACT_COLOR = (230, 40, 40)
 #: Contact markers drawn at most.
 MAX_CONTACT_MARKERS = 24
 #: Readouts and plots are refreshed every this many frames.
 GUI_EVERY = 3
+#: One colour per link (cycled), and the colour of geoms on bodies without joints.
+LINK_COLORS = (
+    (76, 114, 176),
+    (221, 132, 82),
+    (85, 168, 104),
+    (196, 78, 82),
+    (129, 114, 179),
+    (147, 120, 96),
+    (218, 139, 195),
+    (140, 140, 140),
+    (204, 185, 116),
+    (100, 181, 205),
+)
+BASE_COLOR = (120, 120, 125)
+#: The velocity ellipsoid is drawn with this many metres per (m/s per rad/s).
+ELLIPSOID_SCALE = 0.2
+#: Length of a lost-direction arrow [m].
+LOST_ARROW = 0.2
+#: Floor of the sigma_min plot's log axis (smaller values are drawn on it).
+SIGMA_FLOOR = 1e-6
+#: The speed plot's dashed lines: the lesson's "at rest" bound [rad/s].
+REST_SPEED = 1e-3
 
 
 def joint_label(arm: Arm, i: int) -> str:
     """Label of joint ``i``'s slider, e.g. ``"j4 (rad)"``."""
     unit = "rad" if arm.joint_types[i] == "hinge" else "m"
     return f"{arm.joint_names[i]} ({unit})"
+
+
+def tick_label(v: float) -> str:
+    """A tick value with enough significant digits to tell the ticks apart (3; "0" for 0)."""
+    if v == 0:
+        return "0"
+    return f"{v:.3g}".replace("e-0", "e-").replace("e+0", "e")
+
+
+def nice_ceil(x: float, floor: float) -> float:
+    """The smallest of 1, 2, 5 times a power of ten that is >= max(x, floor)."""
+    x = max(float(x), floor)
+    e = math.floor(math.log10(x))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10.0**e >= x * (1 - 1e-12):
+            return m * 10.0**e
+    return 10.0 ** (e + 1)  # pragma: no cover
+
+
+def symmetric_axis(half: float) -> tuple[tuple[float, ...], tuple[str, ...]]:
+    """Ticks and labels of a symmetric axis [-half, half]: five ticks."""
+    splits = (-half, -half / 2, 0.0, half / 2, half)
+    return splits, tuple(tick_label(v) for v in splits)
+
+
+def log_axis(lo: float, hi: float) -> tuple[tuple[float, ...], tuple[str, ...]]:
+    """Ticks at each power of ten in [lo, hi], labelled ``1e-6`` ... ``0.01``, ``0.1``, ``1``."""
+    splits = tuple(10.0**k for k in range(round(math.log10(lo)), round(math.log10(hi)) + 1))
+    return splits, tuple(f"{v:g}" if v >= 1e-3 else f"1e{round(math.log10(v))}" for v in splits)
+
+
+def check_address(host: str, port: int) -> None:
+    """Check a host and port the lab can listen on.
+
+    Raises:
+        RedundancyError: ``port`` is not an integer in 0..65535 (0: any free port), or
+            ``host`` is not an address or a name that resolves.
+    """
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise RedundancyError(
+            f"port must be an integer in 0..65535 (0: any free port), got {port!r}"
+        )
+    if not isinstance(host, str) or not host:
+        raise RedundancyError(f"host must be an address or a host name, got {host!r}")
+    try:
+        socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError) as err:
+        raise RedundancyError(f"cannot listen on host {host!r}: {err}") from err
+
+
+def is_loopback(host: str) -> bool:
+    """Whether every address ``host`` resolves to is a loopback address."""
+    try:
+        infos = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
+    except OSError:
+        return False
+    return all(ipaddress.ip_address(str(i[4][0]).split("%")[0]).is_loopback for i in infos)
+
+
+def _machine_names() -> set[str]:
+    """Names and addresses under which this machine may be reached (for the Host check)."""
+    names = {"localhost", "127.0.0.1", "::1", "[::1]"}
+    for name in (socket.gethostname(), socket.getfqdn()):
+        names.add(name.lower())
+        try:
+            for info in socket.getaddrinfo(name, None):
+                addr = str(info[4][0])
+                names.add(addr)
+                names.add(f"[{addr}]")
+        except OSError:
+            pass
+    return names
 
 
 def _rgb(rgba: Array) -> tuple[int, int, int]:
@@ -97,14 +251,52 @@ def _geom_mesh(model: mujoco.MjModel, g: int) -> trimesh.Trimesh | None:
         mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
         mesh.apply_scale(size)
         return mesh
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        mid = int(model.geom_dataid[g])
+        v0, nv = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+        f0, nf = int(model.mesh_faceadr[mid]), int(model.mesh_facenum[mid])
+        # MuJoCo stores a mesh's vertices in the geom's frame (re-centred on compile).
+        return trimesh.Trimesh(
+            model.mesh_vert[v0 : v0 + nv].copy(),
+            model.mesh_face[f0 : f0 + nf].copy(),
+            process=False,
+        )
     return None
 
 
 def drawn_geoms(model: mujoco.MjModel) -> list[int]:
-    """Geoms to draw: the visual ones (no collision bits) if any, else every primitive geom."""
-    primitive = [g for g in range(model.ngeom) if _geom_mesh(model, g) is not None]
-    visual = [g for g in primitive if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0]
-    return visual or primitive
+    """Geoms to draw: the visual ones (no collision bits) if any, else every drawable geom."""
+    drawable = [g for g in range(model.ngeom) if _geom_mesh(model, g) is not None]
+    visual = [g for g in drawable if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0]
+    return visual or drawable
+
+
+def link_colors(model: mujoco.MjModel) -> dict[int, tuple[int, int, int]]:
+    """A colour per body that moves (a palette cycled in tree order); fixed bodies grey."""
+    out: dict[int, tuple[int, int, int]] = {}
+    k = 0
+    for b in range(1, model.nbody):
+        moving = model.body_weldid[b] != 0
+        if moving and model.body_jntnum[b] > 0:
+            out[b] = LINK_COLORS[k % len(LINK_COLORS)]
+            k += 1
+        elif moving:  # welded to a moving parent: the parent's colour
+            out[b] = out.get(int(model.body_weldid[b]), BASE_COLOR)
+        else:
+            out[b] = BASE_COLOR
+    return out
+
+
+def _quat_to_mat(wxyz: Any) -> Array:
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, np.asarray(wxyz, dtype=float))
+    return R.reshape(3, 3)
+
+
+def _mat_to_quat(R: Array) -> Array:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).reshape(9))
+    return q
 
 
 class LabPage:
@@ -113,21 +305,43 @@ class LabPage:
     Args:
         server: The viser server to draw into.
         sim: The simulation to show and drive.
+        runner: The runner stepping it (for pause, single step, speed and the real-time
+            factor), or None.
         title: Heading of the control panel.
+        tab_title: Title of the browser tab.
     """
 
-    def __init__(self, server: viser.ViserServer, sim: LabSim, title: str) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        sim: LabSim,
+        runner: RealTimeRunner | None,
+        title: str,
+        tab_title: str,
+    ) -> None:
         self.server = server
         self.sim = sim
+        self.runner = runner
         self.arm = sim.arm
         self._frame = 0
         self._last_q: Array | None = None
         self._last_html = ""
         self._trail: list[Array] = []
-        self._translucent = False
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
+        self._syncing = False
+        self._dragging = False
+        self._drag_rest: Array | None = None
+        self._gizmo_target: Array | None = None
+        self._anchor: Array | None = None
+        self._self_motion_value = 0.0
+        self._self_motion_text = ("-", "-")
+        self._ik_error: float | None = None
+        self._picked = "-"
+        self._highlighted: frozenset[str] = frozenset()
+        self._speed_half = 0.0
         self._build_scene()
-        self._build_gui(title)
+        self._build_gui(title, tab_title)
+        self._sync_gizmo()
         self.update(sim, force=True)
 
     # -- scene -----------------------------------------------------------------------------
@@ -141,23 +355,43 @@ class LabPage:
         scene.add_light_hemisphere(
             "/lights/sky", sky_color=(255, 255, 255), ground_color=(110, 110, 120), intensity=1.6
         )
-        scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1, section_size=0.5, plane="xy")
+        self.reach, self.base = self._reach()
+        grid = 2.0 * max(1.0, math.ceil(self.reach * 1.2 * 2) / 2)
+        scene.add_grid(
+            "/floor", width=grid, height=grid, cell_size=0.1, section_size=0.5, plane="xy"
+        )
         self._geoms = drawn_geoms(m)
+        colors = link_colors(m)
+        self._body_of = [int(m.geom_bodyid[g]) for g in self._geoms]
+        self._body_names = {
+            b: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body {b}"
+            for b in range(m.nbody)
+        }
+        self._colors = [colors.get(b, BASE_COLOR) for b in self._body_of]
         self._meshes = []
-        for g in self._geoms:
+        for g, color in zip(self._geoms, self._colors, strict=True):
             mesh = _geom_mesh(m, g)
             assert mesh is not None
-            rgba = m.geom_rgba[g]
-            self._meshes.append(
-                scene.add_mesh_simple(
-                    f"/arm/geom{g}",
-                    np.asarray(mesh.vertices, dtype=np.float32),
-                    np.asarray(mesh.faces, dtype=np.uint32),
-                    color=_rgb(rgba),
-                    opacity=float(rgba[3]) if rgba[3] < 1 else None,
-                )
+            alpha = float(m.geom_rgba[g, 3])
+            handle = scene.add_mesh_simple(
+                f"/arm/geom{g}",
+                np.asarray(mesh.vertices, dtype=np.float32),
+                np.asarray(mesh.faces, dtype=np.uint32),
+                color=color,
+                opacity=alpha if alpha < 1 else None,
             )
-        _, _, anchor, axis, _ = self.sim.frames()
+            # Clickable nodes are outlined under the pointer; a click names the link.
+            handle.on_click(self._pick_callback(self._body_names[int(m.geom_bodyid[g])]))
+            self._meshes.append(handle)
+        self._link_bodies = sorted(
+            {b for b in self._body_of if b in colors and colors[b] != BASE_COLOR}
+        )
+        self._link_labels = {
+            b: scene.add_label(f"/names/{self._body_names[b]}", self._body_names[b], visible=False)
+            for b in self._link_bodies
+        }
+        self._picked_label = scene.add_label("/picked", "", visible=False, font_screen_scale=1.2)
+        _, _, anchor, axis, site, rot = self.sim.frames()
         self._frames = [
             scene.add_frame(f"/frames/{name}", axes_length=0.08, axes_radius=0.004, visible=False)
             for name in self.arm.joint_names
@@ -175,7 +409,39 @@ class LabPage:
             scene.add_icosphere(f"/contacts/c{k}", radius=0.012, color=(230, 30, 30), visible=False)
             for k in range(MAX_CONTACT_MARKERS)
         ]
-        self._site = scene.add_icosphere("/site", radius=0.012, color=(255, 60, 60))
+        self._contact_labels = [
+            scene.add_label(f"/contacts/name{k}", "", visible=False, anchor="bottom-left")
+            for k in range(MAX_CONTACT_MARKERS)
+        ]
+        # The tool: a coordinate frame (unlike the red contact spheres) with its name.
+        self._tool = scene.add_frame(
+            "/tool",
+            axes_length=0.07,
+            axes_radius=0.005,
+            origin_radius=0.012,
+            origin_color=(250, 200, 0),
+        )
+        self._tool_label = scene.add_label(
+            "/tool/name", f"tool ({self.arm.site})", anchor="top-left"
+        )
+        self._ellipsoid = scene.add_icosphere(
+            "/ellipsoid",
+            radius=1.0,
+            color=(40, 160, 220),
+            opacity=0.3,
+            subdivisions=3,
+            scale=(1e-3, 1e-3, 1e-3),
+            visible=False,
+        )
+        self._lost = scene.add_arrows(
+            "/lost",
+            np.zeros((1, 2, 3)),
+            (200, 0, 200),
+            shaft_radius=0.005,
+            head_radius=0.015,
+            head_length=0.03,
+            visible=False,
+        )
         self._trail_handle = scene.add_line_segments(
             "/trail",
             np.zeros((1, 2, 3)),
@@ -184,26 +450,73 @@ class LabPage:
             thickness_units="screen",
             visible=False,
         )
-        # A view from the side and above the arm, framing it at its keyframe.
-        home_pos, *_ = self.sim.geom_poses(self._geoms)
-        lo, hi = home_pos.min(axis=0), home_pos.max(axis=0)
-        target = 0.5 * (lo + hi)
-        reach = max(0.5, float(np.linalg.norm(hi - lo)))
-        az, el = np.deg2rad(-60.0 + 180.0), np.deg2rad(15.0)
-        offset = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        self.server.initial_camera.look_at = tuple(target)
-        self.server.initial_camera.position = tuple(target + 3.0 * reach * offset)
-        self.server.initial_camera.fov = np.deg2rad(45.0)
+        self.gizmo = scene.add_transform_controls(
+            "/gizmo",
+            scale=max(0.15, 0.2 * self.reach),
+            line_width=3.0,
+            depth_test=False,
+            position=tuple(site),
+            wxyz=tuple(_mat_to_quat(rot)),
+        )
+        self.gizmo.on_update(self._on_gizmo)
+        position, look_at = self.camera_view("oblique", aspect=1.0)
+        self.server.initial_camera.look_at = tuple(look_at)
+        self.server.initial_camera.position = tuple(position)
+        self.server.initial_camera.fov = math.radians(45.0)
+
+    def _reach(self) -> tuple[float, Array]:
+        """Upper bound of the tool's distance from the first joint's anchor [m], and that anchor.
+
+        The distance between consecutive joint anchors does not change with the joints (each
+        anchor lies on its joint's axis), so their sum plus the last anchor's distance to the
+        tool bounds the reach in every pose.
+        """
+        _, _, anchor, _, site, _ = self.sim.frames()
+        pts = np.vstack([anchor, site])
+        reach = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        return max(reach, 0.1), anchor[0].copy()
+
+    def camera_view(self, view: str, aspect: float) -> tuple[Array, Array]:
+        """Camera position and look-at point framing the arm's reach [m].
+
+        The framed region is the half ball of radius :meth:`_reach` above the first joint's
+        anchor; ``aspect`` (width / height of the view) narrows the horizontal field.
+        """
+        R = self.reach
+        look = self.base + np.array([0.0, 0.0, 0.45 * R])
+        radius = 0.8 * math.hypot(R, 0.55 * R)
+        half = math.radians(45.0) / 2
+        half = min(half, math.atan(math.tan(half) * max(aspect, 0.2)))
+        dist = radius / math.sin(half)
+        direction = {
+            "front": (1.0, 0.0, 0.08),
+            "side": (0.0, -1.0, 0.08),
+            "top": (-0.02, 0.0, 1.0),
+            "oblique": (0.75, -0.6, 0.35),
+        }[view]
+        d = np.array(direction) / np.linalg.norm(direction)
+        return look + dist * d, look
 
     @staticmethod
     def _axis_points(anchor: Array, axis: Array, length: float = 0.16) -> Array:
         return np.stack([anchor - length * axis, anchor + length * axis], axis=1)
 
+    def _pick_callback(self, name: str) -> Callable[[Any], None]:
+        def on_click(_: Any) -> None:
+            self._picked = name
+            self.update(self.sim, force=True)
+
+        return on_click
+
     # -- controls --------------------------------------------------------------------------
-    def _build_gui(self, title: str) -> None:
+    def _build_gui(self, title: str, tab_title: str) -> None:
         gui = self.server.gui
         sim = self.sim
         gui.configure_theme(control_width="large", show_share_button=False)
+        # viser has no call for the document's title: an image that fails to load sets it.
+        js = html.escape(f"document.title={json.dumps(tab_title)}", quote=True)
+        gui.add_html(f'<img src="/lab-title.invalid" alt="" style="display:none" onerror="{js}">')
+        self.tab_title = tab_title
         gui.add_markdown(
             f"**{html.escape(title)}**  \n"
             f"PD with gravity compensation, every {1000 * sim.timestep:g} ms step:  \n"
@@ -221,8 +534,32 @@ class LabPage:
                 )
                 s.on_update(self._target_callback(i))
                 self.sliders.append(s)
+        with gui.add_folder("redundancy"):
+            self.self_motion = gui.add_slider(
+                SELF_MOTION_LABEL,
+                min=-SELF_MOTION_RANGE,
+                max=SELF_MOTION_RANGE,
+                step=0.01,
+                initial_value=0.0,
+                hint="joint motion along the null space from the pose where you started: the "
+                "tool stays put, the elbow moves",
+            )
+            self.self_motion.on_update(self._on_self_motion)
+            self.show_gizmo = gui.add_checkbox(GIZMO_LABEL, True)
+            self.show_gizmo.on_update(
+                lambda _: self._set_visible(self.gizmo, self.show_gizmo.value)
+            )
+            self.show_ellipsoid = gui.add_checkbox(ELLIPSOID_LABEL, True)
+            self.show_ellipsoid.on_update(lambda _: self.update(self.sim, force=True))
         with gui.add_folder("controller and model"):
-            self.kd = gui.add_slider(KD_LABEL, min=0.0, max=10.0, step=0.02, initial_value=KD)
+            self.kd = gui.add_slider(
+                KD_LABEL,
+                min=0.0,
+                max=KD_MAX,
+                step=0.01,
+                initial_value=KD,
+                marks=((0.0, "0"), (0.62, "0.62"), (2.0, "2"), (KD, f"{KD:g}")),
+            )
             self.kd.on_update(lambda _: sim.set_kd(float(self.kd.value)))
             arm0 = sim.modelled_armature
             modelled = (
@@ -230,6 +567,7 @@ class LabPage:
                 if np.all(arm0 == arm0[0])
                 else ARMATURE_MODELLED
             )
+            self._armature_modelled = modelled
             self._armature_options = {modelled: None, ARMATURE_ZERO: 0.0}
             self.armature = gui.add_dropdown(
                 ARMATURE_LABEL, tuple(self._armature_options), initial_value=modelled
@@ -245,83 +583,347 @@ class LabPage:
             self.collide.on_update(lambda _: sim.set_contact_forces(bool(self.collide.value)))
             self.nudge = gui.add_button(NUDGE_LABEL, hint="add 0.01 rad/s to every joint's speed")
             self.nudge.on_click(lambda _: sim.nudge())
-            self.reset = gui.add_button(RESET_LABEL)
-            self.reset.on_click(lambda _: self._reset())
-        with gui.add_folder("show"):
+        with gui.add_folder("session"):
+            self.reset = gui.add_button(RESET_LABEL, hint="the keyframe at rest; settings kept")
+            self.reset.on_click(lambda _: self._reset(all_settings=False))
+            self.reset_all = gui.add_button(
+                RESET_ALL_LABEL, hint="the keyframe, and kd, armature, contacts, speed as at start"
+            )
+            self.reset_all.on_click(lambda _: self._reset(all_settings=True))
+            self.pause = gui.add_button(PAUSE_LABEL)
+            self.pause.on_click(lambda _: self._toggle_pause())
+            self.single = gui.add_button(STEP_LABEL, hint="pause, and take one timestep")
+            self.single.on_click(lambda _: self._single_step())
+            self.rate = gui.add_dropdown(
+                RATE_LABEL, tuple(RATE_OPTIONS), initial_value=next(iter(RATE_OPTIONS))
+            )
+            self.rate.on_update(lambda _: self._set_rate())
+            self.download = gui.add_button(CSV_LABEL)
+            self.download.on_click(self._send_csv)
+        with gui.add_folder("view"):
+            self.views = gui.add_button_group(VIEW_LABEL, VIEWS)
+            self.views.on_click(lambda event: self.set_view(str(event.target.value)))
+            self.show_names = gui.add_checkbox(NAMES_LABEL, False)
             self.show_frames = gui.add_checkbox("frames", False)
             self.show_axes = gui.add_checkbox("joint axes", False)
             self.show_contacts = gui.add_checkbox("contacts", True)
             self.show_trail = gui.add_checkbox("trail", True)
-            for box in (self.show_frames, self.show_axes, self.show_contacts, self.show_trail):
+            for box in (
+                self.show_names,
+                self.show_frames,
+                self.show_axes,
+                self.show_contacts,
+                self.show_trail,
+            ):
                 box.on_update(lambda _: self.update(self.sim, force=True))
 
         # Readouts and plots in a panel of their own, docked left of the scene.
         joint = sim.watch_joint
+        limit = float(sim.effort_limit[sim.watch_index])
         panel = gui.add_panel()
         with panel.add_tab("readouts and plots"):
             self.readout_table = gui.add_html(self._readouts_html(sim.readouts()))
-            t, v = sim.speed_history()
             self.speed_plot = gui.add_uplot(
-                data=self._plot_data(t, v),
+                data=(np.zeros(0), np.zeros(0)),
                 series=(
-                    viser.uplot.Series(label="t (s)"),
+                    viser.uplot.Series(label="t − now (s)"),
                     viser.uplot.Series(label=f"{joint} (rad/s)", stroke="#d9480f", width=1),
                 ),
-                title=f"{joint} speed (rad/s), last {SPEED_WINDOW:g} s",
-                scales={"x": viser.uplot.Scale(time=False, auto=True)},
-                aspect=2.0,
+                title=(
+                    f"{joint} speed (rad/s), last {SPEED_WINDOW:g} s; "
+                    f"dashed: ±{REST_SPEED:g} (at rest)"
+                ),
+                scales=self._speed_scales(2 * REST_SPEED),
+                axes=self._speed_axes(2 * REST_SPEED),
+                aspect=2.4,
             )
-            t, s = sim.sigma_history()
-            self.sigma_plot = gui.add_uplot(
-                data=self._plot_data(t, s),
+            self.torque_plot = gui.add_uplot(
+                data=(np.zeros(0), np.zeros(0)),
                 series=(
-                    viser.uplot.Series(label="t (s)"),
+                    viser.uplot.Series(label="t − now (s)"),
+                    viser.uplot.Series(label=f"{joint} (N m)", stroke="#5f3dc4", width=1),
+                ),
+                title=(
+                    f"{joint} motor torque (N m), last {SPEED_WINDOW:g} s; dashed: ±{limit:g} limit"
+                ),
+                scales={
+                    "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
+                    "y": viser.uplot.Scale(auto=False, range=(-1.25 * limit, 1.25 * limit)),
+                },
+                axes=self._symmetric_axes(SPEED_WINDOW, limit, limit),
+                aspect=2.4,
+            )
+            # Up to the power of ten above twice the keyframe's sigma_min (1 for arm7's 0.23).
+            s0 = float(sim.readouts().sigma_min)
+            hi = 10.0 ** max(0, math.ceil(math.log10(max(2.0 * s0, 1e-9))))
+            splits, labels = log_axis(SIGMA_FLOOR, hi)
+            self._sigma_range = (SIGMA_FLOOR, 2.0 * hi)  # room for the top label
+            self.sigma_plot = gui.add_uplot(
+                data=(np.zeros(0), np.zeros(0)),
+                series=(
+                    viser.uplot.Series(label="t − now (s)"),
                     viser.uplot.Series(label="σ_min", stroke="#1c7ed6", width=1.5),
                 ),
-                title=f"σ_min of J, last {SIGMA_WINDOW:g} s",
+                title=(
+                    f"σ_min of J (log), last {SIGMA_WINDOW:g} s; below {SIGMA_FLOOR:g} drawn at it"
+                ),
                 scales={
-                    "x": viser.uplot.Scale(time=False, auto=True),
-                    "y": viser.uplot.Scale(auto=True),
+                    "x": viser.uplot.Scale(time=False, auto=False, range=(-SIGMA_WINDOW, 0.0)),
+                    "y": viser.uplot.Scale(auto=False, distr=3, log=10, range=self._sigma_range),
                 },
-                aspect=2.0,
+                axes=(
+                    self._time_axis(SIGMA_WINDOW),
+                    viser.uplot.Axis(splits=splits, values=labels, size=48),
+                ),
+                aspect=1.8,
             )
         panel.dock_left()
-        panel.set_width(360)
+        panel.set_width(380)
         gui.main_panel.dock_right()
 
+    # -- plot axes -------------------------------------------------------------------------
+    @staticmethod
+    def _time_axis(window: float) -> viser.uplot.Axis:
+        step = 1.0 if window <= 4 else 2.0
+        splits = tuple(-step * k for k in range(round(window / step), -1, -1))
+        return viser.uplot.Axis(
+            splits=splits,
+            values=tuple(tick_label(v) for v in splits),
+            label="t − now (s)",
+            labelSize=18,
+        )
+
+    def _symmetric_axes(
+        self, window: float, ticks: float, limit: float
+    ) -> tuple[viser.uplot.Axis, ...]:
+        """Time axis; y ticks at 0, +-ticks/2, +-ticks; dashed lines at +-limit, if they show.
+
+        The limit lines are left out when they would lie within 5 % of the range of 0 (the
+        speed plot's at-rest band while the joint buzzes at 15 rad/s).
+        """
+        splits, labels = symmetric_axis(ticks)
+        width = 12 + 7 * max(len(s) for s in labels)
+        axes = [
+            self._time_axis(window),
+            viser.uplot.Axis(splits=splits, values=labels, size=width),
+        ]
+        if limit >= 0.05 * ticks:
+            axes.append(
+                # The limits: dashed lines across the plot, labelled on the right.
+                viser.uplot.Axis(
+                    scale="y",
+                    side=1,
+                    splits=(-limit, limit),
+                    values=(tick_label(-limit), tick_label(limit)),
+                    grid=viser.uplot.Axis_Grid(stroke="#e03131", dash=(6.0, 4.0), width=1.5),
+                    ticks=viser.uplot.Axis_Ticks(show=False),
+                    size=12 + 7 * len(tick_label(-limit)),
+                    stroke="#e03131",
+                )
+            )
+        return tuple(axes)
+
+    @staticmethod
+    def _speed_scales(half: float) -> dict[str, viser.uplot.Scale]:
+        return {
+            "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
+            # 15 % above the outer ticks, so their labels are not clipped.
+            "y": viser.uplot.Scale(auto=False, range=(-1.15 * half, 1.15 * half)),
+        }
+
+    def _speed_axes(self, half: float) -> tuple[viser.uplot.Axis, ...]:
+        return self._symmetric_axes(SPEED_WINDOW, half, REST_SPEED)
+
+    # -- callbacks -------------------------------------------------------------------------
     def _target_callback(self, i: int) -> Callable[[Any], None]:
         name = self.arm.joint_names[i]
 
         def on_update(_: Any) -> None:
+            if self._syncing:
+                return
             self.sim.set_target(name, float(self.sliders[i].value))
+            self._forget_anchor()
+            self._sync_gizmo()
 
         return on_update
 
-    def _reset(self) -> None:
-        self.sim.reset()
+    def _sync_sliders(self, q: Array) -> None:
+        """Show ``q`` on the joint sliders without acting on it."""
         with self._lock:
-            self._trail.clear()
-        for i, s in enumerate(self.sliders):
-            s.value = float(np.clip(self.sim.home[i], self.sim.lower[i], self.sim.upper[i]))
+            self._syncing = True
+            try:
+                for i, s in enumerate(self.sliders):
+                    s.value = float(
+                        np.round(np.clip(q[i], self.sim.lower[i], self.sim.upper[i]), 4)
+                    )
+            finally:
+                self._syncing = False
+
+    def _forget_anchor(self) -> None:
+        """A move other than the self-motion: the next self-motion starts where the arm is."""
+        with self._lock:
+            self._anchor = None
+            self._self_motion_value = 0.0
+            self._self_motion_text = ("-", "-")
+            self._syncing = True
+            try:
+                self.self_motion.value = 0.0
+            finally:
+                self._syncing = False
+
+    def _on_self_motion(self, _: Any) -> None:
+        if self._syncing:
+            return
+        with self._lock:
+            value = float(self.self_motion.value)
+            if self._anchor is None:
+                self._anchor = self.sim.targets.copy()
+                self._self_motion_value = 0.0
+            old, new = self._self_motion_value, value
+            anchor = self._anchor
+            old_q = self.sim.self_motion_path(anchor, old).q if old != 0 else anchor[None]
+            path = self.sim.self_motion_path(anchor, new) if new != 0 else None
+            new_q = path.q if path is not None else anchor[None]
+            # Back along the old path to the steps both share (all but a path's last step,
+            # which may be shorter), then out along the new one.
+            common = max(0, min(len(old_q), len(new_q)) - 2) if old * new > 0 else 0
+            route = np.vstack([old_q[common:][::-1], new_q[common + 1 :]])
+            self.sim.follow(route)
+            self._self_motion_value = new
+            p0 = self.arm.site_pose(anchor)[0]
+            drift = float(np.linalg.norm(self.arm.site_pose(new_q[-1])[0] - p0))
+            elbow = float(
+                np.linalg.norm(self.sim.elbow_position(new_q[-1]) - self.sim.elbow_position(anchor))
+            )
+            stopped = f" ({path.stopped})" if path is not None and path.stopped else ""
+            self._self_motion_text = (f"{drift:.2e}", f"{elbow:.4f}{stopped}")
+            self._sync_sliders(new_q[-1])
+            self._sync_gizmo(new_q[-1])
+
+    def _on_gizmo(self, event: Any) -> None:
+        phase = getattr(event, "phase", "update")
+        with self._lock:
+            if phase == "start" or self._drag_rest is None:
+                self._dragging = True
+                self._drag_rest = self.sim.targets.copy()
+            target = np.asarray(self.gizmo.position, dtype=float)
+            rot = _quat_to_mat(self.gizmo.wxyz)
+            q, err = solve_ik(self.arm, self.sim.targets, target, rot, rest=self._drag_rest)
+            self.sim.set_targets(q)
+            self._gizmo_target = target
+            self._ik_error = err
+            self._sync_sliders(q)
+            if phase == "end":
+                self._dragging = False
+                self._drag_rest = None
+            self._forget_anchor()
+
+    def _sync_gizmo(self, q: Array | None = None) -> None:
+        """Put the gizmo at the tool pose of the targets (unless it is being dragged)."""
+        if self._dragging:
+            return
+        p, R = self.arm.site_pose(self.sim.targets if q is None else q)
+        self.gizmo.position = tuple(p)
+        self.gizmo.wxyz = tuple(_mat_to_quat(R))
 
     @staticmethod
-    def _plot_data(t: Array, v: Array) -> tuple[Array, Array]:
-        if len(t) < 2:  # uPlot wants at least two points
-            t0 = float(t[-1]) if len(t) else 0.0
-            y0 = float(v[-1]) if len(v) else 0.0
-            return np.array([t0 - 1e-3, t0]), np.array([y0, y0])
-        return t, v
+    def _set_visible(handle: Any, on: bool) -> None:
+        if handle.visible != on:
+            handle.visible = on
 
+    def _reset(self, all_settings: bool) -> None:
+        with self._lock:
+            if all_settings:
+                self.sim.reset_all()
+                self._syncing = True
+                try:
+                    self.kd.value = float(self.sim.kd)
+                    self.armature.value = self._armature_modelled
+                    self.collide.value = bool(self.sim.contact_forces)
+                    self.rate.value = next(iter(RATE_OPTIONS))
+                finally:
+                    self._syncing = False
+                if self.runner is not None:
+                    self.runner.set_rate(1.0)
+                    self.runner.paused = False
+                    self.pause.label = PAUSE_LABEL
+                self._picked = "-"
+            else:
+                self.sim.reset_pose()
+            self._trail.clear()
+            self._ik_error = None
+            self._gizmo_target = None
+            self._sync_sliders(self.sim.home)
+            self._forget_anchor()
+            self._sync_gizmo()
+        self.update(self.sim, force=True)
+
+    def _toggle_pause(self) -> None:
+        if self.runner is None:
+            return
+        self.runner.paused = not self.runner.paused
+        self.pause.label = RESUME_LABEL if self.runner.paused else PAUSE_LABEL
+
+    def _single_step(self) -> None:
+        if self.runner is None:
+            return
+        self.runner.step_once()
+        self.pause.label = RESUME_LABEL
+
+    def _set_rate(self) -> None:
+        if self.runner is not None and not self._syncing:
+            self.runner.set_rate(RATE_OPTIONS[str(self.rate.value)])
+
+    def _send_csv(self, event: Any) -> None:
+        name = self.arm.source.rsplit("/", 1)[-1].rsplit(".", 1)[0] or "arm"
+        data = self.sim.csv().encode()
+        client = getattr(event, "client", None)
+        target = client if client is not None else self.server
+        target.send_file_download(
+            f"lab-{name}-t{self.sim.time:.3f}.csv", data, save_immediately=True
+        )
+
+    def set_view(self, view: str) -> None:
+        """Point every connected browser's camera at the arm from ``view`` (see :data:`VIEWS`)."""
+        for client in self.server.get_clients().values():
+            aspect = float(client.camera.aspect) if client.camera.aspect else 1.0
+            position, look_at = self.camera_view(view, aspect)
+            # (viser moves look_at along with position: position first, then look_at.)
+            with client.atomic():
+                client.camera.position = tuple(position)
+                client.camera.look_at = tuple(look_at)
+
+    # -- readouts --------------------------------------------------------------------------
     def _readouts_html(self, r: LabReadouts) -> str:
         j = r.watch_joint
+        rtf = self.runner.real_time_factor if self.runner is not None else float("nan")
+        rate = self.runner.rate if self.runner is not None else 1.0
+        paused = self.runner is not None and self.runner.paused
+        lost = "none"
+        if r.lost.shape[1]:
+            parts = []
+            for u in r.lost.T:
+                t, w = u[:3], u[3:]
+                move = ", ".join(f"{x:.2f}" for x in t)
+                turn = ", ".join(f"{x:.2f}" for x in w)
+                parts.append(f"move ({move}) / turn ({turn})")
+            lost = "; ".join(parts)
         values = {
-            "sigma_min": f"{r.sigma_min:.4f}",
-            "manipulability": f"{r.manipulability:.4f}",
+            "sigma_min": f"{r.sigma_min:.4g}",
+            "manipulability": f"{r.manipulability:.4g}",
             "contacts": r.contacts_text,
-            "speed": f"{r.watch_speed:.3f}",
-            "peak": f"{r.watch_peak:.3f}",
-            "torque": f"{r.watch_torque:.2f} (limit {r.watch_limit:g})",
-            "time": f"{r.time:.1f}",
+            "lost": lost,
+            "speed": f"{r.watch_speed:.4g}",
+            "peak": f"{r.watch_peak:.4g}",
+            "torque": f"{r.watch_torque:.4g} (limit {r.watch_limit:g})",
+            "ellipsoid": ", ".join(f"{s:.4f}" for s in r.velocity_semi_axes),
+            "drift": self._self_motion_text[0],
+            "elbow": self._self_motion_text[1],
+            "ik": "-" if self._ik_error is None else f"{self._ik_error:.2e}",
+            "picked": self._picked,
+            "time": f"{r.time:.3f}" + (" (paused)" if paused else ""),
+            "rtf": "-" if not np.isfinite(rtf) else f"{rtf:.2f} (set {rate:g})",
+            "browsers": str(len(self.server.get_clients())),
         }
         rows = []
         for key, label in READOUT_KEYS.items():
@@ -331,22 +933,51 @@ class LabPage:
                 f'<td data-readout="{key}" style="padding:2px 0;font-family:monospace;'
                 f'text-align:right;overflow-wrap:anywhere">{html.escape(values[key])}</td></tr>'
             )
+        top = max(float(r.sigma[0]), 1e-12)
+        bars = []
+        for i, s in enumerate(r.sigma):
+            width = 100.0 * float(s) / top
+            color = "#e03131" if s < LOST_SIGMA else "#1c7ed6"
+            bars.append(
+                f'<tr><td style="color:#666;padding-right:6px">σ{i + 1}</td>'
+                f'<td style="width:100%"><div data-sigma-bar="{i}" style="height:9px;'
+                f'width:{width:.2f}%;background:{color}"></div></td>'
+                f'<td data-sigma="{i}" style="font-family:monospace;text-align:right;'
+                f'padding-left:6px">{s:.4g}</td></tr>'
+            )
         return (
             '<div style="padding:0.25em 1.5em 0.25em 0.75em"><table class="lab-readouts" '
             'style="width:100%;font-size:0.8em;border-collapse:collapse">'
             + "".join(rows)
+            + "</table>"
+            '<div style="font-size:0.8em;margin-top:0.5em;color:#666">singular values of J '
+            "(bars: share of σ1)</div>"
+            '<table class="lab-sigma" style="width:100%;font-size:0.8em;border-collapse:collapse">'
+            + "".join(bars)
             + "</table></div>"
         )
 
     # -- per frame ------------------------------------------------------------------------
+    def plot_data(self, sim: LabSim) -> dict[str, tuple[Array, Array]]:
+        """The plotted series, times relative to now [s] (see :meth:`LabSim.csv`)."""
+        now = sim.time
+        t, v = sim.speed_history()
+        _, tau = sim.torque_history()
+        ts, s = sim.sigma_history()
+        return {
+            "speed": (t - now, v),
+            "torque": (t - now, tau),
+            "sigma": (ts - now, np.maximum(s, SIGMA_FLOOR)),
+        }
+
     def update(self, sim: LabSim, force: bool = False) -> None:
         """Push the current state to the page (the runner's frame callback)."""
         with self._lock:
             self._frame += 1
-            pos, quat, anchor, axis, site = sim.frames()
+            pos, quat, anchor, axis, site, rot = sim.frames()
             gpos, gquat = sim.geom_poses(self._geoms)
             q = sim.data.qpos.copy()
-            moved = self._last_q is None or np.max(np.abs(q - self._last_q)) > 1e-6
+            moved = self._last_q is None or np.max(np.abs(q - self._last_q)) > 1e-9
             gui_due = force or self._frame % GUI_EVERY == 0
             readouts = sim.readouts() if gui_due or moved else None
             with self.server.atomic():
@@ -355,37 +986,64 @@ class LabPage:
                     for h, p, w in zip(self._meshes, gpos, gquat, strict=True):
                         h.position = p
                         h.wxyz = w
-                    self._site.position = site
-                    self._update_frames(pos, quat, anchor, axis, force)
-                    self._update_trail(site, force)
+                    self._tool.position = site
+                    self._tool.wxyz = _mat_to_quat(rot)
+                    self._update_frames(pos, quat, anchor, axis)
+                    self._update_trail(site)
+                    self._update_names(gpos)
                 if readouts is not None:
-                    self._update_contacts(readouts, force)
+                    self._update_contacts(readouts)
+                    self._update_tool_vectors(readouts, site)
                 if gui_due and readouts is not None:
                     text = self._readouts_html(readouts)
                     if text != self._last_html:
                         self.readout_table.content = text
                         self._last_html = text
-                    self.speed_plot.data = self._plot_data(*sim.speed_history())
-                    self.sigma_plot.data = self._plot_data(*sim.sigma_history())
+                    self._update_plots(sim)
 
-    def _update_frames(
-        self, pos: Array, quat: Array, anchor: Array, axis: Array, force: bool
-    ) -> None:
-        show = bool(self.show_frames.value) if hasattr(self, "show_frames") else False
+    def _update_plots(self, sim: LabSim) -> None:
+        data = self.plot_data(sim)
+        v = data["speed"][1]
+        half = nice_ceil(1.05 * float(np.max(np.abs(v))) if len(v) else 0.0, 2 * REST_SPEED)
+        if half != self._speed_half:
+            self._speed_half = half
+            self.speed_plot.scales = self._speed_scales(half)
+            self.speed_plot.axes = self._speed_axes(half)
+        self.speed_plot.data = data["speed"]
+        self.torque_plot.data = data["torque"]
+        self.sigma_plot.data = data["sigma"]
+
+    def _update_frames(self, pos: Array, quat: Array, anchor: Array, axis: Array) -> None:
+        show = bool(self.show_frames.value)
         for h, p, w in zip(self._frames, pos, quat, strict=True):
-            if h.visible != show:
-                h.visible = show
+            self._set_visible(h, show)
             if show:
                 h.position = p
                 h.wxyz = w
-        show_axes = bool(self.show_axes.value) if hasattr(self, "show_axes") else False
-        if self._axes.visible != show_axes:
-            self._axes.visible = show_axes
+        show_axes = bool(self.show_axes.value)
+        self._set_visible(self._axes, show_axes)
         if show_axes:
             self._axes.points = self._axis_points(anchor, axis)
 
-    def _update_trail(self, site: Array, force: bool) -> None:
-        show = bool(self.show_trail.value) if hasattr(self, "show_trail") else True
+    def _update_names(self, gpos: Array) -> None:
+        show = bool(self.show_names.value)
+        centres: dict[int, list[Array]] = {}
+        for b, p in zip(self._body_of, gpos, strict=True):
+            centres.setdefault(b, []).append(p)
+        for b, label in self._link_labels.items():
+            self._set_visible(label, show)
+            if show:
+                label.position = np.mean(centres[b], axis=0)
+        picked = self._picked != "-"
+        self._set_visible(self._picked_label, picked)
+        if picked:
+            body = next((b for b, n in self._body_names.items() if n == self._picked), None)
+            if body in centres:
+                self._picked_label.position = np.mean(centres[body], axis=0)
+                self._picked_label.text = self._picked
+
+    def _update_trail(self, site: Array) -> None:
+        show = bool(self.show_trail.value)
         if not self._trail or np.linalg.norm(site - self._trail[-1]) > 1e-3:
             self._trail.append(site.copy())
             del self._trail[:-TRAIL_POINTS]
@@ -393,27 +1051,53 @@ class LabPage:
         if visible:
             pts = np.array(self._trail)
             self._trail_handle.points = np.stack([pts[:-1], pts[1:]], axis=1)
-        if self._trail_handle.visible != visible:
-            self._trail_handle.visible = visible
+        self._set_visible(self._trail_handle, visible)
 
-    def _update_contacts(self, r: LabReadouts, force: bool) -> None:
-        show = bool(self.show_contacts.value) if hasattr(self, "show_contacts") else True
+    def _update_tool_vectors(self, r: LabReadouts, site: Array) -> None:
+        show = bool(self.show_ellipsoid.value)
+        self._set_visible(self._ellipsoid, show)
+        if show:
+            self._ellipsoid.position = site
+            self._ellipsoid.wxyz = _mat_to_quat(r.velocity_axes)
+            self._ellipsoid.scale = tuple(np.maximum(ELLIPSOID_SCALE * r.velocity_semi_axes, 1e-4))
+        arrows = []
+        for u in r.lost.T:
+            for part in (u[:3], u[3:]):
+                n = float(np.linalg.norm(part))
+                if n > 0.2:
+                    d = LOST_ARROW * part / n
+                    arrows += [(site, site + d), (site, site - d)]
+        if arrows:
+            self._lost.points = np.array(arrows)
+        self._set_visible(self._lost, bool(arrows))
+
+    def _update_contacts(self, r: LabReadouts) -> None:
+        show = bool(self.show_contacts.value)
         pts = r.contact_points[:MAX_CONTACT_MARKERS] if show else np.zeros((0, 3))
         for k, h in enumerate(self._contacts):
             on = k < len(pts)
             if on:
                 h.position = pts[k]
-            if h.visible != on:
-                h.visible = on
-        # Contact points lie inside both links: see through the links while there are any.
-        translucent = len(pts) > 0
-        if translucent != self._translucent:
-            self._translucent = translucent
-            for g, h in zip(self._geoms, self._meshes, strict=True):
+            self._set_visible(h, on)
+        # One name per pair in contact, at its first contact point.
+        names = list(r.contact_pairs) if show else []
+        for k, label in enumerate(self._contact_labels):
+            on = k < len(names)
+            if on:
+                label.text = names[k]
+                label.position = r.contact_pair_points[k]
+            self._set_visible(label, on)
+        # Links in contact: highlighted, and see-through so that the markers show.
+        bodies = r.contact_bodies if show else frozenset()
+        if bodies != self._highlighted:
+            self._highlighted = bodies
+            for b, h, color, g in zip(
+                self._body_of, self._meshes, self._colors, self._geoms, strict=True
+            ):
+                hit = self._body_names[b] in bodies
                 alpha = float(self.sim.model.geom_rgba[g, 3])
-                h.opacity = (
-                    CONTACT_OPACITY * alpha if translucent else (alpha if alpha < 1 else None)
-                )
+                h.color = CONTACT_COLOR if hit else color
+                h.opacity = CONTACT_OPACITY * alpha if hit else (alpha if alpha < 1 else None)
 
 
 class LabServer:
@@ -422,9 +1106,13 @@ class LabServer:
     Args:
         arm: The arm.
         host: Interface to listen on (loopback by default; the page has no authentication).
-        port: TCP port (0: any free port; if taken, viser tries the next ones).
+        port: TCP port (0: any free port; if taken, the next free one, with a warning).
         fps: Frames per second of the physics loop and the scene [1/s].
         verbose: Let viser print its banner and connection messages.
+        warn: Where warnings go (a busy port, listening beyond loopback); default stderr.
+
+    Raises:
+        RedundancyError: Bad ``host`` or ``port``.
 
     Example:
         >>> with LabServer(arm, port=0) as lab:  # doctest: +SKIP
@@ -438,15 +1126,84 @@ class LabServer:
         port: int = 8080,
         fps: float = 30.0,
         verbose: bool = False,
+        warn: Callable[[str], None] | None = None,
     ) -> None:
+        check_address(host, port)
+        self._warn = warn or (lambda msg: print(f"redundancy lab: warning: {msg}", file=sys.stderr))
+        self.warnings: list[str] = []
         self.sim = LabSim(arm)
-        self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
         self.host = host
-        title = f"Posing {arm.source.rsplit('/', 1)[-1]}: {arm.nq} joints, site {arm.site!r}"
-        self.page = LabPage(self.server, self.sim, title)
+        self.requested_port = port
+        self.rejected_origins: list[str] = []
+        # viser prints a banner whatever ``verbose`` says, with a loopback URL even for a
+        # wildcard host: keep it off stdout unless asked; the lab prints the real URL.
+        quiet = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
+        with quiet:
+            self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
+        self._allowed_hosts = {"localhost", "127.0.0.1", "::1", "[::1]", host.lower()}
+        if not is_loopback(host):
+            self._allowed_hosts |= _machine_names()
+        self.server._websock_server.on_client_connect(self._check_origin)
+        name = arm.source.rsplit("/", 1)[-1]
+        title = f"Posing {name}: {arm.nq} joints, site {arm.site!r}"
         self.runner = RealTimeRunner(self.sim, fps=fps)
+        self.page = LabPage(self.server, self.sim, self.runner, title, f"{name} · redundancy lab")
         self.runner.callbacks.append(self.page.update)
         self.runner.start()
+        if port and self.port != port:
+            self.warning(f"port {port} is taken; serving on port {self.port} instead")
+        if not is_loopback(host):
+            self.warning(
+                f"listening on {host} beyond loopback: anyone who can reach this machine can "
+                f"drive the lab (no authentication); open {self.url}"
+            )
+
+    def warning(self, msg: str) -> None:
+        """Record and print a warning."""
+        self.warnings.append(msg)
+        self._warn(msg)
+
+    async def _check_origin(self, conn: Any) -> None:
+        """Close a websocket opened by a page from another origin (before any message).
+
+        A browser sends ``Origin`` with every websocket; a page from another site (or a DNS
+        rebinding of one) would otherwise drive the arm. Allowed: no Origin (not a browser),
+        or an Origin equal to ``http://`` + the Host header whose host is an address literal
+        or a name of this server (loopback names; with a wider host, the machine's names).
+        Runs in the server's event loop before viser starts its message loops.
+        """
+        ws = self.server._websock_server
+        connection = ws._live_connections.get(conn.client_id)
+        if connection is None or connection.request is None:
+            return
+        headers = connection.request.headers
+        origin = headers.get("Origin")
+        if origin is None:
+            return
+        host_header = headers.get("Host", "")
+        host_part = host_header.rsplit(":", 1)[0].lower() if host_header else ""
+        if origin == f"http://{host_header}" and (
+            host_part in self._allowed_hosts or self._is_ip(host_part)
+        ):
+            return
+        self.rejected_origins.append(origin)
+
+        async def closed(*_: Any, **__: Any) -> Any:
+            import websockets.exceptions
+
+            raise websockets.exceptions.ConnectionClosedOK(None, None)
+
+        connection.recv = closed  # no message of this connection reaches viser
+        await connection.close(1008, "origin not allowed")
+
+    @staticmethod
+    def _is_ip(host: str) -> bool:
+        """An address literal: a page served from it came from this server (no DNS to rebind)."""
+        try:
+            ipaddress.ip_address(host.strip("[]"))
+        except ValueError:
+            return False
+        return True
 
     @property
     def port(self) -> int:
@@ -455,8 +1212,12 @@ class LabServer:
 
     @property
     def url(self) -> str:
-        """The page's address."""
-        host = "127.0.0.1" if self.host in ("0.0.0.0", "") else self.host
+        """The page's address: for a wildcard host, this machine's name."""
+        host = self.host
+        if host in ("0.0.0.0", "::", ""):
+            host = socket.gethostname()
+        if ":" in host and not host.startswith("["):
+            host = f"[{host}]"
         return f"http://{host}:{self.port}/"
 
     def stop(self) -> None:
@@ -492,7 +1253,10 @@ def serve(arm: Arm, host: str = "127.0.0.1", port: int = 8080) -> None:
     Args:
         arm: The arm.
         host: Interface to listen on (default: loopback only).
-        port: TCP port.
+        port: TCP port (0: any free port).
+
+    Raises:
+        RedundancyError: Bad ``host`` or ``port``.
     """
     lab = LabServer(arm, host=host, port=port)
     print(f"redundancy lab: {arm.source} at {lab.url} (Ctrl-C to stop)", flush=True)

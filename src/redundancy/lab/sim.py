@@ -1,8 +1,9 @@
 """The lab's simulation: an arm held at target angles by PD control with gravity compensation.
 
 This module is the lab without a browser: :class:`LabSim` steps MuJoCo with the lesson's
-controller and computes the readouts, and :class:`RealTimeRunner` steps it against the wall
-clock in a background thread. :mod:`redundancy.lab` draws both in a web page.
+controller and computes the readouts, and :class:`RealTimeRunner` steps it against a clock
+(the wall clock, or a fake one in tests) with pause, single step and slow motion.
+:mod:`redundancy.lab.page` draws both in a web page.
 
 The controller, evaluated at every step of ``h`` (the model's timestep)::
 
@@ -17,12 +18,19 @@ Self-contacts are a readout (MuJoCo's contact rules through
 :func:`redundancy.collision.checker`), by default without contact forces so that the arm can
 be posed through itself, as the lesson's second experiment asks; with ``contact_forces=True``
 the links collide and stop each other.
+
+Redundancy is something to touch here: :meth:`LabSim.self_motion_targets` moves the targets
+along the Jacobian's null space with the tool held (the library's
+:func:`redundancy.analysis.selfmotion.self_motion` with drift correction), and
+:func:`solve_ik` takes the targets to a dragged tool pose by damped least squares with a
+null-space term that pulls toward a rest posture.
 """
 
 from __future__ import annotations
 
 import collections
 import copy
+import io
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -33,8 +41,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import collision, linalg
+from ..analysis import selfmotion
 from ..arm import Arm
-from ..errors import PoseError
+from ..errors import PoseError, RedundancyError
 from .control import JointPD
 
 Array = NDArray[np.float64]
@@ -43,7 +52,7 @@ Array = NDArray[np.float64]
 KP = 100.0
 #: The lesson's starting damping gain [N m s/rad].
 KD = 5.0
-#: Span of the plot of the watched joint's speed [s].
+#: Span of the plots of the watched joint's speed and torque [s].
 SPEED_WINDOW = 4.0
 #: Span of the plot of sigma_min [s].
 SIGMA_WINDOW = 8.0
@@ -53,6 +62,16 @@ SIGMA_EVERY = 10
 PEAK_WINDOW = 0.2
 #: The nudge: a speed added to every joint [rad/s or m/s] (the lesson's script uses 0.01).
 NUDGE = 0.01
+#: Below this sigma the tool directions of U are shown as lost [m/rad or rad/rad].
+LOST_SIGMA = 1e-3
+#: Null-space joint motion per step of the self-motion slider [rad].
+SELF_MOTION_STEP = 0.01
+#: Speed at which the targets travel along a self-motion [rad/s of joint motion]. The PD
+#: lags its moving targets by about kd qdot / kp, so on the way the tool moves by a few
+#: millimetres; at rest it is back within the drift correction's tolerance.
+SELF_MOTION_SPEED = 0.5
+#: Slow-motion factors offered by the runner (simulated seconds per wall-clock second).
+RATES = (1.0, 0.1, 0.01)
 
 
 @dataclass(frozen=True)
@@ -68,10 +87,21 @@ class LabReadouts:
         kd: Damping gain [N m s/rad].
         armature: Armature per joint in the simulated model [kg m^2].
         contact_forces: Whether the links collide (True) or pass through each other (False).
-        sigma_min: Smallest singular value of the site Jacobian [mixed: m/rad, rad/rad].
+        sigma: The six singular values of the site Jacobian, descending [m/rad, rad/rad].
+        sigma_min: The smallest of them.
         manipulability: Yoshikawa's measure, the product of the singular values.
+        lost: Tool directions (columns of U) whose singular value is below
+            :data:`LOST_SIGMA`, shape (6, k): translation rows first, then rotation.
+        velocity_axes: Principal axes of the tool's translational velocity ellipsoid (left
+            singular vectors of J's position block), columns, shape (3, 3).
+        velocity_semi_axes: Its semi-axes, the singular values of J's position block
+            [m/s per rad/s], shape (3,).
+        tool_position: The tool site's position [m].
         contact_pairs: Geom pairs in self-contact (``"link2 / link4"``), in pair-set order.
+        contact_bodies: Bodies carrying a geom in self-contact.
         contact_points: Contact positions, world frame, shape (n, 3) [m].
+        contact_pair_points: The first contact position of each pair in ``contact_pairs``,
+            shape (len(contact_pairs), 3) [m].
         watch_joint: Name of the joint whose speed is watched (the last one: j7 for arm7).
         watch_speed: Its speed [rad/s].
         watch_peak: Its largest |speed| over the last :data:`PEAK_WINDOW` [rad/s].
@@ -87,10 +117,17 @@ class LabReadouts:
     kd: float
     armature: Array
     contact_forces: bool
+    sigma: Array
     sigma_min: float
     manipulability: float
+    lost: Array
+    velocity_axes: Array
+    velocity_semi_axes: Array
+    tool_position: Array
     contact_pairs: tuple[str, ...]
+    contact_bodies: frozenset[str]
     contact_points: Array
+    contact_pair_points: Array
     watch_joint: str
     watch_speed: float
     watch_peak: float
@@ -101,6 +138,81 @@ class LabReadouts:
     def contacts_text(self) -> str:
         """The self-contact pairs joined by commas, or ``"none"``."""
         return ", ".join(self.contact_pairs) or "none"
+
+
+def velocity_ellipsoid(J: Array) -> tuple[Array, Array]:
+    """Axes (columns, a rotation) and semi-axes of the tool's translational velocity ellipsoid.
+
+    The tool speeds reachable with joint speeds of unit norm, J_p qdot for |qdot| <= 1, fill
+    the ellipsoid whose semi-axes are the singular values of J's position block J_p (its
+    first three rows) along its left singular vectors.
+
+    Args:
+        J: Site Jacobian, shape (6, n), translation rows first.
+
+    Returns:
+        Axes, shape (3, 3) with determinant +1, and semi-axes [m/s per rad/s], shape (3,).
+    """
+    U, s, _ = np.linalg.svd(J[:3])
+    if np.linalg.det(U) < 0:
+        U = U.copy()
+        U[:, 2] = -U[:, 2]
+    return U, s
+
+
+def solve_ik(
+    arm: Arm,
+    q0: ArrayLike,
+    position: ArrayLike,
+    rotation: ArrayLike | None = None,
+    rest: ArrayLike | None = None,
+    damping: float = 0.05,
+    posture_gain: float = 0.2,
+    tol: float = 1e-6,
+    iterations: int = 200,
+) -> tuple[Array, float]:
+    """Joint targets that put the tool at a pose: damped least squares with a posture term.
+
+    Each iteration takes ``dq = J^# e + N k (rest - q)``: ``J^#`` is the damped inverse
+    (:func:`redundancy.linalg.damped_pinv`, bounded near singular poses), ``e`` the tool's
+    error (:func:`redundancy.analysis.selfmotion.pose_error`), and ``N`` the null-space
+    projector, so the posture term moves the elbow toward ``rest`` without moving the tool.
+    Joints are clipped to their ranges.
+
+    Args:
+        arm: The arm.
+        q0: Start pose [rad or m].
+        position: Tool target position [m].
+        rotation: Tool target orientation (3 x 3), or None to keep the orientation at ``q0``.
+        rest: Rest posture for the null-space term (default ``q0``).
+        damping: lambda of the damped inverse [m/rad].
+        posture_gain: k, the share of the posture error taken per iteration.
+        tol: Stop when the tool's position error is below this [m] (and the orientation
+            error below 1e3 * tol [rad]).
+        iterations: Iterations at most.
+
+    Returns:
+        The pose and the tool's remaining position error [m].
+    """
+    q = arm.pose(q0)
+    p_t = np.asarray(position, dtype=float).reshape(3)
+    R_t = arm.site_pose(q)[1] if rotation is None else np.asarray(rotation, float).reshape(3, 3)
+    q_rest = q.copy() if rest is None else arm.pose(rest)
+    lo = np.where(np.isfinite(arm.lower), arm.lower, -np.inf)
+    hi = np.where(np.isfinite(arm.upper), arm.upper, np.inf)
+    err = np.inf
+    for _ in range(iterations):
+        e = selfmotion.pose_error(arm, q, p_t, R_t)
+        err = float(np.linalg.norm(e[:3]))
+        if err < tol and np.linalg.norm(e[3:]) < 1e3 * tol:
+            break
+        J = arm.jacobian(q)
+        dq = linalg.damped_pinv(J, damping) @ e
+        dq += linalg.nullspace_projector(J) @ (posture_gain * (q_rest - q))
+        q = np.clip(q + dq, lo, hi)
+    else:
+        err = float(np.linalg.norm(selfmotion.pose_error(arm, q, p_t, R_t)[:3]))
+    return q, err
 
 
 class LabSim:
@@ -136,7 +248,7 @@ class LabSim:
         self.timestep = float(self.model.opt.timestep)
         self.joint_names = arm.joint_names
         self.watch_joint = watch if watch is not None else arm.joint_names[-1]
-        self._watch = arm.joint_index(self.watch_joint)
+        self.watch_index = arm.joint_index(self.watch_joint)
         self.lower, self.upper = self.slider_ranges(arm)
         self.keyframe_name = keyframe if keyframe in arm.keyframes else None
         self.home = (
@@ -144,19 +256,28 @@ class LabSim:
         ).astype(float)
         self.modelled_armature = self.model.dof_armature.copy()
         self.effort_limit = arm.effort_limit.copy()
+        #: The settings "reset all" goes back to.
+        self.defaults = {"kd": self.kd, "contact_forces": bool(contact_forces)}
+        #: The joint whose anchor is the elbow (the middle joint, as in the self-motion).
+        self.elbow_index = arm.nq // 2
         self._controller = JointPD(self.model)
         self._checker = collision.checker(arm)
         self._lock = threading.RLock()
         self.targets = self.home.copy()
+        self._path: Array | None = None
+        self._path_start = 0.0
         self._steps = 0
-        n_speed = round(SPEED_WINDOW / self.timestep)
-        n_sigma = round(SIGMA_WINDOW / (SIGMA_EVERY * self.timestep))
+        #: How many times the pose was reset (:meth:`reset_pose`, :meth:`reset_all`).
+        self.resets = -1
+        n_speed = round(SPEED_WINDOW / self.timestep) + 1
+        n_sigma = round(SIGMA_WINDOW / (SIGMA_EVERY * self.timestep)) + 1
         self._speed_t: collections.deque[float] = collections.deque(maxlen=n_speed)
         self._speed_v: collections.deque[float] = collections.deque(maxlen=n_speed)
+        self._torque_v: collections.deque[float] = collections.deque(maxlen=n_speed)
         self._sigma_t: collections.deque[float] = collections.deque(maxlen=n_sigma)
         self._sigma_v: collections.deque[float] = collections.deque(maxlen=n_sigma)
         self.set_contact_forces(contact_forces)
-        self.reset()
+        self.reset_pose()
 
     # -- set-up helpers ------------------------------------------------------------------
     @staticmethod
@@ -167,17 +288,36 @@ class LabSim:
         return lo.astype(float), hi.astype(float)
 
     # -- commands ------------------------------------------------------------------------
-    def reset(self) -> None:
-        """Back to the keyframe at rest, with the keyframe as target; history cleared."""
+    def reset_pose(self) -> None:
+        """Back to the keyframe at rest, with the keyframe as target; history cleared.
+
+        The settings (kd, armature, contact forces) are kept: see :meth:`reset_all`.
+        """
         with self._lock:
             mujoco.mj_resetData(self.model, self.data)
             self.data.qpos[:] = self.home
             mujoco.mj_forward(self.model, self.data)
             self.targets = self.home.copy()
+            self._path = None
             self._steps = 0
-            for buf in (self._speed_t, self._speed_v, self._sigma_t, self._sigma_v):
+            self.resets += 1
+            for buf in (
+                self._speed_t,
+                self._speed_v,
+                self._torque_v,
+                self._sigma_t,
+                self._sigma_v,
+            ):
                 buf.clear()
             self._record_sigma()
+
+    def reset_all(self) -> None:
+        """:meth:`reset_pose`, and kd, armature and contact forces back to their defaults."""
+        with self._lock:
+            self.set_kd(self.defaults["kd"])
+            self.set_armature(None)
+            self.set_contact_forces(bool(self.defaults["contact_forces"]))
+            self.reset_pose()
 
     def set_targets(self, q: ArrayLike) -> None:
         """Set every target q*, clipped to the slider ranges [rad or m].
@@ -187,6 +327,7 @@ class LabSim:
         """
         arr = self.arm.pose(q)
         with self._lock:
+            self._path = None
             self.targets = np.clip(arr, self.lower, self.upper)
 
     def set_target(self, joint: str, value: float) -> None:
@@ -200,14 +341,51 @@ class LabSim:
         if not np.isfinite(value):
             raise PoseError(f"target for {joint!r} must be finite, got {value}")
         with self._lock:
+            self._path = None
             t = self.targets.copy()
             t[i] = np.clip(float(value), self.lower[i], self.upper[i])
             self.targets = t
 
+    def follow(self, path: ArrayLike, speed: float = SELF_MOTION_SPEED) -> None:
+        """Move the targets along a sampled path of poses at a joint-motion speed.
+
+        Args:
+            path: Poses, shape (k, nq) [rad or m], e.g. a self-motion's ``q``.
+            speed: Joint motion per second of simulated time [rad/s].
+        """
+        P = np.asarray(path, dtype=float)
+        if P.ndim != 2 or P.shape[1] != self.arm.nq or len(P) == 0:
+            raise PoseError(f"path must have shape (k, {self.arm.nq}), got {P.shape}")
+        if not np.all(np.isfinite(P)):
+            raise PoseError("path must be finite")
+        step = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+        with self._lock:
+            self._path = P
+            self._path_s = step
+            self._path_speed = float(speed)
+            self._path_start = self.time
+            self._advance_path()
+
+    @property
+    def following(self) -> bool:
+        """Whether the targets are still travelling along a path (:meth:`follow`)."""
+        return self._path is not None
+
+    def _advance_path(self) -> None:
+        if self._path is None:
+            return
+        s = (self.time - self._path_start) * self._path_speed
+        k = int(np.searchsorted(self._path_s, s, side="right")) - 1
+        if k >= len(self._path) - 1:
+            self.targets = np.clip(self._path[-1], self.lower, self.upper)
+            self._path = None
+        else:
+            self.targets = np.clip(self._path[max(k, 0)], self.lower, self.upper)
+
     def set_kd(self, kd: float) -> None:
         """Set the controller's damping gain [N m s/rad] (>= 0)."""
         if not (np.isfinite(kd) and kd >= 0):
-            raise ValueError(f"kd must be finite and >= 0, got {kd}")
+            raise RedundancyError(f"kd must be finite and >= 0 N m s/rad, got {kd}")
         with self._lock:
             self.kd = float(kd)
 
@@ -218,7 +396,7 @@ class LabSim:
                 self.model.dof_armature[:] = self.modelled_armature
             else:
                 if not (np.isfinite(value) and value >= 0):
-                    raise ValueError(f"armature must be finite and >= 0, got {value}")
+                    raise RedundancyError(f"armature must be finite and >= 0 kg m^2, got {value}")
                 self.model.dof_armature[:] = float(value)
 
     def set_contact_forces(self, on: bool) -> None:
@@ -236,21 +414,51 @@ class LabSim:
         with self._lock:
             self.data.qvel[:] += speed
 
+    # -- redundancy ----------------------------------------------------------------------
+    def elbow_position(self, q: ArrayLike) -> Array:
+        """World position of the elbow joint's anchor at ``q`` [m]."""
+        return self.arm.engine("mujoco").joint_axes(self.arm.pose(q))[1][self.elbow_index]
+
+    def self_motion_path(self, anchor: ArrayLike, amount: float) -> selfmotion.SelfMotionPath:
+        """The self-motion from ``anchor`` over ``|amount|`` of joint motion, tool held.
+
+        Positive ``amount`` starts the way that raises the elbow. Uses the library's
+        :func:`~redundancy.analysis.selfmotion.self_motion` with drift correction, steps of
+        :data:`SELF_MOTION_STEP`; it stops early at a joint limit or where the null space
+        vanishes (``path.stopped`` says which).
+        """
+        q = self.arm.pose(anchor)
+        return selfmotion.self_motion(
+            self.arm,
+            q,
+            total=abs(float(amount)),
+            step=SELF_MOTION_STEP,
+            direction=1 if amount > 0 else -1,
+            correct=True,
+        )
+
     # -- stepping ------------------------------------------------------------------------
     @property
     def time(self) -> float:
         """Simulated time since the last reset [s]."""
         return self._steps * self.timestep
 
+    @property
+    def steps(self) -> int:
+        """Steps taken since the last reset."""
+        return self._steps
+
     def step(self, n: int = 1) -> None:
         """Advance ``n`` timesteps under the controller."""
         m, d = self.model, self.data
         with self._lock:
             for _ in range(int(n)):
+                self._advance_path()
                 self._controller.step(m, d, self.targets, self.kp, self.kd)
                 self._steps += 1
                 self._speed_t.append(self.time)
-                self._speed_v.append(float(d.qvel[self._watch]))
+                self._speed_v.append(float(d.qvel[self.watch_index]))
+                self._torque_v.append(self._controller.applied(d, self.watch_index))
                 if self._steps % SIGMA_EVERY == 0:
                     self._record_sigma()
 
@@ -265,14 +473,18 @@ class LabSim:
         with self._lock:
             d = self.data
             q = d.qpos.copy()
-            svd = linalg.jacobian_svd(self.arm.jacobian(q))
+            J = self.arm.jacobian(q)
+            svd = linalg.jacobian_svd(J)
+            axes, semi = velocity_ellipsoid(J)
             contacts = self._checker.contacts(q)
             pairs = {c.pair for c in contacts}
             order = [p for p in self._checker.pairs if p in pairs]
             points = np.array([c.position for c in contacts]).reshape(-1, 3)
+            first: dict[object, Array] = {}
+            for c in contacts:
+                first.setdefault(c.pair, np.asarray(c.position, dtype=float))
             peak_n = max(1, round(PEAK_WINDOW / self.timestep))
             recent = list(self._speed_v)[-peak_n:]
-            torque = self._applied_torque(self._watch)
             return LabReadouts(
                 time=self.time,
                 q=q,
@@ -282,35 +494,72 @@ class LabSim:
                 kd=self.kd,
                 armature=self.model.dof_armature.copy(),
                 contact_forces=self.contact_forces,
+                sigma=svd.sigma.copy(),
                 sigma_min=float(svd.sigma[-1]),
                 manipulability=svd.manipulability,
+                lost=svd.U[:, svd.sigma < LOST_SIGMA].copy(),
+                velocity_axes=axes,
+                velocity_semi_axes=semi,
+                tool_position=self.arm.site_pose(q)[0],
                 contact_pairs=tuple(p.label for p in order),
+                contact_bodies=frozenset(b for p in order for b in (p.body1, p.body2)),
                 contact_points=points,
+                contact_pair_points=np.array([first[p] for p in order]).reshape(-1, 3),
                 watch_joint=self.watch_joint,
-                watch_speed=float(d.qvel[self._watch]),
+                watch_speed=float(d.qvel[self.watch_index]),
                 watch_peak=float(np.max(np.abs(recent))) if recent else 0.0,
-                watch_torque=torque,
-                watch_limit=float(self.effort_limit[self._watch]),
+                watch_torque=self._controller.applied(d, self.watch_index),
+                watch_limit=float(self.effort_limit[self.watch_index]),
             )
 
-    def _applied_torque(self, dof: int) -> float:
-        """Torque the controller applied to a dof in the last step, after clamping [N m]."""
-        return self._controller.applied(self.data, dof)
+    def _window(
+        self, t: collections.deque[float], v: collections.deque[float], span: float
+    ) -> tuple[Array, Array]:
+        """The samples with time in [now - span, now]."""
+        tt, vv = np.array(t), np.array(v)
+        keep = tt >= self.time - span - 1e-9
+        return tt[keep], vv[keep]
 
     def speed_history(self) -> tuple[Array, Array]:
         """Times [s] and speeds [rad/s] of the watched joint over the last :data:`SPEED_WINDOW`."""
         with self._lock:
-            return np.array(self._speed_t), np.array(self._speed_v)
+            return self._window(self._speed_t, self._speed_v, SPEED_WINDOW)
+
+    def torque_history(self) -> tuple[Array, Array]:
+        """Times [s] and applied torques [N m] of the watched joint's motor, same window."""
+        with self._lock:
+            return self._window(self._speed_t, self._torque_v, SPEED_WINDOW)
 
     def sigma_history(self) -> tuple[Array, Array]:
         """Times [s] and sigma_min over the last :data:`SIGMA_WINDOW`, one per ten steps."""
         with self._lock:
-            return np.array(self._sigma_t), np.array(self._sigma_v)
+            return self._window(self._sigma_t, self._sigma_v, SIGMA_WINDOW)
+
+    def csv(self) -> str:
+        """The plotted series as CSV: one block per plot, times relative to now [s].
+
+        Columns: ``series, t_rel (s), value``; ``series`` is ``speed`` (rad/s), ``torque``
+        (N m) or ``sigma_min``, and ``t_rel`` is the sample's time minus the current
+        simulated time (0 is now, negative is the past), as on the plots.
+        """
+        with self._lock:
+            now = self.time
+            t, v = self.speed_history()
+            _, tau = self.torque_history()
+            ts, s = self.sigma_history()
+        out = io.StringIO()
+        out.write(f"# {self.arm.source}: {self.watch_joint}, simulated time {now:.6f} s\n")
+        out.write("series,t_rel (s),value\n")
+        for name, tt, vv in (("speed", t, v), ("torque", t, tau), ("sigma_min", ts, s)):
+            for a, b in zip(tt - now, vv, strict=True):
+                out.write(f"{name},{a:.6f},{b:.9g}\n")
+        return out.getvalue()
 
     def geom_poses(self, geoms: Sequence[int]) -> tuple[Array, Array]:
         """World positions [m] and quaternions (w, x, y, z) of some geoms at the current state."""
         with self._lock:
             m, d = self.model, self.data
+            # Drawing reads poses only: mj_kinematics is the least that updates geom frames.
             mujoco.mj_kinematics(m, d)
             pos = d.geom_xpos[list(geoms)].copy()
             quat = np.zeros((len(geoms), 4))
@@ -318,12 +567,13 @@ class LabSim:
                 mujoco.mju_mat2Quat(quat[k], d.geom_xmat[g])
             return pos, quat
 
-    def frames(self) -> tuple[Array, Array, Array, Array, Array]:
+    def frames(self) -> tuple[Array, Array, Array, Array, Array, Array]:
         """Poses for drawing at the current state, from one ``mj_kinematics``.
 
         Returns:
             Body positions [m] and quaternions (w, x, y, z) of the joints' bodies, joint
-            anchors [m] and unit axes (world), and the tool site's position [m].
+            anchors [m] and unit axes (world), and the tool site's position [m] and rotation
+            matrix (3 x 3).
         """
         with self._lock:
             m, d = self.model, self.data
@@ -331,8 +581,10 @@ class LabSim:
             bodies = m.jnt_bodyid
             pos = d.xpos[bodies].copy()
             quat = d.xquat[bodies].copy()
-            site = d.site_xpos[self.arm.mujoco.site_id].copy()
-            return pos, quat, d.xanchor.copy(), d.xaxis.copy(), site
+            sid = self.arm.mujoco.site_id
+            site = d.site_xpos[sid].copy()
+            rot = d.site_xmat[sid].reshape(3, 3).copy()
+            return pos, quat, d.xanchor.copy(), d.xaxis.copy(), site, rot
 
     def run_for(self, seconds: float) -> LabReadouts:
         """Step ``seconds`` of simulated time (as fast as possible) and return the readouts."""
@@ -341,27 +593,107 @@ class LabSim:
 
 
 class RealTimeRunner:
-    """Steps a :class:`LabSim` in a background thread, in step with the wall clock.
+    """Steps a :class:`LabSim` in a background thread, in step with a clock.
 
-    Each frame it steps ``elapsed / timestep`` times (at most ``max_lag`` seconds' worth:
-    when the machine falls behind, simulated time slows down rather than piling up), then
-    calls the frame callbacks with the sim.
+    Each frame it steps ``rate * elapsed / timestep`` times (at most ``max_lag`` seconds'
+    worth: when the machine falls behind, simulated time slows down rather than piling up),
+    then calls the frame callbacks with the sim. :meth:`frame` is one such frame; the thread
+    calls it ``fps`` times a second, and tests call it with a fake ``clock``.
 
     Args:
         sim: The simulation.
         fps: Frames per second (callback rate) [1/s].
         max_lag: Largest simulated time stepped in one frame [s].
+        clock: Seconds from an arbitrary origin (default :func:`time.perf_counter`).
+
+    Attributes:
+        paused: No steps while set (frames and callbacks go on); see :meth:`step_once`.
+        rate: Simulated seconds per clock second (1: real time; see :data:`RATES`).
+        real_time_factor: Simulated time over clock time across the last ~2 s of frames
+            (``nan`` until two frames have run).
     """
 
-    def __init__(self, sim: LabSim, fps: float = 30.0, max_lag: float = 0.1) -> None:
+    def __init__(
+        self,
+        sim: LabSim,
+        fps: float = 30.0,
+        max_lag: float = 0.1,
+        clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
         self.sim = sim
         self.period = 1.0 / fps
         self.max_steps = max(1, round(max_lag / sim.timestep))
         self.callbacks: list[Callable[[LabSim], None]] = []
         self.errors: list[BaseException] = []
         self.frames = 0
+        self.paused = False
+        self.rate = 1.0
+        self.real_time_factor = float("nan")
+        self._clock = clock
+        self._last: float | None = None
+        self._owed = 0.0
+        self._single = 0
+        self._history: collections.deque[tuple[float, float]] = collections.deque()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+
+    def set_rate(self, rate: float) -> None:
+        """Simulated seconds per clock second, in (0, 1]."""
+        if not (np.isfinite(rate) and 0 < rate <= 1):
+            raise RedundancyError(f"rate must be in (0, 1], got {rate}")
+        self.rate = float(rate)
+        self._owed = 0.0
+        self._history.clear()
+
+    def step_once(self) -> None:
+        """Pause, and take exactly one timestep at the next frame."""
+        self.paused = True
+        self._single += 1
+
+    def frame(self) -> int:
+        """One frame: step what the clock owes (or one pending single step), run callbacks.
+
+        Returns:
+            Steps taken.
+        """
+        now = self._clock()
+        h = self.sim.timestep
+        elapsed = 0.0 if self._last is None else now - self._last
+        self._last = now
+        n = 0
+        if self.paused:
+            self._owed = 0.0
+            if self._single:
+                n, self._single = 1, self._single - 1
+        else:
+            self._owed += self.rate * elapsed
+            n = min(int(self._owed / h + 1e-9), self.max_steps)
+            # Behind by more than a step (max_lag reached): let it go.
+            self._owed = min(self._owed - n * h, h)
+        try:
+            if n:
+                self.sim.step(n)
+            for cb in self.callbacks:
+                cb(self.sim)
+        except Exception as err:  # a page error must not stop the physics
+            self.errors.append(err)
+            del self.errors[:-10]
+        self.frames += 1
+        self._measure(now)
+        return n
+
+    def _measure(self, now: float) -> None:
+        hist = self._history
+        t_sim = self.sim.time
+        if hist and (self.paused or t_sim < hist[-1][1]):  # paused or reset: start again
+            hist.clear()
+        hist.append((now, t_sim))
+        while len(hist) > 2 and now - hist[0][0] > 2.0:
+            hist.popleft()
+        if len(hist) >= 2 and hist[-1][0] > hist[0][0]:
+            self.real_time_factor = (hist[-1][1] - hist[0][1]) / (hist[-1][0] - hist[0][0])
+        else:
+            self.real_time_factor = float("nan")
 
     def start(self) -> None:
         """Start the thread (once)."""
@@ -381,25 +713,10 @@ class RealTimeRunner:
         return self._thread is not None and self._thread.is_alive()
 
     def _run(self) -> None:
-        h = self.sim.timestep
-        last = time.perf_counter()
-        owed = 0.0
         while not self._stop.is_set():
-            start = time.perf_counter()
-            owed += start - last
-            last = start
-            n = min(int(owed / h), self.max_steps)
-            try:
-                if n:
-                    self.sim.step(n)
-                for cb in self.callbacks:
-                    cb(self.sim)
-            except Exception as err:  # a page error must not stop the physics
-                self.errors.append(err)
-                del self.errors[:-10]
-            owed = min(owed - n * h, h)  # behind by more than a step: let it go
-            self.frames += 1
-            self._stop.wait(max(0.0, self.period - (time.perf_counter() - start)))
+            start = self._clock()
+            self.frame()
+            self._stop.wait(max(0.0, self.period - (self._clock() - start)))
 
 
 __all__ = [
@@ -408,4 +725,6 @@ __all__ = [
     "LabReadouts",
     "LabSim",
     "RealTimeRunner",
+    "solve_ik",
+    "velocity_ellipsoid",
 ]
