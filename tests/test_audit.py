@@ -267,7 +267,7 @@ def test_engine_disagreement_is_a_finding():
 
 def test_chunks_give_the_numbers_of_one_sweep(monkeypatch, arm7):
     whole_g = sections.gravity_budget(arm7, 250, 3)
-    whole_c = collision_statistics(arm7, 250, 4, distances="mujoco")
+    whole_c = collision_statistics(arm7, 250, 4, distances="coal")
     whole_x = audit(arm7, 250, 3).engines.crosscheck
     monkeypatch.setattr(sections, "CHUNK", 60)  # 5 chunks, the last of 10 poses
     g = sections.gravity_budget(arm7, 250, 3)
@@ -468,7 +468,7 @@ def test_holding_torque_is_mujocos_bias_minus_its_gravcomp(factors):
 
 def test_every_sweep_works_in_chunks(monkeypatch, arm7):
     # Memory stays flat in the number of poses when no engine call sees more than a chunk
-    # (measured through the CLI: 150.9 MB resident at 10 000 poses, 152.7 MB at 1 000 000).
+    # (measured through the CLI: 153.1 MB resident at 10 000 poses, 154.0 MB at 1 000 000).
     from redundancy.reports import audit as audit_module
 
     seen: list[int] = []

@@ -385,6 +385,19 @@ def test_visual_meshes_are_not_opened(tmp_path: Path) -> None:
     assert arm.mj_model.nmesh == 0 and arm.mj_model.ngeom == 1
 
 
+def test_mesh_format_mujoco_cannot_read(tmp_path: Path) -> None:
+    """Collada collision meshes (common in ROS packages; the Kinova Gen2 of example-robot-data)."""
+    (tmp_path / "l1.dae").write_text("<COLLADA/>")
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(_mesh_urdf("l1.dae"))
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(urdf, frame="tool")
+    assert str(err.value) == (
+        f"URDF {urdf}: MuJoCo cannot read the mesh '{tmp_path / 'l1.dae'}' (no decoder for "
+        "'.dae' files); give the collision geometry as STL or OBJ, or as primitives"
+    )
+
+
 def test_unresolved_mesh_is_named(tmp_path: Path) -> None:
     urdf = tmp_path / "robot.urdf"
     urdf.write_text(_mesh_urdf("package://nopkg/meshes/arm.stl"))
