@@ -42,6 +42,11 @@ def quantities(arm: rd.Arm, q: np.ndarray) -> list[np.ndarray]:
         out += [arm.svd(q, engine).sigma, arm.nullspace_projector(q, engine)]
         out += [np.array([arm.manipulability(q, 0.5, engine).scaled])]
     out.append(arm.manipulability_gradient(q))
+    ch = rd.collision.checker(arm)
+    for engine in rd.collision.DISTANCE_ENGINES:
+        out.append(ch.distance_values(q, engine))
+    out.append(np.array(sorted(p.label for p in ch.contact_pairs(q)), dtype=object))
+    out.append(np.array([(c.pair.label, c.distance, *c.position) for c in ch.contacts(q)]))
     return out
 
 
@@ -93,6 +98,11 @@ def test_batched_calls_from_threads_equal_sequential(arm7, seed, n):
         lambda: batch.mass_matrices(arm7, Q, False, threads=2),
         lambda: batch.gravities(arm7, Q, "pinocchio", threads=2),
         lambda: batch.singular_values(arm7, Q, threads=2),
+        lambda: batch.distances(arm7, Q[:100], "coal"),
+        lambda: batch.distances(arm7, Q[:100], "mujoco", threads=2),
+        lambda: np.array(
+            [(p.poses, p.contacts, p.closest) for p in rd.collision_statistics(arm7, 200).pairs]
+        ),
     ]
     expected = [f() for f in calls]
     for got in hammer(lambda i: calls[i](), len(calls), threads=4):
@@ -170,9 +180,15 @@ def _use(arm: rd.Arm) -> None:
     batch.gravities(arm, Q, "pinocchio", threads=2)
     rd.crosscheck_batch(arm, Q[:5])
     rd.selfmotion.self_motion(arm, q, total=0.05, step=0.01)
+    rd.collision.checker(arm).distances(q)
+    rd.collision.checker(arm).contacts(q)
+    batch.distances(arm, Q[:50], "mujoco", threads=2)
+    rd.collision_statistics(arm, 100)
+    rd.check_path(arm, np.array([q, q + 0.1]))
 
 
 def test_no_cache_keeps_an_arm_alive():
+    # Collision checkers and path checkers are cached per Arm; the caches hold it weakly.
     refs = []
     for _ in range(5):
         arm = rd.load(rd.model_path("arm7"))
