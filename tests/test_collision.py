@@ -683,7 +683,7 @@ def test_statistics_cross_check_catches_a_wrong_engine(
     scene = col.checker(arm7).coal_scene()  # the coal side, as the sweep calls it
     right, right_placed = scene.distance_values, scene.placed_values
     monkeypatch.setattr(scene, "distance_values", lambda q: right(q) + 0.01)
-    monkeypatch.setattr(scene, "placed_values", lambda which: right_placed(which) + 0.01)
+    monkeypatch.setattr(scene, "placed_values", lambda *a: right_placed(*a) + 0.01)
     stats = col.collision_statistics(arm7, 300, seed=1, prune=prune)
     assert stats.poses_with_contact > 0
     assert stats.disagreements > 0
@@ -1421,9 +1421,9 @@ def test_pruning_skips_most_far_pairs(monkeypatch: pytest.MonkeyPatch) -> None:
     counted = [0]
     placed = scene.placed_values
 
-    def counting(which: np.ndarray) -> np.ndarray:
+    def counting(which: np.ndarray, apart: np.ndarray) -> np.ndarray:
         counted[0] += len(which)
-        return placed(which)
+        return placed(which, apart)
 
     monkeypatch.setattr(scene, "placed_values", counting)
     n = 2000

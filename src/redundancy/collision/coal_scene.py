@@ -280,10 +280,11 @@ class CoalScene:
         pin.computeDistances(s.pin_model, self.pin_data, s.geom_model, self.geom_data, self._qp)
         return np.array([r.min_distance for r in self._results])
 
-    def placed_values(self, which: Index) -> Array:
+    def placed_values(self, which: Index, apart: Array | None = None) -> Array:
         """Signed distances of the pairs in ``which`` at the pose last placed [m].
 
-        The same coal call, request and result as :meth:`distance_values`, pair by pair.
+        The same coal call, request and result as :meth:`distance_values`, pair by pair
+        (``apart`` is accepted for the MuJoCo scene's signature and not needed).
         """
         import pinocchio as pin
 
