@@ -23,6 +23,7 @@ import urllib.request
 from collections.abc import Callable
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -780,6 +781,24 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
             lambda: np.linalg.norm(sim.readouts().tool_position - target) < 1e-3,
         )
         assert num(b.readout("ik")) < 1e-3
+
+        # A click on a link names it.
+        body = {n: b_ for b_, n in lab.page._body_names.items()}["link2"]
+        pos, _ = sim.geom_poses(lab.page._geoms)
+        centre = np.mean(
+            [x for x, bb in zip(pos, lab.page._body_of, strict=True) if bb == body], axis=0
+        )
+        ((u, v),) = project([centre], cam.position, cam.wxyz, cam.fov, b.scene_box())
+        # The link hit first along that line of sight (it may be one in front of link2).
+        m, d = sim.model, sim.data
+        hit = np.array([-1], dtype=np.int32)
+        origin = np.array(cam.position, dtype=float)
+        mujoco.mj_ray(m, d, origin, centre - origin, None, 1, -1, hit)
+        expected = lab.page._body_names[int(m.geom_bodyid[hit[0]])]
+        assert expected.startswith("link")
+        b.page.mouse.click(u, v)
+        b.wait_readout("picked", lambda s: s == expected, what=f"{expected} named")
+        assert lab.page._picked_label.visible and lab.page._picked_label.text == expected
 
         shot = b.screenshot(tmp_path / "lab.png")
         extra = os.environ.get("REDUNDANCY_LAB_SCREENSHOT")
