@@ -267,7 +267,7 @@ def test_engine_disagreement_is_a_finding():
 
 def test_chunks_give_the_numbers_of_one_sweep(monkeypatch, arm7):
     whole_g = sections.gravity_budget(arm7, 250, 3)
-    whole_c = collision_statistics(arm7, 250, 4, distances="mujoco")
+    whole_c = collision_statistics(arm7, 250, 4, distances="coal")
     whole_x = audit(arm7, 250, 3).engines.crosscheck
     monkeypatch.setattr(sections, "CHUNK", 60)  # 5 chunks, the last of 10 poses
     g = sections.gravity_budget(arm7, 250, 3)

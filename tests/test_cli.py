@@ -53,6 +53,8 @@ def test_json_paths_are_checked_before_any_work(tmp_path, capsys, no_work):
         str(tmp_path / "missing" / "r.json"): "does not exist",
         "/dev/null": "is a device: reports are written to regular files only",
         str(fifo): "is a FIFO: reports are written to regular files only",
+        # A regular file in a directory where no file can be created (procfs).
+        "/proc/version": "cannot create files in directory '/proc'",
     }
     dangling = tmp_path / "dangling.json"
     dangling.symlink_to(tmp_path / "nowhere.json")

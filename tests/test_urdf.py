@@ -15,12 +15,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy.analysis.crosscheck import crosscheck
 from redundancy.arm import random_poses, sampling_ranges
 from redundancy.collision import collision_pairs
 from redundancy.model.equivalence import compare_models
+
+from .test_fuzz import VALUES, Worker
 
 MODELS = Path(rd.model_path("arm7")).parent
 
@@ -381,6 +385,19 @@ def test_visual_meshes_are_not_opened(tmp_path: Path) -> None:
     assert arm.mj_model.nmesh == 0 and arm.mj_model.ngeom == 1
 
 
+def test_mesh_format_mujoco_cannot_read(tmp_path: Path) -> None:
+    """Collada collision meshes (common in ROS packages; the Kinova Gen2 of example-robot-data)."""
+    (tmp_path / "l1.dae").write_text("<COLLADA/>")
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(_mesh_urdf("l1.dae"))
+    with pytest.raises(rd.ModelError) as err:
+        rd.load(urdf, frame="tool")
+    assert str(err.value) == (
+        f"URDF {urdf}: MuJoCo cannot read the mesh '{tmp_path / 'l1.dae'}' (no decoder for "
+        "'.dae' files); give the collision geometry as STL or OBJ, or as primitives"
+    )
+
+
 def test_unresolved_mesh_is_named(tmp_path: Path) -> None:
     urdf = tmp_path / "robot.urdf"
     urdf.write_text(_mesh_urdf("package://nopkg/meshes/arm.stl"))
@@ -567,3 +584,72 @@ def test_no_engine_abort_on_bad_urdf(tmp_path: Path) -> None:
         )
         assert run.returncode == 0, (i, run.stderr[-2000:])
         assert run.stdout.startswith(("error", "loaded")), (i, run.stdout)
+
+
+# -- fuzz: hostile URDFs end in the library's error or in agreement ---------------------------
+URDF_NAMES = ("universe", "world", "ee", "j1", "link1", "base", "é")
+
+
+@st.composite
+def urdf_mutants(draw: st.DrawFn) -> tuple[bytes, str]:
+    """arm7.urdf with one to three structural or value mutations, in some encoding."""
+    root = urdf_root("arm7")
+    done = []
+    for _ in range(draw(st.integers(1, 3))):
+        elements = [el for el in root.iter() if el is not root]
+        el = draw(st.sampled_from(elements))
+        kind = draw(st.sampled_from(["value", "name", "delete", "duplicate", "type"]))
+        parent = next(p for p in root.iter() if el in list(p))
+        if kind == "value" and el.attrib:
+            attr = draw(st.sampled_from(sorted(el.attrib)))
+            el.set(attr, draw(VALUES))
+            done.append(f"<{el.tag} {attr}={el.get(attr)!r}>")
+        elif kind == "name" and el.get("name") is not None:
+            el.set("name", draw(st.sampled_from(URDF_NAMES)))
+            done.append(f"<{el.tag}> renamed {el.get('name')!r}")
+        elif kind == "delete":
+            parent.remove(el)
+            done.append(f"<{el.tag} {el.attrib}> deleted")
+        elif kind == "duplicate":
+            parent.append(ET.fromstring(ET.tostring(el)))
+            done.append(f"<{el.tag} {el.attrib}> duplicated")
+        elif kind == "type" and el.tag == "joint":
+            el.set("type", draw(st.sampled_from(["continuous", "prismatic", "fixed", "planar"])))
+            done.append(f"joint {el.get('name')!r} made {el.get('type')}")
+    encoding = draw(st.sampled_from(["utf-8", "utf-16", "latin-1"]))
+    text = ET.tostring(root, encoding="unicode")
+    if encoding == "latin-1" and not all(ord(c) < 256 for c in text):
+        encoding = "utf-8"
+    head = f'<?xml version="1.0" encoding="{encoding}"?>\n'
+    return (head + text).encode(encoding), f"{'; '.join(done)} ({encoding})"
+
+
+@settings(
+    max_examples=300 if settings().max_examples >= 1000 else 25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(mutant=urdf_mutants())
+def test_fuzzed_urdf(mutant: tuple[bytes, str], tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Each mutant loads in a guarded worker: an engine abort fails the example, not pytest."""
+    data, what = mutant
+    path = tmp_path_factory.mktemp("urdf_fuzz") / "arm7.urdf"
+    path.write_bytes(data)
+    worker = _FUZZ_WORKER.setdefault("worker", Worker())
+    result = worker.load(path, site="ee")
+    assert result["status"] in ("refused", "loaded"), f"{what}: {result}"
+    if result["status"] == "refused":
+        assert result["message"], what
+    elif result["equivalent"] and result["finite"]:
+        assert result["agree"], f"{what}:\n" + "\n".join(result["lines"])  # type: ignore[arg-type]
+
+
+_FUZZ_WORKER: dict[str, object] = {}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _close_fuzz_worker() -> object:
+    yield
+    worker = _FUZZ_WORKER.pop("worker", None)
+    if worker is not None:
+        worker.close()  # type: ignore[attr-defined]

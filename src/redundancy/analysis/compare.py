@@ -39,9 +39,6 @@ Array = NDArray[np.float64]
 
 __all__ = ["Comparison", "Finding", "compare", "read_joint_map", "run_compare"]
 
-#: Quantities compared pose by pose, with what they are made of.
-POSE_QUANTITIES = ("tool position", "tool rotation", "jacobian", "mass matrix", "gravity torque")
-
 
 @dataclass(frozen=True)
 class Finding:

@@ -22,6 +22,10 @@ _UNREADABLE_GEOMS = {int(mujoco.mjtGeom.mjGEOM_SDF), int(mujoco.mjtGeom.mjGEOM_H
 #: process on a joint of that name (measured with Pinocchio 4.1: ``realloc(): invalid next
 #: size``, exit 134), so the name is refused before Pinocchio is called.
 RESERVED_JOINT_NAMES = ("universe",)
+#: Largest magnitude of a compiled length [m], mass [kg], inertia [kg m^2], armature or damping
+#: the library accepts: products of three such values stay far from overflow (a body placed at
+#: 1e308 m compiles in MuJoCo, then the Jacobian overflows and its SVD fails).
+MAX_MAGNITUDE = 1e10
 #: Compiler options that change masses: Pinocchio's parser ignores ``settotalmass`` and
 #: applies ``boundmass`` / ``boundinertia`` to ``<inertial>`` elements only; ``inertiagrouprange``
 #: it ignores (it counts every geom that is not visual).
@@ -103,6 +107,16 @@ def check_supported(
             raise ModelError(
                 f"non-finite value in the compiled model: {field} of {kind} "
                 f"{labels[i]!r} is {np.asarray(values[i]).tolist()}"
+            )
+        big = (
+            np.abs(np.asarray(values, dtype=float)).reshape(len(values), -1) > MAX_MAGNITUDE
+        ).any(axis=1)
+        if field != "jnt_range" and big.any():  # an unlimited range is legitimately large
+            i = int(np.flatnonzero(big)[0])
+            raise ModelError(
+                f"implausible value in the compiled model: {field} of {kind} {labels[i]!r} is "
+                f"{np.asarray(values[i]).tolist()}; the library handles magnitudes up to "
+                f"{MAX_MAGNITUDE:g} (SI units): beyond, the engines' products overflow"
             )
     if not np.isfinite(model.opt.gravity).all():
         raise ModelError(

@@ -405,6 +405,15 @@ def build_mujoco(
                     spec.add_exclude(bodyname1=a, bodyname2=b)
             return spec.compile()
     except (ValueError, TypeError) as err:
+        found = re.search(r"no decoder found for mesh file '([^']+)'", str(err))
+        if found:
+            # Collada (.dae) collision meshes are common in ROS packages; MuJoCo reads STL, OBJ
+            # and its own MSH.
+            raise ModelError(
+                f"URDF {source}: MuJoCo cannot read the mesh {found.group(1)!r} (no decoder "
+                f"for {Path(found.group(1)).suffix!r} files); give the collision geometry as "
+                "STL or OBJ, or as primitives"
+            ) from err
         raise ModelError(f"MuJoCo could not compile the URDF {source}: {err}") from err
 
 

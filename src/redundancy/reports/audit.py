@@ -26,6 +26,7 @@ from ..analysis.crosscheck import (
 )
 from ..arm import Arm
 from ..checks import check_count, check_number
+from ..collision import CollisionStatistics
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
 from .sections import GravityBudget, JointSection, KeyframeRow, Sections
@@ -227,7 +228,7 @@ def audit(
         + _simulation_findings(computed)
         + _keyframe_findings(arm, computed)
         + _gravity_findings(arm, computed.gravity, computed.joints)
-        + _engine_findings(engines)
+        + _engine_findings(engines, computed.contacts)
     )
     return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
 
@@ -384,8 +385,17 @@ def _gravity_findings(arm: Arm, g: GravityBudget, j: JointSection) -> list[Findi
     return out
 
 
-def _engine_findings(e: EngineAgreement) -> list[Finding]:
-    out = [
+def _engine_findings(e: EngineAgreement, c: CollisionStatistics) -> list[Finding]:
+    out = []
+    if c.disagreements > 0:
+        out.append(
+            Finding(
+                "engines",
+                f"{c.distance_engine}'s touching pairs differ from MuJoCo's contacts in "
+                f"{c.disagreements} of {c.n_poses} poses",
+            )
+        )
+    out += [
         Finding("engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}")
         for a in e.crosscheck.agreements
         if not a.ok
@@ -524,6 +534,11 @@ def _collision_lines(r: AuditReport) -> list[str]:
             f", closest {k.closest.pair.label} at {k.closest.distance:.4f} m" if k.closest else ""
         )
         out.append(f"  keyframe {k.keyframe}: {k.contacts} contacts{near}")
+    if c.distance_engine is not None:
+        out.append(
+            f"  distances by {c.distance_engine}; poses where its touching pairs differ from "
+            f"MuJoCo's contacts: {c.disagreements}"
+        )
     return out
 
 

@@ -22,7 +22,7 @@ from pathlib import Path
 from ..errors import RedundancyError
 
 
-class OutputPathError(RedundancyError):
+class OutputPathError(RedundancyError, OSError):
     """A report cannot be written where the user pointed (the message says why)."""
 
 
@@ -61,8 +61,14 @@ def check_target(path: str | os.PathLike[str]) -> Path:
     parent = p.parent
     if not parent.is_dir():
         raise OutputPathError(f"directory {str(parent)!r} of {shown!r} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputPathError(f"directory {str(parent)!r} of {shown!r} is not writable")
+    try:  # the one sure test of "can a file be created there": create one (procfs, read-only)
+        fd, probe = tempfile.mkstemp(dir=parent, prefix=f".{p.name}.", suffix=".probe")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as err:
+        raise OutputPathError(
+            f"cannot create files in directory {str(parent)!r} of {shown!r}: {err.strerror}"
+        ) from err
     return p
 
 
@@ -86,8 +92,8 @@ def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
         The file written (a symbolic link's target).
 
     Raises:
-        OutputPathError: The path breaks a rule of this module.
-        OSError: The write itself failed (the old file is left whole).
+        OutputPathError: The path breaks a rule of this module, or the write itself failed
+            (an ``OSError`` too; the old file is left whole).
     """
     p = check_target(path)
     mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else 0o666 & ~_umask()
@@ -99,6 +105,9 @@ def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
             os.fchmod(f.fileno(), mode)
             os.fsync(f.fileno())
         os.replace(tmp, p)  # atomic on POSIX within one filesystem
+    except OSError as err:
+        Path(tmp).unlink(missing_ok=True)
+        raise OutputPathError(f"cannot write {str(path)!r}: {err}") from err
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -411,10 +411,13 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
 
 # -- self-collision -------------------------------------------------------------------------------
 def contacts(
-    arm: Arm, n_poses: int, seed: int | None = 1, distances: str | None = "mujoco"
+    arm: Arm, n_poses: int, seed: int | None = 1, distances: str | None = "coal"
 ) -> CollisionStatistics:
     """Self-collision over random poses (:func:`redundancy.collision_statistics`), in chunks.
 
+    Contacts are MuJoCo's; with ``distances`` (coal by default: the other engine, and the
+    faster one) every pair's distance gives its closest approach, and the distance engine's
+    touching pairs are checked against MuJoCo's contacts at every pose (``disagreements``).
     Chunk results are merged exactly: counts add, the closest approach is the minimum (its
     pose index counted over the whole sample), the sweep time adds up.
     """
@@ -468,7 +471,7 @@ def compute(
     n_poses: int,
     seed: int = 0,
     kd: float | None = None,
-    distances: str | None = "mujoco",
+    distances: str | None = "coal",
     progress: Callable[[str], object] | None = None,
 ) -> Sections:
     """Every section: gravity over ``seed``'s poses, contacts over ``seed + 1``'s.
