@@ -140,6 +140,28 @@ def test_offset_tool_frame_is_caught_named_and_located(tmp_path: Path) -> None:
     assert result.largest["tool frame position (world)"] == pytest.approx(0.005, abs=1e-12)
 
 
+def test_an_extra_joint_is_named_and_the_rest_still_compared(tmp_path: Path) -> None:
+    """A gripper finger in one file only: named, and the poses compared over the arm joints."""
+    root = urdf_root("panda")
+    finger = ET.fromstring(
+        '<joint name="finger" type="prismatic"><parent link="link7"/><child link="finger"/>'
+        '<origin xyz="0 0 0.12"/><axis xyz="0 1 0"/>'
+        '<limit lower="0" upper="0.04" effort="20" velocity="0.2"/></joint>'
+    )
+    link = ET.fromstring(
+        '<link name="finger"><inertial><origin xyz="0 0 0.02"/><mass value="0.1"/>'
+        '<inertia ixx="1e-5" iyy="1e-5" izz="1e-5" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+    )
+    root.extend([finger, link])
+    result = compare(write(root, tmp_path / "with_finger.urdf"), PANDA_XML, n_poses=20)
+    found = quantities(result)
+    assert found["presence"] == ["joint 'finger'"]
+    assert result.chains_part == "joint 'finger'"
+    assert result.n_poses == 21
+    assert "mass matrix (without armature)" in found  # the finger's mass on the arm joints
+    assert "jacobian" not in found  # the flange frame does not move with the finger
+
+
 def test_renamed_joints_need_a_map(tmp_path: Path) -> None:
     root = urdf_root("panda")
     for joint in root.findall("joint"):

@@ -291,7 +291,9 @@ class _Comparer:
         # Joints of A present in B, as indices into each arm's order.
         self.ia = [i for i, (_, nb) in enumerate(pairs) if nb in b.joint_names]
         self.ib = [b.joint_index(pairs[i][1]) for i in self.ia]
-        self.matched = len(self.ia) == a.nq == b.nq
+        # Poses are compared over the joints both have (a joint only one has sits at zero,
+        # clipped into its range, and is itself a difference).
+        self.matched = bool(self.ia)
 
     def where(self, i: int) -> str:
         name_a, name_b = self.pairs[i]

@@ -385,6 +385,11 @@ def _gravity_findings(arm: Arm, g: GravityBudget, j: JointSection) -> list[Findi
     return out
 
 
+def _one_line(x: object) -> str:
+    """A value's text on one line (matrices print over several)."""
+    return " ".join(str(x).split())
+
+
 def _engine_findings(e: EngineAgreement, c: CollisionStatistics) -> list[Finding]:
     out = []
     if c.disagreements > 0:
@@ -400,7 +405,7 @@ def _engine_findings(e: EngineAgreement, c: CollisionStatistics) -> list[Finding
         for a in e.crosscheck.agreements
         if not a.ok
     ]
-    out += [Finding("engines", f"models differ: {d}") for d in e.equivalence.differences]
+    out += [Finding("engines", f"models differ: {_one_line(d)}") for d in e.equivalence.differences]
     return out
 
 
@@ -558,7 +563,7 @@ def _engine_lines(r: AuditReport) -> list[str]:
         "",
         "model equivalence (MuJoCo's compiled model vs Pinocchio's):",
     ]
-    out += [f"  DIFFERS {d}" for d in eq.differences] or ["  no differences"]
+    out += [f"  DIFFERS {_one_line(d)}" for d in eq.differences] or ["  no differences"]
     kinds: dict[str, list[str]] = {}
     for b in eq.bridges:
         kinds.setdefault(b.quantity, []).append(f"{b.joint}={b.value_text}")
