@@ -609,11 +609,12 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
     with L.LabServer(arm7, port=0) as lab, LabBrowser(lab.url, executable=exe) as b:
         lap("home checks")
         sim = lab.sim
-        assert b.page.title() == "arm7.xml · redundancy lab"
+        # (The title is set when the page's hidden image fails to load: wait for it.)
+        b.page.wait_for_function("document.title === 'arm7.xml · redundancy lab'")
         assert num(b.readout("sigma_min")) == pytest.approx(0.2332, abs=1e-4)
         assert b.readout("contacts") == "none"
         assert b.slider_value("j4 (rad)") == 1.6
-        assert b.readout("browsers") == "1"
+        b.wait_readout("browsers", lambda s: s == "1", what="one browser")
         titles = set(b.plots())
         assert len(titles) == 3
 
