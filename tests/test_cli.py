@@ -183,3 +183,28 @@ def test_json_never_replaces_the_model_file(tmp_path, capsys, no_work):
             "not replaced\n"
         )
     assert model.read_text() == "<mujoco/>"
+
+
+def test_default_audit_computes_each_section_once_and_prints_the_lessons_tables(
+    monkeypatch, capsys
+):
+    from redundancy.reports import sections
+
+    calls: dict[str, int] = {}
+    for name in ("joints", "keyframes", "gravity_budget", "contacts"):
+        real = getattr(sections, name)
+
+        def counted(*args, _real=real, _name=name, **kwargs):
+            calls[_name] = calls.get(_name, 0) + 1
+            return _real(*args, **kwargs)
+
+        monkeypatch.setattr(sections, name, counted)
+    assert main(["audit", "--poses", "300"]) == 1
+    audit_out = capsys.readouterr().out
+    assert calls == {"joints": 1, "keyframes": 1, "gravity_budget": 1, "contacts": 1}
+    monkeypatch.undo()
+    assert main(["lesson", "--poses", "300"]) == 0
+    lesson_out = capsys.readouterr().out
+    # Tables (1) to (4), formatted from the audit's sections, read as the lesson's own.
+    head = lesson_out.split("(5)")[0]
+    assert head in audit_out

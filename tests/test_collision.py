@@ -24,7 +24,17 @@ Tolerances (each with its reason):
 
 from __future__ import annotations
 
+import copy
+import gc
 import itertools
+import os
+import pickle
+import struct
+import threading
+import weakref
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -592,8 +602,8 @@ def test_failed_epa_is_redone(monkeypatch: pytest.MonkeyPatch) -> None:
     np.testing.assert_array_equal(np.delete(redone.values, k), np.delete(good.values, k))
     monkeypatch.setattr(coal, "distance", lambda *a: -np.finfo(float).max)
     m = arm.mj_model
-    bound = -(m.geom_rbound[ch.pairs[k].geom1] + m.geom_rbound[ch.pairs[k].geom2])
-    assert ch.distance_values(q)[k] == pytest.approx(bound)
+    radius = [col.shapes.bounding_radius(m, g) for g in (ch.pairs[k].geom1, ch.pairs[k].geom2)]
+    assert ch.distance_values(q)[k] == pytest.approx(-sum(radius))
 
 
 # ==========================================================================================
@@ -666,13 +676,15 @@ def test_statistics_on_given_poses_and_without_distances(arm7: rd.Arm) -> None:
     assert stats.of("link4", "link2").poses == 1
 
 
+@pytest.mark.parametrize("prune", [True, False])
 def test_statistics_cross_check_catches_a_wrong_engine(
-    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch, prune: bool
 ) -> None:
-    scene = col.checker(arm7)._coal  # the coal side, as the sweep calls it
-    right = scene.distance_values
+    scene = col.checker(arm7).coal_scene()  # the coal side, as the sweep calls it
+    right, right_placed = scene.distance_values, scene.placed_values
     monkeypatch.setattr(scene, "distance_values", lambda q: right(q) + 0.01)
-    stats = col.collision_statistics(arm7, 300, seed=1)
+    monkeypatch.setattr(scene, "placed_values", lambda which: right_placed(which) + 0.01)
+    stats = col.collision_statistics(arm7, 300, seed=1, prune=prune)
     assert stats.poses_with_contact > 0
     assert stats.disagreements > 0
 
@@ -869,8 +881,10 @@ def test_path_checker_edge_cases(arm7: rd.Arm) -> None:
     assert still.free and still.evaluations == 2
     with pytest.raises(rd.PoseError, match="tol must exceed"):
         pc.check_path(arm7, [home, q], tol=1e-7)
-    with pytest.raises(rd.PoseError, match="waypoints must have shape"):
+    with pytest.raises(rd.PoseError, match=r"poses must have shape \(n, 7\)"):
         pc.check_path(arm7, home)
+    with pytest.raises(rd.PoseError, match=r"waypoints must have shape \(k, 7\) with k >= 1"):
+        pc.check_path(arm7, np.zeros((0, 7)))
     with pytest.raises(rd.PoseError):
         pc.check_path(arm7, [home, home[:3]])
     with pytest.raises(rd.UnknownNameError, match="valid distance engine names"):
@@ -934,3 +948,412 @@ def test_pair_combinations_in_typed_cover_every_type_pair() -> None:
     want = {frozenset(t) for t in itertools.combinations_with_replacement(kinds, 2)}
     want |= {frozenset(("plane", k)) for k in kinds}
     assert want <= have, sorted(map(sorted, want - have))
+
+
+# ==========================================================================================
+# Meshes: MuJoCo collides a mesh as its convex hull; coal is given the same hull
+# ==========================================================================================
+
+#: A tetrahedron (written as OBJ) and a triangular prism (written as binary STL).
+TETRA = (
+    np.array([[0, 0, 0], [0.09, 0, 0], [0, 0.08, 0], [0, 0, 0.07]], dtype=float),
+    [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)],
+)
+PRISM = (
+    np.array(
+        [[0, 0, 0], [0.06, 0, 0], [0, 0.05, 0], [0, 0, 0.1], [0.06, 0, 0.1], [0, 0.05, 0.1]],
+        dtype=float,
+    ),
+    [(0, 2, 1), (3, 4, 5), (0, 1, 4), (0, 4, 3), (1, 2, 5), (1, 5, 4), (2, 0, 3), (2, 3, 5)],
+)
+#: A non-convex star: six tips on the axes and four waist points near the centre (10
+#: vertices, so MuJoCo hill-climbs its hull graph); its hull is the octahedron of the tips.
+STAR = "0 0 0.06  0.012 0.012 0  0.06 0 0  0.012 -0.012 0  0 -0.06 0  -0.012 -0.012 0  -0.06 0 0  -0.012 0.012 0  0 0.06 0  0 0 -0.06"
+#: A blob of 14 points (hill climbing), one of them inside the others' hull.
+BLOB = (
+    " ".join(
+        f"{0.04 * np.cos(a) * np.cos(b):.5f} {0.03 * np.sin(a) * np.cos(b):.5f} {0.05 * np.sin(b):.5f}"
+        for a, b in [(k * 0.9, (k % 3 - 1) * 0.7) for k in range(13)]
+    )
+    + " 0.001 0.002 0.003"
+)
+#: A tetrahedron with an interior point (5 vertices: MuJoCo searches every vertex).
+TET5 = "0 0 0  0.08 0 0  0 0.09 0  0 0 0.07  0.01 0.01 0.01"
+
+
+def write_obj(path: Path, mesh: tuple[np.ndarray, list[tuple[int, int, int]]]) -> None:
+    verts, faces = mesh
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in verts.tolist()]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def write_binary_stl(path: Path, mesh: tuple[np.ndarray, list[tuple[int, int, int]]]) -> None:
+    verts, faces = mesh
+    out = [b"redundancy test mesh".ljust(80, b" "), struct.pack("<I", len(faces))]
+    for f in faces:
+        tri = verts[list(f)]
+        out.append(struct.pack("<12fH", 0.0, 0.0, 0.0, *tri.ravel().tolist(), 0))
+    path.write_bytes(b"".join(out))
+
+
+INERTIAL = '<inertial pos="0 0 0" mass="0.5" diaginertia="0.002 0.002 0.002"/>'
+
+#: Mesh geoms against every primitive and against each other, posed and rotated so that
+#: MuJoCo recentres and re-orients each mesh (geom_pos/geom_quat absorb its offset).
+MESHES = f"""
+<mujoco model="meshes">
+  <compiler angle="radian" autolimits="true" meshdir="."/>
+  <option ccd_iterations="200"/>  <!-- MuJoCo's EPA converges on deep curved overlaps -->
+  <asset>
+    <mesh name="tetra" file="tetra.obj"/>
+    <mesh name="prism" file="prism.stl" scale="1.2 1 0.9"/>
+    <mesh name="star" vertex="{STAR}"/>
+    <mesh name="blob" vertex="{BLOB}"/>
+    <mesh name="tet5" vertex="{TET5}"/>
+  </asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1" pos="0 0 -0.12"/>
+    <body name="base" pos="0 0 0.05">
+      <joint name="j1" axis="0 0 1" range="-3 3"/>
+      {INERTIAL}
+      <geom name="base_star" type="mesh" mesh="star" pos="0.1 0 0" euler="0.3 0.2 0.1"/>
+      <geom name="base_box" type="box" size="0.04 0.03 0.05" pos="-0.1 0 0"/>
+      <geom name="base_cyl" type="cylinder" size="0.03 0.04" pos="0 0.11 0"/>
+      <geom name="base_ell" type="ellipsoid" size="0.03 0.04 0.02" pos="0 -0.11 0"/>
+      <geom name="base_tet5" type="mesh" mesh="tet5" pos="-0.05 -0.07 0.03"/>
+      <body name="upper" pos="0 0 0.08">
+        <joint name="j2" axis="0 1 0" range="-2.6 2.6"/>
+        {INERTIAL}
+        <geom name="upper_cap" type="capsule" fromto="0 0 0 0 0 0.2" size="0.025"/>
+        <body name="fore" pos="0 0 0.2">
+          <joint name="j3" axis="1 0 0" range="-2.8 2.8"/>
+          {INERTIAL}
+          <geom name="fore_tetra" type="mesh" mesh="tetra" pos="0 0 0.06" euler="0.4 0 0.3"/>
+          <geom name="fore_prism" type="mesh" mesh="prism" pos="0 0.05 0.12" euler="1 0.2 0"/>
+          <geom name="fore_sph" type="sphere" size="0.035" pos="0 -0.04 0.15"/>
+          <geom name="fore_cap" type="capsule" size="0.015" fromto="-0.04 0 0.2 0.04 0 0.2"/>
+          <body name="hand" pos="0 0 0.22">
+            <joint name="j4" axis="0 1 0" range="-2.8 2.8"/>
+            {INERTIAL}
+            <geom name="hand_blob" type="mesh" mesh="blob" pos="0 0 0.05" euler="0 0.5 0.2"/>
+            <geom type="mesh" mesh="star" pos="0.03 0 0.1"/>
+            <site name="ee" pos="0 0 0.12"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def mesh_arm(folder: Path) -> rd.Arm:
+    """The MESHES model with its mesh files written into ``folder``."""
+    write_obj(folder / "tetra.obj", TETRA)
+    write_binary_stl(folder / "prism.stl", PRISM)
+    (folder / "meshes.xml").write_text(MESHES)
+    # Strict loading refuses mesh geoms (Pinocchio's parser gives them placeholder inertia);
+    # every body here has an explicit <inertial>, so both engines read the same masses.
+    return rd.load(folder / "meshes.xml", strict=False)
+
+
+@pytest.fixture(scope="module")
+def meshes(tmp_path_factory: pytest.TempPathFactory) -> rd.Arm:
+    return mesh_arm(tmp_path_factory.mktemp("meshes"))
+
+
+def test_mesh_model_covers_every_type_against_a_mesh(meshes: rd.Arm) -> None:
+    m = meshes.mj_model
+    kinds = {p.types for p in col.checker(meshes).pairs if "mesh" in p.types}
+    others = {"sphere", "capsule", "cylinder", "box", "ellipsoid", "plane", "mesh"}
+    assert kinds == {frozenset(("mesh", t)) for t in others}
+    # Both hull paths of MuJoCo's support function are exercised: graph and every vertex.
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, i) for i in range(m.nmesh)]
+    climbs = {
+        n: bool(m.mesh_graphadr[i] >= 0 and m.mesh_vertnum[i] >= col.shapes.HILLCLIMB_MIN)
+        for i, n in enumerate(names)
+    }
+    assert climbs == {"tetra": False, "prism": False, "star": True, "blob": True, "tet5": False}
+    # An unnamed geom is named by its body and its index there.
+    assert "hand geom 1" in {n for p in col.checker(meshes).pairs for n in p.names}
+
+
+def test_hull_is_mujocos_hull_in_the_geom_frame(meshes: rd.Arm) -> None:
+    """The hull's points, placed at the geom's compiled pose, are MuJoCo's mesh vertices in
+    the world; the star's four waist points are not on its hull."""
+    m = meshes.mj_model
+    d = mujoco.MjData(m)
+    d.qpos[:] = [0.3, -0.4, 0.5, 0.6]
+    mujoco.mj_kinematics(m, d)
+    for g in range(m.ngeom):
+        if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH:
+            continue
+        hull = col.shapes.mesh_hull(m, g)
+        mesh = int(m.geom_dataid[g])
+        verts = m.mesh_vert[m.mesh_vertadr[mesh] : m.mesh_vertadr[mesh] + m.mesh_vertnum[mesh]]
+        world = d.geom_xpos[g] + hull.points @ d.geom_xmat[g].reshape(3, 3).T
+        # MuJoCo's own support point in a few directions is a hull point.
+        for u in np.eye(3).tolist() + (-np.eye(3)).tolist():
+            best = (
+                d.geom_xpos[g]
+                + verts[np.argmax(verts @ (d.geom_xmat[g].reshape(3, 3).T @ u))]
+                @ d.geom_xmat[g].reshape(3, 3).T
+            )
+            assert np.min(np.linalg.norm(world - best, axis=1)) < 1e-12
+        if hull.mesh == "star":
+            assert len(hull.points) == 6 and hull.faces is not None and len(hull.faces) == 8
+        if hull.mesh == "tet5":
+            assert hull.faces is None and len(hull.points) == 5
+
+
+def test_non_convex_mesh_collides_as_its_hull_in_both_engines(tmp_path: Path) -> None:
+    """A small sphere in a notch of the star (inside the hull, outside the star itself):
+    both engines report an overlap, MuJoCo lists a contact."""
+    xml = f"""
+<mujoco>
+  <asset><mesh name="star" vertex="{STAR}"/></asset>
+  <worldbody>
+    <body name="a"><joint name="ja" axis="0 0 1"/>{INERTIAL}
+      <geom name="star" type="mesh" mesh="star"/>
+      <body name="b" pos="0.2 0 0"><joint name="jb" axis="0 0 1"/>{INERTIAL}
+        <body name="c" pos="-0.175 0.025 0"><joint name="jc" axis="0 0 1"/>{INERTIAL}
+          <geom name="ball" type="sphere" size="0.004"/><site name="ee"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"""
+    (tmp_path / "star.xml").write_text(xml)
+    arm = rd.load(tmp_path / "star.xml", strict=False)
+    ch = col.checker(arm)
+    q = np.zeros(3)
+    # The ball's centre (0.025, 0.025, 0) lies between the star's x and y arms, outside the
+    # star, 0.0058 m inside the hull's face x + y + z = 0.06 (vertices are single precision:
+    # 1e-8 m; MuJoCo's EPA stops at ccd_tolerance).
+    centre = np.array([0.025, 0.025, 0.0])
+    inside = (0.06 - centre.sum()) / np.sqrt(3)
+    for engine, tol in (("coal", 1e-8), ("mujoco", float(arm.mj_model.opt.ccd_tolerance))):
+        d = ch.distances(q, engine).of("star", "ball").distance
+        assert d == pytest.approx(-(inside + 0.004), abs=tol), engine
+    assert {c.pair.label for c in ch.contacts(q)} == {"ball / star"}
+
+
+#: Partners of a mesh on which both engines' GJK and EPA end on exact polytope features.
+POLYTOPES = {"mesh", "box", "plane"}
+
+
+def mesh_tol(pair: col.GeomPair, separated: bool, model: mujoco.MjModel) -> float:
+    """Tolerance on a mesh pair's distance, by the other geom's type and the sign.
+
+    * Against a polytope (mesh, box, plane), separated or overlapping: TIGHT (1e-9 m). Both
+      engines run GJK/EPA on the same vertices (MuJoCo's single-precision values) and end on
+      exact features.
+    * Separated from a sphere or capsule: TIGHT. Both treat them as a point or a segment
+      swept by a radius.
+    * Separated from a cylinder or ellipsoid, and overlapping any curved shape:
+      ``opt.ccd_tolerance`` (1e-6 m). Curved supports converge only asymptotically, and
+      depths come from EPA, which MuJoCo stops at ccd_tolerance and coal at
+      COAL_EPA_TOLERANCE (1e-6 m). MuJoCo's EPA is also capped by ``opt.ccd_iterations``:
+      at its default of 35, deep ellipsoid-mesh overlaps came out up to 3.6e-5 m away from
+      coal's (1.8e-7 m at 100 iterations), so the test model sets 200.
+    """
+    other = set(pair.types - {"mesh"}) or {"mesh"}
+    if other <= POLYTOPES or (separated and other <= {"sphere", "capsule"}):
+        return TIGHT
+    return float(model.opt.ccd_tolerance)
+
+
+def assert_mesh_engines_agree(arm: rd.Arm, q: np.ndarray, worst: dict | None = None) -> None:
+    """coal against mj_geomDistance on mesh pairs (:func:`mesh_tol`), then touching sets."""
+    ch = col.checker(arm)
+    m = arm.mj_model
+    coal_d = ch.distances(q, "coal")
+    mj_d = ch.distances(q, "mujoco")
+    for c, k in zip(coal_d.pairs, mj_d.pairs, strict=True):
+        if "mesh" not in c.pair.types:
+            continue
+        if abs(c.distance) < BAND or abs(k.distance) < BAND:
+            assert abs(c.distance) <= BAND and abs(k.distance) <= BAND, c.pair.label
+            continue
+        separated = c.distance > 0
+        assert (k.distance > 0) == separated, (c.pair.label, c.distance, k.distance)
+        err = abs(c.distance - k.distance)
+        assert err <= mesh_tol(c.pair, separated, m), (c.pair.label, c.distance, k.distance)
+        if worst is not None:
+            key = (separated, "/".join(sorted(c.pair.types)))
+            worst[key] = max(worst.get(key, 0.0), err)
+    unclear = {e.pair for e in coal_d.pairs + mj_d.pairs if abs(e.clearance) < BAND}
+    assert {e.pair for e in coal_d.touching} - unclear == ch.contact_pairs(q) - unclear
+
+
+@given(data=st.data())
+def test_mesh_engines_agree(meshes: rd.Arm, data: st.DataObject) -> None:
+    assert_mesh_engines_agree(meshes, data.draw(poses(meshes)))
+
+
+def test_mesh_engines_agree_on_a_sample(meshes: rd.Arm) -> None:
+    """1000 random poses in the default suite (10 000 in the slow test below)."""
+    sweep_mesh_agreement(meshes, 1000, seed=3)
+
+
+@pytest.mark.slow
+def test_mesh_engines_agree_on_ten_thousand_poses(meshes: rd.Arm) -> None:
+    sweep_mesh_agreement(meshes, 10_000, seed=4)
+
+
+def sweep_mesh_agreement(arm: rd.Arm, n: int, seed: int) -> None:
+    worst: dict = {}
+    Q = col.random_poses(arm, n, seed)
+    for q in Q:
+        assert_mesh_engines_agree(arm, q, worst)
+    # Every type against a mesh, apart and overlapping.
+    types = {"/".join(sorted(p.types)) for p in col.checker(arm).pairs if "mesh" in p.types}
+    assert {t for s, t in worst if s} == types
+    assert {t for s, t in worst if not s} == types
+    stats = col.collision_statistics(arm, poses=Q, distances="coal")
+    assert stats.disagreements == 0
+    assert stats.poses_with_contact > n // 10
+    print(f"mesh pairs, {n} poses: largest |coal - MuJoCo| {worst}")
+
+
+# ==========================================================================================
+# Threads, copies, memory, bad poses
+# ==========================================================================================
+
+
+def checker_answers(ch: col.CollisionChecker, Q: np.ndarray) -> list:
+    """Everything a checker says at each pose, as plain numbers (for bit-for-bit equality)."""
+    out = []
+    for q in Q:
+        contacts = [(c.pair.label, c.distance, *c.position, *c.normal) for c in ch.contacts(q)]
+        coal = ch.distances(q, "coal")
+        mj_ = ch.distances(q, "mujoco")
+        out.append(
+            (
+                contacts,
+                coal.values.tolist(),
+                np.concatenate([[e.point1, e.point2] for e in coal.pairs]).tolist(),
+                mj_.values.tolist(),
+                ch.distance_values(q, "coal").tolist(),
+            )
+        )
+    return out
+
+
+def run_threads(n: int, work: Callable[[int], object]) -> list:
+    """``work(i)`` for i < n, each on its own thread, started together; results in order."""
+    barrier = threading.Barrier(n)
+
+    def job(i: int) -> object:
+        barrier.wait()
+        return work(i)
+
+    with ThreadPoolExecutor(n) as pool:
+        return list(pool.map(job, range(n)))
+
+
+def test_checker_from_eight_threads_gives_the_sequential_answers() -> None:
+    """One fresh arm's checker hammered from 8 threads (each building its own scenes) gives
+    the sequential numbers bit for bit: contacts, coal and MuJoCo distances, nearest points."""
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    Q = col.random_poses(arm, 160, seed=11)
+    Q[::7, 3] = 2.85  # folded elbows: contacts and overlaps too
+    ch = col.checker(arm)
+    parts = np.array_split(Q, 8)
+    got = run_threads(8, lambda i: checker_answers(ch, parts[i]))
+    assert [x for part in got for x in part] == checker_answers(ch, Q)
+
+
+def test_statistics_from_threads_give_the_sequential_answer() -> None:
+    """collision_statistics on one arm from 4 threads at once (this segfaulted before)."""
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+
+    def stats(i: int) -> tuple:
+        s = col.collision_statistics(arm, 400, seed=i % 2, distances=("coal", "mujoco")[i % 2])
+        return (s.poses_with_contact, s.pairs, s.disagreements)
+
+    alone = [stats(0), stats(1)]
+    assert run_threads(4, stats) == alone * 2
+
+
+def test_batch_coal_distances_from_threads_are_right() -> None:
+    """batch.distances(engine="coal") reads the checker's scene of the calling thread."""
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    Q = col.random_poses(arm, 150, seed=5)
+    expected = rd.batch.distances(arm, Q, engine="coal")
+    got = run_threads(4, lambda i: rd.batch.distances(arm, Q, engine="coal"))
+    for g in got:
+        np.testing.assert_array_equal(g, expected)
+
+
+def test_checker_cache_does_not_keep_the_arm_alive() -> None:
+    arm = rd.load(rd.model_path("arm7"), site="ee")
+    col.collision_statistics(arm, 20, distances="coal")
+    pc.check_path(arm, [arm.keyframe("zero"), arm.keyframe("home")])
+    ref = weakref.ref(arm)
+    del arm
+    gc.collect()
+    assert ref() is None
+
+
+def rss_mb() -> float:
+    """Resident memory of this process [MB] (Linux)."""
+    pages = int(Path("/proc/self/statm").read_text().split()[1])
+    return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
+
+
+def test_memory_stays_bounded_over_many_loads_with_collision_use() -> None:
+    """Loads of arm7, each used for distances, contacts and a path check, then dropped.
+
+    Before the fix every Arm stayed in the checker cache (about 0.8 MB each)."""
+
+    def use() -> None:
+        arm = rd.load(rd.model_path("arm7"), site="ee")
+        q = arm.keyframe("home")
+        col.distances(arm, q, "coal")
+        col.distances(arm, q, "mujoco")
+        col.contacts(arm, q)
+        pc.check_path(arm, [arm.keyframe("zero"), q])
+
+    for _ in range(20):  # warm up allocators and caches
+        use()
+    gc.collect()
+    before = rss_mb()
+    for _ in range(150):
+        use()
+    gc.collect()
+    assert rss_mb() - before < 40.0
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_collision_works_on_a_copied_arm(arm7: rd.Arm, how: str) -> None:
+    other = copy.deepcopy(arm7) if how == "deepcopy" else pickle.loads(pickle.dumps(arm7))
+    assert col.checker(other) is not col.checker(arm7)
+    Q = col.random_poses(arm7, 30, seed=9)
+    assert checker_answers(col.checker(other), Q) == checker_answers(col.checker(arm7), Q)
+
+
+def test_complex_poses_are_refused(arm7: rd.Arm) -> None:
+    q = arm7.keyframe("home") + 0j
+    with pytest.raises(rd.PoseError, match="complex"):
+        col.distances(arm7, q)
+    with pytest.raises(rd.PoseError, match="complex"):
+        col.collision_statistics(arm7, poses=[q])
+    with pytest.raises(rd.PoseError, match="complex"):
+        pc.check_path(arm7, [q, q])
+
+
+def test_a_model_without_collision_pairs_gives_empty_results() -> None:
+    xml = """
+<mujoco><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
+  <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+  <geom size="0.1" contype="0" conaffinity="0" mass="0"/><site name="ee"/>
+</body></worldbody></mujoco>"""
+    arm = rd.load_string(xml)
+    ch = col.checker(arm)
+    assert ch.pairs == () and ch.contacts([0.2]) == ()
+    assert ch.distances([0.2]).closest is None and ch.distances([0.2], "mujoco").pairs == ()
+    stats = col.collision_statistics(arm, 30)
+    assert stats.pairs == () and stats.poses_with_contact == 0 and stats.disagreements == 0
+    assert pc.check_path(arm, [[0.0], [1.0]]).free

@@ -10,10 +10,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import (
-    UnknownNameError,
-    UnsupportedFeatureError,
-)
+from ..errors import UnknownNameError, UnsupportedFeatureError
+from .shapes import geom_display_name, geom_type_name
 
 if TYPE_CHECKING:
     from ..arm import Arm
@@ -24,30 +22,15 @@ DISTANCE_ENGINES: tuple[DistanceEngine, ...] = ("coal", "mujoco")
 
 #: Width of the band around a pair's contact threshold inside which the two engines may
 #: legitimately disagree on "touching" [m]: MuJoCo's GJK/EPA stops at ``opt.ccd_tolerance``
-#: (1e-6 m by default), coal's at the tolerances below; a pair this close to the threshold is
-#: reported as touching by one engine and not the other without either being wrong.
+#: (1e-6 m by default), coal's at its own tolerances (see
+#: :mod:`~redundancy.collision.coal_scene`); a pair this close to the threshold is reported as
+#: touching by one engine and not the other without either being wrong.
 AMBIGUITY_BAND = 1e-6
-
-#: coal's GJK stops when its relative convergence gap is below this. At 1e-9 a capsule end
-#: facing a box face almost squarely came out 2.4e-9 (relative) short; at 1e-10 separated
-#: distances of polytope-like pairs match MuJoCo's closed forms to 1e-16 m, and curved ones
-#: (cylinders, ellipsoids) to MuJoCo's own GJK tolerance. Below 1e-11 GJK stops converging.
-COAL_GJK_TOLERANCE = 1e-10
-#: coal's EPA (penetration depth) tolerance [m]; tighter values make EPA fail on deep overlaps.
-COAL_EPA_TOLERANCE = 1e-6
-#: Iteration caps for coal's GJK and EPA (its defaults, 128 and 64, are too few at these
-#: tolerances on curved shapes).
-COAL_MAX_ITERATIONS = 1000
 
 _G = mujoco.mjtGeom
 # Geom types that have no collision function with each other in MuJoCo (mjCOLLISIONFUNC
 # holds NULL for plane/hfield against plane/hfield), so MuJoCo never tests such a pair.
 _NO_COLLIDER = {int(_G.mjGEOM_PLANE), int(_G.mjGEOM_HFIELD)}
-
-
-def geom_type_name(model: mujoco.MjModel, geom: int) -> str:
-    """MuJoCo's short name of a geom's type (``"capsule"``...)."""
-    return mujoco.mjtGeom(model.geom_type[geom]).name.removeprefix("mjGEOM_").lower()
 
 
 # ==========================================================================================
@@ -62,8 +45,9 @@ class GeomPair:
     Attributes:
         geom1: Geom id, the smaller of the two.
         geom2: Geom id, the larger.
-        name1: Name of ``geom1`` (``""`` if unnamed).
-        name2: Name of ``geom2``.
+        name1: Name of ``geom1``; an unnamed geom is named by its body and its index among
+            the body's geoms, from 0 (``"link3 geom 2"``).
+        name2: Name of ``geom2``, likewise.
         body1: Name of the body carrying ``geom1``.
         body2: Name of the body carrying ``geom2``.
         type1: Geom type of ``geom1`` (``"capsule"``...).
@@ -92,8 +76,8 @@ class GeomPair:
 
     @property
     def names(self) -> tuple[str, str]:
-        """The two geom names (``#id`` for an unnamed geom), in id order."""
-        return (self.name1 or f"#{self.geom1}", self.name2 or f"#{self.geom2}")
+        """The two geom names, in id order."""
+        return (self.name1, self.name2)
 
     @property
     def label(self) -> str:
@@ -225,8 +209,8 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             GeomPair(
                 geom1=g1,
                 geom2=g2,
-                name1=_name(m, mujoco.mjtObj.mjOBJ_GEOM, g1),
-                name2=_name(m, mujoco.mjtObj.mjOBJ_GEOM, g2),
+                name1=geom_display_name(m, g1),
+                name2=geom_display_name(m, g2),
                 body1=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g1])),
                 body2=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g2])),
                 type1=geom_type_name(m, g1),
@@ -249,8 +233,3 @@ def find_pair(pairs: Sequence[GeomPair], name1: str, name2: str) -> GeomPair:
         if p.matches(name1, name2):
             return p
     raise UnknownNameError("geom pair", f"{name1} / {name2}", [p.label for p in pairs])
-
-
-# ==========================================================================================
-# Results
-# ==========================================================================================

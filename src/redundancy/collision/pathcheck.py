@@ -35,7 +35,6 @@ the path is not declared free (it errs on the side of reporting).
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -43,9 +42,12 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import PoseError, UnknownNameError, UnsupportedFeatureError
+from ..caching import PerObject
+from ..checks import check_choice, check_poses
+from ..errors import PoseError, UnsupportedFeatureError
 from .checker import CollisionChecker, checker
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair
+from .shapes import bounding_radius
 
 if TYPE_CHECKING:
     from ..arm import Arm
@@ -73,26 +75,6 @@ def _joint_chain(model: mujoco.MjModel, body: int) -> list[int]:
         chain[:0] = list(range(adr, adr + num))
         b = int(model.body_parentid[b])
     return chain
-
-
-def _bounding_radius(model: mujoco.MjModel, geom: int) -> float:
-    """Radius of a sphere about the geom's centre that contains the geom [m]."""
-    t = int(model.geom_type[geom])
-    s = model.geom_size[geom]
-    G = mujoco.mjtGeom
-    if t == G.mjGEOM_SPHERE:
-        return float(s[0])
-    if t == G.mjGEOM_CAPSULE:
-        return float(s[0] + s[1])
-    if t == G.mjGEOM_CYLINDER:
-        return float(np.hypot(s[0], s[1]))
-    if t == G.mjGEOM_BOX:
-        return float(np.linalg.norm(s[:3]))
-    if t == G.mjGEOM_ELLIPSOID:
-        return float(np.max(s[:3]))
-    if t == G.mjGEOM_PLANE:
-        return float("inf")
-    return float(model.geom_rbound[geom])
 
 
 def _travel(model: mujoco.MjModel, j: int) -> float:
@@ -123,7 +105,7 @@ def reach_bounds(model: mujoco.MjModel, geom: int) -> dict[int, float]:
     chain = _joint_chain(model, int(model.geom_bodyid[geom]))
     out: dict[int, float] = {}
     centre = data.geom_xpos[geom]
-    tail = _bounding_radius(model, geom)
+    tail = bounding_radius(model, geom)
     reach_prev = 0.0
     for i in range(len(chain) - 1, -1, -1):
         j = chain[i]
@@ -272,10 +254,14 @@ class PathChecker:
 
     def __init__(self, arm: Arm | CollisionChecker) -> None:
         self.checker = arm if isinstance(arm, CollisionChecker) else checker(arm)
-        self.arm = self.checker.arm
         self.pairs = self.checker.pairs
         self.weights = motion_weights(self.arm.mj_model, self.pairs)
         self.thresholds = np.array([p.threshold for p in self.pairs])
+
+    @property
+    def arm(self) -> Arm:
+        """The arm (held by the collision checker, weakly when cached)."""
+        return self.checker.arm
 
     def check(
         self,
@@ -302,22 +288,13 @@ class PathChecker:
         Raises:
             PoseError: Bad waypoints, ``tol`` too small, or the evaluation budget exhausted.
         """
-        if engine not in DISTANCE_ENGINES:
-            raise UnknownNameError("distance engine", str(engine), DISTANCE_ENGINES)
+        check_choice("distance engine", engine, DISTANCE_ENGINES)
         eps = AMBIGUITY_BAND
         if not tol > eps:
             raise PoseError(f"tol must exceed the engines' accuracy {eps:g} m, got {tol!r}")
-        try:
-            Q = np.asarray(waypoints, dtype=float)
-        except (TypeError, ValueError) as err:
-            raise PoseError(
-                f"waypoints must be an array of shape (k, {self.arm.nq}): {err}"
-            ) from err
-        if Q.ndim != 2 or Q.shape[0] < 1:
-            raise PoseError(
-                f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got {Q.shape}"
-            )
-        Q = np.array([self.arm.pose(q) for q in Q])
+        Q = check_poses(waypoints, self.arm.joint_names)
+        if not len(Q):
+            raise PoseError(f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got (0,)")
         nseg = len(Q) - 1
         thr = self.thresholds
         evals = 0
@@ -403,12 +380,12 @@ def check_path(
     return path_checker(arm).check(waypoints, tol, engine)
 
 
-_PATH_CHECKERS: weakref.WeakKeyDictionary[Arm, PathChecker] = weakref.WeakKeyDictionary()
+_PATH_CHECKERS: PerObject[Arm, PathChecker] = PerObject(lambda arm: PathChecker(checker(arm)))
 
 
 def path_checker(arm: Arm) -> PathChecker:
-    """The :class:`PathChecker` of an arm with its full pair set, built once and cached."""
-    pc = _PATH_CHECKERS.get(arm)
-    if pc is None:
-        pc = _PATH_CHECKERS[arm] = PathChecker(checker(arm))
-    return pc
+    """The :class:`PathChecker` of an arm with its full pair set, built once and cached.
+
+    The cache never keeps an arm alive (the cached checker holds its arm weakly).
+    """
+    return _PATH_CHECKERS.get(arm)

@@ -34,15 +34,15 @@ def distance_stack(
     return out
 
 
-def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_]) -> Array | None:
+def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_], offset: Array) -> Array | None:
     """A per-pair cap for ``mj_geomDistance`` that no pose can reach, or None.
 
-    The collision checker passes |centre1 - centre2| + 1 m per pose; a centre is never
-    further from the world origin than the sum of the body offsets along its chain, the
-    geom's offset in its body and the travel of slide joints on the way. The distance never
-    exceeds the centres' separation, so the cap never binds and the result is the same
-    (``mj_geomDistance`` returns the distance itself whenever it is below the cap). None when
-    an unlimited slide joint makes the reach unbounded.
+    A geom's origin is never further from the world origin than the sum of the body offsets
+    along its chain, the geom's offset in its body and the travel of slide joints on the way;
+    the distance never exceeds the origins' separation plus both bounding radii (0 for a
+    plane, whose origin is on it). So the cap never binds and the result is the single-pose
+    one (``mj_geomDistance`` returns the distance itself whenever it is below the cap). None
+    when an unlimited slide joint makes the reach unbounded.
     """
     m = arm.mj_model
     reach = np.zeros(m.nbody)
@@ -55,7 +55,7 @@ def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_]) -> Array | No
                 travel += float(np.max(np.abs(m.jnt_range[j])))
         reach[b] = reach[m.body_parentid[b]] + float(np.linalg.norm(m.body_pos[b])) + travel
     geom = reach[m.geom_bodyid] + np.linalg.norm(m.geom_pos, axis=1)
-    return geom[g1] + geom[g2] + 1.0
+    return geom[g1] + geom[g2] + offset
 
 
 def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
@@ -80,7 +80,8 @@ def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
 def _mj_distances(arm: Arm, ch: CollisionChecker, Q: Array, out: Array, threads: int) -> None:
     m = arm.mj_model
     g1, g2 = ch._mj.g1, ch._mj.g2
-    cap = _distmax(arm, g1, g2)
+    offset = ch.mujoco_scene().shared.cap_offset  # both radii + 1 m per pair
+    cap = _distmax(arm, g1, g2, offset)
     kin, dist = mujoco.mj_kinematics, mujoco.mj_geomDistance
     ids = list(zip(g1.tolist(), g2.tolist(), strict=True))
 
@@ -91,7 +92,7 @@ def _mj_distances(arm: Arm, ch: CollisionChecker, Q: Array, out: Array, threads:
             qpos[:] = q
             kin(m, d)
             # mj_kinematics gives geom_xpos/xmat, all mj_geomDistance reads.
-            caps = (np.linalg.norm(xpos[g1] - xpos[g2], axis=1) + 1.0) if cap is None else cap
+            caps = (np.linalg.norm(xpos[g1] - xpos[g2], axis=1) + offset) if cap is None else cap
             row[:] = [
                 dist(m, d, a, b, c, None) for (a, b), c in zip(ids, caps.tolist(), strict=True)
             ]

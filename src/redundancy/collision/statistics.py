@@ -3,23 +3,23 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
-from ..errors import (
-    PoseError,
-    UnknownNameError,
-)
+from ..arm import sampling_ranges
+from ..checks import check_choice, check_count, check_poses
+from .checker import CollisionChecker, PairDistance, checker
+from .coal_scene import CoalScene
+from .mujoco_scene import MujocoScene
+from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
+from .shapes import bounding_radius
 
 if TYPE_CHECKING:
     from ..arm import Arm
-
-from ..arm import random_poses
-from .checker import PairDistance, checker
-from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
 
 
 @dataclass(frozen=True)
@@ -107,13 +107,15 @@ class CollisionStatistics:
             f"have at least one self-contact (MuJoCo's contact list)"
         ]
         dist = self.distance_engine is not None
-        head = f"  {'pair':<24}{'poses':>7}{'contacts':>10}"
-        out.append(head + (f"{'closest (m)':>13}" if dist else ""))
         rows = (
             self.ranked() if not dist else sorted(self.pairs, key=lambda p: (-p.poses, p.closest))
-        )
-        for p in rows[:top]:
-            line = f"  {p.pair.label:<24}{p.poses:>7}{p.contacts:>10}"
+        )[:top]
+        # The pair column fits the longest label shown (24 wide at least, as the lesson's).
+        w = max([24] + [len(p.pair.label) + 2 for p in rows])
+        head = f"  {'pair':<{w}}{'poses':>7}{'contacts':>10}"
+        out.append(head + (f"{'closest (m)':>13}" if dist else ""))
+        for p in rows:
+            line = f"  {p.pair.label:<{w}}{p.poses:>7}{p.contacts:>10}"
             out.append(line + (f"{p.closest:>13.4f}" if dist else ""))
         for k in self.keyframes:
             c = k.closest
@@ -127,20 +129,41 @@ class CollisionStatistics:
         return out
 
 
+#: Poses per chunk of the sweep: memory stays flat in the number of poses.
+CHUNK = 1024
+
+#: Slack subtracted from the bounding-sphere lower bound of a pair's distance before a pair
+#: is skipped [m]. It covers what separates the bound (from MuJoCo's geom positions) from the
+#: engine's computed distance: the engines' placements agree to 1e-9 m (checked when a checker
+#: is built), and a separated distance from GJK is the length of a point of the Minkowski
+#: difference, never below the true distance by more than rounding.
+PRUNE_SLACK = 1e-6
+
+
 def collision_statistics(
     arm: Arm,
     n_poses: int = 10000,
     seed: int | None = 1,
     distances: DistanceEngine | None = "coal",
     poses: ArrayLike | None = None,
+    prune: bool = True,
 ) -> CollisionStatistics:
     """Self-collision over random poses: contacts by MuJoCo, closest approach by an engine.
 
     Contacts are MuJoCo's (``mj_kinematics`` + ``mj_collision`` per pose, as the lesson's
-    ``mj_forward`` finds them). With ``distances`` set, every pair's signed distance is also
-    computed at every pose, giving the closest approach per pair and a cross-check: the
-    engine's touching pairs must equal MuJoCo's contact pairs at every pose (pairs within
-    :data:`AMBIGUITY_BAND` of their threshold aside).
+    ``mj_forward`` finds them). With ``distances`` set, every pair's signed distance enters
+    the closest approach per pair and a cross-check: the engine's touching pairs must equal
+    MuJoCo's contact pairs at every pose (pairs within :data:`AMBIGUITY_BAND` of their
+    threshold aside).
+
+    Far pairs are skipped (``prune``): a pair's distance is at least
+    ``|c1 - c2| - r1 - r2`` (geom origins, bounding radii). A pair whose bound, less
+    :data:`PRUNE_SLACK`, exceeds its closest approach so far, its contact threshold (plus the
+    ambiguity band) and zero, and that MuJoCo does not list, can change neither its closest
+    approach, nor its pose index, nor the cross-check, so its distance is not computed. Poses
+    go in chunks of :data:`CHUNK`; in each, every pair is first measured at the pose with its
+    smallest bound, so that the closest approach is known early. The cost then grows with the
+    pairs that come near, and every number equals the unpruned sweep's (``prune=False``).
 
     Args:
         arm: The arm.
@@ -148,78 +171,154 @@ def collision_statistics(
         seed: Seed; ``seed=1`` with 10000 poses is the lesson's sample.
         distances: ``"coal"``, ``"mujoco"`` or ``None`` (contacts only, fastest).
         poses: Explicit poses, shape (n, nq) [rad or m], instead of random ones.
+        prune: Skip far pairs (same results); False computes every pair at every pose.
     """
+    if distances is not None:
+        check_choice("distance engine", distances, DISTANCE_ENGINES)
     ch = checker(arm)
     if poses is None:
-        Q = random_poses(arm, n_poses, seed)
+        n = check_count("n_poses", n_poses, 0)
+        if seed is not None:
+            seed = check_count("seed", seed, 0)
+        lo, hi = sampling_ranges(arm)
+        rng = np.random.default_rng(seed)
+        # Drawn chunk by chunk from one generator: the same numbers as random_poses(arm, n).
+        chunks: Iterable[Array] = (
+            rng.uniform(lo, hi, size=(min(CHUNK, n - i), arm.nq)) for i in range(0, n, CHUNK)
+        )
     else:
-        try:
-            Q = np.asarray(poses, dtype=float)
-        except (TypeError, ValueError) as err:
-            raise PoseError(f"poses must be an array of shape (n, {arm.nq}): {err}") from err
-        if Q.ndim != 2 or Q.shape[1] != arm.nq:
-            raise PoseError(f"poses must have shape (n, {arm.nq}), got {Q.shape}")
-        Q = np.array([arm.pose(q) for q in Q]).reshape(-1, arm.nq)
-    if distances is not None and distances not in DISTANCE_ENGINES:
-        raise UnknownNameError("distance engine", str(distances), DISTANCE_ENGINES)
-    npair = len(ch.pairs)
-    thr = np.array([p.threshold for p in ch.pairs])
-    pose_hits = np.zeros(npair, dtype=int)
-    contact_hits = np.zeros(npair, dtype=int)
-    closest = np.full(npair, np.inf)
-    closest_at = np.full(npair, -1)
-    with_contact = 0
-    disagree = 0
-    # The poses are validated above: call the engines' scenes directly, without per-pose checks.
-    measure = None
-    if distances == "coal":
-        measure = ch._coal.distance_values
-    elif distances == "mujoco":
-
-        def measure(q: Array) -> Array:
-            return ch._mj.distances(q)[0]
-
+        Q = check_poses(poses, arm.joint_names)
+        n = len(Q)
+        chunks = (Q[i : i + CHUNK] for i in range(0, n, CHUNK))
+    sweep = _Sweep(ch, distances, prune)
     t0 = time.perf_counter()
-    for i, q in enumerate(Q):
-        idx, _ = ch._mj.collide(q)
-        if len(idx):
-            with_contact += 1
-            np.add.at(contact_hits, idx, 1)
-            touched = np.zeros(npair, dtype=bool)
-            touched[idx] = True
-            pose_hits += touched
-        if measure is not None:
-            d = measure(q)
-            better = d < closest
-            closest[better] = d[better]
-            closest_at[better] = i
-            # Cross-check: the engine's touching pairs against MuJoCo's contact pairs.
-            fuzzy = np.abs(d - thr) < AMBIGUITY_BAND
-            listed = np.zeros(npair, dtype=bool)
-            listed[idx] = True
-            if (((d < thr) != listed) & ~fuzzy).any():
-                disagree += 1
+    for block in chunks:
+        sweep.run(block)
     seconds = time.perf_counter() - t0
     stats = tuple(
         PairStatistics(
             p,
-            int(pose_hits[k]),
-            int(contact_hits[k]),
-            float(closest[k]) if distances is not None and len(Q) else float("nan"),
-            int(closest_at[k]),
+            int(sweep.pose_hits[k]),
+            int(sweep.contact_hits[k]),
+            float(sweep.closest[k]) if distances is not None and n else float("nan"),
+            int(sweep.closest_at[k]),
         )
         for k, p in enumerate(ch.pairs)
     )
     return CollisionStatistics(
-        n_poses=len(Q),
+        n_poses=n,
         seed=seed if poses is None else None,
         distance_engine=distances,
-        poses_with_contact=with_contact,
+        poses_with_contact=sweep.with_contact,
         pairs=stats,
         keyframes=keyframe_clearance(arm, distances or "coal"),
-        disagreements=disagree if distances is not None else -1,
+        disagreements=sweep.disagree if distances is not None else -1,
         seconds=seconds,
     )
+
+
+class _Sweep:
+    """The running counts of :func:`collision_statistics`, fed one chunk of poses at a time.
+
+    The poses are validated before they get here, so the engines' scenes are called
+    directly. Every array is per pair, in pair-set order.
+    """
+
+    def __init__(self, ch: CollisionChecker, engine: DistanceEngine | None, prune: bool) -> None:
+        self.mj = ch.mujoco_scene()
+        self.scene: MujocoScene | CoalScene | None = (
+            None if engine is None else ch.mujoco_scene() if engine == "mujoco" else ch.coal_scene()
+        )
+        self.prune = prune
+        pairs = ch.pairs
+        npair = len(pairs)
+        self.thr = np.array([p.threshold for p in pairs])
+        self.pose_hits = np.zeros(npair, dtype=int)
+        self.contact_hits = np.zeros(npair, dtype=int)
+        self.closest = np.full(npair, np.inf)
+        self.closest_at = np.full(npair, -1)
+        self.with_contact = 0
+        self.disagree = 0
+        self.done = 0  # poses swept before this chunk
+        # A pair below this can touch or sit in the ambiguity band: never skipped.
+        self.floor = np.maximum(self.thr + AMBIGUITY_BAND, 0.0)
+        model = ch.arm.mj_model
+        used = sorted({p.geom1 for p in pairs} | {p.geom2 for p in pairs})
+        col = {g: i for i, g in enumerate(used)}
+        self.used = np.array(used, dtype=int)
+        self.c1 = np.array([col[p.geom1] for p in pairs], dtype=int)
+        self.c2 = np.array([col[p.geom2] for p in pairs], dtype=int)
+        radius = np.array([bounding_radius(model, g) for g in used])
+        self.rsum = radius[self.c1] + radius[self.c2] + PRUNE_SLACK if npair else np.zeros(0)
+
+    def run(self, Q: Array) -> None:
+        """Sweep one chunk of poses."""
+        npair = len(self.thr)
+        listed = np.zeros((len(Q), npair), dtype=bool)
+        X = np.zeros((len(Q), len(self.used), 3))
+        for i, q in enumerate(Q):
+            idx, _ = self.mj.collide(q)
+            X[i] = self.mj.data.geom_xpos[self.used]
+            if len(idx):
+                self.with_contact += 1
+                np.add.at(self.contact_hits, idx, 1)
+                listed[i, idx] = True
+        self.pose_hits += listed.sum(axis=0)
+        if self.scene is not None and npair:
+            D = self._measure(Q, X, listed) if self.prune else self._measure_all(Q)
+            self._fold(D, listed)
+        self.done += len(Q)
+
+    def _measure_all(self, Q: Array) -> Array:
+        """Every pair's distance at every pose of the chunk."""
+        assert self.scene is not None
+        return np.array([self.scene.distance_values(q) for q in Q]).reshape(len(Q), -1)
+
+    def _measure(self, Q: Array, X: Array, listed: NDArray[np.bool_]) -> Array:
+        """The distances that can matter; ``inf`` where a pair is skipped (see above)."""
+        scene = self.scene
+        assert scene is not None
+        D = np.full(listed.shape, np.inf)
+        bound = np.linalg.norm(X[:, self.c1] - X[:, self.c2], axis=2) - self.rsum
+        # Seed: each pair at the pose of its smallest bound, unless even that bound rules the
+        # pair out for the whole chunk.
+        cols = np.arange(listed.shape[1])
+        at = np.argmin(bound, axis=0)
+        worth = bound[at, cols] <= np.maximum(self.closest, self.floor)
+        for i in np.unique(at[worth]):
+            which = np.flatnonzero(worth & (at == i))
+            self._place(Q[i])
+            D[i, which] = scene.placed_values(which)
+        # The chunk's smallest distance per pair is at most the seed's: a pair whose bound
+        # exceeds that (and its threshold, and zero) at a pose cannot matter there.
+        ceiling = np.maximum(np.minimum(self.closest, D.min(axis=0)), self.floor)
+        todo = ((bound <= ceiling) | listed) & np.isinf(D)
+        for i in np.flatnonzero(todo.any(axis=1)):
+            which = np.flatnonzero(todo[i])
+            self._place(Q[i])
+            D[i, which] = scene.placed_values(which)
+        return D
+
+    def _place(self, q: Array) -> None:
+        if isinstance(self.scene, MujocoScene):
+            self.scene.kinematics(q)
+        elif self.scene is not None:
+            self.scene.place(q)
+
+    def _fold(self, D: Array, listed: NDArray[np.bool_]) -> None:
+        """Fold a chunk's distances (``inf`` where skipped) into the running results."""
+        # Closest approach: the first pose reaching the smallest distance, as a sequential
+        # loop with a strict comparison finds it (NaN never wins).
+        finite = np.where(np.isnan(D), np.inf, D)
+        at = np.argmin(finite, axis=0)
+        low = finite[at, np.arange(D.shape[1])]
+        better = low < self.closest
+        self.closest[better] = low[better]
+        self.closest_at[better] = self.done + at[better]
+        # Cross-check: the engine's touching pairs against MuJoCo's contact pairs. A skipped
+        # pair is neither touching nor listed nor in the band, as its real distance.
+        fuzzy = np.abs(D - self.thr) < AMBIGUITY_BAND
+        self.disagree += int((((D < self.thr) != listed) & ~fuzzy).any(axis=1).sum())
 
 
 def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[KeyframeClearance, ...]:

@@ -1,0 +1,351 @@
+"""coal distances for a pair set, the geoms placed by Pinocchio's forward kinematics.
+
+Each geom becomes a Pinocchio ``GeometryObject`` attached to the BODY frame that Pinocchio's
+MJCF parser creates for the geom's body, at MuJoCo's compiled geom pose in that body
+(``geom_pos``, ``geom_quat``, which for a mesh include MuJoCo's recentring of the mesh). Only
+the shapes and their offsets in their bodies come from MuJoCo; every body pose comes from
+Pinocchio. A mesh geom becomes a coal convex polytope spanned by the vertices MuJoCo's own
+support function searches (:func:`~redundancy.collision.shapes.mesh_hull`): both engines
+collide the same convex solid, which for a non-convex mesh is its hull, not the mesh.
+
+:class:`CoalPairs` (shapes, ``GeometryModel``) is built once and only read; each thread gets a
+:class:`CoalScene` with its own Pinocchio ``Data`` and ``GeometryData``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import UnsupportedFeatureError
+from .pairs import GeomPair
+from .shapes import bounding_radius, geom_display_name, geom_type_name, mesh_hull
+
+if TYPE_CHECKING:
+    import coal
+    import pinocchio as pin
+
+Array = NDArray[np.float64]
+Index = NDArray[np.int_]
+
+#: coal's GJK stops when its relative convergence gap is below this. At 1e-9 a capsule end
+#: facing a box face almost squarely came out 2.4e-9 (relative) short; at 1e-10 separated
+#: distances of polytope-like pairs match MuJoCo's closed forms to 1e-16 m, and curved ones
+#: (cylinders, ellipsoids) to MuJoCo's own GJK tolerance. Below 1e-11 GJK stops converging.
+COAL_GJK_TOLERANCE = 1e-10
+#: coal's EPA (penetration depth) tolerance [m]; tighter values make EPA fail on deep overlaps.
+COAL_EPA_TOLERANCE = 1e-6
+#: Iteration caps for coal's GJK and EPA (its defaults, 128 and 64, are too few at these
+#: tolerances on curved shapes).
+COAL_MAX_ITERATIONS = 1000
+
+_G = mujoco.mjtGeom
+
+
+def coal_shape(model: mujoco.MjModel, geom: int) -> coal.CollisionGeometry:
+    """A coal shape equal to the solid MuJoCo collides for a geom, in the geom's own frame.
+
+    MuJoCo's compiled ``geom_size`` holds half-sizes: sphere (r), capsule and cylinder
+    (r, half-length along z), box (half-sides), ellipsoid (semi-axes); a plane is the
+    half-space z <= 0 of its frame. coal's constructors take full lengths. A mesh is the
+    convex polytope of :func:`~redundancy.collision.shapes.mesh_hull`: MuJoCo's hull graph
+    where MuJoCo climbs it, else the hull of every vertex (computed by coal's qhull).
+
+    Raises:
+        UnsupportedFeatureError: Height field or SDF geoms, or a mesh whose vertices span
+            no solid (all in one plane).
+    """
+    import coal
+
+    t = int(model.geom_type[geom])
+    s = model.geom_size[geom]
+    if t == _G.mjGEOM_SPHERE:
+        return coal.Sphere(s[0])
+    if t == _G.mjGEOM_CAPSULE:
+        return coal.Capsule(s[0], 2 * s[1])
+    if t == _G.mjGEOM_CYLINDER:
+        return coal.Cylinder(s[0], 2 * s[1])
+    if t == _G.mjGEOM_BOX:
+        return coal.Box(2 * s[0], 2 * s[1], 2 * s[2])
+    if t == _G.mjGEOM_ELLIPSOID:
+        return coal.Ellipsoid(s[0], s[1], s[2])
+    if t == _G.mjGEOM_PLANE:
+        return coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0)
+    if t == _G.mjGEOM_MESH:
+        return _convex(model, geom)
+    raise UnsupportedFeatureError(
+        f"{geom_type_name(model, geom)} geom",
+        f"geom {geom_display_name(model, geom)!r}",
+        "distances are computed for primitive and mesh geoms only",
+    )
+
+
+def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
+    """The coal polytope of a mesh geom's hull (see :func:`coal_shape`)."""
+    import coal
+
+    hull = mesh_hull(model, geom)
+    points = coal.StdVec_Vec3s()
+    for p in hull.points:
+        points.append(p)
+    if hull.faces is not None:
+        triangles = coal.StdVec_Triangle()
+        for a, b, c in hull.faces.tolist():
+            triangles.append(coal.Triangle(a, b, c))
+        return coal.Convex(points, triangles)
+    try:
+        # MuJoCo searches every vertex: the solid is their hull, whatever the mesh's faces.
+        return coal.ConvexBase.convexHull(points, False, None)
+    except Exception as err:  # qhull's errors come through as bare C++ exceptions
+        raise UnsupportedFeatureError(
+            "flat mesh",
+            f"geom {geom_display_name(model, geom)!r} (mesh {hull.mesh!r})",
+            f"its {hull.vertices} vertices span no solid for coal's convex hull ({err})",
+        ) from err
+
+
+def distance_request() -> coal.DistanceRequest:
+    """The coal distance request this package uses: signed, tight GJK, robust EPA."""
+    import coal
+
+    req = coal.DistanceRequest()
+    req.enable_signed_distance = True  # penetration depth (EPA) instead of 0 on overlap
+    req.gjk_tolerance = COAL_GJK_TOLERANCE
+    req.gjk_max_iterations = COAL_MAX_ITERATIONS
+    req.epa_tolerance = COAL_EPA_TOLERANCE
+    req.epa_max_iterations = COAL_MAX_ITERATIONS
+    req.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess  # no warm start: reproducible
+    return req
+
+
+def _quat_matrix(quat: ArrayLike) -> Array:
+    """Rotation matrix of a MuJoCo quaternion (w, x, y, z)."""
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
+    return mat.reshape(3, 3)
+
+
+class CoalPairs:
+    """The shapes and Pinocchio ``GeometryModel`` of a pair set, shared by every thread.
+
+    Args:
+        model: MuJoCo's compiled model (shapes and their offsets in their bodies).
+        pin_model: Pinocchio's model of the same arm (body poses).
+        perm: ``perm[i]`` is Pinocchio's configuration index of the library's joint ``i``.
+        pairs: The pair set.
+
+    Raises:
+        UnsupportedFeatureError: A geom coal cannot represent, or one on a body Pinocchio
+            does not name.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        pin_model: pin.Model,
+        perm: NDArray[np.int_],
+        pairs: Sequence[GeomPair],
+    ) -> None:
+        import pinocchio as pin
+
+        self.model = model
+        self.pin_model = pin_model
+        self.perm = np.asarray(perm)
+        self.pairs = tuple(pairs)
+        used = sorted({p.geom1 for p in self.pairs} | {p.geom2 for p in self.pairs})
+        self.geom_model = pin.GeometryModel()
+        self.slot: dict[int, int] = {}  # MuJoCo geom id -> GeometryObject index
+        for g in used:
+            self.slot[g] = self.geom_model.addGeometryObject(self._geometry_object(g))
+        for p in self.pairs:
+            self.geom_model.addCollisionPair(
+                pin.CollisionPair(self.slot[p.geom1], self.slot[p.geom2])
+            )
+        # Pair k of the GeometryModel must be pair k of the set; coal may store it swapped.
+        for k, p in enumerate(self.pairs):
+            cp = self.geom_model.collisionPairs[k]
+            assert {cp.first, cp.second} == {self.slot[p.geom1], self.slot[p.geom2]}
+        self.swapped = [
+            self.geom_model.collisionPairs[k].first != self.slot[p.geom1]
+            for k, p in enumerate(self.pairs)
+        ]
+        self.radius = {g: bounding_radius(model, g) for g in used}
+
+    def _geometry_object(self, g: int) -> pin.GeometryObject:
+        import pinocchio as pin
+
+        m = self.model
+        body = int(m.geom_bodyid[g])
+        gname = geom_display_name(m, g)
+        local = pin.SE3(_quat_matrix(m.geom_quat[g]), m.geom_pos[g].copy())
+        if body == 0:
+            # The world body is Pinocchio's universe: joint 0, frame 0, identity placement.
+            return pin.GeometryObject(gname, 0, 0, local, coal_shape(m, g))
+        bname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body)
+        if not bname or not self.pin_model.existFrame(bname, pin.FrameType.BODY):
+            raise UnsupportedFeatureError(
+                "body Pinocchio does not name",
+                f"body {bname or f'#{body}'!r} (carries geom {gname!r})",
+                "geoms are placed on Pinocchio's BODY frame of the same name; name the body",
+            )
+        fid = self.pin_model.getFrameId(bname, pin.FrameType.BODY)
+        frame = self.pin_model.frames[fid]
+        # GeometryObject placements are relative to the parent *joint*: compose the body
+        # frame's placement in its joint with the geom's placement in its body.
+        return pin.GeometryObject(
+            gname, frame.parentJoint, fid, frame.placement * local, coal_shape(m, g)
+        )
+
+    def scene(self) -> CoalScene:
+        """A new scene with its own Pinocchio ``Data`` and ``GeometryData``."""
+        return CoalScene(self)
+
+
+class CoalScene:
+    """One thread's coal workspace for a pair set (see :class:`CoalPairs`)."""
+
+    def __init__(self, shared: CoalPairs) -> None:
+        import pinocchio as pin
+
+        self.shared = shared
+        self.pairs = shared.pairs
+        self.pin_data = shared.pin_model.createData()  # private: never disturbs the Arm's
+        self.geom_data = pin.GeometryData(shared.geom_model)
+        self._qp = np.zeros(shared.pin_model.nq)
+        # GeometryData owns one request per pair; computeDistance(s) reads them.
+        ref = distance_request()
+        for req in self.geom_data.distanceRequests:
+            req.enable_signed_distance = ref.enable_signed_distance
+            req.gjk_tolerance = ref.gjk_tolerance
+            req.gjk_max_iterations = ref.gjk_max_iterations
+            req.epa_tolerance = ref.epa_tolerance
+            req.epa_max_iterations = ref.epa_max_iterations
+            req.gjk_initial_guess = ref.gjk_initial_guess
+            # Pinocchio turns on GJK warm starts from the previous call, which makes a
+            # distance depend on the poses queried before it (by up to 1e-6 m for EPA
+            # depths); off, every distance is a function of the pose alone, and faster.
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)
+                if hasattr(req, "enable_cached_gjk_guess"):
+                    req.enable_cached_gjk_guess = False
+        # References into GeometryData's result vector, listed once: building the Python
+        # wrappers anew for every pose would cost more than the distances themselves.
+        self._results = list(self.geom_data.distanceResults)
+        self._retried: dict[int, tuple[float, Array, Array]] = {}
+
+    @property
+    def pin_model(self) -> pin.Model:
+        """Pinocchio's model (shared, read only)."""
+        return self.shared.pin_model
+
+    @property
+    def geom_model(self) -> pin.GeometryModel:
+        """The pair set's ``GeometryModel`` (shared, read only)."""
+        return self.shared.geom_model
+
+    def place(self, q: Array) -> None:
+        """Place the geoms at ``q`` (library joint order)."""
+        import pinocchio as pin
+
+        s = self.shared
+        self._qp[s.perm] = q
+        # forwardKinematics fills oMi; updateGeometryPlacements composes oMg = oMi * placement.
+        pin.forwardKinematics(s.pin_model, self.pin_data, self._qp)
+        pin.updateGeometryPlacements(s.pin_model, self.pin_data, s.geom_model, self.geom_data)
+
+    def geom_pose(self, g: int) -> tuple[Array, Array]:
+        """World position [m] and rotation of geom ``g`` after :meth:`place`."""
+        oMg = self.geom_data.oMg[self.shared.slot[g]]
+        return oMg.translation.copy(), oMg.rotation.copy()
+
+    def distance_values(self, q: Array) -> Array:
+        """Signed distance of every pair at ``q`` [m] (no nearest points)."""
+        out = self._raw_values(q)
+        return self._redo_failures(out, np.arange(len(out)))
+
+    def _raw_values(self, q: Array) -> Array:
+        import pinocchio as pin
+
+        s = self.shared
+        self._qp[s.perm] = q
+        # computeDistances = forwardKinematics + updateGeometryPlacements + coal.distance on
+        # every collision pair, in one C++ loop.
+        pin.computeDistances(s.pin_model, self.pin_data, s.geom_model, self.geom_data, self._qp)
+        return np.array([r.min_distance for r in self._results])
+
+    def placed_values(self, which: Index) -> Array:
+        """Signed distances of the pairs in ``which`` at the pose last placed [m].
+
+        The same coal call, request and result as :meth:`distance_values`, pair by pair.
+        """
+        import pinocchio as pin
+
+        s = self.shared
+        compute = pin.computeDistance
+        out = np.array(
+            [compute(s.geom_model, self.geom_data, k).min_distance for k in which.tolist()],
+            dtype=float,
+        )
+        return self._redo_failures(out, which)
+
+    def _redo_failures(self, out: Array, which: Index) -> Array:
+        self._retried = {}
+        if not len(out) or np.min(out) > -1e6:  # NaN fails the test too
+            return out
+        # EPA failures come back as -DBL_MAX (or non-finite): redo those pairs.
+        bad = ~np.isfinite(out) | (out < -1e6)
+        self._retried = {int(which[i]): self._retry(int(which[i])) for i in np.flatnonzero(bad)}
+        for i in np.flatnonzero(bad):
+            out[i] = self._retried[int(which[i])][0]
+        return out
+
+    def distances(self, q: Array) -> tuple[Array, Array, Array]:
+        """Signed distance and nearest points (world frame) of every pair at ``q`` [m]."""
+        dist = self.distance_values(q)
+        n = len(self.pairs)
+        p1, p2 = np.zeros((n, 3)), np.zeros((n, 3))
+        for k, r in enumerate(self._results):
+            if k in self._retried:  # already in the pair's geom order
+                p1[k], p2[k] = self._retried[k][1], self._retried[k][2]
+                continue
+            a, b = r.getNearestPoint1(), r.getNearestPoint2()
+            p1[k], p2[k] = (b, a) if self.shared.swapped[k] else (a, b)
+        return dist, p1, p2
+
+    def _retry(self, k: int) -> tuple[float, Array, Array]:
+        """Recompute pair ``k`` with a looser EPA after a failure (coal returns -DBL_MAX).
+
+        EPA can fail on deep overlaps of curved shapes; the geoms then overlap for sure, so a
+        depth from a looser EPA is kept, and if that fails too, the (negative) opposite of
+        the sum of the bounding radii, a bound no overlap can exceed.
+        """
+        import coal
+
+        s = self.shared
+        pair = self.pairs[k]
+        slots = [s.slot[pair.geom1], s.slot[pair.geom2]]
+        objs = [s.geom_model.geometryObjects[i] for i in slots]
+        tfs = [self.geom_data.oMg[i] for i in slots]
+        req = distance_request()
+        req.epa_tolerance = 1e-4
+        res = coal.DistanceResult()
+        d = coal.distance(
+            objs[0].geometry,
+            coal.Transform3s(tfs[0].rotation, tfs[0].translation),
+            objs[1].geometry,
+            coal.Transform3s(tfs[1].rotation, tfs[1].translation),
+            req,
+            res,
+        )
+        if np.isfinite(d) and d > -1e6:
+            return float(d), res.getNearestPoint1(), res.getNearestPoint2()
+        return (
+            -(s.radius[pair.geom1] + s.radius[pair.geom2]),
+            tfs[0].translation.copy(),
+            tfs[1].translation.copy(),
+        )

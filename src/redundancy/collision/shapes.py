@@ -1,0 +1,125 @@
+"""The shapes MuJoCo collides, read from its compiled model: sizes, mesh hulls, bounding radii.
+
+MuJoCo collides a mesh geom as the convex hull of its vertices. The compiler recentres and
+re-orients every mesh (its vertices are stored in the mesh's own frame, ``mesh_vert``, in
+single precision) and folds that offset into the geom's compiled ``geom_pos``/``geom_quat``,
+so the hull below, placed at the geom's compiled pose, is the solid MuJoCo collides.
+
+Which vertices span that hull is MuJoCo's support-function rule (``mjc_initCCDObj`` in
+engine_collision_convex.c): a mesh with a convex-hull graph (``mesh_graphadr >= 0``) and at
+least :data:`HILLCLIMB_MIN` vertices is searched by hill climbing over the graph's vertices;
+otherwise every vertex is searched. A support function determines a convex solid, so a
+polytope spanned by the same vertices is the same solid whatever its faces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import UnsupportedFeatureError
+
+Array = NDArray[np.float64]
+
+_G = mujoco.mjtGeom
+
+#: MuJoCo's ``mjMESH_HILLCLIMB_MIN``: meshes with fewer vertices are searched exhaustively.
+HILLCLIMB_MIN = 10
+
+
+def geom_type_name(model: mujoco.MjModel, geom: int) -> str:
+    """MuJoCo's short name of a geom's type (``"capsule"``...)."""
+    return mujoco.mjtGeom(model.geom_type[geom]).name.removeprefix("mjGEOM_").lower()
+
+
+def geom_display_name(model: mujoco.MjModel, geom: int) -> str:
+    """The geom's name, or ``"<body> geom <k>"`` (its k-th geom, from 0) when it has none."""
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom)
+    if name:
+        return name
+    body = int(model.geom_bodyid[geom])
+    bname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
+    return f"{bname} geom {geom - int(model.body_geomadr[body])}"
+
+
+@dataclass(frozen=True)
+class Hull:
+    """The convex solid MuJoCo collides for a mesh geom, in the geom's frame.
+
+    Attributes:
+        points: Vertices that span it, shape (n, 3) [m] (MuJoCo's single-precision values).
+        faces: Triangles over ``points`` from MuJoCo's hull graph, shape (f, 3); None where
+            MuJoCo searches every vertex (no graph, or fewer than :data:`HILLCLIMB_MIN`).
+        mesh: Name of the mesh asset.
+        vertices: Number of vertices of the mesh as written (the hull may use fewer).
+    """
+
+    points: Array
+    faces: NDArray[np.int_] | None
+    mesh: str
+    vertices: int
+
+    @property
+    def radius(self) -> float:
+        """Largest distance of a hull point from the geom's origin [m]."""
+        return float(np.linalg.norm(self.points, axis=1).max())
+
+
+def mesh_hull(model: mujoco.MjModel, geom: int) -> Hull:
+    """The hull MuJoCo collides for mesh geom ``geom`` (see the module docstring).
+
+    Raises:
+        UnsupportedFeatureError: ``geom`` is not a mesh geom.
+    """
+    if int(model.geom_type[geom]) != _G.mjGEOM_MESH:
+        raise UnsupportedFeatureError(
+            f"{geom_type_name(model, geom)} geom",
+            f"geom {geom_display_name(model, geom)!r}",
+            "only mesh geoms have a hull",
+        )
+    mesh = int(model.geom_dataid[geom])
+    vadr, nvert = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+    verts = model.mesh_vert[vadr : vadr + nvert].astype(float)
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, mesh) or f"mesh {mesh}"
+    adr = int(model.mesh_graphadr[mesh])
+    if adr < 0 or nvert < HILLCLIMB_MIN:
+        return Hull(verts, None, name, nvert)
+    # mesh_graph layout (user_mesh.cc): numvert, numface, vert_edgeadr[numvert],
+    # vert_globalid[numvert], edge_localid[numvert + 3 numface], face_globalid[3 numface];
+    # global ids index this mesh's vertices.
+    graph = model.mesh_graph
+    nv, nf = int(graph[adr]), int(graph[adr + 1])
+    globalid = np.asarray(graph[adr + 2 + nv : adr + 2 + 2 * nv], dtype=int)
+    start = adr + 2 + 3 * nv + 3 * nf
+    faces = np.asarray(graph[start : start + 3 * nf], dtype=int).reshape(nf, 3)
+    local = np.full(nvert, -1, dtype=int)
+    local[globalid] = np.arange(nv)
+    return Hull(verts[globalid], local[faces], name, nvert)
+
+
+def bounding_radius(model: mujoco.MjModel, geom: int) -> float:
+    """Radius of a sphere about the geom's origin that contains the geom [m].
+
+    Exact for every primitive, the largest hull-vertex norm for a mesh (tighter than
+    MuJoCo's ``geom_rbound``, which bounds the mesh's bounding box), infinite for a plane.
+    """
+    t = int(model.geom_type[geom])
+    s = model.geom_size[geom]
+    if t == _G.mjGEOM_SPHERE:
+        return float(s[0])
+    if t == _G.mjGEOM_CAPSULE:
+        return float(s[0] + s[1])
+    if t == _G.mjGEOM_CYLINDER:
+        return float(np.hypot(s[0], s[1]))
+    if t == _G.mjGEOM_BOX:
+        return float(np.linalg.norm(s[:3]))
+    if t == _G.mjGEOM_ELLIPSOID:
+        return float(np.max(s[:3]))
+    if t == _G.mjGEOM_MESH:
+        return mesh_hull(model, geom).radius
+    if t == _G.mjGEOM_PLANE:
+        return float("inf")
+    return float(model.geom_rbound[geom])
