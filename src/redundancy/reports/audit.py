@@ -314,8 +314,8 @@ def _simulation_findings(s: Sections) -> list[Finding]:
             Finding(
                 "simulation",
                 'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm '
-                "weightless, so the gravity budget is 0, while Pinocchio's model has gravity "
-                f"{list(sim.gravity)} m/s^2",
+                f"weightless, ignoring gravity {list(sim.gravity)} m/s^2, so the gravity "
+                "budget is 0: the motors are never checked against the arm's weight",
             )
         )
     return out
