@@ -253,6 +253,20 @@ _FR3_TORQUE = (87, 87, 87, 87, 12, 12, 12)
 #: Joint class per joint (shoulder / elbow carry no <joint>: axis and armature come from fr3).
 _FR3_CLASS = ("shoulder", "shoulder", "elbow", "elbow", "wrist", "wrist", "wrist")
 _FR3_FRICTION = (1.137, 1.137, 1.137, 1.137, 0.763, 0.44, 0.248)
+#: Collision prism per link (start and end of its axis in the link frame [m], radius [m]),
+#: chosen here along Franka's DH geometry: link1 the shoulder column, link2 and link3 the
+#: two halves of the upper arm (link3's frame sits at the elbow's height), link4 the elbow
+#: housing, link5 the forearm (the elbow is at (0.0825, 0, -0.384) in its frame), link6 the
+#: wrist, link7 the flange. Non-neighbouring prisms stay apart at the home keyframe.
+_FR3_COLLISION = {
+    "link1": ((0, 0, -0.18), (0, 0, 0), 0.065),
+    "link2": ((0, -0.02, 0), (0, -0.15, 0), 0.06),
+    "link3": ((0, 0, -0.16), (0, 0, -0.02), 0.06),
+    "link4": ((0, 0, 0), (-0.025, 0.115, 0), 0.055),
+    "link5": ((0.0536, 0, -0.2496), (0.0124, 0, -0.0576), 0.05),
+    "link6": ((0, 0, 0), (0.088, 0, 0), 0.05),
+    "link7": ((0, 0, 0), (0, 0, 0.107), 0.045),
+}
 
 
 def _write_fr3(directory: Path) -> str:
@@ -268,7 +282,8 @@ def _write_fr3(directory: Path) -> str:
         stem = name.removeprefix("fr3_")
         verts, tris = prism((0, 0, 0), child, 0.06, sides=12)
         write_obj(assets / f"{stem}.obj", verts, tris)
-        cverts, ctris = prism((0, 0, 0), child, 0.065, sides=6)
+        start, end, radius = _FR3_COLLISION[stem]
+        cverts, ctris = prism(start, end, radius, sides=6)
         write_binary_stl(assets / f"{stem}.stl", cverts, ctris)
         mesh_lines.append(f'<mesh file="{stem}.obj"/>')
         mesh_lines.append(f'<mesh name="{stem}_coll" file="{stem}.stl"/>')

@@ -683,7 +683,7 @@ def test_statistics_cross_check_catches_a_wrong_engine(
     scene = col.checker(arm7).coal_scene()  # the coal side, as the sweep calls it
     right, right_placed = scene.distance_values, scene.placed_values
     monkeypatch.setattr(scene, "distance_values", lambda q: right(q) + 0.01)
-    monkeypatch.setattr(scene, "placed_values", lambda which: right_placed(which) + 0.01)
+    monkeypatch.setattr(scene, "placed_values", lambda *a: right_placed(*a) + 0.01)
     stats = col.collision_statistics(arm7, 300, seed=1, prune=prune)
     assert stats.poses_with_contact > 0
     assert stats.disagreements > 0
@@ -1357,3 +1357,78 @@ def test_a_model_without_collision_pairs_gives_empty_results() -> None:
     stats = col.collision_statistics(arm, 30)
     assert stats.pairs == () and stats.poses_with_contact == 0 and stats.disagreements == 0
     assert pc.check_path(arm, [[0.0], [1.0]]).free
+
+
+# ==========================================================================================
+# Statistics skip far pairs: same numbers, fewer distances
+# ==========================================================================================
+
+
+def sphere_chain(links: int = 7, per_link: int = 6) -> str:
+    """A 7-joint arm (roll/pitch alternating) whose links are rows of spheres on their axes:
+    many pairs, most far apart, several at a constant distance whatever the pose."""
+    body = '<site name="ee" pos="0 0 0.2"/>'
+    for i in reversed(range(links)):
+        axis = "0 0 1" if i % 2 == 0 else "0 1 0"
+        r = 0.06 - 0.005 * i
+        spheres = "".join(
+            f'<geom name="s{i}_{k}" type="sphere" size="{r:.3f}" pos="0 0 {0.2 * k / (per_link - 1):.3f}"/>'
+            for k in range(per_link)
+        )
+        body = (
+            f'<body name="l{i}" pos="0 0 {0.0 if i == 0 else 0.2}">'
+            f'<joint name="j{i}" axis="{axis}" range="-2.9 2.9"/>{INERTIAL}{spheres}{body}</body>'
+        )
+    return f'<mujoco><compiler angle="radian"/><worldbody>{body}</worldbody></mujoco>'
+
+
+def same_statistics(a: col.CollisionStatistics, b: col.CollisionStatistics) -> None:
+    assert a.pairs == b.pairs  # poses, contacts, closest (exact floats) and closest_pose
+    assert (a.poses_with_contact, a.disagreements, a.n_poses) == (
+        b.poses_with_contact,
+        b.disagreements,
+        b.n_poses,
+    )
+    assert [(k.contacts, k.closest and k.closest.distance) for k in a.keyframes] == [
+        (k.contacts, k.closest and k.closest.distance) for k in b.keyframes
+    ]
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_pruned_statistics_equal_the_unpruned_ones(
+    arm7: rd.Arm, meshes: rd.Arm, engine: str
+) -> None:
+    """Skipping far pairs changes no reported number: counts, closest approach and its pose
+    index (ties included), the cross-check, over several chunks."""
+    spheres = rd.load_string(sphere_chain())
+    for arm, n in ((arm7, 2500), (meshes, 1200), (spheres, 1500)):
+        Q = col.random_poses(arm, n, seed=21)
+        if arm is arm7:
+            Q[::5, 3] = 2.9  # folded elbows: many contacts
+        Q[7] = Q[3]  # an exact tie: the first of the two poses is reported
+        fast = col.collision_statistics(arm, poses=Q, distances=engine)
+        slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)
+        same_statistics(fast, slow)
+        assert fast.poses_with_contact > 0
+        assert all(p.closest_pose != 7 for p in fast.pairs)
+
+
+def test_pruning_skips_most_far_pairs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On the sphere arm most pairs are far at most poses: most distances are skipped."""
+    arm = rd.load_string(sphere_chain())
+    ch = col.checker(arm)
+    scene = ch.coal_scene()
+    counted = [0]
+    placed = scene.placed_values
+
+    def counting(which: np.ndarray, apart: np.ndarray) -> np.ndarray:
+        counted[0] += len(which)
+        return placed(which, apart)
+
+    monkeypatch.setattr(scene, "placed_values", counting)
+    n = 2000
+    stats = col.collision_statistics(arm, n, seed=2, distances="coal")
+    assert stats.disagreements == 0
+    share = counted[0] / (n * len(ch.pairs))
+    print(f"sphere chain: {len(ch.pairs)} pairs, {share:.1%} of the pair distances computed")
+    assert share < 0.3

@@ -22,15 +22,6 @@ from redundancy.reports.audit import audit
 from . import corpus
 
 NAMES = list(corpus.MODELS)
-#: Mesh collision has landed: fr3's link4 and link6 collision prisms overlap by 11.8 mm at the
-#: home keyframe (MuJoCo's contact list and coal agree). strict=True: the mark must go when
-#: the corpus resizes them.
-_MESH_COLLISION = pytest.mark.xfail(
-    raises=AssertionError,
-    strict=True,
-    reason="fr3's link4/link6 collision prisms overlap at home (-11.8 mm, both engines)",
-)
-COLLISION_NAMES = [pytest.param(n, marks=_MESH_COLLISION) if n == "fr3" else n for n in NAMES]
 #: Largest |MuJoCo - Pinocchio| / max(1, |value|) per (model, quantity), for the closing note.
 LARGEST: dict[tuple[str, str], float] = {}
 #: The audit's findings per model, for the closing note.
@@ -111,7 +102,7 @@ def test_crosscheck_at_1e9(name: str, arms: dict[str, rd.Arm]) -> None:
         assert a.max_error <= max(a.tol, 1e-9) if a.quantity.startswith("manip") else 1e-9, a
 
 
-@pytest.mark.parametrize("name", COLLISION_NAMES)
+@pytest.mark.parametrize("name", NAMES)
 def test_collision(name: str, arms: dict[str, rd.Arm]) -> None:
     arm = arms[name]
     pairs = rd.collision_pairs(arm)

@@ -23,8 +23,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import UnsupportedFeatureError
+from ..model.names import display_names, geom_name
 from .pairs import GeomPair
-from .shapes import bounding_radius, geom_display_name, geom_type_name, mesh_hull
+from .shapes import bounding_radius, geom_type_name, mesh_hull
 
 if TYPE_CHECKING:
     import coal
@@ -80,7 +81,7 @@ def coal_shape(model: mujoco.MjModel, geom: int) -> coal.CollisionGeometry:
         return _convex(model, geom)
     raise UnsupportedFeatureError(
         f"{geom_type_name(model, geom)} geom",
-        f"geom {geom_display_name(model, geom)!r}",
+        f"geom {geom_name(model, geom)!r}",
         "distances are computed for primitive and mesh geoms only",
     )
 
@@ -104,7 +105,7 @@ def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
     except Exception as err:  # qhull's errors come through as bare C++ exceptions
         raise UnsupportedFeatureError(
             "flat mesh",
-            f"geom {geom_display_name(model, geom)!r} (mesh {hull.mesh!r})",
+            f"geom {geom_name(model, geom)!r} (mesh {hull.mesh!r})",
             f"its {hull.vertices} vertices span no solid for coal's convex hull ({err})",
         ) from err
 
@@ -158,6 +159,7 @@ class CoalPairs:
         self.perm = np.asarray(perm)
         self.pairs = tuple(pairs)
         used = sorted({p.geom1 for p in self.pairs} | {p.geom2 for p in self.pairs})
+        self._names = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
         self.geom_model = pin.GeometryModel()
         self.slot: dict[int, int] = {}  # MuJoCo geom id -> GeometryObject index
         for g in used:
@@ -181,7 +183,7 @@ class CoalPairs:
 
         m = self.model
         body = int(m.geom_bodyid[g])
-        gname = geom_display_name(m, g)
+        gname = self._names[g]
         local = pin.SE3(_quat_matrix(m.geom_quat[g]), m.geom_pos[g].copy())
         if body == 0:
             # The world body is Pinocchio's universe: joint 0, frame 0, identity placement.
@@ -278,10 +280,11 @@ class CoalScene:
         pin.computeDistances(s.pin_model, self.pin_data, s.geom_model, self.geom_data, self._qp)
         return np.array([r.min_distance for r in self._results])
 
-    def placed_values(self, which: Index) -> Array:
+    def placed_values(self, which: Index, apart: Array | None = None) -> Array:
         """Signed distances of the pairs in ``which`` at the pose last placed [m].
 
-        The same coal call, request and result as :meth:`distance_values`, pair by pair.
+        The same coal call, request and result as :meth:`distance_values`, pair by pair
+        (``apart`` is accepted for the MuJoCo scene's signature and not needed).
         """
         import pinocchio as pin
 

@@ -167,9 +167,19 @@ class MujocoScene:
         self.kinematics(q)
         return self.placed_values(np.arange(len(self.pairs)))
 
-    def placed_values(self, which: Index) -> Array:
-        """Signed distances of the pairs in ``which`` at the pose last placed [m]."""
+    def placed_values(self, which: Index, apart: Array | None = None) -> Array:
+        """Signed distances of the pairs in ``which`` at the pose last placed [m].
+
+        Args:
+            which: Pair indices.
+            apart: The geoms' origins' separation per pair in ``which``, if known [m]
+                (``|geom_xpos[g1] - geom_xpos[g2]|``, as :meth:`caps` computes it).
+        """
         m, d, ids = self.model, self.data, self.shared.ids
         geom_distance = mujoco.mj_geomDistance
-        caps = zip(which.tolist(), self.caps(which), strict=True)
-        return np.array([geom_distance(m, d, *ids[k], c, None) for k, c in caps], dtype=float)
+        if apart is None:
+            caps = self.caps(which)
+        else:
+            caps = (apart + self.shared.cap_offset[which]).tolist()
+        pairs = zip(which.tolist(), caps, strict=True)
+        return np.array([geom_distance(m, d, *ids[k], c, None) for k, c in pairs], dtype=float)

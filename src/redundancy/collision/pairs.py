@@ -11,7 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import UnknownNameError, UnsupportedFeatureError
-from .shapes import geom_display_name, geom_type_name
+from ..model.names import display_names
+from .shapes import geom_type_name
 
 if TYPE_CHECKING:
     from ..arm import Arm
@@ -46,9 +47,9 @@ class GeomPair:
         geom1: Geom id, the smaller of the two.
         geom2: Geom id, the larger.
         name1: Name of ``geom1``; an unnamed geom is named by its body and its index among
-            the body's geoms, from 0 (``"link3 geom 2"``).
+            the body's geoms, from 0 (``"link3 geom 2"``, :mod:`redundancy.model.names`).
         name2: Name of ``geom2``, likewise.
-        body1: Name of the body carrying ``geom1``.
+        body1: Name of the body carrying ``geom1`` (an unnamed body named likewise).
         body2: Name of the body carrying ``geom2``.
         type1: Geom type of ``geom1`` (``"capsule"``...).
         type2: Geom type of ``geom2``.
@@ -97,10 +98,6 @@ class GeomPair:
 
     def __str__(self) -> str:
         return self.label
-
-
-def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
-    return mujoco.mj_id2name(model, obj, i) or ""
 
 
 def _margin_gap(model: mujoco.MjModel, g1: int, g2: int, ipair: int) -> tuple[float, float]:
@@ -200,6 +197,8 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             ):
                 continue
             found[(g1, g2)] = -1
+    geoms = display_names(m, mujoco.mjtObj.mjOBJ_GEOM)
+    bodies = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     pairs = []
     for (g1, g2), ipair in sorted(found.items()):
         if int(m.geom_type[g1]) in _NO_COLLIDER and int(m.geom_type[g2]) in _NO_COLLIDER:
@@ -209,10 +208,10 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             GeomPair(
                 geom1=g1,
                 geom2=g2,
-                name1=geom_display_name(m, g1),
-                name2=geom_display_name(m, g2),
-                body1=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g1])),
-                body2=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g2])),
+                name1=geoms[g1],
+                name2=geoms[g2],
+                body1=bodies[int(m.geom_bodyid[g1])],
+                body2=bodies[int(m.geom_bodyid[g2])],
                 type1=geom_type_name(m, g1),
                 type2=geom_type_name(m, g2),
                 explicit=ipair >= 0,

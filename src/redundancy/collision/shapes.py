@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import UnsupportedFeatureError
+from ..model.names import geom_name
 
 Array = NDArray[np.float64]
 
@@ -33,16 +34,6 @@ HILLCLIMB_MIN = 10
 def geom_type_name(model: mujoco.MjModel, geom: int) -> str:
     """MuJoCo's short name of a geom's type (``"capsule"``...)."""
     return mujoco.mjtGeom(model.geom_type[geom]).name.removeprefix("mjGEOM_").lower()
-
-
-def geom_display_name(model: mujoco.MjModel, geom: int) -> str:
-    """The geom's name, or ``"<body> geom <k>"`` (its k-th geom, from 0) when it has none."""
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom)
-    if name:
-        return name
-    body = int(model.geom_bodyid[geom])
-    bname = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
-    return f"{bname} geom {geom - int(model.body_geomadr[body])}"
 
 
 @dataclass(frozen=True)
@@ -77,7 +68,7 @@ def mesh_hull(model: mujoco.MjModel, geom: int) -> Hull:
     if int(model.geom_type[geom]) != _G.mjGEOM_MESH:
         raise UnsupportedFeatureError(
             f"{geom_type_name(model, geom)} geom",
-            f"geom {geom_display_name(model, geom)!r}",
+            f"geom {geom_name(model, geom)!r}",
             "only mesh geoms have a hull",
         )
     mesh = int(model.geom_dataid[geom])
