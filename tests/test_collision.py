@@ -1275,12 +1275,19 @@ def run_threads(n: int, work: Callable[[int], object]) -> list:
         return list(pool.map(job, range(n)))
 
 
-def test_checker_from_eight_threads_gives_the_sequential_answers() -> None:
+@pytest.mark.parametrize("model", ["arm7", "meshes"])
+def test_checker_from_eight_threads_gives_the_sequential_answers(
+    model: str, tmp_path: Path
+) -> None:
     """One fresh arm's checker hammered from 8 threads (each building its own scenes) gives
     the sequential numbers bit for bit: contacts, coal and MuJoCo distances, nearest points."""
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    if model == "arm7":
+        arm = rd.load(rd.model_path("arm7"), site="ee")
+    else:
+        arm = mesh_arm(tmp_path)
     Q = col.random_poses(arm, 160, seed=11)
-    Q[::7, 3] = 2.85  # folded elbows: contacts and overlaps too
+    if model == "arm7":
+        Q[::7, 3] = 2.85  # folded elbows: contacts and overlaps too
     ch = col.checker(arm)
     parts = np.array_split(Q, 8)
     got = run_threads(8, lambda i: checker_answers(ch, parts[i]))
