@@ -177,10 +177,14 @@ def mujoco_contact_pairs(m: mujoco.MjModel) -> set[tuple[int, int]]:
     return {tuple(sorted(map(int, g))) for g in d.contact.geom[: d.ncon]}
 
 
-# Module-level arms: hypothesis strategies need them when the tests are defined.
-_TYPED = rd.load_string(TYPED)
-_SLIDER = rd.load_string(SLIDER)
-_ARM7 = rd.load(rd.model_path("arm7"), site="ee")
+@pytest.fixture(scope="module")
+def typed() -> rd.Arm:
+    return rd.load_string(TYPED)
+
+
+@pytest.fixture(scope="module")
+def slider() -> rd.Arm:
+    return rd.load_string(SLIDER)
 
 
 # ==========================================================================================
@@ -434,14 +438,16 @@ def test_unknown_pair_lists_the_pairs() -> None:
 # ==========================================================================================
 
 
-@given(poses(_TYPED))
-def test_pinocchio_places_geoms_where_mujoco_does(q: np.ndarray) -> None:
-    assert col.checker(_TYPED).placement_error(q) < 1e-12
+@given(data=st.data())
+def test_pinocchio_places_geoms_where_mujoco_does(typed: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(typed))
+    assert col.checker(typed).placement_error(q) < 1e-12
 
 
-@given(poses(_ARM7))
-def test_pinocchio_places_arm7_geoms_where_mujoco_does(q: np.ndarray) -> None:
-    assert col.checker(_ARM7).placement_error(q) < 1e-12
+@given(data=st.data())
+def test_pinocchio_places_arm7_geoms_where_mujoco_does(arm7: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(arm7))
+    assert col.checker(arm7).placement_error(q) < 1e-12
 
 
 def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
@@ -483,21 +489,24 @@ def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
     assert ch.touching_pairs(q, "mujoco") - unclear == by_mujoco
 
 
-@given(poses(_TYPED))
-def test_engines_agree_on_every_primitive_type(q: np.ndarray) -> None:
-    assert_engines_agree(_TYPED, q)
+@given(data=st.data())
+def test_engines_agree_on_every_primitive_type(typed: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(typed))
+    assert_engines_agree(typed, q)
 
 
-@given(poses(_ARM7))
-def test_engines_agree_on_arm7(q: np.ndarray) -> None:
+@given(data=st.data())
+def test_engines_agree_on_arm7(arm7: rd.Arm, data: st.DataObject) -> None:
     """The issue's acceptance property (>= 1000 examples under HYPOTHESIS_PROFILE=thorough)."""
-    assert_engines_agree(_ARM7, q)
+    q = data.draw(poses(arm7))
+    assert_engines_agree(arm7, q)
 
 
-@given(poses(_ARM7))
-def test_fast_contacts_are_mj_forward_contacts(q: np.ndarray) -> None:
+@given(data=st.data())
+def test_fast_contacts_are_mj_forward_contacts(arm7: rd.Arm, data: st.DataObject) -> None:
     """mj_kinematics + mj_collision finds what the lesson's mj_forward finds."""
-    m = _ARM7.mj_model
+    q = data.draw(poses(arm7))
+    m = arm7.mj_model
     d = mujoco.MjData(m)
     d.qpos[:] = q
     mujoco.mj_forward(m, d)
@@ -506,7 +515,7 @@ def test_fast_contacts_are_mj_forward_contacts(q: np.ndarray) -> None:
         for g, x in zip(d.contact.geom[: d.ncon], d.contact.dist[: d.ncon], strict=True)
     )
     got = sorted(
-        ((c.pair.geom1, c.pair.geom2), round(c.distance, 12)) for c in col.contacts(_ARM7, q)
+        ((c.pair.geom1, c.pair.geom2), round(c.distance, 12)) for c in col.contacts(arm7, q)
     )
     assert got == expected
 
@@ -545,10 +554,11 @@ def test_distances_name_lookup_and_closest(arm7: rd.Arm) -> None:
     )
 
 
-@given(st.lists(poses(_ARM7), min_size=2, max_size=4))
-def test_distances_depend_on_the_pose_alone(qs: list[np.ndarray]) -> None:
+@given(data=st.data())
+def test_distances_depend_on_the_pose_alone(arm7: rd.Arm, data: st.DataObject) -> None:
     """No warm start: the same pose gives the same distances whatever was queried before."""
-    ch = col.checker(_ARM7)
+    qs = data.draw(st.lists(poses(arm7), min_size=2, max_size=4))
+    ch = col.checker(arm7)
     first = ch.distance_values(qs[0])
     for q in qs[1:]:
         ch.distance_values(q)
@@ -752,19 +762,22 @@ def assert_reach_bounds(arm: rd.Arm, q: np.ndarray) -> None:
             assert to_axis <= bound + 1e-12, (m.geom(g).name, m.joint(j).name, to_axis, bound)
 
 
-@given(poses(_SLIDER))
-def test_reach_bounds_hold_with_a_slide(q: np.ndarray) -> None:
-    assert_reach_bounds(_SLIDER, q)
+@given(data=st.data())
+def test_reach_bounds_hold_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(slider))
+    assert_reach_bounds(slider, q)
 
 
-@given(poses(_ARM7))
-def test_reach_bounds_hold_on_arm7(q: np.ndarray) -> None:
-    assert_reach_bounds(_ARM7, q)
+@given(data=st.data())
+def test_reach_bounds_hold_on_arm7(arm7: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(arm7))
+    assert_reach_bounds(arm7, q)
 
 
-@given(poses(_TYPED))
-def test_reach_bounds_hold_on_every_type(q: np.ndarray) -> None:
-    assert_reach_bounds(_TYPED, q)
+@given(data=st.data())
+def test_reach_bounds_hold_on_every_type(typed: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(typed))
+    assert_reach_bounds(typed, q)
 
 
 def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
@@ -781,14 +794,16 @@ def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
     ]
 
 
-@given(segments(_ARM7))
-def test_motion_bound_is_sound_on_arm7(seg: tuple[np.ndarray, np.ndarray]) -> None:
-    assert_motion_bound(_ARM7, *seg)
+@given(data=st.data())
+def test_motion_bound_is_sound_on_arm7(arm7: rd.Arm, data: st.DataObject) -> None:
+    seg = data.draw(segments(arm7))
+    assert_motion_bound(arm7, *seg)
 
 
-@given(segments(_SLIDER))
-def test_motion_bound_is_sound_with_a_slide(seg: tuple[np.ndarray, np.ndarray]) -> None:
-    assert_motion_bound(_SLIDER, *seg)
+@given(data=st.data())
+def test_motion_bound_is_sound_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
+    seg = data.draw(segments(slider))
+    assert_motion_bound(slider, *seg)
 
 
 def first_sampled_contact(arm: rd.Arm, Q: np.ndarray, n: int) -> tuple[int, float] | None:
@@ -821,14 +836,18 @@ def assert_path_check_sound(arm: rd.Arm, Q: np.ndarray, engine: str = "coal") ->
     return result
 
 
-@given(st.lists(poses(_ARM7), min_size=2, max_size=3).map(np.stack))
-def test_path_checker_never_misses_what_dense_sampling_finds(Q: np.ndarray) -> None:
-    assert_path_check_sound(_ARM7, Q)
+@given(data=st.data())
+def test_path_checker_never_misses_what_dense_sampling_finds(
+    arm7: rd.Arm, data: st.DataObject
+) -> None:
+    Q = np.stack(data.draw(st.lists(poses(arm7), min_size=2, max_size=3)))
+    assert_path_check_sound(arm7, Q)
 
 
-@given(st.lists(poses(_SLIDER), min_size=2, max_size=3).map(np.stack))
-def test_path_checker_never_misses_with_a_slide(Q: np.ndarray) -> None:
-    assert_path_check_sound(_SLIDER, Q)
+@given(data=st.data())
+def test_path_checker_never_misses_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
+    Q = np.stack(data.draw(st.lists(poses(slider), min_size=2, max_size=3)))
+    assert_path_check_sound(slider, Q)
 
 
 def lesson_path(arm: rd.Arm) -> np.ndarray:
@@ -928,9 +947,12 @@ def test_weights_ignore_joints_upstream_of_both_geoms(arm7: rd.Arm) -> None:
     assert (w >= 0).all()
 
 
-@pytest.mark.parametrize("arm", [_TYPED, _SLIDER], ids=["typed", "slider"])
-def test_path_checker_finds_a_contact_on_small_arms(arm: rd.Arm) -> None:
+@pytest.mark.parametrize("name", ["typed", "slider"])
+def test_path_checker_finds_a_contact_on_small_arms(
+    name: str, request: pytest.FixtureRequest
+) -> None:
     """A path from a free pose through a colliding one and back to a free one."""
+    arm = request.getfixturevalue(name)
     Q = col.random_poses(arm, 400, seed=3)
     ch = col.checker(arm)
     free = [q for q in Q if not ch.contact_pairs(q)]
@@ -941,9 +963,9 @@ def test_path_checker_finds_a_contact_on_small_arms(arm: rd.Arm) -> None:
     assert not result.free and result.contact is not None and result.contact.segment == 0
 
 
-def test_pair_combinations_in_typed_cover_every_type_pair() -> None:
+def test_pair_combinations_in_typed_cover_every_type_pair(typed: rd.Arm) -> None:
     """The TYPED model exercises every pair of primitive types (so the per-type tests bite)."""
-    have = {p.types for p in col.collision_pairs(_TYPED)}
+    have = {p.types for p in col.collision_pairs(typed)}
     kinds = ["sphere", "capsule", "box", "cylinder", "ellipsoid"]
     want = {frozenset(t) for t in itertools.combinations_with_replacement(kinds, 2)}
     want |= {frozenset(("plane", k)) for k in kinds}
@@ -1253,12 +1275,19 @@ def run_threads(n: int, work: Callable[[int], object]) -> list:
         return list(pool.map(job, range(n)))
 
 
-def test_checker_from_eight_threads_gives_the_sequential_answers() -> None:
+@pytest.mark.parametrize("model", ["arm7", "meshes"])
+def test_checker_from_eight_threads_gives_the_sequential_answers(
+    model: str, tmp_path: Path
+) -> None:
     """One fresh arm's checker hammered from 8 threads (each building its own scenes) gives
     the sequential numbers bit for bit: contacts, coal and MuJoCo distances, nearest points."""
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    if model == "arm7":
+        arm = rd.load(rd.model_path("arm7"), site="ee")
+    else:
+        arm = mesh_arm(tmp_path)
     Q = col.random_poses(arm, 160, seed=11)
-    Q[::7, 3] = 2.85  # folded elbows: contacts and overlaps too
+    if model == "arm7":
+        Q[::7, 3] = 2.85  # folded elbows: contacts and overlaps too
     ch = col.checker(arm)
     parts = np.array_split(Q, 8)
     got = run_threads(8, lambda i: checker_answers(ch, parts[i]))
@@ -1432,3 +1461,15 @@ def test_pruning_skips_most_far_pairs(monkeypatch: pytest.MonkeyPatch) -> None:
     share = counted[0] / (n * len(ch.pairs))
     print(f"sphere chain: {len(ch.pairs)} pairs, {share:.1%} of the pair distances computed")
     assert share < 0.3
+
+
+def test_a_model_without_geoms_gives_empty_results() -> None:
+    xml = """
+<mujoco><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
+  <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/><site name="ee"/>
+</body></worldbody></mujoco>"""
+    arm = rd.load_string(xml)
+    assert col.collision_pairs(arm) == () and col.contacts(arm, [0.1]) == ()
+    stats = col.collision_statistics(arm, 10, distances="mujoco")
+    assert stats.pairs == () and stats.poses_with_contact == 0
+    assert pc.check_path(arm, [[0.0], [0.5]]).free

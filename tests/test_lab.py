@@ -499,6 +499,58 @@ def test_server_beyond_loopback_warns_with_the_real_url(arm7: rd.Arm) -> None:
         assert warnings[0].endswith(f"open {url}")
 
 
+def test_scene_colours_names_and_camera_presets(arm7: rd.Arm) -> None:
+    page = _page_module()
+    from redundancy.lab.browser import project
+
+    with page.LabServer(arm7, port=0) as lab:
+        lab.runner.paused = True  # the test steps the sim itself
+        p = lab.page
+        names = p._body_names
+        # A colour per link: every moving body's geoms share one colour, links differ.
+        by_body: dict[str, set[tuple[int, int, int]]] = {}
+        for b_, c in zip(p._body_of, p._colors, strict=True):
+            by_body.setdefault(names[b_], set()).add(c)
+        links = [n for n in by_body if n.startswith("link")]
+        assert len(links) == 7 and all(len(by_body[n]) == 1 for n in links)
+        assert len({next(iter(by_body[n])) for n in links}) == 7
+        # Links in contact turn red and each pair is named at its contact.
+        lab.sim.set_target("j4", 2.58)
+        lab.sim.run_for(3.0)
+        p.update(lab.sim, force=True)
+        assert p._highlighted == {"link2", "link4"}
+        red = {
+            names[b_]
+            for b_, h in zip(p._body_of, p._meshes, strict=True)
+            if tuple(h.color) == page.CONTACT_COLOR
+        }
+        assert red == {"link2", "link4"}
+        shown = [lab_.text for lab_ in p._contact_labels if lab_.visible]
+        assert shown == ["link2 / link4"]
+        # The tool is a coordinate frame with its name, not a sphere like the contacts.
+        assert type(p._tool).__name__ == "FrameHandle"
+        assert p._tool_label.text == "tool (ee)"
+        # Each preset frames the reach: the straight-up tool and the arm stretched sideways.
+        up = straight_up(lab.sim)
+        tops = [arm7.site_pose(up)[0]]
+        for j1 in (0.0, 1.5, -1.5):
+            q = up.copy()
+            q[[0, 1]] = (j1, 1.5)  # j2 tilts the straight arm towards the horizontal
+            tops.append(arm7.site_pose(q)[0])
+        box = {"x": 0.0, "y": 0.0, "width": 800.0, "height": 1000.0}
+        for view in page.VIEWS:
+            position, look_at = p.camera_view(view, aspect=0.8)
+            forward = (look_at - position) / np.linalg.norm(look_at - position)
+            right = np.cross(forward, [0.0, 0.0, 1.0])
+            right /= np.linalg.norm(right)
+            down = np.cross(forward, right)
+            R = np.column_stack([right, down, forward])  # OpenCV camera axes in the world
+            wxyz = np.zeros(4)
+            mujoco.mju_mat2Quat(wxyz, R.reshape(9))
+            for u, v in project(tops, position, wxyz, np.deg2rad(45.0), box):
+                assert 0 <= u <= box["width"] and 0 <= v <= box["height"], view
+
+
 def test_websocket_rejects_foreign_origins(arm7: rd.Arm) -> None:
     page = _page_module()
     import viser
