@@ -130,7 +130,8 @@ def effort_range(
         if model.actuator_forcelimited[a]:
             r0, r1 = model.actuator_forcerange[a]
             f_lo, f_hi = np.clip(f_lo, r0, r1), np.clip(f_hi, r0, r1)
-        t0, t1 = gear * f_lo, gear * f_hi
+        with np.errstate(over="ignore"):  # a huge gear times a huge force: unbounded, +-inf
+            t0, t1 = gear * f_lo, gear * f_hi
         lo[:, dof] += np.fmin(t0, t1)
         hi[:, dof] += np.fmax(t0, t1)
     if routed is not None:
