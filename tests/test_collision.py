@@ -724,9 +724,13 @@ def segments(draw: st.DrawFn, arm: rd.Arm) -> tuple[np.ndarray, np.ndarray]:
 
 def geom_points(m: mujoco.MjModel, d: mujoco.MjData, g: int) -> np.ndarray:
     """World points of a geom that include the farthest ones from any line (extreme points:
-    box corners, cylinder rims, capsule end spheres, densely sampled sphere directions)."""
+    box corners, cylinder rims, capsule end spheres, densely sampled sphere directions, the
+    vertices of a mesh's hull)."""
     s = m.geom_size[g]
     t = mujoco.mjtGeom(m.geom_type[g])
+    if t == mujoco.mjtGeom.mjGEOM_MESH:
+        hull = col.shapes.mesh_hull(m, g).points
+        return d.geom_xpos[g] + hull @ d.geom_xmat[g].reshape(3, 3).T
     u = np.random.default_rng(0).normal(size=(400, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     th = np.linspace(0, 2 * np.pi, 200, endpoint=False)
@@ -780,6 +784,11 @@ def test_reach_bounds_hold_on_every_type(typed: rd.Arm, data: st.DataObject) -> 
     assert_reach_bounds(typed, q)
 
 
+@given(data=st.data())
+def test_reach_bounds_hold_on_meshes(meshes: rd.Arm, data: st.DataObject) -> None:
+    assert_reach_bounds(meshes, data.draw(poses(meshes)))
+
+
 def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
     """No pair's distance shrinks faster than the weights allow along a straight step."""
     ch = col.checker(arm)
@@ -804,6 +813,11 @@ def test_motion_bound_is_sound_on_arm7(arm7: rd.Arm, data: st.DataObject) -> Non
 def test_motion_bound_is_sound_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
     seg = data.draw(segments(slider))
     assert_motion_bound(slider, *seg)
+
+
+@given(data=st.data())
+def test_motion_bound_is_sound_with_meshes(meshes: rd.Arm, data: st.DataObject) -> None:
+    assert_motion_bound(meshes, *data.draw(segments(meshes)))
 
 
 def first_sampled_contact(arm: rd.Arm, Q: np.ndarray, n: int) -> tuple[int, float] | None:
@@ -848,6 +862,12 @@ def test_path_checker_never_misses_what_dense_sampling_finds(
 def test_path_checker_never_misses_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
     Q = np.stack(data.draw(st.lists(poses(slider), min_size=2, max_size=3)))
     assert_path_check_sound(slider, Q)
+
+
+@given(data=st.data())
+def test_path_checker_never_misses_with_meshes(meshes: rd.Arm, data: st.DataObject) -> None:
+    Q = np.stack(data.draw(st.lists(poses(meshes), min_size=2, max_size=3)))
+    assert_path_check_sound(meshes, Q)
 
 
 def lesson_path(arm: rd.Arm) -> np.ndarray:
