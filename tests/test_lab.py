@@ -688,7 +688,8 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
         assert num(b.readout("manipulability")) < 1e-3
         np.testing.assert_allclose(sim.targets, straight_up(sim))
         b.wait_readout("lost", lambda s: s.startswith("move ("), what="lost directions")
-        assert lab.page._lost.visible
+        # The arrows are drawn right after the readouts, in the same page update: wait for them.
+        wait_for("lost-direction arrows", lambda: lab.page._lost.visible, timeout=20.0)
 
         lap("reload")
         # A disconnect and a reconnect: the page comes back with the current state.
@@ -851,7 +852,11 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
         assert expected.startswith("link")
         b.page.mouse.click(u, v)
         b.wait_readout("picked", lambda s: s == expected, what=f"{expected} named")
-        assert lab.page._picked_label.visible and lab.page._picked_label.text == expected
+        wait_for(
+            "the picked link's label",
+            lambda: lab.page._picked_label.visible and lab.page._picked_label.text == expected,
+            timeout=20.0,
+        )
 
         shot = b.screenshot(tmp_path / "lab.png")
         extra = os.environ.get("REDUNDANCY_LAB_SCREENSHOT")
