@@ -196,11 +196,6 @@ class PathContact:
         """True for a contact (distance below the pair's threshold), False for a near miss."""
         return self.distance < self.pair.threshold
 
-    @property
-    def path_parameter(self) -> float:
-        """``segment + s``: position along the whole path, in [0, number of segments]."""
-        return self.segment + self.s
-
 
 @dataclass(frozen=True)
 class PathCheck:

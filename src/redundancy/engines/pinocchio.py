@@ -231,9 +231,12 @@ class PinocchioEngine:
                     R[i] = T.rotation
         if J is not None:
             cfj = pin.computeFrameJacobian  # the forward pass and the frame's Jacobian
-            shape = (6, nv)
-            for i, q in enumerate(Qp):
-                J[i] = np.reshape(cfj(model, data, q, fid, _LWA), shape)
+            if nv == 1:  # eigenpy returns a 6 x 1 matrix as a vector of shape (6,)
+                for i, q in enumerate(Qp):
+                    J[i, :, 0] = cfj(model, data, q, fid, _LWA)
+            else:
+                for i, q in enumerate(Qp):
+                    J[i] = cfj(model, data, q, fid, _LWA)
             if not self.identity:
                 J[:] = J[:, :, self.perm]
         if M is not None:

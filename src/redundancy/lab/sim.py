@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import collision, linalg
 from ..analysis import selfmotion
-from ..arm import Arm
+from ..arm import Arm, sampling_ranges
 from ..errors import PoseError, RedundancyError
 from .control import JointPD
 
@@ -282,10 +282,12 @@ class LabSim:
     # -- set-up helpers ------------------------------------------------------------------
     @staticmethod
     def slider_ranges(arm: Arm) -> tuple[Array, Array]:
-        """Lower and upper slider bounds per joint: the joint range, or [-pi, pi] [rad or m]."""
-        lo = np.where(np.isfinite(arm.lower), arm.lower, -np.pi)
-        hi = np.where(np.isfinite(arm.upper), arm.upper, np.pi)
-        return lo.astype(float), hi.astype(float)
+        """Lower and upper slider bounds per joint: the sampling ranges [rad or m].
+
+        The joint range; an unlimited joint gets [-pi, pi], by the library's one rule
+        (:func:`redundancy.arm.sampling_ranges`).
+        """
+        return sampling_ranges(arm, unlimited_slide=np.pi)
 
     # -- commands ------------------------------------------------------------------------
     def reset_pose(self) -> None:
