@@ -623,35 +623,23 @@ class LabPage:
         panel = gui.add_panel()
         with panel.add_tab("readouts and plots"):
             self.readout_table = gui.add_html(self._readouts_html(sim.readouts()))
-            self.speed_plot = gui.add_uplot(
-                data=(np.zeros(0), np.zeros(0)),
-                series=(
-                    viser.uplot.Series(label="t − now (s)"),
-                    viser.uplot.Series(label=f"{joint} (rad/s)", stroke="#d9480f", width=1),
-                ),
-                title=(
-                    f"{joint} speed (rad/s), last {SPEED_WINDOW:g} s; "
-                    f"dashed: ±{REST_SPEED:g} (at rest)"
-                ),
-                scales=self._speed_scales(2 * REST_SPEED),
-                axes=self._speed_axes(2 * REST_SPEED),
-                aspect=2.4,
+            self.speed_plot = self._live_plot(
+                f"{joint} (rad/s)",
+                "#d9480f",
+                f"{joint} speed (rad/s), last {SPEED_WINDOW:g} s; "
+                f"dashed: ±{REST_SPEED:g} (at rest)",
+                self._speed_scales(2 * REST_SPEED),
+                self._speed_axes(2 * REST_SPEED),
             )
-            self.torque_plot = gui.add_uplot(
-                data=(np.zeros(0), np.zeros(0)),
-                series=(
-                    viser.uplot.Series(label="t − now (s)"),
-                    viser.uplot.Series(label=f"{joint} (N m)", stroke="#5f3dc4", width=1),
-                ),
-                title=(
-                    f"{joint} motor torque (N m), last {SPEED_WINDOW:g} s; dashed: ±{limit:g} limit"
-                ),
-                scales={
+            self.torque_plot = self._live_plot(
+                f"{joint} (N m)",
+                "#5f3dc4",
+                f"{joint} motor torque (N m), last {SPEED_WINDOW:g} s; dashed: ±{limit:g} limit",
+                {
                     "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
                     "y": viser.uplot.Scale(auto=False, range=(-1.25 * limit, 1.25 * limit)),
                 },
-                axes=self._symmetric_axes(SPEED_WINDOW, limit, limit),
-                aspect=2.4,
+                self._symmetric_axes(SPEED_WINDOW, limit, limit),
             )
             # Up to the power of ten above twice the keyframe's sigma_min (1 for arm7's 0.23).
             s0 = float(sim.readouts().sigma_min)
@@ -682,6 +670,27 @@ class LabPage:
         gui.main_panel.dock_right()
 
     # -- plot axes -------------------------------------------------------------------------
+    def _live_plot(
+        self,
+        label: str,
+        stroke: str,
+        title: str,
+        scales: dict[str, viser.uplot.Scale],
+        axes: tuple[viser.uplot.Axis, ...],
+    ) -> Any:
+        """A joint's live series against time relative to now, empty until data arrives."""
+        return self.server.gui.add_uplot(
+            data=(np.zeros(0), np.zeros(0)),
+            series=(
+                viser.uplot.Series(label="t − now (s)"),
+                viser.uplot.Series(label=label, stroke=stroke, width=1),
+            ),
+            title=title,
+            scales=scales,
+            axes=axes,
+            aspect=2.4,
+        )
+
     @staticmethod
     def _time_axis(window: float) -> viser.uplot.Axis:
         step = 1.0 if window <= 4 else 2.0

@@ -83,20 +83,14 @@ def check_supported(
     sites = display_names(model, mujoco.mjtObj.mjOBJ_SITE)
     # Values no arm can have: MuJoCo compiles some of them (an infinite pos, a NaN axis, a
     # negative armature, range="1 -1") and both engines would then compute nonsense.
+    fields = {
+        "body": (bodies, ("body_pos", "body_quat", "body_ipos", "body_mass", "body_inertia")),
+        "joint": (names, ("jnt_pos", "jnt_axis", "jnt_range", "dof_armature", "dof_damping")),
+        "geom": (geoms, ("geom_pos", "geom_size")),
+        "site": (sites, ("site_pos",)),
+    }
     arrays = {
-        "body_pos": (model.body_pos, bodies, "body"),
-        "body_quat": (model.body_quat, bodies, "body"),
-        "body_ipos": (model.body_ipos, bodies, "body"),
-        "body_mass": (model.body_mass, bodies, "body"),
-        "body_inertia": (model.body_inertia, bodies, "body"),
-        "jnt_pos": (model.jnt_pos, names, "joint"),
-        "jnt_axis": (model.jnt_axis, names, "joint"),
-        "jnt_range": (model.jnt_range, names, "joint"),
-        "dof_armature": (model.dof_armature, names, "joint"),
-        "dof_damping": (model.dof_damping, names, "joint"),
-        "geom_pos": (model.geom_pos, geoms, "geom"),
-        "geom_size": (model.geom_size, geoms, "geom"),
-        "site_pos": (model.site_pos, sites, "site"),
+        f: (getattr(model, f), labels, kind) for kind, (labels, fs) in fields.items() for f in fs
     }
     for field, (values, labels, kind) in arrays.items():
         if len(values) == 0:  # a model without geoms or sites
