@@ -19,6 +19,7 @@ import numpy as np
 
 from ..arm import Arm
 from ..errors import RedundancyError
+from .actuators import simulation
 from .bridges import Bridge, effective_gravity
 from .names import display_names
 
@@ -233,14 +234,6 @@ def _mj_joint_of_body(arm: Arm, body: int) -> str:
     return arm.joint_names[m.body_jntadr[body]]
 
 
-_INTEGRATORS = {
-    int(mujoco.mjtIntegrator.mjINT_EULER): "Euler",
-    int(mujoco.mjtIntegrator.mjINT_RK4): "RK4",
-    int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
-    int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast",
-}
-
-
 def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
     """What MuJoCo simulates for this model that neither engine's numbers include.
 
@@ -258,7 +251,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
         mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator {a}"
         for a in range(model.nu)
     ]
-    gravity_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+    sim = simulation(model)  # integrator and flags, read as the timestep bound reads them
     for b in range(1, model.nbody):
         gc = float(model.body_gravcomp[b])
         if gc != 0:
@@ -340,9 +333,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                 "gravity and hold numbers leave it out",
             )
         )
-    integrator = _INTEGRATORS.get(int(model.opt.integrator), str(model.opt.integrator))
-    euler = integrator == "Euler"
-    eulerdamp_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+    integrator = sim.integrator
     out.append(
         SimulatedOnly(
             "integrator",
@@ -357,7 +348,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
             }.get(integrator, "see MuJoCo's documentation"),
         )
     )
-    if eulerdamp_off:
+    if not sim.eulerdamp:
         out.append(
             SimulatedOnly(
                 "eulerdamp disabled",
@@ -365,11 +356,11 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                 '<flag eulerdamp="disable"/>',
                 "joint damping is integrated explicitly: the explicit stability bound on the "
                 "timestep applies to it"
-                if euler
+                if integrator == "Euler"
                 else f"no effect under the {integrator} integrator",
             )
         )
-    if gravity_off:
+    if not sim.gravity_enabled:
         out.append(
             SimulatedOnly(
                 "gravity disabled",
