@@ -180,14 +180,7 @@ def load(
     recipe = (load, (str(p), site, strict, frame, pairs))
     if is_urdf(root):
         return _load_urdf(text, root, p.resolve().parent, str(p), tool, pairs, recipe)
-    if pairs is not None:
-        raise ModelError(_MJCF_PAIRS)
-    if root.find(".//include") is not None:
-        raise UnsupportedFeatureError(
-            "<include> element",
-            str(p),
-            "Pinocchio's MJCF parser does not follow includes; inline the file",
-        )
+    _check_mjcf(root, pairs, str(p))
     if as_is:
         mj = _read_mujoco(None, p)
         check_supported(mj, root, strict)
@@ -222,39 +215,30 @@ def load_string(
     recipe = (load_string, (xml, site, strict, frame, pairs))
     if is_urdf(root):
         return _load_urdf(xml, root, Path.cwd(), "<string>", tool, pairs, recipe)
-    if pairs is not None:
-        raise ModelError(_MJCF_PAIRS)
-    if root.find(".//include") is not None:
-        raise UnsupportedFeatureError(
-            "<include> element",
-            "<string>",
-            "Pinocchio's MJCF parser does not follow includes; inline the file",
-        )
+    _check_mjcf(root, pairs, "<string>")
     mj = _read_mujoco(xml, None)
     check_supported(mj, root, strict)
     return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe, xml_root=root)
 
 
 def model_format(arm: Arm) -> str:
-    """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from."""
-    recipe = getattr(arm, "_recipe", None)
-    if recipe is None:
-        return "MJCF"
-    loader, args = recipe
-    try:
-        if loader is load:
-            root = ET.fromstring(decode_xml(Path(args[0]).read_bytes(), args[0])[0])
-        else:
-            root = ET.fromstring(args[0])
-    except (OSError, ET.ParseError, ModelError):
-        return "MJCF"
-    return "URDF" if is_urdf(root) else "MJCF"
+    """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from (recorded at load)."""
+    return getattr(arm, "_model_format", "MJCF")
 
 
-_MJCF_PAIRS = (
-    "disabled_collisions is for URDF; an MJCF model excludes pairs itself, with "
-    "<contact><exclude body1=... body2=...>"
-)
+def _check_mjcf(root: ET.Element, pairs: DisabledPairs | None, source: str) -> None:
+    """Refuse what an MJCF cannot be loaded with: disabled pairs, an ``<include>``."""
+    if pairs is not None:
+        raise ModelError(
+            "disabled_collisions is for URDF; an MJCF model excludes pairs itself, with "
+            "<contact><exclude body1=... body2=...>"
+        )
+    if root.find(".//include") is not None:
+        raise UnsupportedFeatureError(
+            "<include> element",
+            source,
+            "Pinocchio's MJCF parser does not follow includes; inline the file",
+        )
 
 
 def _frozen_pairs(pairs: DisabledPairs) -> DisabledPairs:
@@ -311,7 +295,9 @@ def _load_urdf(
         )
         for name in continuous
     )
-    return _build(mj, pm, tool_link, source, recipe, rebuilt)
+    arm = _build(mj, pm, tool_link, source, recipe, rebuilt)
+    arm._model_format = "URDF"  # type: ignore[attr-defined]
+    return arm
 
 
 def _build(
