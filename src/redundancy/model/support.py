@@ -14,7 +14,7 @@ import numpy as np
 from ..engines.mujoco import JOINT_TYPES as _JOINT_TYPES
 from ..engines.mujoco import object_names as _names
 from ..errors import ModelError, UnsupportedFeatureError
-from .names import body_name, display_names, geom_name
+from .names import display_names
 
 #: Geom types Pinocchio's MJCF parser cannot read at all (it raises on them).
 _UNREADABLE_GEOMS = {int(mujoco.mjtGeom.mjGEOM_SDF), int(mujoco.mjtGeom.mjGEOM_HFIELD)}
@@ -163,7 +163,7 @@ def check_supported(
         if int(model.geom_type[g]) in _UNREADABLE_GEOMS:
             raise UnsupportedFeatureError(
                 "sdf or height-field geom",
-                f"geom {geom_name(model, g)!r}",
+                f"geom {geoms[g]!r}",
                 "Pinocchio's MJCF parser cannot read it; use primitive or mesh geoms",
             )
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
@@ -474,6 +474,7 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     if len(found) != model.nbody - 1:
         return {}
     out: dict[int, tuple[str, ...]] = {}
+    bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
     for b, (el, active) in enumerate(found, start=1):
         from_geoms = from_geoms_always or el.find("inertial") is None
@@ -482,12 +483,12 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
         causes = list(global_causes)
         if not el.get("name"):
             causes.append(
-                f"unnamed body {body_name(model, b)!r} (Pinocchio's parser names it after its "
+                f"unnamed body {bodies[b]!r} (Pinocchio's parser names it after its "
                 "parent and can lose it)"
             )
         if any(f.iter("geom") for f in el.findall("frame")):
             causes.append(
-                f"geoms inside <frame> in body {body_name(model, b)!r} (Pinocchio's parser "
+                f"geoms inside <frame> in body {bodies[b]!r} (Pinocchio's parser "
                 "drops the contents of <frame>)"
             )
         elements = el.findall("geom")
