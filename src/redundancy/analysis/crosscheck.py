@@ -171,8 +171,11 @@ def worst(err: Array) -> tuple[float, int]:
     return 0.0, 0
 
 
-def _merge(old: tuple[float, int], new: tuple[float, int], offset: int) -> tuple[float, int]:
-    """Combine the worst of an earlier chunk with a later chunk's, by :func:`worst`'s rules."""
+def merge_worst(old: tuple[float, int], new: tuple[float, int], offset: int) -> tuple[float, int]:
+    """Combine the worst of an earlier chunk with a later chunk's, by :func:`worst`'s rules.
+
+    ``new``'s pose is counted from ``offset``, the later chunk's first pose.
+    """
     (e0, p0), (e1, p1) = old, new
     if not np.isfinite(e1):
         return e1, p1 + offset
@@ -291,7 +294,7 @@ def crosscheck_batch(
         if not beside:
             run_mujoco()
         for name in names:
-            found[name] = _merge(found[name], worst(pose_errors(ours[name], theirs[name])), lo)
+            found[name] = merge_worst(found[name], worst(pose_errors(ours[name], theirs[name])), lo)
     agreements = tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names)
     return CrossCheckReport(agreements, arm.bridges, len(Q))
 
