@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
 from ..errors import ModelError, UnknownNameError
+from ..model.equivalence import abs_error, joint_of_body
 
 Array = NDArray[np.float64]
 
@@ -307,11 +308,7 @@ class _Comparer:
 
     def check(self, quantity: str, where: str, va: Any, vb: Any, note: str = "") -> bool:
         """Record a difference when |va - vb| > tol; return True when they differ."""
-        xa, xb = np.asarray(va, float), np.asarray(vb, float)
-        same_inf = np.isinf(xa) & np.isinf(xb) & (np.sign(xa) == np.sign(xb))
-        with np.errstate(invalid="ignore"):
-            err_all = np.where(same_inf, 0.0, np.abs(np.nan_to_num(xa - xb, nan=np.inf)))
-        err = float(np.max(err_all)) if err_all.size else 0.0
+        err = abs_error(va, vb)
         self.largest[quantity] = max(self.largest.get(quantity, 0.0), err)
         if err > self.tol:
             self.diffs.append(Finding(quantity, where, va, vb, err, note))
@@ -544,10 +541,7 @@ def _body_of(arm: Arm, i: int) -> str:
 def _parent_joint(arm: Arm, i: int) -> str:
     """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
     m = arm.mj_model
-    body = int(m.body_parentid[m.jnt_bodyid[i]])
-    while body > 0 and m.body_jntnum[body] == 0:
-        body = int(m.body_parentid[body])
-    return "" if body == 0 else arm.joint_names[int(m.body_jntadr[body])]
+    return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
 def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:

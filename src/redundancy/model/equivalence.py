@@ -125,6 +125,21 @@ class EquivalenceReport:
         return out
 
 
+def abs_error(a: object, b: object) -> float:
+    """Largest |a - b| over the entries [their unit]: 0 for equal infinities, ``inf`` for NaN.
+
+    0 for empty arrays; an infinity against a finite value or the other infinity is ``inf``.
+    """
+    a_arr, b_arr = np.asarray(a, float), np.asarray(b, float)
+    same_inf = np.isinf(a_arr) & np.isinf(b_arr) & (np.sign(a_arr) == np.sign(b_arr))
+    with np.errstate(invalid="ignore"):
+        diff = a_arr - b_arr
+    err = np.where(
+        same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
+    )
+    return float(np.max(err)) if err.size else 0.0
+
+
 def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> EquivalenceReport:
     """Compare the two engines' compiled models, quantity by quantity.
 
@@ -142,14 +157,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     largest: dict[str, float] = {}
 
     def cmp(quantity: str, item: str, a: object, b: object) -> None:
-        a_arr, b_arr = np.asarray(a, float), np.asarray(b, float)
-        same_inf = np.isinf(a_arr) & np.isinf(b_arr) & (np.sign(a_arr) == np.sign(b_arr))
-        with np.errstate(invalid="ignore"):
-            diff = a_arr - b_arr
-        err = np.where(
-            same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
-        )
-        e = float(np.max(err)) if err.size else 0.0
+        e = abs_error(a, b)
         largest[quantity] = max(largest.get(quantity, 0.0), e)
         if e > tol:
             diffs.append(Difference(quantity, item, a, b, e))
@@ -158,7 +166,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     # Tree structure: each joint's parent joint, by name.
     for i, n in enumerate(names):
         mj_parent_body = arm.mj_model.body_parentid[arm.mj_model.jnt_bodyid[i]]
-        mj_parent = _mj_joint_of_body(arm, mj_parent_body)
+        mj_parent = joint_of_body(arm, mj_parent_body)
         pin_parent = pm.names[pm.parents[pm.getJointId(n)]]
         pin_parent = "" if pin_parent == "universe" else pin_parent
         if mj_parent != pin_parent:
@@ -224,7 +232,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     )
 
 
-def _mj_joint_of_body(arm: Arm, body: int) -> str:
+def joint_of_body(arm: Arm, body: int) -> str:
     """Name of the joint that moves ``body`` (walking up welded bodies), '' for the base."""
     m = arm.mj_model
     while body > 0 and m.body_jntnum[body] == 0:
