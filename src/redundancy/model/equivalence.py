@@ -44,12 +44,13 @@ class Difference:
 
     def __str__(self) -> str:
         return (
-            f"{self.quantity} of {self.item}: MuJoCo {_fmt(self.mujoco)}, Pinocchio "
-            f"{_fmt(self.pinocchio)} (|diff| {self.error:.3g})"
+            f"{self.quantity} of {self.item}: MuJoCo {format_value(self.mujoco)}, Pinocchio "
+            f"{format_value(self.pinocchio)} (|diff| {self.error:.3g})"
         )
 
 
-def _fmt(x: object) -> str:
+def format_value(x: object) -> str:
+    """A value as a report shows it: arrays on one line to 6 digits, floats to 9."""
     if isinstance(x, np.ndarray):
         return np.array2string(x, precision=6, suppress_small=True, max_line_width=200)
     if isinstance(x, float):
