@@ -28,7 +28,6 @@ from .urdf import (
     is_urdf,
     read_disabled_pairs,
     resolve_frame,
-    strip_declaration,
 )
 
 
@@ -74,6 +73,11 @@ _BOMS = (
     (codecs.BOM_UTF16_BE, "utf-16"),
 )
 _DECLARED = re.compile(rb"""^\s*<\?xml[^>]*?encoding\s*=\s*["']([A-Za-z0-9._-]+)["']""")
+
+
+def strip_declaration(text: str) -> str:
+    """The text without its XML declaration (an encoding it names no longer applies)."""
+    return re.sub(r"^\s*<\?xml[^>]*\?>", "", text, count=1)
 
 
 def decode_xml(data: bytes, source: str) -> tuple[str, bool]:
