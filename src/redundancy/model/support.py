@@ -56,7 +56,7 @@ def check_supported(
             damping, a range whose lower limit is above its upper limit).
     """
     if xml_root is not None:
-        check_xml(xml_root, strict=False)
+        _check_xml_values(xml_root)
     if model.njnt == 0:
         raise UnsupportedFeatureError(
             "no joints", "model", "an arm needs at least one hinge or slide joint"
@@ -168,10 +168,8 @@ def check_supported(
             )
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
         check_names(model)
-    if not strict:
-        return
-    if xml_root is not None:
-        check_xml(xml_root)
+    if strict and xml_root is not None:
+        _check_xml_strict(xml_root)  # the rest of check_xml ran above
 
 
 def check_xml(root: ET.Element, strict: bool = True) -> None:
@@ -183,12 +181,19 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             with False, only what no engine should be given: a root element other than
             ``<mujoco>``, NaN or infinite numbers, and shell inertia (Pinocchio raises).
     """
+    _check_xml_values(root)
+    if strict:
+        _check_xml_strict(root)
 
-    def tag(el: ET.Element, *attrs: str) -> str:
-        shown = [f"name={el.get('name')!r}"] if el.get("name") else []
-        shown += [f"{a}={el.get(a)!r}" for a in attrs if el.get(a) is not None]
-        return f"<{' '.join([el.tag, *shown])}>"
 
+def _tag(el: ET.Element, *attrs: str) -> str:
+    shown = [f"name={el.get('name')!r}"] if el.get("name") else []
+    shown += [f"{a}={el.get(a)!r}" for a in attrs if el.get(a) is not None]
+    return f"<{' '.join([el.tag, *shown])}>"
+
+
+def _check_xml_values(root: ET.Element) -> None:
+    """:func:`check_xml` with ``strict=False``: what no engine should be given."""
     if root.tag != "mujoco":
         raise UnsupportedFeatureError(
             f"<{root.tag}> root element",
@@ -242,13 +247,13 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
                 continue  # a keyword, not a number list
             if not all(np.isfinite(numbers)):
                 raise ModelError(
-                    f"non-finite number in the model: {tag(el)} {attr}={value!r}; "
+                    f"non-finite number in the model: {_tag(el)} {attr}={value!r}; "
                     "every number must be finite"
                 )
         if el.get("shellinertia", "false") == "true":
             raise UnsupportedFeatureError(
                 "shell inertia",
-                tag(el, "shellinertia"),
+                _tag(el, "shellinertia"),
                 "Pinocchio's MJCF parser cannot compute it; "
                 "use a solid geom or an explicit <inertial>",
             )
@@ -260,8 +265,11 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             "Pinocchio's MJCF parser reads the first one again for each of them; "
             "merge them into one",
         )
-    if not strict:
-        return
+
+
+def _check_xml_strict(root: ET.Element) -> None:
+    """What :func:`check_xml` adds with ``strict=True``: what Pinocchio reads differently."""
+    tags = [child.tag for child in root]
     if "worldbody" in tags:
         first_body = tags.index("worldbody")
         for later in ("compiler", "default"):
@@ -335,7 +343,7 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             if active is not None and cls is not None and not refines(cls, active):
                 raise UnsupportedFeatureError(
                     "class inside a different childclass",
-                    f"{tag(child, 'class')} in a body with childclass {active!r}",
+                    f"{_tag(child, 'class')} in a body with childclass {active!r}",
                     "Pinocchio's MJCF parser merges the two classes where MuJoCo uses only "
                     "the element's class; set the attributes on the element or use the body's "
                     "childclass",
