@@ -238,6 +238,27 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
     return out
 
 
+def _both_engines(
+    arm: Arm, Q: Array, names: tuple[str, ...], threads: int
+) -> dict[str, dict[str, Array]]:
+    """Both engines' stacks for ``Q``, keyed by engine name.
+
+    With threads, MuJoCo (whose ``mj_*`` calls release the GIL) runs in a worker thread on
+    up to ``threads - 1`` threads, beside Pinocchio in the caller's.
+    """
+    out: dict[str, dict[str, Array]] = {}
+
+    def fill(engine: Engine, k: int) -> None:
+        out[engine.name] = _evaluate(engine, Q, names, k)
+
+    if threads > 1 and len(Q) >= MIN_POSES_PER_THREAD:
+        run_beside(lambda: fill(arm.pinocchio, threads), lambda: fill(arm.mujoco, threads - 1))
+    else:
+        fill(arm.pinocchio, threads)
+        fill(arm.mujoco, 1)
+    return out
+
+
 def crosscheck_batch(
     arm: Arm,
     Q: ArrayLike,
@@ -277,21 +298,10 @@ def crosscheck_batch(
     found = dict.fromkeys(names, (0.0, 0))
     for lo in range(0, len(Q), chunk):
         part = Q[lo : lo + chunk]
-        ours: dict[str, Array] = {}
-        theirs: dict[str, Array] = {}
-
-        def run_mujoco(part: Array = part, ours: dict[str, Array] = ours) -> None:
-            ours.update(_evaluate(arm.mujoco, part, names, max(1, threads - 1)))
-
-        def run_pinocchio(part: Array = part, theirs: dict[str, Array] = theirs) -> None:
-            theirs.update(_evaluate(arm.pinocchio, part, names, threads))
-
-        beside = threads > 1 and len(part) >= MIN_POSES_PER_THREAD
-        run_beside(run_pinocchio, run_mujoco if beside else None)
-        if not beside:
-            run_mujoco()
+        out = _both_engines(arm, part, names, threads)
         for name in names:
-            found[name] = _merge(found[name], worst(pose_errors(ours[name], theirs[name])), lo)
+            errors = pose_errors(out["mujoco"][name], out["pinocchio"][name])
+            found[name] = _merge(found[name], worst(errors), lo)
     agreements = tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names)
     return CrossCheckReport(agreements, arm.bridges, len(Q))
 
