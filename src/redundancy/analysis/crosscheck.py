@@ -8,7 +8,7 @@ computation, over stacks of poses taken in chunks so memory stays flat in their 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,13 +192,6 @@ BATCH_QUANTITIES: tuple[str, ...] = (
     "gravity",
 )
 
-_PER_POSE: dict[str, Callable[[Engine, Array], Array]] = {
-    "jacobian derivative": lambda e, q: e.jacobian_derivatives(q),
-    "manipulability gradient": lambda e, q: manipulability_gradient(
-        e.site_jacobian(q), e.jacobian_derivatives(q)
-    ),
-}
-
 #: Poses per chunk: the stacks of one chunk take about 4 KB per pose for a 7-dof arm.
 CHUNK = 2048
 
@@ -231,10 +224,20 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
         k = np.arange(nv)
         bare[:, k, k] -= engine.armature
         out["mass matrix (bare)"] = bare
-    for name in names:
-        if name in _PER_POSE:
-            values = [_PER_POSE[name](engine, q) for q in Q]
-            out[name] = np.array(values) if values else np.zeros((0,))
+    # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
+    if "jacobian derivative" in want:
+        out["jacobian derivative"] = np.empty((n, nv, 6, nv))
+    if "manipulability gradient" in want:
+        out["manipulability gradient"] = np.empty((n, nv))
+    if want & {"jacobian derivative", "manipulability gradient"}:
+        for i, q in enumerate(Q):
+            dJ = engine.jacobian_derivatives(q)
+            if "jacobian derivative" in want:
+                out["jacobian derivative"][i] = dJ
+            if "manipulability gradient" in want:
+                out["manipulability gradient"][i] = manipulability_gradient(
+                    engine.site_jacobian(q), dJ
+                )
     return out
 
 
