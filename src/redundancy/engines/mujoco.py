@@ -290,11 +290,6 @@ class MujocoEngine:
             k = np.arange(self.nv)
             M[:, k, k] -= self._armature
 
-    def geom_poses(self, q: Array) -> tuple[Array, Array]:
-        """World positions [m] and rotation matrices (flattened, (ngeom, 9)) of every geom."""
-        d = self.update(q).data
-        return d.geom_xpos.copy(), d.geom_xmat.copy()
-
 
 @contextlib.contextmanager
 def captured_warnings() -> Iterator[list[str]]:
