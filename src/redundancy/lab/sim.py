@@ -198,8 +198,6 @@ def solve_ik(
     p_t = np.asarray(position, dtype=float).reshape(3)
     R_t = arm.site_pose(q)[1] if rotation is None else np.asarray(rotation, float).reshape(3, 3)
     q_rest = q.copy() if rest is None else arm.pose(rest)
-    lo = np.where(np.isfinite(arm.lower), arm.lower, -np.inf)
-    hi = np.where(np.isfinite(arm.upper), arm.upper, np.inf)
     err = np.inf
     for _ in range(iterations):
         e = selfmotion.pose_error(arm, q, p_t, R_t)
@@ -209,7 +207,7 @@ def solve_ik(
         J = arm.jacobian(q)
         dq = linalg.damped_pinv(J, damping) @ e
         dq += linalg.nullspace_projector(J) @ (posture_gain * (q_rest - q))
-        q = np.clip(q + dq, lo, hi)
+        q = np.clip(q + dq, arm.lower, arm.upper)  # -inf/inf where unlimited
     else:
         err = float(np.linalg.norm(selfmotion.pose_error(arm, q, p_t, R_t)[:3]))
     return q, err
