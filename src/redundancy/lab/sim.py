@@ -267,6 +267,7 @@ class LabSim:
         self._steps = 0
         #: How many times the pose was reset (:meth:`reset_pose`, :meth:`reset_all`).
         self.resets = -1
+        self._drawn_qpos = b""  # qpos of the frames last computed for drawing
         n_speed = round(SPEED_WINDOW / self.timestep) + 1
         n_sigma = round(SIGMA_WINDOW / (SIGMA_EVERY * self.timestep)) + 1
         self._speed_t: collections.deque[float] = collections.deque(maxlen=n_speed)
@@ -555,12 +556,23 @@ class LabSim:
                 out.write(f"{name},{a:.6f},{b:.9g}\n")
         return out.getvalue()
 
+    def _drawing_kinematics(self) -> None:
+        """Frames for drawing at the current qpos (the lock held): one mj_kinematics per state.
+
+        Drawing reads poses only, and mj_kinematics is the least that updates them; the page
+        reads body frames and geom frames of one state back to back, so a state already
+        brought up to date is not computed again.
+        """
+        key = self.data.qpos.tobytes()
+        if key != self._drawn_qpos:
+            mujoco.mj_kinematics(self.model, self.data)
+            self._drawn_qpos = key
+
     def geom_poses(self, geoms: Sequence[int]) -> tuple[Array, Array]:
         """World positions [m] and quaternions (w, x, y, z) of some geoms at the current state."""
         with self._lock:
-            m, d = self.model, self.data
-            # Drawing reads poses only: mj_kinematics is the least that updates geom frames.
-            mujoco.mj_kinematics(m, d)
+            d = self.data
+            self._drawing_kinematics()
             pos = d.geom_xpos[list(geoms)].copy()
             quat = np.zeros((len(geoms), 4))
             for k, g in enumerate(geoms):
@@ -577,7 +589,7 @@ class LabSim:
         """
         with self._lock:
             m, d = self.model, self.data
-            mujoco.mj_kinematics(m, d)
+            self._drawing_kinematics()
             bodies = m.jnt_bodyid
             pos = d.xpos[bodies].copy()
             quat = d.xquat[bodies].copy()
