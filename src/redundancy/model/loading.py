@@ -11,10 +11,9 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mujoco
-import numpy as np
 
 from ..arm import Arm
-from ..engines.mujoco import captured_warnings, object_names
+from ..engines.mujoco import captured_warnings, joint_limits, object_names
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, check_pinocchio
@@ -322,9 +321,7 @@ def _build(
         raise UnknownNameError("site", site, [s for s in sites if s])
     joint_names = object_names(mj, mujoco.mjtObj.mjOBJ_JOINT)
     check_pinocchio(pm, joint_names, site)  # type: ignore[arg-type]
-    limited = mj.jnt_limited.astype(bool)
-    lower = np.where(limited, mj.jnt_range[:, 0], -np.inf)
-    upper = np.where(limited, mj.jnt_range[:, 1], np.inf)
+    lower, upper = joint_limits(mj)
     # Armature and damping as the dynamics see them: the joint's own plus gear^2 times what
     # its actuators add (rotor-side values reflected through the transmission).
     armature = mj.dof_armature + actuator_armature(mj)

@@ -61,7 +61,7 @@ def check_supported(
         raise UnsupportedFeatureError(
             "no joints", "model", "an arm needs at least one hinge or slide joint"
         )
-    names = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    names = _names(model, mujoco.mjtObj.mjOBJ_JOINT)
     joint_labels = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for j in range(model.njnt):
         kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
@@ -366,7 +366,7 @@ def check_names(model: mujoco.MjModel) -> None:
     Raises:
         UnsupportedFeatureError: A reserved joint name or a site named like another frame.
     """
-    joints = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    joints = _names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for n in joints:
         if n in RESERVED_JOINT_NAMES:
             raise UnsupportedFeatureError(
@@ -375,7 +375,7 @@ def check_names(model: mujoco.MjModel) -> None:
                 f"Pinocchio reserves the name {n!r} for its world joint (its parser aborts on "
                 "it); rename the joint",
             )
-    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY)
     owners: dict[str, str] = {}
     for b in range(1, model.nbody):
         if bodies[b]:
@@ -386,7 +386,7 @@ def check_names(model: mujoco.MjModel) -> None:
                 )
     for n in joints:
         owners.setdefault(n, f"joint {n!r}")
-    for s in _names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite):
+    for s in _names(model, mujoco.mjtObj.mjOBJ_SITE):
         if s and s in owners:
             raise UnsupportedFeatureError(
                 "site named like another frame",
