@@ -45,6 +45,7 @@ class Arm:
         effort_limit: Motor limit per joint from MuJoCo's actuators [N m or N].
         bridges: What was copied from MuJoCo into Pinocchio, one entry per value.
         source: The file the model came from, or ``"<string>"``.
+        model_format: ``"MJCF"`` or ``"URDF"``, the format it was loaded from.
     """
 
     def __init__(
@@ -59,6 +60,7 @@ class Arm:
         effort_limit: Array,
         bridges: tuple[Any, ...] = (),
         recipe: tuple[Callable[..., Arm], tuple[Any, ...]] | None = None,
+        model_format: str = "MJCF",
     ) -> None:
         self.source = source
         self.site = site
@@ -72,6 +74,7 @@ class Arm:
         self.lower, self.upper = self.mujoco.limits
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
         self._recipe = recipe
+        self.model_format = model_format
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
         # Engine models and data do not pickle (and views into MjData would become detached

@@ -226,7 +226,7 @@ def load_string(
 
 def model_format(arm: Arm) -> str:
     """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from (recorded at load)."""
-    return getattr(arm, "_model_format", "MJCF")
+    return arm.model_format
 
 
 def _check_mjcf(root: ET.Element, pairs: DisabledPairs | None, source: str) -> None:
@@ -298,9 +298,7 @@ def _load_urdf(
         )
         for name in continuous
     )
-    arm = _build(mj, pm, tool_link, source, recipe, rebuilt)
-    arm._model_format = "URDF"  # type: ignore[attr-defined]
-    return arm
+    return _build(mj, pm, tool_link, source, recipe, rebuilt, model_format="URDF")
 
 
 def _build(
@@ -311,6 +309,7 @@ def _build(
     recipe: tuple[object, tuple[object, ...]],
     bridged: tuple[Bridge, ...] = (),
     xml_root: ET.Element | None = None,
+    model_format: str = "MJCF",
 ) -> Arm:
     """Check that both engines see the same joints and tool, bridge, and build the Arm.
 
@@ -349,4 +348,5 @@ def _build(
         effort_limit=effort,
         bridges=bridges,
         recipe=recipe,  # type: ignore[arg-type]
+        model_format=model_format,
     )
