@@ -1493,3 +1493,21 @@ def test_a_model_without_geoms_gives_empty_results() -> None:
     stats = col.collision_statistics(arm, 10, distances="mujoco")
     assert stats.pairs == () and stats.poses_with_contact == 0
     assert pc.check_path(arm, [[0.0], [0.5]]).free
+
+
+def test_batch_mujoco_distances_count_slide_travel_from_qpos0() -> None:
+    """The stacked distmax bounds a slide's displacement from qpos0 (its ``ref``), not its range."""
+    xml = """<mujoco><worldbody>
+    <body name="a"><geom name="ga" type="sphere" size="0.05"/>
+      <body name="b"><joint name="s" type="slide" axis="1 0 0" range="0 0.1" ref="-2"/>
+        <geom name="gb" type="sphere" size="0.05" pos="0.05 0 0"/>
+        <body name="c"><joint name="h" type="hinge" axis="0 0 1" range="-1 1"/>
+          <geom name="gc" type="sphere" size="0.05" pos="0.3 0 0"/><site name="tip"/>
+        </body>
+      </body>
+      <body name="d" pos="0 0.5 0"><geom name="gd" type="sphere" size="0.05"/></body>
+    </body></worldbody></mujoco>"""
+    arm = rd.load_string(xml, site="tip", strict=False)
+    Q = np.array([[0.05, 0.2], [0.0, -0.5]])
+    single = np.array([col.checker(arm).distance_values(q, "mujoco") for q in Q])
+    assert np.array_equal(rd.batch.distances(arm, Q, engine="mujoco"), single)

@@ -11,6 +11,7 @@ from ..arm import Arm
 from ..engines.threads import run_split
 from .checker import CollisionChecker
 from .pairs import DistanceEngine
+from .pathcheck import _travel
 
 Array = NDArray[np.float64]
 
@@ -38,21 +39,22 @@ def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_], offset: Array
     """A per-pair cap for ``mj_geomDistance`` that no pose can reach, or None.
 
     A geom's origin is never further from the world origin than the sum of the body offsets
-    along its chain, the geom's offset in its body and the travel of slide joints on the way;
-    the distance never exceeds the origins' separation plus both bounding radii (0 for a
-    plane, whose origin is on it). So the cap never binds and the result is the single-pose
-    one (``mj_geomDistance`` returns the distance itself whenever it is below the cap). None
-    when an unlimited slide joint makes the reach unbounded.
+    along its chain, the geom's offset in its body and the travel of slide joints on the way
+    (from ``qpos0``, where ``body_pos`` puts them); the distance never exceeds the origins'
+    separation plus both bounding radii (0 for a plane, whose origin is on it). So the cap
+    never binds and the result is the single-pose one (``mj_geomDistance`` returns the
+    distance itself whenever it is below the cap). None when an unlimited slide joint makes
+    the reach unbounded.
     """
     m = arm.mj_model
     reach = np.zeros(m.nbody)
     for b in range(1, m.nbody):
-        travel = 0.0
-        for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
-            if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
-                if not m.jnt_limited[j]:
-                    return None
-                travel += float(np.max(np.abs(m.jnt_range[j])))
+        joints = range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
+        slides = [j for j in joints if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE]
+        # The path checker's rule: the displacement from qpos0, infinite when unlimited.
+        travel = sum(_travel(m, j) for j in slides)
+        if not np.isfinite(travel):
+            return None
         reach[b] = reach[m.body_parentid[b]] + float(np.linalg.norm(m.body_pos[b])) + travel
     geom = reach[m.geom_bodyid] + np.linalg.norm(m.geom_pos, axis=1)
     return geom[g1] + geom[g2] + offset
