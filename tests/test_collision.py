@@ -598,7 +598,7 @@ def test_failed_epa_is_redone(monkeypatch: pytest.MonkeyPatch) -> None:
     q[arm.joint_index("j4")] = 2.9
     good = ch.distances(q)
     k = ch.pairs.index(ch.pair("link2", "link4"))
-    scene = ch._coal
+    scene = ch.coal_scene()
     raw = scene._raw_values
 
     def failing(q: np.ndarray) -> np.ndarray:
