@@ -7,7 +7,6 @@ Arm itself only dispatches: every number comes from an engine of :mod:`redundanc
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -24,7 +23,6 @@ from .engines.pinocchio import PinocchioEngine
 from .errors import OutOfRangeError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
-_F64 = np.dtype(np.float64)
 
 __all__ = ["ENGINES", "Arm", "EngineName", "random_poses", "sampling_ranges"]
 
@@ -67,15 +65,12 @@ class Arm:
         self.joint_names = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
         self.joint_types = tuple(JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type)
         self.nq = mj_model.nq
-        limited = mj_model.jnt_limited.astype(bool)
-        self.lower = np.where(limited, mj_model.jnt_range[:, 0], -np.inf)
-        self.upper = np.where(limited, mj_model.jnt_range[:, 1], np.inf)
         self.effort_limit = np.asarray(effort_limit, dtype=float)
         self.bridges = tuple(bridges)
         self.mujoco = MujocoEngine(mj_model, site, armature, damping)
         self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names)
+        self.lower, self.upper = self.mujoco.limits
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
-        self._shape = (self.nq,)
         self._recipe = recipe
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
@@ -113,18 +108,10 @@ class Arm:
 
     def engine(self, name: EngineName) -> Engine:
         """One engine, by name (``"mujoco"`` or ``"pinocchio"``)."""
-        if name == "mujoco":
-            return self.mujoco
-        if name == "pinocchio":
-            return self.pinocchio
-        raise UnknownNameError("engine", str(name), ENGINES)
-
-    def _pose(self, q: ArrayLike) -> Array:
-        # check_pose's fast path, inlined (a float64 vector of the right length, finite).
-        if type(q) is np.ndarray and q.dtype is _F64 and q.shape == self._shape:
-            if math.isfinite(sum(q.tolist())):
-                return q
-        return check_pose(q, self.joint_names)
+        try:
+            return self._engines[name]
+        except (KeyError, TypeError):
+            raise UnknownNameError("engine", str(name), ENGINES) from None
 
     def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
         """Validate a joint configuration and return it as a float64 array of shape (nq,).
@@ -138,7 +125,7 @@ class Arm:
             PoseError: Wrong shape or type, complex, NaN or infinite values.
             OutOfRangeError: A value outside its range (only with ``check_range``).
         """
-        arr = self._pose(q)
+        arr = check_pose(q, self.joint_names)
         if check_range:
             tol = check_number("tol", tol, 0.0, unit="rad or m")
             for i in range(self.nq):
@@ -154,16 +141,11 @@ class Arm:
     # -- quantities, from either engine -----------------------------------------------------
     def site_pose(self, q: ArrayLike, engine: EngineName = "mujoco") -> tuple[Array, Array]:
         """Tool site position [m] and rotation matrix, world frame."""
-        return self.engine(engine).site_pose(self._pose(q))
+        return self.engine(engine).site_pose(check_pose(q, self.joint_names))
 
     def jacobian(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
-        # The hot path of a controller: the engine by dict lookup, the pose by the fast check.
-        try:
-            eng = self._engines[engine]
-        except (KeyError, TypeError):
-            eng = self.engine(engine)
-        return eng.site_jacobian(self._pose(q))
+        return self.engine(engine).site_jacobian(check_pose(q, self.joint_names))
 
     def svd(
         self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL
@@ -189,7 +171,7 @@ class Arm:
 
     def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gradient d sqrt(det(J J^T)) / dq from second-order kinematics, shape (nq,)."""
-        q = self._pose(q)
+        q = check_pose(q, self.joint_names)
         eng = self.engine(engine)
         return linalg.manipulability_gradient(eng.site_jacobian(q), eng.jacobian_derivatives(q))
 
@@ -205,11 +187,11 @@ class Arm:
         self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco"
     ) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
-        return self.engine(engine).mass_matrix(self._pose(q), armature)
+        return self.engine(engine).mass_matrix(check_pose(q, self.joint_names), armature)
 
     def gravity(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gravity torque the motors must supply to hold ``q`` [N m or N]."""
-        return self.engine(engine).gravity(self._pose(q))
+        return self.engine(engine).gravity(check_pose(q, self.joint_names))
 
     def armature(self, engine: EngineName = "mujoco") -> Array:
         """Armature per joint as the engine's mass matrix sees it [kg m^2]."""

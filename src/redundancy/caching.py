@@ -39,6 +39,3 @@ class PerObject(Generic[K, V]):
             if value is None:
                 value = self._values[key] = self._factory(key)
         return value
-
-    def __len__(self) -> int:
-        return len(self._values)

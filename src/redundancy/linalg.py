@@ -124,13 +124,13 @@ class Manipulability:
         value = self._values.get(kind)
         if value is None:
             J = self._J
-            block = {
-                "full": J,
-                "position": J[:3],
-                "orientation": J[3:],
-                "scaled": np.vstack([J[:3] / self.length, J[3:]]) if kind == "scaled" else J,
-            }[kind]
-            value = self._values[kind] = yoshikawa(block)
+            if kind == "position":
+                J = J[:3]
+            elif kind == "orientation":
+                J = J[3:]
+            elif kind == "scaled":
+                J = np.vstack([J[:3] / self.length, J[3:]])
+            value = self._values[kind] = yoshikawa(J)
         return value
 
     full = property(lambda self: self._get("full"), doc="sqrt(det(J J^T)) of J [mixed units].")

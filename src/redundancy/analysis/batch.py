@@ -30,7 +30,6 @@ measures both).
 from __future__ import annotations
 
 import queue
-import threading
 from typing import Literal
 
 import numpy as np
@@ -40,7 +39,7 @@ from ..arm import ENGINES, Arm, EngineName
 from ..checks import check_choice, check_number, check_poses, check_threads
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
-from ..engines.threads import MIN_POSES_PER_THREAD
+from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 
 Array = NDArray[np.float64]
 ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
@@ -56,18 +55,20 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
     return check_poses(Q, arm.joint_names)
 
 
+def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bool = True) -> Array:
+    """One quantity over a validated stack: allocate, let the engine fill it."""
+    n, nv = len(Q), arm.nq
+    out = np.empty({"J": (n, 6, nv), "M": (n, nv, nv), "G": (n, nv)}[what])
+    arm.engine(engine).evaluate(Q, Stacks(armature=armature, **{what: out}), threads)
+    return out
+
+
 def _stack(
     arm: Arm, Q: ArrayLike, engine: str, threads: int, what: str, armature: bool = True
 ) -> Array:
-    """One quantity over a stack: validate, allocate, let the engine fill it."""
+    """One quantity over a stack: validate the inputs, then :func:`_fill`."""
     check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
-    Q = poses(arm, Q)
-    n, nv = len(Q), arm.nq
-    shape = {"J": (n, 6, nv), "M": (n, nv, nv), "G": (n, nv)}[what]
-    out = np.empty(shape)
-    arm.engine(engine).evaluate(Q, Stacks(armature=armature, **{what: out}), threads)
-    return out
+    return _fill(arm, poses(arm, Q), engine, check_threads(threads), what, armature)
 
 
 def jacobians(arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: int = 1) -> Array:
@@ -100,36 +101,28 @@ def _jacobians_and_singular_values(
     while the engine computes the next chunk's Jacobians.
     """
     n = len(Q)
-    m = min(6, arm.nq)
     if threads == 1 or n < 2 * MIN_POSES_PER_THREAD:
-        J = jacobians(arm, Q, engine)
+        J = _fill(arm, Q, engine, 1, "J")
         return J, _svd_values(J)
     J = np.empty((n, 6, arm.nq))
-    S = np.empty((n, m))
+    S = np.empty((n, min(6, arm.nq)))
     chunk = max(MIN_POSES_PER_THREAD, n // 8)
     todo: queue.SimpleQueue[tuple[int, int] | None] = queue.SimpleQueue()
-    errors: list[BaseException] = []
 
-    def svd_worker() -> None:
+    def svds() -> None:
         while (span := todo.get()) is not None:
-            lo, hi = span
-            try:
-                S[lo:hi] = np.linalg.svd(J[lo:hi], compute_uv=False)
-            except BaseException as err:  # re-raised in the caller's thread
-                errors.append(err)
+            S[span[0] : span[1]] = np.linalg.svd(J[span[0] : span[1]], compute_uv=False)
 
-    worker = threading.Thread(target=svd_worker)
-    worker.start()
-    try:
-        for lo in range(0, n, chunk):
-            hi = min(n, lo + chunk)
-            arm.engine(engine).evaluate(Q[lo:hi], Stacks(J=J[lo:hi]), max(1, threads - 1))
-            todo.put((lo, hi))
-    finally:
-        todo.put(None)
-        worker.join()
-    if errors:
-        raise errors[0]
+    def jacobians_in_chunks() -> None:
+        try:
+            for lo in range(0, n, chunk):
+                hi = min(n, lo + chunk)
+                arm.engine(engine).evaluate(Q[lo:hi], Stacks(J=J[lo:hi]), max(1, threads - 1))
+                todo.put((lo, hi))
+        finally:
+            todo.put(None)  # the SVD thread ends even when a chunk raised
+
+    run_beside(jacobians_in_chunks, svds)
     return J, S
 
 
@@ -187,7 +180,7 @@ def manipulabilities(
     if kind == "full":
         S = _jacobians_and_singular_values(arm, Q, engine, threads)[1]
         return np.prod(S, axis=1)
-    J = jacobians(arm, Q, engine)
+    J = _fill(arm, Q, engine, 1, "J")
     if kind == "position":
         J = J[:, :3]
     elif kind == "orientation":

@@ -34,6 +34,8 @@ from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
 from ..errors import ModelError, UnknownNameError
+from ..model.equivalence import abs_error, format_value, joint_of_body
+from ..model.names import display_names
 
 Array = NDArray[np.float64]
 
@@ -159,13 +161,7 @@ class Comparison:
 
 
 def _fmt(x: Any) -> str:
-    if x is None:
-        return "(cannot express)"
-    if isinstance(x, np.ndarray):
-        return np.array2string(x, precision=6, suppress_small=True, max_line_width=200)
-    if isinstance(x, float):
-        return f"{x:.9g}"
-    return str(x)
+    return "(cannot express)" if x is None else format_value(x)
 
 
 def _jsonable(x: Any) -> Any:
@@ -294,24 +290,22 @@ class _Comparer:
         # Poses are compared over the joints both have (a joint only one has sits at zero,
         # clipped into its range, and is itself a difference).
         self.matched = bool(self.ia)
+        # Per joint, the display name of the body it moves.
+        self.bodies_a, self.bodies_b = (_joint_bodies(arm) for arm in (a, b))
 
     def where(self, i: int) -> str:
         name_a, name_b = self.pairs[i]
         return f"joint {name_a!r}" + (f" [{name_b!r}]" if name_b != name_a else "")
 
     def body_where(self, i: int) -> str:
-        ba = _body_of(self.a, i)
-        bb = _body_of(self.b, self.b.joint_index(self.pairs[i][1]))
+        ba = self.bodies_a[i]
+        bb = self.bodies_b[self.b.joint_index(self.pairs[i][1])]
         shown = f"{ba!r}" + (f" [{bb!r}]" if bb != ba else "")
         return f"body {shown} (moved by {self.pairs[i][0]!r})"
 
     def check(self, quantity: str, where: str, va: Any, vb: Any, note: str = "") -> bool:
         """Record a difference when |va - vb| > tol; return True when they differ."""
-        xa, xb = np.asarray(va, float), np.asarray(vb, float)
-        same_inf = np.isinf(xa) & np.isinf(xb) & (np.sign(xa) == np.sign(xb))
-        with np.errstate(invalid="ignore"):
-            err_all = np.where(same_inf, 0.0, np.abs(np.nan_to_num(xa - xb, nan=np.inf)))
-        err = float(np.max(err_all)) if err_all.size else 0.0
+        err = abs_error(va, vb)
         self.largest[quantity] = max(self.largest.get(quantity, 0.0), err)
         if err > self.tol:
             self.diffs.append(Finding(quantity, where, va, vb, err, note))
@@ -534,20 +528,19 @@ class _Comparer:
         )
 
 
-def _body_of(arm: Arm, i: int) -> str:
+def _joint_bodies(arm: Arm) -> list[str]:
+    """Per joint, the display name of the body it moves (see :mod:`redundancy.model.names`)."""
     import mujoco
 
     m = arm.mj_model
-    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.jnt_bodyid[i])) or f"#{i}"
+    names = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
+    return [names[int(b)] for b in m.jnt_bodyid]
 
 
 def _parent_joint(arm: Arm, i: int) -> str:
     """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
     m = arm.mj_model
-    body = int(m.body_parentid[m.jnt_bodyid[i]])
-    while body > 0 and m.body_jntnum[body] == 0:
-        body = int(m.body_parentid[body])
-    return "" if body == 0 else arm.joint_names[int(m.body_jntadr[body])]
+    return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
 def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:

@@ -8,7 +8,7 @@ computation, over stacks of poses taken in chunks so memory stays flat in their 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,8 +171,11 @@ def worst(err: Array) -> tuple[float, int]:
     return 0.0, 0
 
 
-def _merge(old: tuple[float, int], new: tuple[float, int], offset: int) -> tuple[float, int]:
-    """Combine the worst of an earlier chunk with a later chunk's, by :func:`worst`'s rules."""
+def merge_worst(old: tuple[float, int], new: tuple[float, int], offset: int) -> tuple[float, int]:
+    """Combine the worst of an earlier chunk with a later chunk's, by :func:`worst`'s rules.
+
+    ``new``'s pose is counted from ``offset``, the later chunk's first pose.
+    """
     (e0, p0), (e1, p1) = old, new
     if not np.isfinite(e1):
         return e1, p1 + offset
@@ -191,13 +194,6 @@ BATCH_QUANTITIES: tuple[str, ...] = (
     "mass matrix (bare)",
     "gravity",
 )
-
-_PER_POSE: dict[str, Callable[[Engine, Array], Array]] = {
-    "jacobian derivative": lambda e, q: e.jacobian_derivatives(q),
-    "manipulability gradient": lambda e, q: manipulability_gradient(
-        e.site_jacobian(q), e.jacobian_derivatives(q)
-    ),
-}
 
 #: Poses per chunk: the stacks of one chunk take about 4 KB per pose for a 7-dof arm.
 CHUNK = 2048
@@ -231,10 +227,41 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
         k = np.arange(nv)
         bare[:, k, k] -= engine.armature
         out["mass matrix (bare)"] = bare
-    for name in names:
-        if name in _PER_POSE:
-            values = [_PER_POSE[name](engine, q) for q in Q]
-            out[name] = np.array(values) if values else np.zeros((0,))
+    # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
+    if "jacobian derivative" in want:
+        out["jacobian derivative"] = np.empty((n, nv, 6, nv))
+    if "manipulability gradient" in want:
+        out["manipulability gradient"] = np.empty((n, nv))
+    if want & {"jacobian derivative", "manipulability gradient"}:
+        for i, q in enumerate(Q):
+            dJ = engine.jacobian_derivatives(q)
+            if "jacobian derivative" in want:
+                out["jacobian derivative"][i] = dJ
+            if "manipulability gradient" in want:
+                out["manipulability gradient"][i] = manipulability_gradient(
+                    engine.site_jacobian(q), dJ
+                )
+    return out
+
+
+def _both_engines(
+    arm: Arm, Q: Array, names: tuple[str, ...], threads: int
+) -> dict[str, dict[str, Array]]:
+    """Both engines' stacks for ``Q``, keyed by engine name.
+
+    With threads, MuJoCo (whose ``mj_*`` calls release the GIL) runs in a worker thread on
+    up to ``threads - 1`` threads, beside Pinocchio in the caller's.
+    """
+    out: dict[str, dict[str, Array]] = {}
+
+    def fill(engine: Engine, k: int) -> None:
+        out[engine.name] = _evaluate(engine, Q, names, k)
+
+    if threads > 1 and len(Q) >= MIN_POSES_PER_THREAD:
+        run_beside(lambda: fill(arm.pinocchio, threads), lambda: fill(arm.mujoco, threads - 1))
+    else:
+        fill(arm.pinocchio, threads)
+        fill(arm.mujoco, 1)
     return out
 
 
@@ -277,21 +304,10 @@ def crosscheck_batch(
     found = dict.fromkeys(names, (0.0, 0))
     for lo in range(0, len(Q), chunk):
         part = Q[lo : lo + chunk]
-        ours: dict[str, Array] = {}
-        theirs: dict[str, Array] = {}
-
-        def run_mujoco(part: Array = part, ours: dict[str, Array] = ours) -> None:
-            ours.update(_evaluate(arm.mujoco, part, names, max(1, threads - 1)))
-
-        def run_pinocchio(part: Array = part, theirs: dict[str, Array] = theirs) -> None:
-            theirs.update(_evaluate(arm.pinocchio, part, names, threads))
-
-        beside = threads > 1 and len(part) >= MIN_POSES_PER_THREAD
-        run_beside(run_pinocchio, run_mujoco if beside else None)
-        if not beside:
-            run_mujoco()
+        out = _both_engines(arm, part, names, threads)
         for name in names:
-            found[name] = _merge(found[name], worst(pose_errors(ours[name], theirs[name])), lo)
+            errors = pose_errors(out["mujoco"][name], out["pinocchio"][name])
+            found[name] = merge_worst(found[name], worst(errors), lo)
     agreements = tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names)
     return CrossCheckReport(agreements, arm.bridges, len(Q))
 

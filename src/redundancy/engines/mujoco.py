@@ -28,18 +28,26 @@ JOINT_TYPES = {
 }
 
 
-def object_names(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int | None = None) -> list[str]:
-    """Names of the first ``n`` (default: all) objects of one type, ``""`` where unnamed."""
-    if n is None:
-        n = {
-            mujoco.mjtObj.mjOBJ_JOINT: model.njnt,
-            mujoco.mjtObj.mjOBJ_BODY: model.nbody,
-            mujoco.mjtObj.mjOBJ_GEOM: model.ngeom,
-            mujoco.mjtObj.mjOBJ_SITE: model.nsite,
-            mujoco.mjtObj.mjOBJ_KEY: model.nkey,
-            mujoco.mjtObj.mjOBJ_ACTUATOR: model.nu,
-        }[obj]
+def object_names(model: mujoco.MjModel, obj: mujoco.mjtObj) -> list[str]:
+    """Names of every object of one type, ``""`` where unnamed."""
+    n = {
+        mujoco.mjtObj.mjOBJ_JOINT: model.njnt,
+        mujoco.mjtObj.mjOBJ_BODY: model.nbody,
+        mujoco.mjtObj.mjOBJ_GEOM: model.ngeom,
+        mujoco.mjtObj.mjOBJ_SITE: model.nsite,
+        mujoco.mjtObj.mjOBJ_KEY: model.nkey,
+        mujoco.mjtObj.mjOBJ_ACTUATOR: model.nu,
+    }[obj]
     return [mujoco.mj_id2name(model, obj, i) or "" for i in range(n)]
+
+
+def joint_limits(model: mujoco.MjModel) -> tuple[Array, Array]:
+    """Lower and upper joint limits, ``-inf``/``inf`` where a joint is unlimited [rad or m]."""
+    limited = model.jnt_limited.astype(bool)
+    return (
+        np.where(limited, model.jnt_range[:, 0], -np.inf),
+        np.where(limited, model.jnt_range[:, 1], np.inf),
+    )
 
 
 class _Work:
@@ -100,11 +108,7 @@ class MujocoEngine:
         self.nv = model.nv
         self._armature = np.array(armature, dtype=float)
         self._damping = np.array(model.dof_damping if damping is None else damping, dtype=float)
-        limited = model.jnt_limited.astype(bool)
-        self._limits = (
-            np.where(limited, model.jnt_range[:, 0], -np.inf),
-            np.where(limited, model.jnt_range[:, 1], np.inf),
-        )
+        self._limits = joint_limits(model)
         # This thread's data; a bound method, so a query pays one call to reach it.
         self._work = PerThread(lambda: _Work(model)).get
 
@@ -285,11 +289,6 @@ class MujocoEngine:
         if M is not None and not out.armature:
             k = np.arange(self.nv)
             M[:, k, k] -= self._armature
-
-    def geom_poses(self, q: Array) -> tuple[Array, Array]:
-        """World positions [m] and rotation matrices (flattened, (ngeom, 9)) of every geom."""
-        d = self.update(q).data
-        return d.geom_xpos.copy(), d.geom_xmat.copy()
 
 
 @contextlib.contextmanager

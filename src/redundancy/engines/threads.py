@@ -33,47 +33,33 @@ def run_split(n: int, threads: int, body: Callable[[int, int], None]) -> None:
     The caller's thread takes the first span; an exception in any thread is re-raised in
     the caller's after all have finished.
     """
-    parts = spans(n, threads)
-    if len(parts) == 1:
-        body(*parts[0])
+    (lo, hi), *rest = spans(n, threads)
+    run_beside(lambda: body(lo, hi), *(lambda a=a, b=b: body(a, b) for a, b in rest))
+
+
+def run_beside(main: Callable[[], None], *sides: Callable[[], None]) -> None:
+    """Run each of ``sides`` in a worker thread while ``main`` runs in the caller's.
+
+    All are joined before returning; the first exception of any of them is re-raised in the
+    caller's thread.
+    """
+    if not sides:
+        main()
         return
     errors: list[BaseException] = []
 
-    def run(lo: int, hi: int) -> None:
+    def guarded(f: Callable[[], None]) -> None:
         try:
-            body(lo, hi)
+            f()
         except BaseException as err:  # re-raised in the caller's thread
             errors.append(err)
 
-    workers = [threading.Thread(target=run, args=span) for span in parts[1:]]
+    workers = [threading.Thread(target=guarded, args=(f,)) for f in sides]
     for w in workers:
         w.start()
-    run(*parts[0])
+    guarded(main)
     for w in workers:
         w.join()
-    if errors:
-        raise errors[0]
-
-
-def run_beside(main: Callable[[], None], side: Callable[[], None] | None) -> None:
-    """Run ``side`` in a worker thread while ``main`` runs in the caller's; re-raise errors."""
-    if side is None:
-        main()
-        return
-    errors: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            side()
-        except BaseException as err:  # re-raised in the caller's thread
-            errors.append(err)
-
-    worker = threading.Thread(target=run)
-    worker.start()
-    try:
-        main()
-    finally:
-        worker.join()
     if errors:
         raise errors[0]
 

@@ -198,8 +198,6 @@ def solve_ik(
     p_t = np.asarray(position, dtype=float).reshape(3)
     R_t = arm.site_pose(q)[1] if rotation is None else np.asarray(rotation, float).reshape(3, 3)
     q_rest = q.copy() if rest is None else arm.pose(rest)
-    lo = np.where(np.isfinite(arm.lower), arm.lower, -np.inf)
-    hi = np.where(np.isfinite(arm.upper), arm.upper, np.inf)
     err = np.inf
     for _ in range(iterations):
         e = selfmotion.pose_error(arm, q, p_t, R_t)
@@ -209,7 +207,7 @@ def solve_ik(
         J = arm.jacobian(q)
         dq = linalg.damped_pinv(J, damping) @ e
         dq += linalg.nullspace_projector(J) @ (posture_gain * (q_rest - q))
-        q = np.clip(q + dq, lo, hi)
+        q = np.clip(q + dq, arm.lower, arm.upper)  # -inf/inf where unlimited
     else:
         err = float(np.linalg.norm(selfmotion.pose_error(arm, q, p_t, R_t)[:3]))
     return q, err
@@ -269,6 +267,7 @@ class LabSim:
         self._steps = 0
         #: How many times the pose was reset (:meth:`reset_pose`, :meth:`reset_all`).
         self.resets = -1
+        self._drawn_qpos = b""  # qpos of the frames last computed for drawing
         n_speed = round(SPEED_WINDOW / self.timestep) + 1
         n_sigma = round(SIGMA_WINDOW / (SIGMA_EVERY * self.timestep)) + 1
         self._speed_t: collections.deque[float] = collections.deque(maxlen=n_speed)
@@ -557,12 +556,23 @@ class LabSim:
                 out.write(f"{name},{a:.6f},{b:.9g}\n")
         return out.getvalue()
 
+    def _drawing_kinematics(self) -> None:
+        """Frames for drawing at the current qpos (the lock held): one mj_kinematics per state.
+
+        Drawing reads poses only, and mj_kinematics is the least that updates them; the page
+        reads body frames and geom frames of one state back to back, so a state already
+        brought up to date is not computed again.
+        """
+        key = self.data.qpos.tobytes()
+        if key != self._drawn_qpos:
+            mujoco.mj_kinematics(self.model, self.data)
+            self._drawn_qpos = key
+
     def geom_poses(self, geoms: Sequence[int]) -> tuple[Array, Array]:
         """World positions [m] and quaternions (w, x, y, z) of some geoms at the current state."""
         with self._lock:
-            m, d = self.model, self.data
-            # Drawing reads poses only: mj_kinematics is the least that updates geom frames.
-            mujoco.mj_kinematics(m, d)
+            d = self.data
+            self._drawing_kinematics()
             pos = d.geom_xpos[list(geoms)].copy()
             quat = np.zeros((len(geoms), 4))
             for k, g in enumerate(geoms):
@@ -579,7 +589,7 @@ class LabSim:
         """
         with self._lock:
             m, d = self.model, self.data
-            mujoco.mj_kinematics(m, d)
+            self._drawing_kinematics()
             bodies = m.jnt_bodyid
             pos = d.xpos[bodies].copy()
             quat = d.xquat[bodies].copy()

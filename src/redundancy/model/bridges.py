@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from ..engines.pinocchio import joint_kind
 from ..errors import UnsupportedFeatureError
-from .names import body_name
+from .names import body_name, display_names
 from .support import inertia_causes
 
 Array = NDArray[np.float64]
@@ -292,6 +292,7 @@ def _bridge_inertia(
     if not causes:
         return []
     ours = _mujoco_joint_inertias(mm)
+    names = display_names(mm, mujoco.mjtObj.mjOBJ_BODY)
     bridges: list[Bridge] = []
     for j, mine in ours.items():
         b = int(mm.jnt_bodyid[j])
@@ -306,7 +307,7 @@ def _bridge_inertia(
             continue
         pm.inertias[jid] = mine
         reasons = [c for w in welded for c in causes.get(w, ())]
-        bodies = ", ".join(body_name(mm, w) for w in welded)
+        bodies = ", ".join(names[w] for w in welded)
         bridges.append(
             Bridge(
                 "body inertia",

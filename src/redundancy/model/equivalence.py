@@ -19,6 +19,7 @@ import numpy as np
 
 from ..arm import Arm
 from ..errors import RedundancyError
+from .actuators import simulation
 from .bridges import Bridge, effective_gravity
 from .names import display_names
 
@@ -43,12 +44,13 @@ class Difference:
 
     def __str__(self) -> str:
         return (
-            f"{self.quantity} of {self.item}: MuJoCo {_fmt(self.mujoco)}, Pinocchio "
-            f"{_fmt(self.pinocchio)} (|diff| {self.error:.3g})"
+            f"{self.quantity} of {self.item}: MuJoCo {format_value(self.mujoco)}, Pinocchio "
+            f"{format_value(self.pinocchio)} (|diff| {self.error:.3g})"
         )
 
 
-def _fmt(x: object) -> str:
+def format_value(x: object) -> str:
+    """A value as a report shows it: arrays on one line to 6 digits, floats to 9."""
     if isinstance(x, np.ndarray):
         return np.array2string(x, precision=6, suppress_small=True, max_line_width=200)
     if isinstance(x, float):
@@ -124,6 +126,21 @@ class EquivalenceReport:
         return out
 
 
+def abs_error(a: object, b: object) -> float:
+    """Largest |a - b| over the entries [their unit]: 0 for equal infinities, ``inf`` for NaN.
+
+    0 for empty arrays; an infinity against a finite value or the other infinity is ``inf``.
+    """
+    a_arr, b_arr = np.asarray(a, float), np.asarray(b, float)
+    same_inf = np.isinf(a_arr) & np.isinf(b_arr) & (np.sign(a_arr) == np.sign(b_arr))
+    with np.errstate(invalid="ignore"):
+        diff = a_arr - b_arr
+    err = np.where(
+        same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
+    )
+    return float(np.max(err)) if err.size else 0.0
+
+
 def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> EquivalenceReport:
     """Compare the two engines' compiled models, quantity by quantity.
 
@@ -141,14 +158,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     largest: dict[str, float] = {}
 
     def cmp(quantity: str, item: str, a: object, b: object) -> None:
-        a_arr, b_arr = np.asarray(a, float), np.asarray(b, float)
-        same_inf = np.isinf(a_arr) & np.isinf(b_arr) & (np.sign(a_arr) == np.sign(b_arr))
-        with np.errstate(invalid="ignore"):
-            diff = a_arr - b_arr
-        err = np.where(
-            same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
-        )
-        e = float(np.max(err)) if err.size else 0.0
+        e = abs_error(a, b)
         largest[quantity] = max(largest.get(quantity, 0.0), e)
         if e > tol:
             diffs.append(Difference(quantity, item, a, b, e))
@@ -157,7 +167,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     # Tree structure: each joint's parent joint, by name.
     for i, n in enumerate(names):
         mj_parent_body = arm.mj_model.body_parentid[arm.mj_model.jnt_bodyid[i]]
-        mj_parent = _mj_joint_of_body(arm, mj_parent_body)
+        mj_parent = joint_of_body(arm, mj_parent_body)
         pin_parent = pm.names[pm.parents[pm.getJointId(n)]]
         pin_parent = "" if pin_parent == "universe" else pin_parent
         if mj_parent != pin_parent:
@@ -223,7 +233,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     )
 
 
-def _mj_joint_of_body(arm: Arm, body: int) -> str:
+def joint_of_body(arm: Arm, body: int) -> str:
     """Name of the joint that moves ``body`` (walking up welded bodies), '' for the base."""
     m = arm.mj_model
     while body > 0 and m.body_jntnum[body] == 0:
@@ -231,14 +241,6 @@ def _mj_joint_of_body(arm: Arm, body: int) -> str:
     if body == 0:
         return ""
     return arm.joint_names[m.body_jntadr[body]]
-
-
-_INTEGRATORS = {
-    int(mujoco.mjtIntegrator.mjINT_EULER): "Euler",
-    int(mujoco.mjtIntegrator.mjINT_RK4): "RK4",
-    int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
-    int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast",
-}
 
 
 def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
@@ -258,7 +260,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
         mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator {a}"
         for a in range(model.nu)
     ]
-    gravity_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+    sim = simulation(model)  # integrator and flags, read as the timestep bound reads them
     for b in range(1, model.nbody):
         gc = float(model.body_gravcomp[b])
         if gc != 0:
@@ -340,9 +342,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                 "gravity and hold numbers leave it out",
             )
         )
-    integrator = _INTEGRATORS.get(int(model.opt.integrator), str(model.opt.integrator))
-    euler = integrator == "Euler"
-    eulerdamp_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+    integrator = sim.integrator
     out.append(
         SimulatedOnly(
             "integrator",
@@ -357,7 +357,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
             }.get(integrator, "see MuJoCo's documentation"),
         )
     )
-    if eulerdamp_off:
+    if not sim.eulerdamp:
         out.append(
             SimulatedOnly(
                 "eulerdamp disabled",
@@ -365,11 +365,11 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
                 '<flag eulerdamp="disable"/>',
                 "joint damping is integrated explicitly: the explicit stability bound on the "
                 "timestep applies to it"
-                if euler
+                if integrator == "Euler"
                 else f"no effect under the {integrator} integrator",
             )
         )
-    if gravity_off:
+    if not sim.gravity_enabled:
         out.append(
             SimulatedOnly(
                 "gravity disabled",

@@ -11,10 +11,9 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mujoco
-import numpy as np
 
 from ..arm import Arm
-from ..engines.mujoco import captured_warnings, object_names
+from ..engines.mujoco import captured_warnings, joint_limits, object_names
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, check_pinocchio
@@ -28,7 +27,6 @@ from .urdf import (
     is_urdf,
     read_disabled_pairs,
     resolve_frame,
-    strip_declaration,
 )
 
 
@@ -74,6 +72,11 @@ _BOMS = (
     (codecs.BOM_UTF16_BE, "utf-16"),
 )
 _DECLARED = re.compile(rb"""^\s*<\?xml[^>]*?encoding\s*=\s*["']([A-Za-z0-9._-]+)["']""")
+
+
+def strip_declaration(text: str) -> str:
+    """The text without its XML declaration (an encoding it names no longer applies)."""
+    return re.sub(r"^\s*<\?xml[^>]*\?>", "", text, count=1)
 
 
 def decode_xml(data: bytes, source: str) -> tuple[str, bool]:
@@ -180,14 +183,7 @@ def load(
     recipe = (load, (str(p), site, strict, frame, pairs))
     if is_urdf(root):
         return _load_urdf(text, root, p.resolve().parent, str(p), tool, pairs, recipe)
-    if pairs is not None:
-        raise ModelError(_MJCF_PAIRS)
-    if root.find(".//include") is not None:
-        raise UnsupportedFeatureError(
-            "<include> element",
-            str(p),
-            "Pinocchio's MJCF parser does not follow includes; inline the file",
-        )
+    _check_mjcf(root, pairs, str(p))
     if as_is:
         mj = _read_mujoco(None, p)
         check_supported(mj, root, strict)
@@ -222,39 +218,30 @@ def load_string(
     recipe = (load_string, (xml, site, strict, frame, pairs))
     if is_urdf(root):
         return _load_urdf(xml, root, Path.cwd(), "<string>", tool, pairs, recipe)
-    if pairs is not None:
-        raise ModelError(_MJCF_PAIRS)
-    if root.find(".//include") is not None:
-        raise UnsupportedFeatureError(
-            "<include> element",
-            "<string>",
-            "Pinocchio's MJCF parser does not follow includes; inline the file",
-        )
+    _check_mjcf(root, pairs, "<string>")
     mj = _read_mujoco(xml, None)
     check_supported(mj, root, strict)
     return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe, xml_root=root)
 
 
 def model_format(arm: Arm) -> str:
-    """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from."""
-    recipe = getattr(arm, "_recipe", None)
-    if recipe is None:
-        return "MJCF"
-    loader, args = recipe
-    try:
-        if loader is load:
-            root = ET.fromstring(decode_xml(Path(args[0]).read_bytes(), args[0])[0])
-        else:
-            root = ET.fromstring(args[0])
-    except (OSError, ET.ParseError, ModelError):
-        return "MJCF"
-    return "URDF" if is_urdf(root) else "MJCF"
+    """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from (recorded at load)."""
+    return getattr(arm, "_model_format", "MJCF")
 
 
-_MJCF_PAIRS = (
-    "disabled_collisions is for URDF; an MJCF model excludes pairs itself, with "
-    "<contact><exclude body1=... body2=...>"
-)
+def _check_mjcf(root: ET.Element, pairs: DisabledPairs | None, source: str) -> None:
+    """Refuse what an MJCF cannot be loaded with: disabled pairs, an ``<include>``."""
+    if pairs is not None:
+        raise ModelError(
+            "disabled_collisions is for URDF; an MJCF model excludes pairs itself, with "
+            "<contact><exclude body1=... body2=...>"
+        )
+    if root.find(".//include") is not None:
+        raise UnsupportedFeatureError(
+            "<include> element",
+            source,
+            "Pinocchio's MJCF parser does not follow includes; inline the file",
+        )
 
 
 def _frozen_pairs(pairs: DisabledPairs) -> DisabledPairs:
@@ -311,7 +298,9 @@ def _load_urdf(
         )
         for name in continuous
     )
-    return _build(mj, pm, tool_link, source, recipe, rebuilt)
+    arm = _build(mj, pm, tool_link, source, recipe, rebuilt)
+    arm._model_format = "URDF"  # type: ignore[attr-defined]
+    return arm
 
 
 def _build(
@@ -332,9 +321,7 @@ def _build(
         raise UnknownNameError("site", site, [s for s in sites if s])
     joint_names = object_names(mj, mujoco.mjtObj.mjOBJ_JOINT)
     check_pinocchio(pm, joint_names, site)  # type: ignore[arg-type]
-    limited = mj.jnt_limited.astype(bool)
-    lower = np.where(limited, mj.jnt_range[:, 0], -np.inf)
-    upper = np.where(limited, mj.jnt_range[:, 1], np.inf)
+    lower, upper = joint_limits(mj)
     # Armature and damping as the dynamics see them: the joint's own plus gear^2 times what
     # its actuators add (rotor-side values reflected through the transmission).
     armature = mj.dof_armature + actuator_armature(mj)

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import mujoco
 
+from ..engines.mujoco import object_names
+
 __all__ = ["body_name", "display_names", "geom_name", "joint_name", "site_name"]
 
 _KINDS = {
@@ -65,23 +67,19 @@ def site_name(model: mujoco.MjModel, site: int) -> str:
     return display_names(model, mujoco.mjtObj.mjOBJ_SITE)[site]
 
 
-def _raw(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int) -> list[str]:
-    return [mujoco.mj_id2name(model, obj, i) or "" for i in range(n)]
-
-
 def _compute(model: mujoco.MjModel, kind: str) -> tuple[str, ...]:
     bodies = _body_names(model)
     if kind == "body":
         return tuple(bodies)
-    obj, count, owner = {
-        "geom": (mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, model.geom_bodyid),
-        "joint": (mujoco.mjtObj.mjOBJ_JOINT, model.njnt, model.jnt_bodyid),
-        "site": (mujoco.mjtObj.mjOBJ_SITE, model.nsite, model.site_bodyid),
+    obj, owner = {
+        "geom": (mujoco.mjtObj.mjOBJ_GEOM, model.geom_bodyid),
+        "joint": (mujoco.mjtObj.mjOBJ_JOINT, model.jnt_bodyid),
+        "site": (mujoco.mjtObj.mjOBJ_SITE, model.site_bodyid),
     }[kind]
-    raw = _raw(model, obj, count)
+    raw = object_names(model, obj)
     seen_per_body: dict[int, int] = {}
     generated: list[str] = []
-    for i in range(count):
+    for i in range(len(raw)):
         b = int(owner[i])
         k = seen_per_body.get(b, 0)
         seen_per_body[b] = k + 1
@@ -90,7 +88,7 @@ def _compute(model: mujoco.MjModel, kind: str) -> tuple[str, ...]:
 
 
 def _body_names(model: mujoco.MjModel) -> list[str]:
-    raw = _raw(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    raw = object_names(model, mujoco.mjtObj.mjOBJ_BODY)
     names = ["world"] + [""] * (model.nbody - 1)
     children: dict[int, int] = {}
     for b in range(1, model.nbody):  # parents come before children in MuJoCo's body order

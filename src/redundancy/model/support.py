@@ -14,7 +14,7 @@ import numpy as np
 from ..engines.mujoco import JOINT_TYPES as _JOINT_TYPES
 from ..engines.mujoco import object_names as _names
 from ..errors import ModelError, UnsupportedFeatureError
-from .names import body_name, display_names, geom_name
+from .names import display_names
 
 #: Geom types Pinocchio's MJCF parser cannot read at all (it raises on them).
 _UNREADABLE_GEOMS = {int(mujoco.mjtGeom.mjGEOM_SDF), int(mujoco.mjtGeom.mjGEOM_HFIELD)}
@@ -56,12 +56,12 @@ def check_supported(
             damping, a range whose lower limit is above its upper limit).
     """
     if xml_root is not None:
-        check_xml(xml_root, strict=False)
+        _check_xml_values(xml_root)
     if model.njnt == 0:
         raise UnsupportedFeatureError(
             "no joints", "model", "an arm needs at least one hinge or slide joint"
         )
-    names = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    names = _names(model, mujoco.mjtObj.mjOBJ_JOINT)
     joint_labels = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for j in range(model.njnt):
         kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
@@ -163,15 +163,13 @@ def check_supported(
         if int(model.geom_type[g]) in _UNREADABLE_GEOMS:
             raise UnsupportedFeatureError(
                 "sdf or height-field geom",
-                f"geom {geom_name(model, g)!r}",
+                f"geom {geoms[g]!r}",
                 "Pinocchio's MJCF parser cannot read it; use primitive or mesh geoms",
             )
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
         check_names(model)
-    if not strict:
-        return
-    if xml_root is not None:
-        check_xml(xml_root)
+    if strict and xml_root is not None:
+        _check_xml_strict(xml_root)  # the rest of check_xml ran above
 
 
 def check_xml(root: ET.Element, strict: bool = True) -> None:
@@ -183,12 +181,19 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             with False, only what no engine should be given: a root element other than
             ``<mujoco>``, NaN or infinite numbers, and shell inertia (Pinocchio raises).
     """
+    _check_xml_values(root)
+    if strict:
+        _check_xml_strict(root)
 
-    def tag(el: ET.Element, *attrs: str) -> str:
-        shown = [f"name={el.get('name')!r}"] if el.get("name") else []
-        shown += [f"{a}={el.get(a)!r}" for a in attrs if el.get(a) is not None]
-        return f"<{' '.join([el.tag, *shown])}>"
 
+def _tag(el: ET.Element, *attrs: str) -> str:
+    shown = [f"name={el.get('name')!r}"] if el.get("name") else []
+    shown += [f"{a}={el.get(a)!r}" for a in attrs if el.get(a) is not None]
+    return f"<{' '.join([el.tag, *shown])}>"
+
+
+def _check_xml_values(root: ET.Element) -> None:
+    """:func:`check_xml` with ``strict=False``: what no engine should be given."""
     if root.tag != "mujoco":
         raise UnsupportedFeatureError(
             f"<{root.tag}> root element",
@@ -242,13 +247,13 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
                 continue  # a keyword, not a number list
             if not all(np.isfinite(numbers)):
                 raise ModelError(
-                    f"non-finite number in the model: {tag(el)} {attr}={value!r}; "
+                    f"non-finite number in the model: {_tag(el)} {attr}={value!r}; "
                     "every number must be finite"
                 )
         if el.get("shellinertia", "false") == "true":
             raise UnsupportedFeatureError(
                 "shell inertia",
-                tag(el, "shellinertia"),
+                _tag(el, "shellinertia"),
                 "Pinocchio's MJCF parser cannot compute it; "
                 "use a solid geom or an explicit <inertial>",
             )
@@ -260,8 +265,11 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             "Pinocchio's MJCF parser reads the first one again for each of them; "
             "merge them into one",
         )
-    if not strict:
-        return
+
+
+def _check_xml_strict(root: ET.Element) -> None:
+    """What :func:`check_xml` adds with ``strict=True``: what Pinocchio reads differently."""
+    tags = [child.tag for child in root]
     if "worldbody" in tags:
         first_body = tags.index("worldbody")
         for later in ("compiler", "default"):
@@ -335,7 +343,7 @@ def check_xml(root: ET.Element, strict: bool = True) -> None:
             if active is not None and cls is not None and not refines(cls, active):
                 raise UnsupportedFeatureError(
                     "class inside a different childclass",
-                    f"{tag(child, 'class')} in a body with childclass {active!r}",
+                    f"{_tag(child, 'class')} in a body with childclass {active!r}",
                     "Pinocchio's MJCF parser merges the two classes where MuJoCo uses only "
                     "the element's class; set the attributes on the element or use the body's "
                     "childclass",
@@ -358,7 +366,7 @@ def check_names(model: mujoco.MjModel) -> None:
     Raises:
         UnsupportedFeatureError: A reserved joint name or a site named like another frame.
     """
-    joints = _names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
+    joints = _names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for n in joints:
         if n in RESERVED_JOINT_NAMES:
             raise UnsupportedFeatureError(
@@ -367,7 +375,7 @@ def check_names(model: mujoco.MjModel) -> None:
                 f"Pinocchio reserves the name {n!r} for its world joint (its parser aborts on "
                 "it); rename the joint",
             )
-    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY)
     owners: dict[str, str] = {}
     for b in range(1, model.nbody):
         if bodies[b]:
@@ -378,7 +386,7 @@ def check_names(model: mujoco.MjModel) -> None:
                 )
     for n in joints:
         owners.setdefault(n, f"joint {n!r}")
-    for s in _names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite):
+    for s in _names(model, mujoco.mjtObj.mjOBJ_SITE):
         if s and s in owners:
             raise UnsupportedFeatureError(
                 "site named like another frame",
@@ -474,6 +482,7 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     if len(found) != model.nbody - 1:
         return {}
     out: dict[int, tuple[str, ...]] = {}
+    bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
     for b, (el, active) in enumerate(found, start=1):
         from_geoms = from_geoms_always or el.find("inertial") is None
@@ -482,12 +491,12 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
         causes = list(global_causes)
         if not el.get("name"):
             causes.append(
-                f"unnamed body {body_name(model, b)!r} (Pinocchio's parser names it after its "
+                f"unnamed body {bodies[b]!r} (Pinocchio's parser names it after its "
                 "parent and can lose it)"
             )
         if any(f.iter("geom") for f in el.findall("frame")):
             causes.append(
-                f"geoms inside <frame> in body {body_name(model, b)!r} (Pinocchio's parser "
+                f"geoms inside <frame> in body {bodies[b]!r} (Pinocchio's parser "
                 "drops the contents of <frame>)"
             )
         elements = el.findall("geom")

@@ -540,8 +540,3 @@ def frame_clash(pin_model: object, name: str) -> list[str]:
     """Kinds of the Pinocchio frames named ``name`` when there are several (else empty)."""
     frames = [f for f in pin_model.frames if f.name == name]  # type: ignore[attr-defined]
     return [str(f.type).rsplit(".", 1)[-1] for f in frames] if len(frames) > 1 else []
-
-
-def strip_declaration(text: str) -> str:
-    """The text without its XML declaration (an encoding it names no longer applies)."""
-    return re.sub(r"^\s*<\?xml[^>]*\?>", "", text, count=1)

@@ -23,6 +23,7 @@ from ..analysis.crosscheck import (
     Agreement,
     CrossCheckReport,
     crosscheck_batch,
+    merge_worst,
 )
 from ..arm import Arm
 from ..checks import check_count, check_number
@@ -253,16 +254,13 @@ def _engines(arm: Arm, n_poses: int, seed: int) -> EngineAgreement:
 
 
 def _worse(kept: Agreement | None, new: Agreement, offset: int) -> Agreement:
-    """The worse of two chunks' agreements, by :func:`redundancy.crosscheck`'s rules.
-
-    The first strict maximum is kept, and a non-finite error replaces whatever was kept.
-    """
-    shifted = Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset)
-    if kept is None or not math.isfinite(new.max_error):
-        return shifted
-    if math.isfinite(kept.max_error) and new.max_error > kept.max_error:
-        return shifted
-    return kept
+    """The worse of two chunks' agreements, by :func:`redundancy.crosscheck`'s rules."""
+    if kept is None:
+        return Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset)
+    error, pose = merge_worst(
+        (kept.max_error, kept.worst_pose), (new.max_error, new.worst_pose), offset
+    )
+    return Agreement(new.quantity, error, new.tol, pose)
 
 
 # -- judging --------------------------------------------------------------------------------------
