@@ -101,8 +101,8 @@ class Bare:
         n, nv = len(Q), self.m.nv
         self.J, self.M, self.G = np.empty((n, 6, nv)), np.empty((n, nv, nv)), np.empty((n, nv))
         ch = checker(arm)
-        self.coal = ch._coal
-        self.g1, self.g2 = ch._mj.g1.tolist(), ch._mj.g2.tolist()
+        self.coal = ch.coal_scene()
+        self.g1, self.g2 = ch.mujoco_scene().g1.tolist(), ch.mujoco_scene().g2.tolist()
         self.D = np.empty((n, len(ch.pairs)))
 
     def mj_jacobians(self) -> None:

@@ -187,6 +187,17 @@ def slider() -> rd.Arm:
     return rd.load_string(SLIDER)
 
 
+@pytest.fixture(scope="module")
+def arm(request: pytest.FixtureRequest) -> rd.Arm:
+    """The arm fixture named by the parameter (see :func:`on_arms`)."""
+    return request.getfixturevalue(request.param)
+
+
+def on_arms(*names: str) -> pytest.MarkDecorator:
+    """Run a property test once per arm fixture so named, as its ``arm`` argument."""
+    return pytest.mark.parametrize("arm", names, indirect=True)
+
+
 # ==========================================================================================
 # The pair set
 # ==========================================================================================
@@ -438,16 +449,11 @@ def test_unknown_pair_lists_the_pairs() -> None:
 # ==========================================================================================
 
 
+@on_arms("typed", "arm7")
 @given(data=st.data())
-def test_pinocchio_places_geoms_where_mujoco_does(typed: rd.Arm, data: st.DataObject) -> None:
-    q = data.draw(poses(typed))
-    assert col.checker(typed).placement_error(q) < 1e-12
-
-
-@given(data=st.data())
-def test_pinocchio_places_arm7_geoms_where_mujoco_does(arm7: rd.Arm, data: st.DataObject) -> None:
-    q = data.draw(poses(arm7))
-    assert col.checker(arm7).placement_error(q) < 1e-12
+def test_pinocchio_places_geoms_where_mujoco_does(arm: rd.Arm, data: st.DataObject) -> None:
+    q = data.draw(poses(arm))
+    assert col.checker(arm).placement_error(q) < 1e-12
 
 
 def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
@@ -489,17 +495,13 @@ def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
     assert ch.touching_pairs(q, "mujoco") - unclear == by_mujoco
 
 
+@on_arms("typed", "arm7")
 @given(data=st.data())
-def test_engines_agree_on_every_primitive_type(typed: rd.Arm, data: st.DataObject) -> None:
-    q = data.draw(poses(typed))
-    assert_engines_agree(typed, q)
-
-
-@given(data=st.data())
-def test_engines_agree_on_arm7(arm7: rd.Arm, data: st.DataObject) -> None:
-    """The issue's acceptance property (>= 1000 examples under HYPOTHESIS_PROFILE=thorough)."""
-    q = data.draw(poses(arm7))
-    assert_engines_agree(arm7, q)
+def test_engines_agree(arm: rd.Arm, data: st.DataObject) -> None:
+    """On every primitive type, and on arm7: the issue's acceptance property (>= 1000
+    examples under HYPOTHESIS_PROFILE=thorough)."""
+    q = data.draw(poses(arm))
+    assert_engines_agree(arm, q)
 
 
 @given(data=st.data())
@@ -596,7 +598,7 @@ def test_failed_epa_is_redone(monkeypatch: pytest.MonkeyPatch) -> None:
     q[arm.joint_index("j4")] = 2.9
     good = ch.distances(q)
     k = ch.pairs.index(ch.pair("link2", "link4"))
-    scene = ch._coal
+    scene = ch.coal_scene()
     raw = scene._raw_values
 
     def failing(q: np.ndarray) -> np.ndarray:
@@ -766,27 +768,10 @@ def assert_reach_bounds(arm: rd.Arm, q: np.ndarray) -> None:
             assert to_axis <= bound + 1e-12, (m.geom(g).name, m.joint(j).name, to_axis, bound)
 
 
+@on_arms("slider", "arm7", "typed", "meshes")
 @given(data=st.data())
-def test_reach_bounds_hold_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
-    q = data.draw(poses(slider))
-    assert_reach_bounds(slider, q)
-
-
-@given(data=st.data())
-def test_reach_bounds_hold_on_arm7(arm7: rd.Arm, data: st.DataObject) -> None:
-    q = data.draw(poses(arm7))
-    assert_reach_bounds(arm7, q)
-
-
-@given(data=st.data())
-def test_reach_bounds_hold_on_every_type(typed: rd.Arm, data: st.DataObject) -> None:
-    q = data.draw(poses(typed))
-    assert_reach_bounds(typed, q)
-
-
-@given(data=st.data())
-def test_reach_bounds_hold_on_meshes(meshes: rd.Arm, data: st.DataObject) -> None:
-    assert_reach_bounds(meshes, data.draw(poses(meshes)))
+def test_reach_bounds_hold(arm: rd.Arm, data: st.DataObject) -> None:
+    assert_reach_bounds(arm, data.draw(poses(arm)))
 
 
 def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
@@ -803,21 +788,10 @@ def assert_motion_bound(arm: rd.Arm, qa: np.ndarray, qb: np.ndarray) -> None:
     ]
 
 
+@on_arms("arm7", "slider", "meshes")
 @given(data=st.data())
-def test_motion_bound_is_sound_on_arm7(arm7: rd.Arm, data: st.DataObject) -> None:
-    seg = data.draw(segments(arm7))
-    assert_motion_bound(arm7, *seg)
-
-
-@given(data=st.data())
-def test_motion_bound_is_sound_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
-    seg = data.draw(segments(slider))
-    assert_motion_bound(slider, *seg)
-
-
-@given(data=st.data())
-def test_motion_bound_is_sound_with_meshes(meshes: rd.Arm, data: st.DataObject) -> None:
-    assert_motion_bound(meshes, *data.draw(segments(meshes)))
+def test_motion_bound_is_sound(arm: rd.Arm, data: st.DataObject) -> None:
+    assert_motion_bound(arm, *data.draw(segments(arm)))
 
 
 def first_sampled_contact(arm: rd.Arm, Q: np.ndarray, n: int) -> tuple[int, float] | None:
@@ -850,24 +824,13 @@ def assert_path_check_sound(arm: rd.Arm, Q: np.ndarray, engine: str = "coal") ->
     return result
 
 
+@on_arms("arm7", "slider", "meshes")
 @given(data=st.data())
 def test_path_checker_never_misses_what_dense_sampling_finds(
-    arm7: rd.Arm, data: st.DataObject
+    arm: rd.Arm, data: st.DataObject
 ) -> None:
-    Q = np.stack(data.draw(st.lists(poses(arm7), min_size=2, max_size=3)))
-    assert_path_check_sound(arm7, Q)
-
-
-@given(data=st.data())
-def test_path_checker_never_misses_with_a_slide(slider: rd.Arm, data: st.DataObject) -> None:
-    Q = np.stack(data.draw(st.lists(poses(slider), min_size=2, max_size=3)))
-    assert_path_check_sound(slider, Q)
-
-
-@given(data=st.data())
-def test_path_checker_never_misses_with_meshes(meshes: rd.Arm, data: st.DataObject) -> None:
-    Q = np.stack(data.draw(st.lists(poses(meshes), min_size=2, max_size=3)))
-    assert_path_check_sound(meshes, Q)
+    Q = np.stack(data.draw(st.lists(poses(arm), min_size=2, max_size=3)))
+    assert_path_check_sound(arm, Q)
 
 
 def lesson_path(arm: rd.Arm) -> np.ndarray:
@@ -1493,3 +1456,21 @@ def test_a_model_without_geoms_gives_empty_results() -> None:
     stats = col.collision_statistics(arm, 10, distances="mujoco")
     assert stats.pairs == () and stats.poses_with_contact == 0
     assert pc.check_path(arm, [[0.0], [0.5]]).free
+
+
+def test_batch_mujoco_distances_count_slide_travel_from_qpos0() -> None:
+    """The stacked distmax bounds a slide's displacement from qpos0 (its ``ref``), not its range."""
+    xml = """<mujoco><worldbody>
+    <body name="a"><geom name="ga" type="sphere" size="0.05"/>
+      <body name="b"><joint name="s" type="slide" axis="1 0 0" range="0 0.1" ref="-2"/>
+        <geom name="gb" type="sphere" size="0.05" pos="0.05 0 0"/>
+        <body name="c"><joint name="h" type="hinge" axis="0 0 1" range="-1 1"/>
+          <geom name="gc" type="sphere" size="0.05" pos="0.3 0 0"/><site name="tip"/>
+        </body>
+      </body>
+      <body name="d" pos="0 0.5 0"><geom name="gd" type="sphere" size="0.05"/></body>
+    </body></worldbody></mujoco>"""
+    arm = rd.load_string(xml, site="tip", strict=False)
+    Q = np.array([[0.05, 0.2], [0.0, -0.5]])
+    single = np.array([col.checker(arm).distance_values(q, "mujoco") for q in Q])
+    assert np.array_equal(rd.batch.distances(arm, Q, engine="mujoco"), single)

@@ -189,10 +189,6 @@ class CollisionChecker:
             scene = self._local.coal = self._coal_pairs.scene()
         return scene
 
-    # Older spellings, read by :mod:`redundancy.analysis.batch`: this thread's scenes.
-    _mj = property(mujoco_scene)
-    _coal = property(coal_scene)
-
     # -- checks --------------------------------------------------------------------------
     def _q(self, q: ArrayLike) -> Array:
         return self.arm.pose(q)

@@ -137,17 +137,11 @@ class MujocoScene:
     def caps(self, which: Index | None = None) -> list[float]:
         """``distmax`` per pair (all, or those in ``which``) after :meth:`kinematics`."""
         s = self.shared
-        g1, g2, off = (
-            (s.g1, s.g2, s.cap_offset)
-            if which is None
-            else (
-                s.g1[which],
-                s.g2[which],
-                s.cap_offset[which],
-            )
-        )
+        sel = slice(None) if which is None else which
         xpos = self.data.geom_xpos
-        return (np.linalg.norm(xpos[g1] - xpos[g2], axis=1) + off).tolist()
+        return (
+            np.linalg.norm(xpos[s.g1[sel]] - xpos[s.g2[sel]], axis=1) + s.cap_offset[sel]
+        ).tolist()
 
     def distances(self, q: Array) -> tuple[Array, Array, Array]:
         """Signed distance and nearest points of every pair from ``mj_geomDistance``."""

@@ -292,6 +292,10 @@ class PathChecker:
             raise PoseError(f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got (0,)")
         nseg = len(Q) - 1
         thr = self.thresholds
+        # The waypoints are validated and every pose below is made from them: this thread's
+        # scene is called directly, without validating each evaluated pose again.
+        ch = self.checker
+        scene = ch.coal_scene() if engine == "coal" else ch.mujoco_scene()
         evals = 0
         min_clear = np.inf
 
@@ -300,7 +304,7 @@ class PathChecker:
             evals += 1
             if evals > max_evaluations:
                 raise PoseError(f"path check gave up after {max_evaluations} distance evaluations")
-            c = self.checker.distance_values(q, engine) - thr
+            c = scene.distance_values(q) - thr
             min_clear = min(min_clear, float(c.min()))
             return c
 

@@ -11,6 +11,7 @@ from ..arm import Arm
 from ..engines.threads import run_split
 from .checker import CollisionChecker
 from .pairs import DistanceEngine
+from .pathcheck import _travel
 
 Array = NDArray[np.float64]
 
@@ -38,21 +39,22 @@ def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_], offset: Array
     """A per-pair cap for ``mj_geomDistance`` that no pose can reach, or None.
 
     A geom's origin is never further from the world origin than the sum of the body offsets
-    along its chain, the geom's offset in its body and the travel of slide joints on the way;
-    the distance never exceeds the origins' separation plus both bounding radii (0 for a
-    plane, whose origin is on it). So the cap never binds and the result is the single-pose
-    one (``mj_geomDistance`` returns the distance itself whenever it is below the cap). None
-    when an unlimited slide joint makes the reach unbounded.
+    along its chain, the geom's offset in its body and the travel of slide joints on the way
+    (from ``qpos0``, where ``body_pos`` puts them); the distance never exceeds the origins'
+    separation plus both bounding radii (0 for a plane, whose origin is on it). So the cap
+    never binds and the result is the single-pose one (``mj_geomDistance`` returns the
+    distance itself whenever it is below the cap). None when an unlimited slide joint makes
+    the reach unbounded.
     """
     m = arm.mj_model
     reach = np.zeros(m.nbody)
     for b in range(1, m.nbody):
-        travel = 0.0
-        for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
-            if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
-                if not m.jnt_limited[j]:
-                    return None
-                travel += float(np.max(np.abs(m.jnt_range[j])))
+        joints = range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
+        slides = [j for j in joints if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE]
+        # The path checker's rule: the displacement from qpos0, infinite when unlimited.
+        travel = sum(_travel(m, j) for j in slides)
+        if not np.isfinite(travel):
+            return None
         reach[b] = reach[m.body_parentid[b]] + float(np.linalg.norm(m.body_pos[b])) + travel
     geom = reach[m.geom_bodyid] + np.linalg.norm(m.geom_pos, axis=1)
     return geom[g1] + geom[g2] + offset
@@ -61,7 +63,7 @@ def _distmax(arm: Arm, g1: NDArray[np.int_], g2: NDArray[np.int_], offset: Array
 def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
     # The checker's private scene: its GeometryData holds one distance request per pair,
     # set up as the single-pose path uses them.
-    scene = ch._coal
+    scene = ch.coal_scene()
     model, data, gmodel, gdata = scene.pin_model, scene.pin_data, scene.geom_model, scene.geom_data
     # The elements of distanceResults are references into GeometryData's vector: listing them
     # once saves building 15+ wrappers per pose (the costliest part of reading the results).
@@ -79,11 +81,16 @@ def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
 
 def _mj_distances(arm: Arm, ch: CollisionChecker, Q: Array, out: Array, threads: int) -> None:
     m = arm.mj_model
-    g1, g2 = ch._mj.g1, ch._mj.g2
-    offset = ch.mujoco_scene().shared.cap_offset  # both radii + 1 m per pair
+    shared = ch.mujoco_scene().shared
+    g1, g2, ids = shared.g1, shared.g2, shared.ids
+    offset = shared.cap_offset  # both radii + 1 m per pair
     cap = _distmax(arm, g1, g2, offset)
     kin, dist = mujoco.mj_kinematics, mujoco.mj_geomDistance
-    ids = list(zip(g1.tolist(), g2.tolist(), strict=True))
+
+    # With a fixed cap, the (geom, geom, cap) triples are built once, not once per pose.
+    fixed = (
+        None if cap is None else [(a, b, c) for (a, b), c in zip(ids, cap.tolist(), strict=True)]
+    )
 
     def body(lo: int, hi: int) -> None:
         d = mujoco.MjData(m)  # this span's own data: threads never share one
@@ -92,9 +99,10 @@ def _mj_distances(arm: Arm, ch: CollisionChecker, Q: Array, out: Array, threads:
             qpos[:] = q
             kin(m, d)
             # mj_kinematics gives geom_xpos/xmat, all mj_geomDistance reads.
-            caps = (np.linalg.norm(xpos[g1] - xpos[g2], axis=1) + offset) if cap is None else cap
-            row[:] = [
-                dist(m, d, a, b, c, None) for (a, b), c in zip(ids, caps.tolist(), strict=True)
-            ]
+            if fixed is not None:
+                row[:] = [dist(m, d, a, b, c, None) for a, b, c in fixed]
+                continue
+            caps = (np.linalg.norm(xpos[g1] - xpos[g2], axis=1) + offset).tolist()
+            row[:] = [dist(m, d, a, b, c, None) for (a, b), c in zip(ids, caps, strict=True)]
 
     run_split(len(Q), threads, body)

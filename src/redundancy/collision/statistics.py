@@ -147,6 +147,7 @@ def collision_statistics(
     distances: DistanceEngine | None = "coal",
     poses: ArrayLike | None = None,
     prune: bool = True,
+    keyframes: bool = True,
 ) -> CollisionStatistics:
     """Self-collision over random poses: contacts by MuJoCo, closest approach by an engine.
 
@@ -172,6 +173,8 @@ def collision_statistics(
         distances: ``"coal"``, ``"mujoco"`` or ``None`` (contacts only, fastest).
         poses: Explicit poses, shape (n, nq) [rad or m], instead of random ones.
         prune: Skip far pairs (same results); False computes every pair at every pose.
+        keyframes: Measure the clearance at the keyframes (False: ``keyframes`` is empty,
+            for a caller that sweeps a sample in several calls and measures them once).
     """
     if distances is not None:
         check_choice("distance engine", distances, DISTANCE_ENGINES)
@@ -211,7 +214,7 @@ def collision_statistics(
         distance_engine=distances,
         poses_with_contact=sweep.with_contact,
         pairs=stats,
-        keyframes=keyframe_clearance(arm, distances or "coal"),
+        keyframes=keyframe_clearance(arm, distances or "coal") if keyframes else (),
         disagreements=sweep.disagree if distances is not None else -1,
         seconds=seconds,
     )

@@ -23,7 +23,12 @@ from numpy.typing import NDArray
 from .. import linalg
 from ..analysis import batch
 from ..arm import Arm, sampling_ranges
-from ..collision import CollisionStatistics, collision_statistics
+from ..collision import (
+    CollisionStatistics,
+    DistanceEngine,
+    collision_statistics,
+    keyframe_clearance,
+)
 from ..engines.mujoco import MujocoEngine
 from ..model import actuators
 from ..model.actuators import Simulation
@@ -421,15 +426,19 @@ def contacts(
     Chunk results are merged exactly: counts add, the closest approach is the minimum (its
     pose index counted over the whole sample), the sweep time adds up.
     """
+    engine: DistanceEngine | None = distances  # type: ignore[assignment]
     merged: CollisionStatistics | None = None
     offset = 0
     for Q in pose_chunks(arm, n_poses, seed):
-        part = collision_statistics(arm, distances=distances, poses=Q)  # type: ignore[arg-type]
+        # The keyframes do not depend on the chunk: measured once, below.
+        part = collision_statistics(arm, distances=engine, poses=Q, keyframes=False)
         merged = part if merged is None else _merge(merged, part, offset)
         offset += len(Q)
     if merged is None:  # no poses: the keyframes alone
-        merged = collision_statistics(arm, distances=distances, poses=np.zeros((0, arm.nq)))  # type: ignore[arg-type]
-    return dataclasses.replace(merged, seed=seed)
+        empty = np.zeros((0, arm.nq))
+        merged = collision_statistics(arm, distances=engine, poses=empty, keyframes=False)
+    keys = keyframe_clearance(arm, engine or "coal")
+    return dataclasses.replace(merged, seed=seed, keyframes=keys)
 
 
 def _merge(a: CollisionStatistics, b: CollisionStatistics, offset: int) -> CollisionStatistics:
