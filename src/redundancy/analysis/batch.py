@@ -120,9 +120,11 @@ def _jacobians_and_singular_values(
                 arm.engine(engine).evaluate(Q[lo:hi], Stacks(J=J[lo:hi]), max(1, threads - 1))
                 todo.put((lo, hi))
         finally:
-            todo.put(None)  # the SVD thread ends even when a chunk raised
+            todo.put(None)  # the SVDs end even when a chunk raised
 
-    run_beside(jacobians_in_chunks, svds)
+    # The Jacobians on a worker, the SVDs (which wait for them) in this thread: a worker
+    # never waits for other work.
+    run_beside(svds, jacobians_in_chunks)
     return J, S
 
 
@@ -139,7 +141,7 @@ def singular_values(
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: With 2 or more, the SVD runs in a worker thread alongside the Jacobians.
+        threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
 
     Returns:
         Singular values, shape (n, min(6, nq)) [mixed units: m/rad and rad/rad].

@@ -261,6 +261,18 @@ class MujocoEngine:
         dyn = out.dynamics
         R9 = None if out.R is None else out.R.reshape(len(Q), 9)
 
+        def jacobians_only(lo: int, hi: int) -> None:
+            # The commonest stack gets the tightest loop: no per-pose tests, which hold the
+            # GIL that the other threads' mj_* calls are waiting to take back.
+            w = self._work()
+            w.key = None
+            d, qpos = w.data, w.qpos
+            for q, Ji in zip(Q[lo:hi], J[lo:hi], strict=True):  # type: ignore[index]
+                qpos[:] = q
+                kin(m, d)
+                com(m, d)
+                jac(m, d, Ji[:3], Ji[3:], sid)
+
         def body(lo: int, hi: int) -> None:
             w = self._work()
             w.key = None  # this thread's data is about to hold other poses
@@ -285,7 +297,8 @@ class MujocoEngine:
                 if G is not None:
                     rne(m, d, 0, G[i])
 
-        run_split(len(Q), threads, body)
+        only_j = J is not None and X is None and R9 is None and M is None and G is None
+        run_split(len(Q), threads, jacobians_only if only_j else body)
         if M is not None and not out.armature:
             k = np.arange(self.nv)
             M[:, k, k] -= self._armature
