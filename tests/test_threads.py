@@ -197,3 +197,17 @@ def test_no_cache_keeps_an_arm_alive():
         del arm
     gc.collect()
     assert [r() for r in refs] == [None] * 5
+
+
+def _threaded_stack_in_worker(arm: rd.Arm, Q: np.ndarray) -> np.ndarray:
+    return batch.jacobians(arm, Q, threads=2)
+
+
+def test_forked_worker_runs_threaded_stacks_after_the_parent_did(arm7):
+    # The parent's worker threads do not survive fork: the child must start its own.
+    Q = rd.collision.random_poses(arm7, 600, seed=9)
+    expected = batch.jacobians(arm7, Q, threads=2)  # the parent's pool is up
+    ctx = multiprocessing.get_context("fork")
+    with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
+        got = pool.submit(_threaded_stack_in_worker, arm7, Q).result(timeout=120)
+    assert np.array_equal(got, expected)
