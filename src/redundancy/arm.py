@@ -144,11 +144,15 @@ class Arm:
     # -- quantities, from either engine -----------------------------------------------------
     def site_pose(self, q: ArrayLike, engine: EngineName = "mujoco") -> tuple[Array, Array]:
         """Tool site position [m] and rotation matrix, world frame."""
-        return self.engine(engine).site_pose(check_pose(q, self.joint_names))
+        return self.engine(engine).site_pose(q)
 
     def jacobian(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
-        return self.engine(engine).site_jacobian(check_pose(q, self.joint_names))
+        try:  # the engine table read inline: arm.jacobian is a controller's inner loop
+            eng = self._engines[engine]
+        except (KeyError, TypeError):
+            raise UnknownNameError("engine", str(engine), ENGINES) from None
+        return eng.site_jacobian(q)
 
     def svd(
         self, q: ArrayLike, engine: EngineName = "mujoco", rtol: float = linalg.RANK_RTOL
@@ -190,11 +194,11 @@ class Arm:
         self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco"
     ) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
-        return self.engine(engine).mass_matrix(check_pose(q, self.joint_names), armature)
+        return self.engine(engine).mass_matrix(q, armature)
 
     def gravity(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gravity torque the motors must supply to hold ``q`` [N m or N]."""
-        return self.engine(engine).gravity(check_pose(q, self.joint_names))
+        return self.engine(engine).gravity(q)
 
     def armature(self, engine: EngineName = "mujoco") -> Array:
         """Armature per joint as the engine's mass matrix sees it [kg m^2]."""

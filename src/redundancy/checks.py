@@ -30,13 +30,26 @@ def check_pose(q: ArrayLike, names: Sequence[str]) -> Array:
     Raises:
         PoseError: Not numeric, complex, of another shape, or with NaN or infinite values.
     """
-    # Fast path for the common case (a float64 vector of the right length): one C-level
-    # tolist and a Python sum find any NaN or inf (an overflowing sum of finite values only
-    # falls through to the exact check below).
+    return pose_key(q, names)[0]
+
+
+def pose_key(q: ArrayLike, names: Sequence[str]) -> tuple[Array, list[float]]:
+    """:func:`check_pose`, also returning the pose's values as a list of floats.
+
+    The engines key their per-thread kinematics cache by that list. Building it is also how
+    the common pose (a float64 vector of the right length) is checked: a Python ``sum`` of
+    its values is finite only if every value is (an overflowing sum of finite values falls
+    through to the exact check), so a single-pose query makes one pass over ``q``.
+
+    Raises:
+        PoseError: As :func:`check_pose`.
+    """
     if type(q) is np.ndarray and q.dtype is _F64 and q.shape == (len(names),):
-        if math.isfinite(sum(q.tolist())):
-            return q
-    return _check_pose_slow(q, names)
+        key = q.tolist()
+        if math.isfinite(sum(key)):
+            return q, key
+    arr = _check_pose_slow(q, names)
+    return arr, arr.tolist()
 
 
 def _as_real(x: ArrayLike, what: str) -> Array:

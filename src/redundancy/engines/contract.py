@@ -4,8 +4,11 @@ Both :class:`~redundancy.engines.mujoco.MujocoEngine` and
 :class:`~redundancy.engines.pinocchio.PinocchioEngine` implement :class:`Engine`; the rest of
 the library is typed against it and never calls an engine library for these quantities.
 
-Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); poses are
-validated by the caller (:mod:`redundancy.checks`); the site Jacobian is the velocity of the
+Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); a
+single-pose method takes any array-like pose and validates it with
+:func:`redundancy.checks.pose_key` (so an engine may be called directly, and the Arm only
+dispatches), while stacks are validated by the caller (:func:`redundancy.checks.check_poses`)
+because they are validated once and evaluated in chunks; the site Jacobian is the velocity of the
 site origin along world axes (linear rows first); gravity is the generalised force the
 motors must apply to hold a pose. Every method may be called from any number of threads:
 each thread computes with its own engine data.
@@ -17,7 +20,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
 
@@ -70,35 +73,35 @@ class Engine(Protocol):
         """Lower and upper joint limits (``-inf``/``inf`` where unlimited) [rad or m]."""
         ...
 
-    def site_pose(self, q: Array) -> tuple[Array, Array]:
+    def site_pose(self, q: ArrayLike) -> tuple[Array, Array]:
         """Site position [m] and rotation matrix, world frame."""
         ...
 
-    def site_jacobian(self, q: Array) -> Array:
+    def site_jacobian(self, q: ArrayLike) -> Array:
         """Site Jacobian, shape (6, nv) [m/rad; rad/rad]."""
         ...
 
-    def jacobian_derivatives(self, q: Array) -> Array:
+    def jacobian_derivatives(self, q: ArrayLike) -> Array:
         """dJ/dq_k for every k, shape (nv, 6, nv)."""
         ...
 
-    def mass_matrix(self, q: Array, armature: bool = True) -> Array:
+    def mass_matrix(self, q: ArrayLike, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
         ...
 
-    def gravity(self, q: Array) -> Array:
+    def gravity(self, q: ArrayLike) -> Array:
         """Gravity torque to hold ``q`` [N m or N]."""
         ...
 
-    def integrate(self, q: Array, dq: Array) -> Array:
+    def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
         """Configuration reached from ``q`` after the displacement ``dq`` [rad or m]."""
         ...
 
-    def link_inertias(self, q: Array) -> tuple[Array, Array, Array]:
+    def link_inertias(self, q: ArrayLike) -> tuple[Array, Array, Array]:
         """Mass [kg], world centre of mass [m] and inertia about it [kg m^2] per joint's body."""
         ...
 
-    def joint_axes(self, q: Array) -> tuple[Array, Array]:
+    def joint_axes(self, q: ArrayLike) -> tuple[Array, Array]:
         """World joint axes and anchors [m], shape (nv, 3) each."""
         ...
 

@@ -9,15 +9,23 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
+from math import isfinite
 
 import mujoco
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from ..checks import check_pose, pose_key
 from .contract import Stacks
 from .threads import PerThread, run_split
 
 Array = NDArray[np.float64]
+
+_F64 = np.dtype(np.float64)
+_ndarray = np.ndarray
+# The single-pose hot path's engine calls, bound once (a module attribute lookup per call
+# is measurable against a 1.5 us Jacobian).
+_kinematics, _com_pos, _jac_site = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
 
 #: MuJoCo joint type -> the library's name for it.
 JOINT_TYPES = {
@@ -109,8 +117,11 @@ class MujocoEngine:
         self._armature = np.array(armature, dtype=float)
         self._damping = np.array(model.dof_damping if damping is None else damping, dtype=float)
         self._limits = joint_limits(model)
-        # This thread's data; a bound method, so a query pays one call to reach it.
-        self._work = PerThread(lambda: _Work(model)).get
+        self.joint_names = tuple(object_names(model, mujoco.mjtObj.mjOBJ_JOINT))
+        self._shape = (self.nv,)
+        # This thread's data: get() builds it on the thread's first call.
+        threads = PerThread(lambda: _Work(model))
+        self._work, self._local = threads.get, threads.local
 
     # -- the contract's per-joint vectors ---------------------------------------------------
     @property
@@ -129,39 +140,75 @@ class MujocoEngine:
         return self._limits[0].copy(), self._limits[1].copy()
 
     # -- per-thread data --------------------------------------------------------------------
-    def update(self, q: Array) -> _Work:
-        """Bring this thread's data to pose ``q`` (a validated (nv,) array); return it.
+    def update(self, q: ArrayLike) -> _Work:
+        """Validate pose ``q`` and bring this thread's data to it; return the data.
 
-        The kinematics run once per pose: a query at the pose already held reads it.
+        Every single-pose query enters here (:meth:`site_jacobian` has its own copy of the
+        fast path). The kinematics run once per pose: a query at the pose already held
+        reads them.
+
+        Raises:
+            PoseError: ``q`` is not a real (nv,) vector of finite values (see
+                :func:`redundancy.checks.pose_key`).
         """
+        q, key = pose_key(q, self.joint_names)
         w = self._work()
-        key = q.tolist()
         if key != w.key:
-            w.qpos[:] = q
-            # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
-            # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read. qvel stays 0.
-            mujoco.mj_kinematics(self.model, w.data)
-            mujoco.mj_comPos(self.model, w.data)
-            w.key = key
-            w.have_M = w.have_J = False
+            self._load(w, q, key)
         return w
 
+    def _load(self, w: _Work, q: Array, key: list[float]) -> None:
+        w.qpos[:] = q
+        # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
+        # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read. qvel stays 0.
+        _kinematics(self.model, w.data)
+        _com_pos(self.model, w.data)
+        w.key = key
+        w.have_M = w.have_J = False
+
     # -- one pose ---------------------------------------------------------------------------
-    def site_pose(self, q: Array) -> tuple[Array, Array]:
+    def site_pose(self, q: ArrayLike) -> tuple[Array, Array]:
         """Site position [m] and rotation matrix (world frame)."""
         d = self.update(q).data
         i = self.site_id
         return d.site_xpos[i].copy(), d.site_xmat[i].reshape(3, 3).copy()
 
-    def site_jacobian(self, q: Array) -> Array:
-        """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular [rad/rad], world axes."""
-        w = self.update(q)
-        if not w.have_J:
-            mujoco.mj_jacSite(self.model, w.data, w.jacp, w.jacr, self.site_id)
-            w.have_J = True
+    def site_jacobian(self, q: ArrayLike) -> Array:
+        """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular [rad/rad], world axes.
+
+        Raises:
+            PoseError: As :meth:`update`.
+        """
+        # A controller's inner loop (arm.jacobian: at most 1.5x the bare MuJoCo calls), where
+        # a Python call costs as much as the pose check: update(), pose_key's fast path and
+        # the thread lookup are written out here, and a new pose pays one tolist for both
+        # the check and the cache key.
+        try:
+            w = self._local.value
+        except AttributeError:
+            w = self._work()
+        try:
+            # Size first, so a huge array is never listed; any other shape of that size
+            # lists as nested lists, on which sum() raises TypeError, as it does on None.
+            key = q.tolist() if q.size == self.nv and q.dtype is _F64 else None  # type: ignore[union-attr]
+            plain = isfinite(sum(key))  # type: ignore[arg-type]
+        except (AttributeError, TypeError):  # not an array, or not a flat float64 one
+            plain = False
+        if not plain:
+            q, key = pose_key(q, self.joint_names)  # converts, or refuses naming the cause
+        if key != w.key:
+            w.qpos[:] = q
+            _kinematics(self.model, w.data)  # as in _load
+            _com_pos(self.model, w.data)
+            w.key = key
+            w.have_M = False
+        elif w.have_J:
+            return w.jac.copy()
+        _jac_site(self.model, w.data, w.jacp, w.jacr, self.site_id)
+        w.have_J = True
         return w.jac.copy()
 
-    def mass_matrix(self, q: Array, armature: bool = True) -> Array:
+    def mass_matrix(self, q: ArrayLike, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
         w = self.update(q)
         if not w.have_M:
@@ -174,7 +221,7 @@ class MujocoEngine:
             M[np.diag_indices(self.nv)] -= self._armature
         return M
 
-    def gravity(self, q: Array) -> Array:
+    def gravity(self, q: ArrayLike) -> Array:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
         w = self.update(q)
         # With qvel = 0 (and cvel = 0, see jacobian_derivatives) and flg_acc = 0, RNE returns
@@ -182,7 +229,7 @@ class MujocoEngine:
         mujoco.mj_rne(self.model, w.data, 0, w.tau)
         return w.tau.copy()
 
-    def jacobian_derivatives(self, q: Array) -> Array:
+    def jacobian_derivatives(self, q: ArrayLike) -> Array:
         """dJ/dq_k for every k, shape (nv, 6, nv), from ``mj_jacDot`` with qvel = e_k.
 
         ``mj_jacDot`` returns dJ/dt = sum_k dJ/dq_k qdot_k, so a unit velocity on one dof
@@ -206,13 +253,13 @@ class MujocoEngine:
         mujoco.mj_comVel(m, d)
         return out
 
-    def integrate(self, q: Array, dq: Array) -> Array:
+    def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
         """Configuration reached from ``q`` after the displacement ``dq`` [rad or m]."""
-        out = np.array(q, dtype=float)
-        mujoco.mj_integratePos(self.model, out, np.asarray(dq, dtype=float), 1.0)
+        out = check_pose(q, self.joint_names).copy()
+        mujoco.mj_integratePos(self.model, out, check_pose(dq, self.joint_names), 1.0)
         return out
 
-    def link_inertias(self, q: Array) -> tuple[Array, Array, Array]:
+    def link_inertias(self, q: ArrayLike) -> tuple[Array, Array, Array]:
         """Mass [kg], centre of mass [m] and world inertia about it [kg m^2] per dof's body.
 
         Bodies welded to a moving body are lumped into it, as Pinocchio does.
@@ -240,7 +287,7 @@ class MujocoEngine:
             masses[k], coms[k], inertias[k] = mass, com, inertia
         return masses, coms, inertias
 
-    def joint_axes(self, q: Array) -> tuple[Array, Array]:
+    def joint_axes(self, q: ArrayLike) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
         d = self.update(q).data
         return d.xaxis.copy(), d.xanchor.copy()

@@ -11,8 +11,9 @@ from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from ..checks import check_pose, pose_key
 from .contract import Stacks
 from .threads import PerThread
 
@@ -68,6 +69,7 @@ class PinocchioEngine:
             [model.joints[model.getJointId(n)].idx_v for n in joint_names], dtype=int
         )
         self.identity = bool(np.array_equal(self.perm, np.arange(len(self.perm))))
+        self.joint_names = tuple(joint_names)
         self._joint_ids = [model.getJointId(n) for n in joint_names]
         # This thread's data; a bound method, so a query pays one call to reach it.
         self._work = PerThread(lambda: _Work(model)).get
@@ -104,13 +106,16 @@ class PinocchioEngine:
         Qp[:, self.perm] = Q
         return Qp
 
-    def update(self, q: Array) -> _Work:
-        """Bring this thread's data to pose ``q``: joint placements, site frame and site J.
+    def update(self, q: ArrayLike) -> _Work:
+        """Validate pose ``q`` and bring this thread's joints, site frame and site J to it.
 
         They are computed once per pose; site queries at the pose already held read them.
+
+        Raises:
+            PoseError: As :func:`redundancy.checks.pose_key`.
         """
+        q, key = pose_key(q, self.joint_names)
         w = self._work()
-        key = q.tolist()
         if key != w.key:
             # computeFrameJacobian runs the forward kinematics (oMi) and returns the site's
             # Jacobian; LOCAL_WORLD_ALIGNED is MuJoCo's convention: velocity of the site
@@ -123,18 +128,19 @@ class PinocchioEngine:
         return w
 
     # -- one pose ---------------------------------------------------------------------------
-    def site_pose(self, q: Array) -> tuple[Array, Array]:
+    def site_pose(self, q: ArrayLike) -> tuple[Array, Array]:
         """Site position [m] and rotation matrix (world frame)."""
         oMf = self.update(q).data.oMf[self.frame_id]
         return oMf.translation.copy(), oMf.rotation.copy()
 
-    def site_jacobian(self, q: Array) -> Array:
+    def site_jacobian(self, q: ArrayLike) -> Array:
         """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular, world axes."""
         J = self.update(q).J
         return J.copy() if self.identity else J[:, self.perm]
 
-    def mass_matrix(self, q: Array, armature: bool = True) -> Array:
+    def mass_matrix(self, q: ArrayLike, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
+        q = check_pose(q, self.joint_names)
         w = self._work()
         w.key = None  # crba overwrites the kinematics the key stands for
         # crba adds model.armature to the diagonal and fills the upper triangle only.
@@ -144,18 +150,20 @@ class PinocchioEngine:
             M[np.diag_indices(self.nv)] -= self.model.armature
         return M if self.identity else M[np.ix_(self.perm, self.perm)]
 
-    def gravity(self, q: Array) -> Array:
+    def gravity(self, q: ArrayLike) -> Array:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
+        q = check_pose(q, self.joint_names)
         w = self._work()
         w.key = None  # the RNEA pass overwrites the kinematics the key stands for
         return self._vec(pin.computeGeneralizedGravity(self.model, w.data, self._pin_q(w, q)))
 
-    def jacobian_derivatives(self, q: Array) -> Array:
+    def jacobian_derivatives(self, q: ArrayLike) -> Array:
         """dJ/dq_k for every k, shape (nv, 6, nv), from Pinocchio's Jacobian time variation.
 
         With a unit velocity on one dof, dJ/dt of the LOCAL_WORLD_ALIGNED frame Jacobian is
         that dof's partial derivative: second-order kinematics, no finite differences.
         """
+        q = check_pose(q, self.joint_names)
         w = self._work()
         w.key = None
         out = np.zeros((self.nv, 6, self.nv))
@@ -171,14 +179,15 @@ class PinocchioEngine:
             out[i] = np.reshape(dJ, (6, self.nv))[:, self.perm]
         return out
 
-    def integrate(self, q: Array, dq: Array) -> Array:
+    def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
         """Configuration reached from ``q`` after the displacement ``dq`` [rad or m]."""
+        q, dq = check_pose(q, self.joint_names), check_pose(dq, self.joint_names)
         w = self._work()
         v = np.zeros(self.nv)
         v[self.perm] = dq
         return self._vec(pin.integrate(self.model, self._pin_q(w, q).copy(), v))
 
-    def link_inertias(self, q: Array) -> tuple[Array, Array, Array]:
+    def link_inertias(self, q: ArrayLike) -> tuple[Array, Array, Array]:
         """Mass [kg], centre of mass [m] and world inertia about it [kg m^2] per joint's body."""
         data = self.update(q).data  # oMi, from update's forward pass
         n = self.nv
@@ -190,8 +199,9 @@ class PinocchioEngine:
             inertias[i] = world.inertia
         return masses, coms, inertias
 
-    def joint_axes(self, q: Array) -> tuple[Array, Array]:
+    def joint_axes(self, q: ArrayLike) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
+        q = check_pose(q, self.joint_names)
         w = self._work()
         w.key = None
         data = w.data

@@ -110,16 +110,18 @@ class PerThread(Generic[T]):
     threads never share engine data and no data outlives the thread that used it.
     """
 
-    __slots__ = ("_factory", "_local")
+    __slots__ = ("_factory", "local")
 
     def __init__(self, factory: Callable[[], T]) -> None:
         self._factory = factory
-        self._local = threading.local()
+        #: The ``threading.local`` whose ``value`` is this thread's value once ``get`` built
+        #: it; a hot path reads ``local.value`` itself and calls ``get`` on AttributeError.
+        self.local = threading.local()
 
     def get(self) -> T:
         """This thread's value."""
         try:
-            return self._local.value
+            return self.local.value  # type: ignore[no-any-return]
         except AttributeError:
-            value = self._local.value = self._factory()
+            value = self.local.value = self._factory()
             return value
