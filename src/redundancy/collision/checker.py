@@ -179,14 +179,14 @@ class CollisionChecker:
         """This thread's MuJoCo scene (built on first use; never shared between threads)."""
         scene = getattr(self._local, "mujoco", None)
         if scene is None:
-            scene = self._local.mujoco = self._mujoco_pairs.scene()
+            scene = self._local.mujoco = MujocoScene(self._mujoco_pairs)
         return scene
 
     def coal_scene(self) -> CoalScene:
         """This thread's coal scene (built on first use; never shared between threads)."""
         scene = getattr(self._local, "coal", None)
         if scene is None:
-            scene = self._local.coal = self._coal_pairs.scene()
+            scene = self._local.coal = CoalScene(self._coal_pairs)
         return scene
 
     # -- checks --------------------------------------------------------------------------

@@ -203,10 +203,6 @@ class CoalPairs:
             gname, frame.parentJoint, fid, frame.placement * local, coal_shape(m, g)
         )
 
-    def scene(self) -> CoalScene:
-        """A new scene with its own Pinocchio ``Data`` and ``GeometryData``."""
-        return CoalScene(self)
-
 
 class CoalScene:
     """One thread's coal workspace for a pair set (see :class:`CoalPairs`)."""

@@ -70,10 +70,6 @@ class MujocoPairs:
         self.cap_offset = radius[self.g1] + radius[self.g2] + 1.0
         self.ids = list(zip(self.g1.tolist(), self.g2.tolist(), strict=True))
 
-    def scene(self) -> MujocoScene:
-        """A new scene with its own ``MjData``."""
-        return MujocoScene(self)
-
 
 class MujocoScene:
     """One thread's MuJoCo workspace for a pair set (see :class:`MujocoPairs`)."""
