@@ -8,8 +8,10 @@ import pytest
 import redundancy as rd
 from redundancy import batch
 from redundancy.analysis.crosscheck import BATCH_QUANTITIES, TOLERANCES, worst
+from redundancy.checks import check_threads
 from redundancy.collision import checker, random_poses
 from redundancy.engines import ENGINES
+from redundancy.engines.contract import Engine, Stacks
 from redundancy.engines.threads import MIN_POSES_PER_THREAD, spans
 
 from .models import SKEW7
@@ -152,6 +154,32 @@ def test_threads_give_identical_results(arm7: rd.Arm) -> None:
     )
     names = ("jacobian", "mass matrix", "mass matrix (bare)", "gravity", "site position")
     assert rd.crosscheck_batch(arm7, Q, names) == rd.crosscheck_batch(arm7, Q, names, threads=2)
+
+
+@pytest.mark.parametrize("chunk", [MIN_POSES_PER_THREAD, MIN_POSES_PER_THREAD - 1])
+def test_crosscheck_keeps_within_its_threads(
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch, chunk: int
+) -> None:
+    # MuJoCo's worker thread is one of the threads: Pinocchio's OpenMP gravity gets the
+    # others (OpenMP workers beside it, busy-waiting after each call, took the CPU from it),
+    # and none below MIN_POSES_PER_THREAD poses.
+    Q = random_poses(arm7, 2 * MIN_POSES_PER_THREAD, seed=6)
+    names = ("jacobian", "gravity")
+    expected = rd.crosscheck_batch(arm7, Q, names, chunk=chunk)
+    seen: set[tuple[str, int]] = set()
+    for engine in (arm7.mujoco, arm7.pinocchio):
+
+        def spy(Q: np.ndarray, out: Stacks, threads: int = 1, engine: Engine = engine) -> None:
+            seen.add((engine.name, threads))
+            type(engine).evaluate(engine, Q, out, threads)
+
+        monkeypatch.setattr(engine, "evaluate", spy)
+    for threads in (2, 3):
+        seen.clear()
+        assert rd.crosscheck_batch(arm7, Q, names, threads=threads, chunk=chunk) == expected
+        k = check_threads(threads)
+        beside = k > 1 and chunk >= MIN_POSES_PER_THREAD
+        assert seen == {("mujoco", 1), ("pinocchio", k - 1 if beside else 1)}
 
 
 def test_batch_between_single_pose_calls_changes_nothing(arm7: rd.Arm) -> None:

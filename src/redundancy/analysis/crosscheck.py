@@ -249,18 +249,25 @@ def _both_engines(
 ) -> dict[str, dict[str, Array]]:
     """Both engines' stacks for ``Q``, keyed by engine name.
 
-    With threads, MuJoCo (whose ``mj_*`` calls release the GIL) runs in a worker thread on
-    up to ``threads - 1`` threads, beside Pinocchio in the caller's.
+    With threads, MuJoCo (whose ``mj_*`` calls release the GIL) runs in one worker thread
+    beside Pinocchio in the caller's, and Pinocchio's gravity gets the ``threads - 1``
+    threads left: never more threads busy than ``threads``.
     """
     out: dict[str, dict[str, Array]] = {}
 
     def fill(engine: Engine, k: int) -> None:
         out[engine.name] = _evaluate(engine, Q, names, k)
 
+    # Pinocchio gets no more OpenMP threads than MuJoCo leaves free: rneaInParallel's
+    # workers busy-wait ~5 ms after each call (libgomp's default), once per chunk, on the
+    # CPU that MuJoCo's thread and the next chunk's Pinocchio loops need. With gravity on
+    # all ``threads`` beside MuJoCo, 2 threads took 118 ms against 72 ms for 1 (arm7,
+    # 10 000 poses). Below MIN_POSES_PER_THREAD poses no thread pays, OpenMP's included.
     if threads > 1 and len(Q) >= MIN_POSES_PER_THREAD:
-        run_beside(lambda: fill(arm.pinocchio, threads), lambda: fill(arm.mujoco, threads - 1))
+        # MuJoCo runs on one thread: run_split in a worker runs its spans one after another.
+        run_beside(lambda: fill(arm.pinocchio, threads - 1), lambda: fill(arm.mujoco, 1))
     else:
-        fill(arm.pinocchio, threads)
+        fill(arm.pinocchio, 1)
         fill(arm.mujoco, 1)
     return out
 
@@ -283,9 +290,10 @@ def crosscheck_batch(
         Q: Poses, shape (n, nq), or one pose (nq,) [rad or m].
         quantities: Subset of :data:`TOLERANCES` keys; all by default.
         tolerances: Overrides for :data:`TOLERANCES` (finite, >= 0).
-        threads: With 2 or more, MuJoCo runs in a worker thread (its ``mj_*`` calls release
-            the GIL) beside Pinocchio in the caller's thread, on up to ``threads - 1``
-            threads, and Pinocchio's gravity uses that many OpenMP threads.
+        threads: With 2 or more (and at least ``MIN_POSES_PER_THREAD`` poses in a chunk),
+            MuJoCo runs in a worker thread (its ``mj_*`` calls release the GIL) beside
+            Pinocchio in the caller's thread, and Pinocchio's gravity uses the other
+            ``threads - 1`` as OpenMP threads.
         chunk: Poses per chunk (>= 1).
 
     Returns:
