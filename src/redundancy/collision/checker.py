@@ -31,7 +31,15 @@ from ..checks import check_choice
 from ..errors import ModelError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
-from .pairs import DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, collision_pairs, find_pair
+from .pairs import (
+    DISTANCE_ENGINES,
+    Array,
+    DistanceEngine,
+    GeomPair,
+    NearPair,
+    collision_pairs,
+    find_pair,
+)
 
 if TYPE_CHECKING:
     from ..arm import Arm
@@ -48,7 +56,7 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class PairDistance:
+class PairDistance(NearPair):
     """Signed distance between the two geoms of a pair at one pose.
 
     Attributes:
@@ -62,11 +70,6 @@ class PairDistance:
     distance: float
     point1: Array
     point2: Array
-
-    @property
-    def touching(self) -> bool:
-        """True when MuJoCo would list a contact: distance below the pair's threshold."""
-        return self.distance < self.pair.threshold
 
     @property
     def clearance(self) -> float:

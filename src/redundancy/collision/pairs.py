@@ -100,6 +100,24 @@ class GeomPair:
         return self.label
 
 
+class NearPair:
+    """The contact rule shared by every result that carries a pair and its distance.
+
+    Subclasses are frozen dataclasses declaring ``pair`` and ``distance`` as fields.
+    """
+
+    pair: GeomPair
+    distance: float
+
+    @property
+    def touching(self) -> bool:
+        """True when MuJoCo would list a contact: distance below the pair's threshold.
+
+        On a path's first contact, False means a near miss within the checker's tolerance.
+        """
+        return self.distance < self.pair.threshold
+
+
 def _margin_gap(model: mujoco.MjModel, g1: int, g2: int, ipair: int) -> tuple[float, float]:
     """Margin and gap of a pair as engine_collision_driver.c's getMargin/getGap compute them."""
     if model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_OVERRIDE:

@@ -46,7 +46,7 @@ from ..caching import PerObject
 from ..checks import check_choice, check_poses
 from ..errors import PoseError, UnsupportedFeatureError
 from .checker import CollisionChecker, checker
-from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair
+from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair, NearPair
 from .shapes import bounding_radius
 
 if TYPE_CHECKING:
@@ -170,7 +170,7 @@ def motion_weights(model: mujoco.MjModel, pairs: tuple[GeomPair, ...]) -> Array:
 
 
 @dataclass(frozen=True)
-class PathContact:
+class PathContact(NearPair):
     """Where a path first meets a contact (or comes within ``tol`` of one).
 
     Attributes:
@@ -190,11 +190,6 @@ class PathContact:
     pair: GeomPair
     distance: float
     clear_until: float
-
-    @property
-    def touching(self) -> bool:
-        """True for a contact (distance below the pair's threshold), False for a near miss."""
-        return self.distance < self.pair.threshold
 
 
 @dataclass(frozen=True)

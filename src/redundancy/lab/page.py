@@ -67,6 +67,10 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 
 Array = NDArray[np.float64]
 
+#: Arrow sizes [m] (viser's shaft radius, head radius, head length): joint axes, and the
+#: Jacobian's lost directions.
+_AXIS_ARROWS = {"shaft_radius": 0.003, "head_radius": 0.009, "head_length": 0.025}
+_LOST_ARROWS = {"shaft_radius": 0.005, "head_radius": 0.015, "head_length": 0.03}
 #: Label of the kd slider.
 KD_LABEL = "kd (N m s/rad)"
 #: Largest kd on its slider [N m s/rad]: the lesson's 5 fits, and the bare wrist's
@@ -400,10 +404,8 @@ class LabPage:
             "/joint_axes",
             self._axis_points(anchor, axis),
             (240, 160, 0),
-            shaft_radius=0.003,
-            head_radius=0.009,
-            head_length=0.025,
             visible=False,
+            **_AXIS_ARROWS,
         )
         self._contacts = [
             scene.add_icosphere(f"/contacts/c{k}", radius=0.012, color=(230, 30, 30), visible=False)
@@ -433,22 +435,11 @@ class LabPage:
             scale=(1e-3, 1e-3, 1e-3),
             visible=False,
         )
-        self._lost = scene.add_arrows(
-            "/lost",
-            np.zeros((1, 2, 3)),
-            (200, 0, 200),
-            shaft_radius=0.005,
-            head_radius=0.015,
-            head_length=0.03,
-            visible=False,
-        )
+        # The lost directions and the self-motion trail start hidden, with no segments.
+        none = np.zeros((1, 2, 3))
+        self._lost = scene.add_arrows("/lost", none, (200, 0, 200), visible=False, **_LOST_ARROWS)
         self._trail_handle = scene.add_line_segments(
-            "/trail",
-            np.zeros((1, 2, 3)),
-            (30, 100, 235),
-            thickness=3.0,
-            thickness_units="screen",
-            visible=False,
+            "/trail", none, (30, 100, 235), thickness=3.0, thickness_units="screen", visible=False
         )
         self.gizmo = scene.add_transform_controls(
             "/gizmo",
