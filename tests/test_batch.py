@@ -182,6 +182,30 @@ def test_crosscheck_keeps_within_its_threads(
         assert seen == {("mujoco", 1), ("pinocchio", k - 1 if beside else 1)}
 
 
+@pytest.mark.parametrize(("n", "threads"), [(10, 2), (MIN_POSES_PER_THREAD - 1, 2), (600, 2)])
+def test_pinocchio_gravity_runs_as_many_openmp_threads_as_spans(
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch, n: int, threads: int
+) -> None:
+    # OpenMP workers on a small stack cost more than they save (and busy-wait after the call).
+    import pinocchio as pin
+
+    Q = random_poses(arm7, n, seed=8)
+    expected = np.zeros((n, arm7.nq))
+    arm7.pinocchio.evaluate(Q, Stacks(G=expected))
+    seen: list[int] = []
+    real = pin.rneaInParallel
+
+    def spy(k: int, *args: object) -> object:
+        seen.append(k)
+        return real(k, *args)
+
+    monkeypatch.setattr(pin, "rneaInParallel", spy)
+    G = np.zeros((n, arm7.nq))
+    arm7.pinocchio.evaluate(Q, Stacks(G=G), threads)
+    assert seen == [len(spans(n, threads))]
+    assert np.array_equal(G, expected)
+
+
 def test_batch_between_single_pose_calls_changes_nothing(arm7: rd.Arm) -> None:
     # The engines keep the last pose's kinematics per thread; a stack evaluated in the same
     # thread must invalidate them, so the next single-pose query recomputes.

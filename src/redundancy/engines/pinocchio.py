@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_pose, pose_key
 from .contract import Stacks
-from .threads import PerThread
+from .threads import PerThread, spans
 
 Array = NDArray[np.float64]
 
@@ -222,7 +222,8 @@ class PinocchioEngine:
 
         Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread;
         gravity is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
-        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads.
+        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads (fewer on a small stack,
+        as :func:`~redundancy.engines.threads.spans` splits one).
         """
         model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
         X, R, J, M, G = out.X, out.R, out.J, out.M, out.G
@@ -261,6 +262,10 @@ class PinocchioEngine:
             if not self.identity:
                 M[:] = M[:, self.perm][:, :, self.perm]
         if G is not None and n:
+            # As many OpenMP threads as run_split would use: below MIN_POSES_PER_THREAD poses
+            # a thread costs more than it saves, and libgomp's workers busy-wait ~5 ms after
+            # each call, on CPU the caller may need.
+            threads = len(spans(n, threads))
             pool = w.pools.get(threads)
             if pool is None:
                 pool = w.pools[threads] = pin.ModelPool(model, threads)
