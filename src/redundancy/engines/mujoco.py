@@ -8,6 +8,7 @@ and dof orders coincide).
 from __future__ import annotations
 
 import contextlib
+import itertools
 from collections.abc import Iterator
 from math import isfinite
 
@@ -301,51 +302,74 @@ class MujocoEngine:
         ``mj_*``, so ``threads`` > 1 runs spans of poses in parallel, each thread on its own
         ``MjData``.
         """
-        m, sid = self.model, self.site_id
+        m, sid, n = self.model, self.site_id, len(Q)
         kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
         crb, full, rne = mujoco.mj_crb, mujoco.mj_fullM, mujoco.mj_rne
         X, J, M, G = out.X, out.J, out.M, out.G
+        R9 = None if out.R is None else out.R.reshape(n, 9)
+        # mj_jacSite writes the linear and angular rows: per pose, two contiguous 3 x nv rows.
+        Jp, Jr = (None, None) if J is None else (J[:, :3], J[:, 3:])
+        wanted = [s for s in (X, R9, Jp, Jr, M, G) if s is not None]
         dyn = out.dynamics
-        R9 = None if out.R is None else out.R.reshape(len(Q), 9)
 
-        def jacobians_only(lo: int, hi: int) -> None:
-            # The commonest stack gets the tightest loop: no per-pose tests, which hold the
-            # GIL that the other threads' mj_* calls are waiting to take back.
-            w = self._work()
-            w.key = None
-            d, qpos = w.data, w.qpos
-            for q, Ji in zip(Q[lo:hi], J[lo:hi], strict=True):  # type: ignore[index]
-                qpos[:] = q
-                kin(m, d)
-                com(m, d)
-                jac(m, d, Ji[:3], Ji[3:], sid)
-
-        def body(lo: int, hi: int) -> None:
+        def data() -> tuple[mujoco.MjData, Array]:
             w = self._work()
             w.key = None  # this thread's data is about to hold other poses
-            d, qpos = w.data, w.qpos
+            return w.data, w.qpos
+
+        def one_stack(lo: int, hi: int) -> None:
+            # J, M or gravity alone get loops with no per-pose tests or indexing: each costs
+            # 3 to 8 % of a pose's 1.7 us, under the GIL the other threads' mj_* calls are
+            # waiting to take back (measured on arm7).
+            d, qpos = data()
+            rows = zip(Q[lo:hi], *(s[lo:hi] for s in wanted), strict=True)
+            if J is not None:
+                for q, jp, jr in rows:
+                    qpos[:] = q
+                    kin(m, d)
+                    com(m, d)
+                    jac(m, d, jp, jr, sid)
+            elif M is not None:
+                for q, Mi in rows:
+                    qpos[:] = q
+                    kin(m, d)
+                    com(m, d)
+                    crb(m, d)  # d.qM, armature included; mj_fullM makes it dense
+                    full(m, d, Mi)
+            else:
+                # With qvel = cvel = 0 and flg_acc = 0, RNE returns gravity alone.
+                for q, g in rows:
+                    qpos[:] = q
+                    kin(m, d)
+                    com(m, d)
+                    rne(m, d, 0, g)
+
+        def any_stacks(lo: int, hi: int) -> None:
+            d, qpos = data()
             sx, sm = d.site_xpos, d.site_xmat
-            for i in range(lo, hi):
-                qpos[:] = Q[i]
+            none = itertools.repeat(None)
+            rows = (none if s is None else s[lo:hi] for s in (X, R9, Jp, Jr, M, G))
+            # repeat(None) stands for a stack not wanted; every other row has hi - lo rows.
+            for q, x, r, jp, jr, Mi, g in zip(Q[lo:hi], *rows, strict=False):
+                qpos[:] = q
                 kin(m, d)
-                if X is not None:
-                    X[i] = sx[sid]
-                if R9 is not None:
-                    R9[i] = sm[sid]
+                if x is not None:
+                    x[:] = sx[sid]
+                if r is not None:
+                    r[:] = sm[sid]
                 if not dyn:
                     continue
                 com(m, d)
-                if J is not None:
-                    Ji = J[i]
-                    jac(m, d, Ji[:3], Ji[3:], sid)
-                if M is not None:
+                if jp is not None:
+                    jac(m, d, jp, jr, sid)
+                if Mi is not None:
                     crb(m, d)
-                    full(m, d, M[i])
-                if G is not None:
-                    rne(m, d, 0, G[i])
+                    full(m, d, Mi)
+                if g is not None:
+                    rne(m, d, 0, g)
 
-        only_j = J is not None and X is None and R9 is None and M is None and G is None
-        run_split(len(Q), threads, jacobians_only if only_j else body)
+        single = X is None and R9 is None and sum(s is not None for s in (J, M, G)) == 1
+        run_split(n, threads, one_stack if single else any_stacks)
         if M is not None and not out.armature:
             k = np.arange(self.nv)
             M[:, k, k] -= self._armature

@@ -32,6 +32,17 @@ def joint_kind(joint: pin.JointModel) -> str:
     return name
 
 
+def _mirror_upper(M: Array) -> None:
+    """Copy the upper triangle of one matrix, or of a stack, onto its lower one, in place.
+
+    ``crba`` fills only the upper triangle. Index assignment moves the 21 off-diagonal
+    values of a 7 x 7 matrix (0.3 ms for 10 000) where ``triu(M) + triu(M, 1).T`` builds
+    and adds whole matrices (7 ms).
+    """
+    i, j = np.triu_indices(M.shape[-1], 1)
+    M[..., j, i] = M[..., i, j]
+
+
 class _Work:
     """One thread's ``pinocchio.Data``, its configuration buffer and the pose it holds."""
 
@@ -144,8 +155,8 @@ class PinocchioEngine:
         w = self._work()
         w.key = None  # crba overwrites the kinematics the key stands for
         # crba adds model.armature to the diagonal and fills the upper triangle only.
-        M = pin.crba(self.model, w.data, self._pin_q(w, q))
-        M = np.triu(M) + np.triu(M, 1).T
+        M = np.array(pin.crba(self.model, w.data, self._pin_q(w, q)))
+        _mirror_upper(M)
         if not armature:
             M[np.diag_indices(self.nv)] -= self.model.armature
         return M if self.identity else M[np.ix_(self.perm, self.perm)]
@@ -254,8 +265,7 @@ class PinocchioEngine:
             crba = pin.crba
             for i, q in enumerate(Qp):
                 M[i] = crba(model, data, q)
-            # crba fills the upper triangle (armature on the diagonal).
-            M[:] = np.triu(M) + np.triu(M, 1).transpose(0, 2, 1)
+            _mirror_upper(M)  # crba fills the upper triangle (armature on the diagonal)
             if not out.armature:
                 k = np.arange(nv)
                 M[:, k, k] -= model.armature
