@@ -12,6 +12,7 @@ from redundancy.checks import check_threads
 from redundancy.collision import checker, random_poses
 from redundancy.engines import ENGINES
 from redundancy.engines.contract import Engine, Stacks
+from redundancy.engines.pinocchio import PinocchioEngine
 from redundancy.engines.threads import MIN_POSES_PER_THREAD, spans
 
 from .models import SKEW7
@@ -180,6 +181,33 @@ def test_crosscheck_keeps_within_its_threads(
         k = check_threads(threads)
         beside = k > 1 and chunk >= MIN_POSES_PER_THREAD
         assert seen == {("mujoco", 1), ("pinocchio", k - 1 if beside else 1)}
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_pinocchio_stacks_follow_a_joint_order_other_than_its_own(
+    arm7: rd.Arm, threads: int
+) -> None:
+    # The loaders' arms keep Pinocchio's order; an engine given the joints in another order
+    # must permute every stack as its single-pose methods do (the permuted branches).
+    eng = PinocchioEngine(arm7.pinocchio.model, arm7.site, arm7.joint_names[::-1])
+    assert not eng.identity
+    Q = random_poses(arm7, 2 * MIN_POSES_PER_THREAD, seed=9)
+    n, nv = Q.shape
+    for armature in (True, False):
+        out = Stacks(
+            X=np.empty((n, 3)),
+            R=np.empty((n, 3, 3)),
+            J=np.empty((n, 6, nv)),
+            M=np.empty((n, nv, nv)),
+            G=np.empty((n, nv)),
+            armature=armature,
+        )
+        eng.evaluate(Q, out, threads)
+        assert np.array_equal(out.X, stack(lambda q: eng.site_pose(q)[0], Q))
+        assert np.array_equal(out.R, stack(lambda q: eng.site_pose(q)[1], Q))
+        assert np.array_equal(out.J, stack(eng.site_jacobian, Q))
+        assert np.array_equal(out.M, stack(lambda q: eng.mass_matrix(q, armature), Q))
+        assert np.array_equal(out.G, stack(eng.gravity, Q))
 
 
 @pytest.mark.parametrize(("n", "threads"), [(10, 2), (MIN_POSES_PER_THREAD - 1, 2), (600, 2)])

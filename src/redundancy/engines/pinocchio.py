@@ -280,8 +280,11 @@ class PinocchioEngine:
             if pool is None:
                 pool = w.pools[threads] = pin.ModelPool(model, threads)
             # rneaInParallel takes (nq, n) column stacks: the transpose of a C-contiguous
-            # (n, nq) stack is one, without a copy; tau is written in place.
+            # (n, nq) stack is one, without a copy; tau is written in place, into G itself
+            # when the joint orders agree.
             zeros = np.zeros((nv, n), order="F")
-            tau = np.zeros((nv, n), order="F")
+            direct = self.identity and G.flags.c_contiguous
+            tau = G.T if direct else np.zeros((nv, n), order="F")
             pin.rneaInParallel(threads, pool, Qp.T, zeros, zeros, tau)
-            G[:] = tau.T if self.identity else tau.T[:, self.perm]
+            if not direct:
+                G[:] = tau.T[:, self.perm]
