@@ -21,9 +21,8 @@ import pytest
 
 import redundancy as rd
 
-from .models import SKEW7, chain
+from .models import chain
 
-ARM = rd.load_string(SKEW7, site="tool")
 JOINTS = "['q1', 'q2', 'q3', 'q4', 'q5', 'q6', 'q7']"
 ARM7_TEXT = rd.model_path("arm7").read_text()
 #: Text an engine prints when it complains (MuJoCo's warnings, C++ or Python tracebacks).
@@ -70,8 +69,9 @@ CUBE = (
 RADIAN = '<mujoco><compiler angle="radian"/>'
 
 
-def cases(tmp: str) -> dict[str, Case]:
-    """The table; ``tmp`` is a scratch directory for file-based cases."""
+def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
+    """The table; ``tmp`` is a scratch directory for file-based cases, ``arm`` the arm the
+    pose cases call (None when only the names are wanted)."""
     return {
         # -- not an MJCF model ----------------------------------------------------------------
         "empty text": Case(
@@ -438,57 +438,57 @@ def cases(tmp: str) -> dict[str, Case]:
         ),
         # -- poses and other arguments ---------------------------------------------------------
         "complex pose": Case(
-            lambda: ARM.jacobian(np.full(7, 0.1 + 1j)),
+            lambda: arm.jacobian(np.full(7, 0.1 + 1j)),
             rd.PoseError,
             r"^pose must be real, got complex values$",
         ),
         "pose as text": Case(
-            lambda: ARM.jacobian("0 0 0 0 0 0 0"),
+            lambda: arm.jacobian("0 0 0 0 0 0 0"),
             rd.PoseError,
             r"^pose must be numeric, got str: could not convert string to float",
         ),
         "pose None": Case(
-            lambda: ARM.gravity(None),
+            lambda: arm.gravity(None),
             rd.PoseError,
             "^" + re.escape(f"pose must have shape (7,) for joints {JOINTS}, got shape ()") + "$",
         ),
         "pose dict": Case(
-            lambda: ARM.mass_matrix({}), rd.PoseError, r"^pose must be numeric, got dict"
+            lambda: arm.mass_matrix({}), rd.PoseError, r"^pose must be numeric, got dict"
         ),
         "ragged pose": Case(
-            lambda: ARM.jacobian([[0, 0, 0], [0, 0, 0, 0]]),
+            lambda: arm.jacobian([[0, 0, 0], [0, 0, 0, 0]]),
             rd.PoseError,
             r"^pose must be numeric, got list: setting an array element with a sequence",
         ),
         "column pose": Case(
-            lambda: ARM.jacobian(np.zeros((7, 1))),
+            lambda: arm.jacobian(np.zeros((7, 1))),
             rd.PoseError,
             "^"
             + re.escape(f"pose must have shape (7,) for joints {JOINTS}, got shape (7, 1)")
             + "$",
         ),
         "empty pose": Case(
-            lambda: ARM.site_pose([]),
+            lambda: arm.site_pose([]),
             rd.PoseError,
             "^" + re.escape(f"pose must have shape (7,) for joints {JOINTS}, got shape (0,)") + "$",
         ),
         "slide out of range": Case(
-            lambda: ARM.pose([0, 0, 0.2, 0, 0, 0, 0], check_range=True),
+            lambda: arm.pose([0, 0, 0.2, 0, 0, 0, 0], check_range=True),
             rd.OutOfRangeError,
             r"^joint 'q3' = 0.2 is outside its range \[-0.1, 0.1\]$",
         ),
         "NaN pose in crosscheck": Case(
-            lambda: rd.crosscheck(ARM, np.full((2, 7), np.nan)),
+            lambda: rd.crosscheck(arm, np.full((2, 7), np.nan)),
             rd.PoseError,
             r"^pose 0 has non-finite values: q1=nan, q2=nan",
         ),
         "inf pose in compare_models": Case(
-            lambda: rd.compare_models(ARM, np.full(7, np.inf)),
+            lambda: rd.compare_models(arm, np.full(7, np.inf)),
             rd.PoseError,
             r"^pose has non-finite values: q1=inf",
         ),
         "unknown engine": Case(
-            lambda: ARM.jacobian(np.zeros(7), engine="drake"),  # type: ignore[arg-type]
+            lambda: arm.jacobian(np.zeros(7), engine="drake"),  # type: ignore[arg-type]
             rd.UnknownNameError,
             r"^unknown engine 'drake'; valid engine names: \['mujoco', 'pinocchio'\]$",
         ),
@@ -499,8 +499,10 @@ NAMES = list(cases("/tmp"))
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_bad_input(name: str, tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
-    case = cases(str(tmp_path))[name]
+def test_bad_input(
+    name: str, tmp_path: Path, capfd: pytest.CaptureFixture[str], skew7: rd.Arm
+) -> None:
+    case = cases(str(tmp_path), skew7)[name]
     capfd.readouterr()
     with pytest.raises(case.error) as exc:
         case.call()

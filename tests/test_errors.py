@@ -9,7 +9,6 @@ import redundancy as rd
 
 from .models import SKEW7, chain
 
-ARM = rd.load_string(SKEW7, site="tool")
 JOINTS = "['q1', 'q2', 'q3', 'q4', 'q5', 'q6', 'q7']"
 
 
@@ -20,15 +19,15 @@ def test_unknown_site_lists_the_valid_ones():
     assert exc.value.valid == ("tool",)
 
 
-def test_unknown_joint_and_keyframe():
+def test_unknown_joint_and_keyframe(skew7: rd.Arm):
     with pytest.raises(
         rd.UnknownNameError, match=r"^unknown joint 'j1'; valid joint names: \['q1', 'q2'"
     ):
-        ARM.joint_index("j1")
+        skew7.joint_index("j1")
     with pytest.raises(
         rd.UnknownNameError, match=r"^unknown keyframe 'home'; valid keyframe names: \['bent'\]$"
     ):
-        ARM.keyframe("home")
+        skew7.keyframe("home")
 
 
 def test_unknown_bundled_model():
@@ -45,24 +44,24 @@ def test_unknown_bundled_model():
         ([np.inf, 0, 0, 0, 0, 0, -np.inf], "pose has non-finite values: q1=inf, q7=-inf"),
     ],
 )
-def test_bad_pose_shape_and_values(q, message):
-    for call in (ARM.jacobian, ARM.gravity, ARM.mass_matrix):
+def test_bad_pose_shape_and_values(q, message, skew7: rd.Arm):
+    for call in (skew7.jacobian, skew7.gravity, skew7.mass_matrix):
         with pytest.raises(rd.PoseError) as exc:
             call(q)
         assert str(exc.value) == message
 
 
-def test_non_numeric_pose():
+def test_non_numeric_pose(skew7: rd.Arm):
     with pytest.raises(rd.PoseError, match=r"^pose must be numeric, got list"):
-        ARM.jacobian(["a"] * 7)
+        skew7.jacobian(["a"] * 7)
 
 
-def test_out_of_range_pose_when_range_matters():
+def test_out_of_range_pose_when_range_matters(skew7: rd.Arm):
     q = np.zeros(7)
     q[1] = 2.0  # q2 range is +-90 degrees
-    ARM.jacobian(q)  # kinematics is defined outside the range
+    skew7.jacobian(q)  # kinematics is defined outside the range
     with pytest.raises(rd.OutOfRangeError) as exc:
-        ARM.pose(q, check_range=True)
+        skew7.pose(q, check_range=True)
     assert str(exc.value) == "joint 'q2' = 2 is outside its range [-1.5708, 1.5708]"
     assert (exc.value.joint, exc.value.value) == ("q2", 2.0)
 
@@ -170,21 +169,21 @@ def test_everything_is_a_redundancy_error():
         assert issubclass(cls, rd.RedundancyError)
 
 
-def test_bad_characteristic_length():
+def test_bad_characteristic_length(skew7: rd.Arm):
     with pytest.raises(
         rd.ParameterError, match=r"^length must be a finite number > 0 \[m\], got 0$"
     ):
-        ARM.manipulability(np.zeros(7), length=0)
+        skew7.manipulability(np.zeros(7), length=0)
 
 
-def test_unknown_crosscheck_quantity_lists_the_valid_ones():
+def test_unknown_crosscheck_quantity_lists_the_valid_ones(skew7: rd.Arm):
     for check in (rd.crosscheck, rd.crosscheck_batch):
         with pytest.raises(
             rd.UnknownNameError,
             match=r"^unknown quantity 'jacobain'; valid quantity names: \['site position'",
         ):
             check(
-                ARM,
+                skew7,
                 np.zeros(7) if check is rd.crosscheck else np.zeros((1, 7)),
                 quantities=("jacobain",),
             )

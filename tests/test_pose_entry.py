@@ -21,8 +21,7 @@ from redundancy.engines.contract import Engine
 
 from .models import SKEW7
 
-ARM = rd.load_string(SKEW7, site="tool")
-NQ = ARM.nq
+NQ = 7  # the joints of SKEW7, the ``skew7`` fixture's arm
 
 
 def _single_pose_calls(engine: Engine) -> dict[str, Callable[[object], object]]:
@@ -75,10 +74,12 @@ BAD = {
 
 @pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("kind", list(BAD))
-def test_every_single_pose_method_refuses_what_check_pose_refuses(engine: str, kind: str) -> None:
+def test_every_single_pose_method_refuses_what_check_pose_refuses(
+    skew7: rd.Arm, engine: str, kind: str
+) -> None:
     q = BAD[kind]
-    expected = _outcome(lambda: check_pose(q, ARM.joint_names))
-    for name, call in _single_pose_calls(ARM.engine(engine)).items():  # type: ignore[arg-type]
+    expected = _outcome(lambda: check_pose(q, skew7.joint_names))
+    for name, call in _single_pose_calls(skew7.engine(engine)).items():  # type: ignore[arg-type]
         got = _outcome(lambda call=call: call(q))  # type: ignore[misc]
         assert got[0] == expected[0], (name, got, expected)
         if expected[0] == "error":
@@ -122,10 +123,12 @@ def _poses() -> st.SearchStrategy[object]:
 
 @pytest.mark.parametrize("engine", ENGINES)
 @given(q=_poses())
-def test_site_jacobian_fast_path_agrees_with_check_pose(engine: str, q: object) -> None:
-    eng = ARM.engine(engine)  # type: ignore[arg-type]
+def test_site_jacobian_fast_path_agrees_with_check_pose(
+    skew7: rd.Arm, engine: str, q: object
+) -> None:
+    eng = skew7.engine(engine)  # type: ignore[arg-type]
     eng.site_jacobian(np.full(NQ, 0.25))  # hold another pose: q must miss the cache
-    expected = _outcome(lambda: eng.site_jacobian(check_pose(q, ARM.joint_names)))
+    expected = _outcome(lambda: eng.site_jacobian(check_pose(q, skew7.joint_names)))
     eng.site_jacobian(np.full(NQ, 0.25))
     got = _outcome(lambda: eng.site_jacobian(q))
     assert got[0] == expected[0], (got, expected)
@@ -133,8 +136,8 @@ def test_site_jacobian_fast_path_agrees_with_check_pose(engine: str, q: object) 
 
 
 @pytest.mark.parametrize("engine", ENGINES)
-def test_pose_cache_follows_values_not_objects(engine: str) -> None:
-    eng = ARM.engine(engine)  # type: ignore[arg-type]
+def test_pose_cache_follows_values_not_objects(skew7: rd.Arm, engine: str) -> None:
+    eng = skew7.engine(engine)  # type: ignore[arg-type]
     q = np.full(NQ, 0.3)
     first = eng.site_jacobian(q)
     q[1] += 0.5  # the same array, changed in place
@@ -148,8 +151,8 @@ def test_pose_cache_follows_values_not_objects(engine: str) -> None:
 
 
 @pytest.mark.parametrize("engine", ENGINES)
-def test_a_refused_pose_leaves_the_held_pose_intact(engine: str) -> None:
-    eng = ARM.engine(engine)  # type: ignore[arg-type]
+def test_a_refused_pose_leaves_the_held_pose_intact(skew7: rd.Arm, engine: str) -> None:
+    eng = skew7.engine(engine)  # type: ignore[arg-type]
     q = np.linspace(-0.4, 0.4, NQ)
     J, M, g = eng.site_jacobian(q), eng.mass_matrix(q), eng.gravity(q)
     bad = q.copy()
@@ -162,9 +165,9 @@ def test_a_refused_pose_leaves_the_held_pose_intact(engine: str) -> None:
     assert np.array_equal(eng.gravity(q), g)
 
 
-def test_queries_in_any_order_read_one_kinematics_pass() -> None:
+def test_queries_in_any_order_read_one_kinematics_pass(skew7: rd.Arm) -> None:
     """J, M, gravity and the site pose at one pose, in every order, equal fresh answers."""
-    eng = ARM.mujoco
+    eng = skew7.mujoco
     q = np.linspace(0.5, -0.5, NQ)
     fresh = rd.load_string(SKEW7, site="tool").mujoco
     want = {
