@@ -7,6 +7,7 @@ same code serves both engines and users' own matrices.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -123,14 +124,7 @@ class Manipulability:
     def _get(self, kind: str) -> float:
         value = self._values.get(kind)
         if value is None:
-            J = self._J
-            if kind == "position":
-                J = J[:3]
-            elif kind == "orientation":
-                J = J[3:]
-            elif kind == "scaled":
-                J = np.vstack([J[:3] / self.length, J[3:]])
-            value = self._values[kind] = yoshikawa(J)
+            value = self._values[kind] = yoshikawa(manipulability_rows(self._J, kind, self.length))
         return value
 
     full = property(lambda self: self._get("full"), doc="sqrt(det(J J^T)) of J [mixed units].")
@@ -151,6 +145,29 @@ class Manipulability:
         return all(getattr(self, f) == getattr(other, f) for f in fields)
 
     __hash__ = None  # type: ignore[assignment]
+
+
+ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
+#: The measures of :class:`Manipulability`, each of its own rows of J.
+MANIPULABILITY_KINDS: tuple[ManipulabilityKind, ...] = ("full", "position", "orientation", "scaled")
+
+
+def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
+    """The rows of J one manipulability measure is taken of, for one J (6, n) or a stack.
+
+    Args:
+        J: Site Jacobian(s), shape (..., 6, n): linear rows first.
+        kind: One of :data:`MANIPULABILITY_KINDS`: all rows, the linear or the angular ones,
+            or all with the linear rows divided by ``length``.
+        length: Characteristic length for ``"scaled"`` [m].
+    """
+    if kind == "position":
+        return J[..., :3, :]
+    if kind == "orientation":
+        return J[..., 3:, :]
+    if kind == "scaled":
+        return np.concatenate([J[..., :3, :] / length, J[..., 3:, :]], axis=-2)
+    return J
 
 
 def yoshikawa(J: Array) -> float:

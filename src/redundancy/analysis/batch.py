@@ -30,7 +30,6 @@ measures both).
 from __future__ import annotations
 
 import queue
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -40,10 +39,9 @@ from ..checks import check_choice, check_number, check_poses, check_threads
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
+from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind, manipulability_rows
 
 Array = NDArray[np.float64]
-ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
-MANIPULABILITY_KINDS: tuple[ManipulabilityKind, ...] = ("full", "position", "orientation", "scaled")
 
 
 def poses(arm: Arm, Q: ArrayLike) -> Array:
@@ -183,13 +181,7 @@ def manipulabilities(
         S = _jacobians_and_singular_values(arm, Q, engine, threads)[1]
         return np.prod(S, axis=1)
     J = _fill(arm, Q, engine, 1, "J")
-    if kind == "position":
-        J = J[:, :3]
-    elif kind == "orientation":
-        J = J[:, 3:]
-    else:
-        J[:, :3] /= length
-    return np.prod(_svd_values(J), axis=1)
+    return np.prod(_svd_values(manipulability_rows(J, kind, length)), axis=1)
 
 
 def mass_matrices(
