@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
-from ..engines.contract import Engine, Stacks
+from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..linalg import manipulability_gradient
 from ..model.bridges import Bridge
@@ -224,8 +224,7 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
             out[name] = value
     if "mass matrix (bare)" in want:
         bare = stacks.M.copy()  # type: ignore[union-attr]
-        k = np.arange(nv)
-        bare[:, k, k] -= engine.armature
+        remove_armature(bare, engine.armature)
         out["mass matrix (bare)"] = bare
     # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
     if "jacobian derivative" in want:

@@ -51,6 +51,17 @@ class Stacks:
         return self.J is not None or self.M is not None or self.G is not None
 
 
+def remove_armature(M: Array, armature: Array) -> None:
+    """Subtract the armature from the diagonal of one mass matrix or a stack, in place.
+
+    Args:
+        M: Mass matrix (nv, nv) or stack (n, nv, nv) [kg m^2], armature included.
+        armature: Armature per dof, in M's own joint order [kg m^2].
+    """
+    k = np.arange(M.shape[-1])
+    M[..., k, k] -= armature
+
+
 @runtime_checkable
 class Engine(Protocol):
     """One arm and tool site in one engine."""

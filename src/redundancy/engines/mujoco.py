@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_pose, pose_key
-from .contract import Stacks
+from .contract import Stacks, remove_armature
 from .threads import PerThread, run_split
 
 Array = NDArray[np.float64]
@@ -219,7 +219,7 @@ class MujocoEngine:
             w.have_M = True
         M = w.M.copy()
         if not armature:
-            M[np.diag_indices(self.nv)] -= self._armature
+            remove_armature(M, self._armature)
         return M
 
     def gravity(self, q: ArrayLike) -> Array:
@@ -371,8 +371,7 @@ class MujocoEngine:
         single = X is None and R9 is None and sum(s is not None for s in (J, M, G)) == 1
         run_split(n, threads, one_stack if single else any_stacks)
         if M is not None and not out.armature:
-            k = np.arange(self.nv)
-            M[:, k, k] -= self._armature
+            remove_armature(M, self._armature)
 
 
 @contextlib.contextmanager

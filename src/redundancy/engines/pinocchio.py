@@ -14,7 +14,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_pose, pose_key
-from .contract import Stacks
+from .contract import Stacks, remove_armature
 from .threads import PerThread, spans
 
 Array = NDArray[np.float64]
@@ -158,7 +158,7 @@ class PinocchioEngine:
         M = np.array(pin.crba(self.model, w.data, self._pin_q(w, q)))
         _mirror_upper(M)
         if not armature:
-            M[np.diag_indices(self.nv)] -= self.model.armature
+            remove_armature(M, self.model.armature)
         return M if self.identity else M[np.ix_(self.perm, self.perm)]
 
     def gravity(self, q: ArrayLike) -> Array:
@@ -267,8 +267,7 @@ class PinocchioEngine:
                 M[i] = crba(model, data, q)
             _mirror_upper(M)  # crba fills the upper triangle (armature on the diagonal)
             if not out.armature:
-                k = np.arange(nv)
-                M[:, k, k] -= model.armature
+                remove_armature(M, model.armature)
             if not self.identity:
                 M[:] = M[:, self.perm][:, :, self.perm]
         if G is not None and n:
