@@ -17,10 +17,10 @@ shared and only read; each thread gets its own scenes (``MjData``, Pinocchio ``D
 
 from __future__ import annotations
 
-import threading
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike
 
 from ..caching import PerObject
 from ..checks import check_choice
+from ..engines.threads import PerThread
 from ..errors import ModelError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
@@ -159,7 +160,9 @@ class CollisionChecker:
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
         self._mujoco_pairs = MujocoPairs(m, self.pairs)
         self._coal_pairs = CoalPairs(m, arm.pinocchio.model, arm.pinocchio.perm, self.pairs)
-        self._local = threading.local()
+        # One scene per engine and thread, built on the thread's first use.
+        self._mujoco = PerThread(partial(MujocoScene, self._mujoco_pairs))
+        self._coal = PerThread(partial(CoalScene, self._coal_pairs))
         for q in (m.qpos0.copy(), _probe_pose(arm)):
             err = self.placement_error(q)
             if err > self.PLACEMENT_TOL:
@@ -180,17 +183,11 @@ class CollisionChecker:
     # -- this thread's scenes -------------------------------------------------------------
     def mujoco_scene(self) -> MujocoScene:
         """This thread's MuJoCo scene (built on first use; never shared between threads)."""
-        scene = getattr(self._local, "mujoco", None)
-        if scene is None:
-            scene = self._local.mujoco = MujocoScene(self._mujoco_pairs)
-        return scene
+        return self._mujoco.get()
 
     def coal_scene(self) -> CoalScene:
         """This thread's coal scene (built on first use; never shared between threads)."""
-        scene = getattr(self._local, "coal", None)
-        if scene is None:
-            scene = self._local.coal = CoalScene(self._coal_pairs)
-        return scene
+        return self._coal.get()
 
     # -- checks --------------------------------------------------------------------------
     def _q(self, q: ArrayLike) -> Array:
