@@ -201,7 +201,7 @@ class CollisionChecker:
         q = self._q(q)
         coal, mj = self.coal_scene(), self.mujoco_scene()
         coal.place(q)
-        mj.kinematics(q)
+        mj.place(q)
         err = 0.0
         for g in self._coal_pairs.slot:
             p, R = coal.geom_pose(g)
@@ -221,7 +221,7 @@ class CollisionChecker:
             engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         """
         q = self._q(q)
-        scene = self._scene(engine)
+        scene = self.scene(engine)
         dist, p1, p2 = scene.distances(q)
         entries = tuple(
             PairDistance(p, float(dist[k]), p1[k].copy(), p2[k].copy())
@@ -232,9 +232,10 @@ class CollisionChecker:
     def distance_values(self, q: ArrayLike, engine: DistanceEngine = "coal") -> Array:
         """Signed distance of every pair at ``q``, in pair order, without nearest points [m]."""
         q = self._q(q)
-        return self._scene(engine).distance_values(q)
+        return self.scene(engine).distance_values(q)
 
-    def _scene(self, engine: DistanceEngine) -> MujocoScene | CoalScene:
+    def scene(self, engine: DistanceEngine) -> MujocoScene | CoalScene:
+        """This thread's scene of a distance engine (``"coal"`` or ``"mujoco"``)."""
         if check_choice("distance engine", engine, DISTANCE_ENGINES) == "coal":
             return self.coal_scene()
         return self.mujoco_scene()
