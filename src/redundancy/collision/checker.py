@@ -17,10 +17,10 @@ shared and only read; each thread gets its own scenes (``MjData``, Pinocchio ``D
 
 from __future__ import annotations
 
-import threading
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike
 
 from ..caching import PerObject
 from ..checks import check_choice
+from ..engines.threads import PerThread
 from ..errors import ModelError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
@@ -159,7 +160,9 @@ class CollisionChecker:
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
         self._mujoco_pairs = MujocoPairs(m, self.pairs)
         self._coal_pairs = CoalPairs(m, arm.pinocchio.model, arm.pinocchio.perm, self.pairs)
-        self._local = threading.local()
+        # One scene per engine and thread, built on the thread's first use.
+        self._mujoco = PerThread(partial(MujocoScene, self._mujoco_pairs))
+        self._coal = PerThread(partial(CoalScene, self._coal_pairs))
         for q in (m.qpos0.copy(), _probe_pose(arm)):
             err = self.placement_error(q)
             if err > self.PLACEMENT_TOL:
@@ -180,17 +183,11 @@ class CollisionChecker:
     # -- this thread's scenes -------------------------------------------------------------
     def mujoco_scene(self) -> MujocoScene:
         """This thread's MuJoCo scene (built on first use; never shared between threads)."""
-        scene = getattr(self._local, "mujoco", None)
-        if scene is None:
-            scene = self._local.mujoco = MujocoScene(self._mujoco_pairs)
-        return scene
+        return self._mujoco.get()
 
     def coal_scene(self) -> CoalScene:
         """This thread's coal scene (built on first use; never shared between threads)."""
-        scene = getattr(self._local, "coal", None)
-        if scene is None:
-            scene = self._local.coal = CoalScene(self._coal_pairs)
-        return scene
+        return self._coal.get()
 
     # -- checks --------------------------------------------------------------------------
     def _q(self, q: ArrayLike) -> Array:
@@ -204,7 +201,7 @@ class CollisionChecker:
         q = self._q(q)
         coal, mj = self.coal_scene(), self.mujoco_scene()
         coal.place(q)
-        mj.kinematics(q)
+        mj.place(q)
         err = 0.0
         for g in self._coal_pairs.slot:
             p, R = coal.geom_pose(g)
@@ -224,7 +221,7 @@ class CollisionChecker:
             engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         """
         q = self._q(q)
-        scene = self._scene(engine)
+        scene = self.scene(engine)
         dist, p1, p2 = scene.distances(q)
         entries = tuple(
             PairDistance(p, float(dist[k]), p1[k].copy(), p2[k].copy())
@@ -235,9 +232,10 @@ class CollisionChecker:
     def distance_values(self, q: ArrayLike, engine: DistanceEngine = "coal") -> Array:
         """Signed distance of every pair at ``q``, in pair order, without nearest points [m]."""
         q = self._q(q)
-        return self._scene(engine).distance_values(q)
+        return self.scene(engine).distance_values(q)
 
-    def _scene(self, engine: DistanceEngine) -> MujocoScene | CoalScene:
+    def scene(self, engine: DistanceEngine) -> MujocoScene | CoalScene:
+        """This thread's scene of a distance engine (``"coal"`` or ``"mujoco"``)."""
         if check_choice("distance engine", engine, DISTANCE_ENGINES) == "coal":
             return self.coal_scene()
         return self.mujoco_scene()

@@ -44,6 +44,9 @@ COAL_EPA_TOLERANCE = 1e-6
 #: Iteration caps for coal's GJK and EPA (its defaults, 128 and 64, are too few at these
 #: tolerances on curved shapes).
 COAL_MAX_ITERATIONS = 1000
+#: coal reports a failed EPA as -DBL_MAX (or a non-finite value); a distance below this is
+#: such a failure, no overlap of the geoms here being anywhere near that deep [m].
+EPA_FAILURE = -1e6
 
 _G = mujoco.mjtGeom
 
@@ -108,6 +111,12 @@ def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
             f"geom {geom_name(model, geom)!r} (mesh {hull.mesh!r})",
             f"its {hull.vertices} vertices span no solid for coal's convex hull ({err})",
         ) from err
+
+
+def epa_failed(d: ArrayLike) -> NDArray[np.bool_]:
+    """Where coal's distances ``d`` are EPA failures: below :data:`EPA_FAILURE` or not finite."""
+    d = np.asarray(d)
+    return ~np.isfinite(d) | (d < EPA_FAILURE)
 
 
 def distance_request() -> coal.DistanceRequest:
@@ -267,14 +276,21 @@ class CoalScene:
         return self._redo_failures(out, np.arange(len(out)))
 
     def _raw_values(self, q: Array) -> Array:
+        self._qp[self.shared.perm] = q
+        return np.array(self.pin_values(self._qp))
+
+    def pin_values(self, qp: Array) -> list[float]:
+        """Signed distance of every pair at ``qp``, in Pinocchio's joint order [m].
+
+        As coal reports them: an EPA failure is not redone (see :func:`epa_failed`).
+        """
         import pinocchio as pin
 
         s = self.shared
-        self._qp[s.perm] = q
         # computeDistances = forwardKinematics + updateGeometryPlacements + coal.distance on
         # every collision pair, in one C++ loop.
-        pin.computeDistances(s.pin_model, self.pin_data, s.geom_model, self.geom_data, self._qp)
-        return np.array([r.min_distance for r in self._results])
+        pin.computeDistances(s.pin_model, self.pin_data, s.geom_model, self.geom_data, qp)
+        return [r.min_distance for r in self._results]
 
     def placed_values(self, which: Index, apart: Array | None = None) -> Array:
         """Signed distances of the pairs in ``which`` at the pose last placed [m].
@@ -294,10 +310,9 @@ class CoalScene:
 
     def _redo_failures(self, out: Array, which: Index) -> Array:
         self._retried = {}
-        if not len(out) or np.min(out) > -1e6:  # NaN fails the test too
+        if not len(out) or np.min(out) > EPA_FAILURE:  # NaN fails the test too
             return out
-        # EPA failures come back as -DBL_MAX (or non-finite): redo those pairs.
-        bad = ~np.isfinite(out) | (out < -1e6)
+        bad = epa_failed(out)
         self._retried = {int(which[i]): self._retry(int(which[i])) for i in np.flatnonzero(bad)}
         for i in np.flatnonzero(bad):
             out[i] = self._retried[int(which[i])][0]
@@ -341,7 +356,7 @@ class CoalScene:
             req,
             res,
         )
-        if np.isfinite(d) and d > -1e6:
+        if not epa_failed(d):
             return float(d), res.getNearestPoint1(), res.getNearestPoint2()
         return (
             -(s.radius[pair.geom1] + s.radius[pair.geom2]),

@@ -92,8 +92,8 @@ class MujocoScene:
         """Second geom id of every pair."""
         return self.shared.g2
 
-    def kinematics(self, q: Array) -> None:
-        """Place the geoms at ``q`` (``data.geom_xpos``/``geom_xmat``)."""
+    def place(self, q: Array) -> None:
+        """Place the geoms at ``q`` (``data.geom_xpos``/``geom_xmat``), as the coal scene does."""
         self.data.qpos[:] = q
         # mj_kinematics is all collision needs: geom_xpos/xmat for the colliders and
         # xipos/ximat for the bodies' bounding boxes (broad and mid phase).
@@ -101,7 +101,7 @@ class MujocoScene:
 
     def collide(self, q: Array) -> tuple[Index, Array]:
         """Run MuJoCo's collision pipeline at ``q``; (pair index, distance) per contact."""
-        self.kinematics(q)
+        self.place(q)
         # mj_collision: broad phase, the pair filters and narrow phase, as in mj_forward.
         mujoco.mj_collision(self.model, self.data)
         n = self.data.ncon
@@ -131,7 +131,7 @@ class MujocoScene:
         return tuple(out)
 
     def caps(self, which: Index | None = None) -> list[float]:
-        """``distmax`` per pair (all, or those in ``which``) after :meth:`kinematics`."""
+        """``distmax`` per pair (all, or those in ``which``) after :meth:`place`."""
         s = self.shared
         sel = slice(None) if which is None else which
         xpos = self.data.geom_xpos
@@ -141,7 +141,7 @@ class MujocoScene:
 
     def distances(self, q: Array) -> tuple[Array, Array, Array]:
         """Signed distance and nearest points of every pair from ``mj_geomDistance``."""
-        self.kinematics(q)
+        self.place(q)
         m, d = self.model, self.data
         n = len(self.pairs)
         dist, p1, p2 = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3))
@@ -154,7 +154,7 @@ class MujocoScene:
 
     def distance_values(self, q: Array) -> Array:
         """Signed distance of every pair at ``q`` [m]."""
-        self.kinematics(q)
+        self.place(q)
         return self.placed_values(np.arange(len(self.pairs)))
 
     def placed_values(self, which: Index, apart: Array | None = None) -> Array:

@@ -289,8 +289,7 @@ class PathChecker:
         thr = self.thresholds
         # The waypoints are validated and every pose below is made from them: this thread's
         # scene is called directly, without validating each evaluated pose again.
-        ch = self.checker
-        scene = ch.coal_scene() if engine == "coal" else ch.mujoco_scene()
+        scene = self.checker.scene(engine)
         evals = 0
         min_clear = np.inf
 

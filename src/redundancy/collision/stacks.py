@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
-import pinocchio as pin
 from numpy.typing import NDArray
 
 from ..arm import Arm
 from ..engines.threads import run_split
 from .checker import CollisionChecker
+from .coal_scene import epa_failed
 from .pairs import DistanceEngine
 from .pathcheck import _travel
 
@@ -64,17 +64,12 @@ def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
     # The checker's private scene: its GeometryData holds one distance request per pair,
     # set up as the single-pose path uses them.
     scene = ch.coal_scene()
-    model, data, gmodel, gdata = scene.pin_model, scene.pin_data, scene.geom_model, scene.geom_data
-    # The elements of distanceResults are references into GeometryData's vector: listing them
-    # once saves building 15+ wrappers per pose (the costliest part of reading the results).
-    results = list(gdata.distanceResults)
-    compute = pin.computeDistances
-    for q, row in zip(ch.arm.pinocchio._order(Q), out, strict=True):
-        compute(model, data, gmodel, gdata, q)
-        row[:] = [r.min_distance for r in results]
-    # coal reports a failed EPA as -DBL_MAX (or non-finite): redo those poses through the
-    # checker, whose retry with a looser EPA needs the geoms placed at that pose.
-    bad = np.flatnonzero((~np.isfinite(out) | (out < -1e6)).any(axis=1))
+    values = scene.pin_values
+    for qp, row in zip(ch.arm.pinocchio._order(Q), out, strict=True):
+        row[:] = values(qp)
+    # Redo the poses with a failed EPA through the scene, whose retry with a looser EPA
+    # needs the geoms placed at that pose.
+    bad = np.flatnonzero(epa_failed(out).any(axis=1))
     for i in bad:
         out[i] = scene.distance_values(Q[i])
 

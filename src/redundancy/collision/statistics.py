@@ -229,9 +229,7 @@ class _Sweep:
 
     def __init__(self, ch: CollisionChecker, engine: DistanceEngine | None, prune: bool) -> None:
         self.mj = ch.mujoco_scene()
-        self.scene: MujocoScene | CoalScene | None = (
-            None if engine is None else ch.mujoco_scene() if engine == "mujoco" else ch.coal_scene()
-        )
+        self.scene: MujocoScene | CoalScene | None = None if engine is None else ch.scene(engine)
         self.prune = prune
         pairs = ch.pairs
         npair = len(pairs)
@@ -319,14 +317,8 @@ class _Sweep:
         ends = np.concatenate((edges, [len(rows)]))
         for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
             i, which = int(rows[a]), cols[a:b]
-            self._place(Q[i])
+            scene.place(Q[i])
             D[i, which] = scene.placed_values(which, apart[i, which])
-
-    def _place(self, q: Array) -> None:
-        if isinstance(self.scene, MujocoScene):
-            self.scene.kinematics(q)
-        elif self.scene is not None:
-            self.scene.place(q)
 
     def _fold(self, D: Array, listed: NDArray[np.bool_]) -> None:
         """Fold a chunk's distances (``inf`` where skipped) into the running results."""
