@@ -190,13 +190,12 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
             # The anchor may sit anywhere on the axis line: compare its offset across the line.
             r = an_p[i] - an_m[i]
             cmp("joint axis line offset", n, np.zeros(3), r - (r @ ax_m[i]) * ax_m[i])
-    lo_p = np.asarray(pm.lowerPositionLimit)[pn.perm]
-    hi_p = np.asarray(pm.upperPositionLimit)[pn.perm]
+    lo_p, hi_p = pn.limits
     for i, n in enumerate(names):
         cmp("joint range", n, np.array([arm.lower[i], arm.upper[i]]), np.array([lo_p[i], hi_p[i]]))
     cmp_vec = [
         ("armature", arm.armature("mujoco"), arm.armature("pinocchio")),
-        ("damping", arm.damping(), np.asarray(pm.damping)[pn.perm]),
+        ("damping", arm.damping("mujoco"), arm.damping("pinocchio")),
         ("effort limit", arm.effort_limit, np.asarray(pm.effortLimit)[pn.perm]),
     ]
     for quantity, a, b in cmp_vec:
