@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from ..arm import Arm, sampling_ranges
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
-from ..model.equivalence import abs_error, format_value, joint_of_body
+from ..model.equivalence import abs_error, format_value, parent_joint
 from ..model.names import display_names
 
 Array = NDArray[np.float64]
@@ -337,8 +337,8 @@ class _Comparer:
         for i, j in zip(self.ia, self.ib, strict=True):
             w = self.where(i)
             kin = False
-            pa = _parent_joint(a, i)
-            pb = _parent_joint(b, j)
+            pa = parent_joint(a, i)
+            pb = parent_joint(b, j)
             pb_in_a = inverse.get(pb, pb) if pb else ""
             if pa != pb_in_a:
                 self.diffs.append(
@@ -540,12 +540,6 @@ def _joint_bodies(arm: Arm) -> list[str]:
     m = arm.mj_model
     names = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     return [names[int(b)] for b in m.jnt_bodyid]
-
-
-def _parent_joint(arm: Arm, i: int) -> str:
-    """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
-    m = arm.mj_model
-    return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
 def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:
