@@ -33,8 +33,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
+from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
-from ..model.equivalence import abs_error, format_value, joint_of_body
+from ..model.equivalence import abs_error, format_value, parent_joint
 from ..model.names import display_names
 
 Array = NDArray[np.float64]
@@ -336,8 +337,8 @@ class _Comparer:
         for i, j in zip(self.ia, self.ib, strict=True):
             w = self.where(i)
             kin = False
-            pa = _parent_joint(a, i)
-            pb = _parent_joint(b, j)
+            pa = parent_joint(a, i)
+            pb = parent_joint(b, j)
             pb_in_a = inverse.get(pb, pb) if pb else ""
             if pa != pb_in_a:
                 self.diffs.append(
@@ -431,8 +432,10 @@ class _Comparer:
         return qa, self.to_b(qa)
 
     def to_b(self, qa: Array) -> Array:
-        qb = np.clip(np.zeros(self.b.nq), self.b.lower, self.b.upper)
-        qb[self.ib] = qa[self.ia]
+        """B's pose (or stack of poses) for A's: shared joints copied, B's others at rest."""
+        rest = np.clip(np.zeros(self.b.nq), self.b.lower, self.b.upper)
+        qb = np.broadcast_to(rest, (*qa.shape[:-1], self.b.nq)).copy()
+        qb[..., self.ib] = qa[..., self.ia]
         return qb
 
     # -- poses -----------------------------------------------------------------------------
@@ -455,41 +458,32 @@ class _Comparer:
 
     def pose_by_pose(self, n: int, seed: int) -> int:
         qs = self.poses(n, seed)
+        if not len(qs):
+            return 0
         perm = np.asarray(self.ib)
         cols = np.asarray(self.ia)
         full_m = self.armature_comparable
         gravity_ok = not any(f.quantity == "gravity vector" for f in self.inexpressible)
-        worst: dict[str, tuple[float, int, Any, Any, str]] = {}
-        for p, qa in enumerate(qs):
-            qb = self.to_b(qa)
-            a, b = self.a, self.b
-            pa, ra = a.mujoco.site_pose(qa)
-            pb, rb = b.mujoco.site_pose(qb)
-            # Per quantity: A's value, B's value, and the axis that runs over joints (None
-            # for the tool pose), to name the joint with the largest difference.
-            values = {
-                "tool position": (pa, pb, None),
-                "tool rotation": (ra, rb, None),
-                "jacobian": (
-                    a.mujoco.site_jacobian(qa)[:, cols],
-                    b.mujoco.site_jacobian(qb)[:, perm],
-                    1,
-                ),
-                "mass matrix": (
-                    a.mujoco.mass_matrix(qa, full_m)[np.ix_(cols, cols)],
-                    b.mujoco.mass_matrix(qb, full_m)[np.ix_(perm, perm)],
-                    0,
-                ),
-            }
-            if gravity_ok:
-                gravity = (a.mujoco.gravity(qa)[cols], b.mujoco.gravity(qb)[perm], 0)
-                values["gravity torque"] = gravity
-            for quantity, (va, vb, axis) in values.items():
-                diff = np.abs(va - vb)
-                err = float(diff.max()) if diff.size else 0.0
-                if quantity not in worst or err > worst[quantity][0]:
-                    worst[quantity] = (err, p, va, vb, axis)
-        for quantity, (err, p, va, vb, axis) in worst.items():
+        # One stacked pass per arm (the engine's evaluate, equal to its single-pose methods).
+        Xa, Ra, Ja, Ma, Ga = _mujoco_stacks(self.a, qs, full_m, gravity_ok)
+        Xb, Rb, Jb, Mb, Gb = _mujoco_stacks(self.b, self.to_b(qs), full_m, gravity_ok)
+        # Per quantity: A's stack, B's stack, and the axis of one pose's value that runs over
+        # joints (None for the tool pose), to name the joint with the largest difference.
+        values: dict[str, tuple[Array, Array, int | None]] = {
+            "tool position": (Xa, Xb, None),
+            "tool rotation": (Ra, Rb, None),
+            "jacobian": (Ja[:, :, cols], Jb[:, :, perm], 1),
+            "mass matrix": (Ma[:, cols[:, None], cols], Mb[:, perm[:, None], perm], 0),
+        }
+        if Ga is not None and Gb is not None:
+            values["gravity torque"] = (Ga[:, cols], Gb[:, perm], 0)
+        for quantity, (stack_a, stack_b, axis) in values.items():
+            errs = np.abs(stack_a - stack_b).reshape(len(qs), -1).max(axis=1).tolist()
+            p = 0  # the first pose with the largest difference
+            for k, e in enumerate(errs):
+                if e > errs[p]:
+                    p = k
+            err, va, vb = errs[p], stack_a[p], stack_b[p]
             bare = quantity == "mass matrix" and not full_m
             name = quantity + (" (without armature)" if bare else "")
             self.largest[name] = err
@@ -528,6 +522,17 @@ class _Comparer:
         )
 
 
+def _mujoco_stacks(
+    arm: Arm, Q: Array, armature: bool, gravity: bool
+) -> tuple[Array, Array, Array, Array, Array | None]:
+    """MuJoCo's tool poses, Jacobians, mass matrices and (if asked) gravity over ``Q``."""
+    n, nv = len(Q), arm.nq
+    X, R, J, M = np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 6, nv)), np.empty((n, nv, nv))
+    G = np.empty((n, nv)) if gravity else None
+    arm.mujoco.evaluate(Q, Stacks(X=X, R=R, J=J, M=M, G=G, armature=armature))
+    return X, R, J, M, G
+
+
 def _joint_bodies(arm: Arm) -> list[str]:
     """Per joint, the display name of the body it moves (see :mod:`redundancy.model.names`)."""
     import mujoco
@@ -535,12 +540,6 @@ def _joint_bodies(arm: Arm) -> list[str]:
     m = arm.mj_model
     names = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     return [names[int(b)] for b in m.jnt_bodyid]
-
-
-def _parent_joint(arm: Arm, i: int) -> str:
-    """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
-    m = arm.mj_model
-    return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
 def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:

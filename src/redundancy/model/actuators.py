@@ -192,10 +192,8 @@ def _is_servo(model: mujoco.MjModel, a: int) -> bool:
 def _reflected_per_dof(model: mujoco.MjModel, values: Array) -> Array:
     """Sum of gear^2 * value over the joint actuators of each dof (rotor-side to joint-side)."""
     extra = np.zeros(model.nv)
-    for a in range(model.nu):
-        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
-            dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
-            extra[dof] += model.actuator_gear[a, 0] ** 2 * values[a]
+    for a, dof, _, _ in _joint_actuators(model):
+        extra[dof] += model.actuator_gear[a, 0] ** 2 * values[a]
     return extra
 
 

@@ -102,10 +102,11 @@ def bridge(
     placed by site defaults.
     """
     bridges: list[Bridge] = []
+    rest = _rest_kinematics(mm)  # MuJoCo's world placements at qpos0, for both bridges below
     # The root pose first: the site bridge below compares frames placed from the root.
     bridges += _bridge_root_pose(pm, mm)
     if xml_root is not None:
-        bridges += _bridge_inertia(pm, mm, inertia_causes(xml_root, mm))
+        bridges += _bridge_inertia(pm, mm, inertia_causes(xml_root, mm), rest)
     # Per-dof values Pinocchio keeps in a vector of its own: (name, its vector, ours, source).
     per_dof = (
         (
@@ -141,22 +142,31 @@ def bridge(
         )
         bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), source))
         pm.gravity = pin.Motion(g, np.zeros(3))
-    bridges += _bridge_site(pm, mm, joint_names, site)
+    bridges += _bridge_site(pm, mm, joint_names, site, rest)
     return tuple(bridges)
 
 
+def _rest_kinematics(mm: mujoco.MjModel) -> mujoco.MjData:
+    """MuJoCo's data at ``qpos0`` after ``mj_kinematics`` (body, inertial and site frames)."""
+    data = mujoco.MjData(mm)
+    mujoco.mj_kinematics(mm, data)
+    return data
+
+
 def _bridge_site(
-    pm: pin.Model, mm: mujoco.MjModel, joint_names: Sequence[str], site: str
+    pm: pin.Model,
+    mm: mujoco.MjModel,
+    joint_names: Sequence[str],
+    site: str,
+    data: mujoco.MjData,
 ) -> list[Bridge]:
     """Fix the site frame's placement when only the site itself is misplaced.
 
     Pinocchio's parser ignores site defaults (``<default><site pos=.../>``). When the
     site's body sits where MuJoCo puts it but the site does not, the site's placement in
     its body is copied from MuJoCo; a misplaced body is left alone, for the equivalence
-    report to show.
+    report to show. ``data`` is MuJoCo's at ``qpos0`` (:func:`_rest_kinematics`).
     """
-    data = mujoco.MjData(mm)
-    mujoco.mj_kinematics(mm, data)
     pd = pm.createData()
     q = np.zeros(pm.nq)
     for i, name in enumerate(joint_names):
@@ -241,15 +251,18 @@ def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
     ]
 
 
-def _mujoco_joint_inertias(mm: mujoco.MjModel) -> dict[int, pin.Inertia]:
+def _mujoco_joint_inertias(
+    mm: mujoco.MjModel, data: mujoco.MjData | None = None
+) -> dict[int, pin.Inertia]:
     """MuJoCo's compiled inertia of each joint's bodies, in Pinocchio's joint frame.
 
     A joint moves its body and every body welded to it; Pinocchio's joint frame is the body
     frame shifted to the joint's ``pos`` (MJCF joints have no orientation). Computed at
-    ``qpos0`` from MuJoCo's world poses: the relative placements do not depend on the pose.
+    ``qpos0`` from MuJoCo's world poses (``data``, :func:`_rest_kinematics` when None): the
+    relative placements do not depend on the pose.
     """
-    data = mujoco.MjData(mm)
-    mujoco.mj_kinematics(mm, data)  # body and inertial frames at qpos0 (world placements)
+    if data is None:
+        data = _rest_kinematics(mm)
     out: dict[int, pin.Inertia] = {}
     for j in range(mm.njnt):
         b = int(mm.jnt_bodyid[j])
@@ -280,7 +293,7 @@ def _inertia_differs(a: pin.Inertia, b: pin.Inertia, tol: float = 1e-12) -> bool
 
 
 def _bridge_inertia(
-    pm: pin.Model, mm: mujoco.MjModel, causes: dict[int, tuple[str, ...]]
+    pm: pin.Model, mm: mujoco.MjModel, causes: dict[int, tuple[str, ...]], data: mujoco.MjData
 ) -> list[Bridge]:
     """Copy MuJoCo's mass, centre of mass and inertia where Pinocchio computed its own.
 
@@ -291,7 +304,7 @@ def _bridge_inertia(
     """
     if not causes:
         return []
-    ours = _mujoco_joint_inertias(mm)
+    ours = _mujoco_joint_inertias(mm, data)
     names = display_names(mm, mujoco.mjtObj.mjOBJ_BODY)
     bridges: list[Bridge] = []
     for j, mine in ours.items():

@@ -166,8 +166,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     pm = pn.model
     # Tree structure: each joint's parent joint, by name.
     for i, n in enumerate(names):
-        mj_parent_body = arm.mj_model.body_parentid[arm.mj_model.jnt_bodyid[i]]
-        mj_parent = joint_of_body(arm, mj_parent_body)
+        mj_parent = parent_joint(arm, i)
         pin_parent = pm.names[pm.parents[pm.getJointId(n)]]
         pin_parent = "" if pin_parent == "universe" else pin_parent
         if mj_parent != pin_parent:
@@ -190,13 +189,12 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
             # The anchor may sit anywhere on the axis line: compare its offset across the line.
             r = an_p[i] - an_m[i]
             cmp("joint axis line offset", n, np.zeros(3), r - (r @ ax_m[i]) * ax_m[i])
-    lo_p = np.asarray(pm.lowerPositionLimit)[pn.perm]
-    hi_p = np.asarray(pm.upperPositionLimit)[pn.perm]
+    lo_p, hi_p = pn.limits
     for i, n in enumerate(names):
         cmp("joint range", n, np.array([arm.lower[i], arm.upper[i]]), np.array([lo_p[i], hi_p[i]]))
     cmp_vec = [
         ("armature", arm.armature("mujoco"), arm.armature("pinocchio")),
-        ("damping", arm.damping(), np.asarray(pm.damping)[pn.perm]),
+        ("damping", arm.damping("mujoco"), arm.damping("pinocchio")),
         ("effort limit", arm.effort_limit, np.asarray(pm.effortLimit)[pn.perm]),
     ]
     for quantity, a, b in cmp_vec:
@@ -241,6 +239,12 @@ def joint_of_body(arm: Arm, body: int) -> str:
     if body == 0:
         return ""
     return arm.joint_names[m.body_jntadr[body]]
+
+
+def parent_joint(arm: Arm, i: int) -> str:
+    """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
+    m = arm.mj_model
+    return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
 def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:

@@ -1,6 +1,6 @@
 """Refusal rules: what the two engines may not agree on, refused with the reason.
 
-:func:`check_supported` reads MuJoCo's compiled model; :func:`check_xml` reads the MJCF text
+:func:`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
 for spellings MuJoCo compiles away and Pinocchio's parser reads differently.
 """
 
@@ -169,21 +169,7 @@ def check_supported(
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
         check_names(model)
     if strict and xml_root is not None:
-        _check_xml_strict(xml_root)  # the rest of check_xml ran above
-
-
-def check_xml(root: ET.Element, strict: bool = True) -> None:
-    """Refuse MJCF spellings that Pinocchio's parser cannot read or reads differently from MuJoCo.
-
-    Args:
-        root: The parsed MJCF.
-        strict: Also refuse what Pinocchio reads differently (see :func:`check_supported`);
-            with False, only what no engine should be given: a root element other than
-            ``<mujoco>``, NaN or infinite numbers, and shell inertia (Pinocchio raises).
-    """
-    _check_xml_values(root)
-    if strict:
-        _check_xml_strict(root)
+        _check_xml_strict(xml_root)  # _check_xml_values ran first, above
 
 
 def _tag(el: ET.Element, *attrs: str) -> str:
@@ -193,7 +179,11 @@ def _tag(el: ET.Element, *attrs: str) -> str:
 
 
 def _check_xml_values(root: ET.Element) -> None:
-    """:func:`check_xml` with ``strict=False``: what no engine should be given."""
+    """Refuse MJCF spellings no engine should be given, strict or not.
+
+    A root element other than ``<mujoco>``, NaN or infinite numbers, shell inertia
+    (Pinocchio raises), several ``<worldbody>`` elements.
+    """
     if root.tag != "mujoco":
         raise UnsupportedFeatureError(
             f"<{root.tag}> root element",
@@ -268,7 +258,7 @@ def _check_xml_values(root: ET.Element) -> None:
 
 
 def _check_xml_strict(root: ET.Element) -> None:
-    """What :func:`check_xml` adds with ``strict=True``: what Pinocchio reads differently."""
+    """Refuse, under ``strict``, MJCF spellings Pinocchio's parser reads differently."""
     tags = [child.tag for child in root]
     if "worldbody" in tags:
         first_body = tags.index("worldbody")
