@@ -128,6 +128,21 @@ def test_missing_armature_is_caught_named_and_located(tmp_path: Path) -> None:
     assert result.chains_part is None
 
 
+def test_gravity_switched_off_is_a_different_gravity_vector(tmp_path: Path) -> None:
+    # The gravity compared is the one MuJoCo simulates: zero under <flag gravity="disable"/>.
+    text = ARM7_XML.read_text().replace(
+        '<option timestep="0.002" integrator="Euler"/>',
+        '<option timestep="0.002" integrator="Euler"><flag gravity="disable"/></option>',
+    )
+    path = tmp_path / "arm7_no_gravity.xml"
+    path.write_text(text)
+    result = compare(ARM7_XML, path)
+    assert not result.equivalent
+    vector = next(d for d in result.differences if d.quantity == "gravity vector")
+    assert np.array_equal(vector.b, [0.0, 0.0, 0.0])
+    assert vector.a[2] == pytest.approx(-9.81)
+
+
 def test_offset_tool_frame_is_caught_named_and_located(tmp_path: Path) -> None:
     root = urdf_root("arm7")
     element(root, "joint", "link7_ee").find("origin").set("xyz", "0 0 0.135")  # type: ignore[union-attr]

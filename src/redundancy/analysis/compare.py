@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from ..arm import Arm, sampling_ranges
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
+from ..model.bridges import effective_gravity
 from ..model.equivalence import abs_error, format_value, parent_joint
 from ..model.names import display_names
 
@@ -383,14 +384,15 @@ class _Comparer:
         moved |= self.check("tool frame rotation (world)", tool, rot_a, rot_b)
         if moved:
             self.kinematic.append(a.nq)  # after the last joint
-        g_a, g_b = a.mj_model.opt.gravity, b.mj_model.opt.gravity
+        # What MuJoCo simulates: opt.gravity, or zero under <flag gravity="disable"/>.
+        g_a, g_b = effective_gravity(a.mj_model), effective_gravity(b.mj_model)
         if "URDF" in (self.fmt_a, self.fmt_b) and self.fmt_a != self.fmt_b:
             standard = np.array([0.0, 0.0, -9.81])
             mjcf_g = g_b if self.fmt_a == "URDF" else g_a
             if np.max(np.abs(mjcf_g - standard)) > self.tol:
-                self.cannot("gravity vector", "model", g_a.copy(), g_b.copy(), "URDF")
+                self.cannot("gravity vector", "model", g_a, g_b, "URDF")
                 return
-        self.check("gravity vector", "model", g_a.copy(), g_b.copy())
+        self.check("gravity vector", "model", g_a, g_b)
 
     def armature(self) -> None:
         a, b = self.a, self.b
