@@ -43,10 +43,10 @@ Array = NDArray[np.float64]
 Integrator = Literal["euler", "midpoint"]
 INTEGRATORS: tuple[Integrator, ...] = ("euler", "midpoint")
 
-#: Reasons a self-motion ends before its total joint motion (``SelfMotionPath.stopped``).
 #: Most steps one self-motion may take (``total / step``): a bound on its run time.
 MAX_STEPS = 100_000
 
+#: Reasons a self-motion ends before its total joint motion (``SelfMotionPath.stopped``).
 STOP_PREDICATE = "stop condition met"
 STOP_MAXIMUM = "objective at its maximum along the self-motion"
 STOP_STATIONARY = "objective does not change along the null space"

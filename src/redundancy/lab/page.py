@@ -338,6 +338,9 @@ class LabPage:
         self._gizmo_target: Array | None = None
         self._anchor: Array | None = None
         self._self_motion_value = 0.0
+        # Poses of the self-motion from the anchor to the slider's value (the anchor alone at
+        # 0): the next slider move goes back along it without computing it again.
+        self._self_motion_q: Array | None = None
         self._self_motion_text = ("-", "-")
         self._ik_error: float | None = None
         self._picked = "-"
@@ -764,6 +767,7 @@ class LabPage:
         with self._lock:
             self._anchor = None
             self._self_motion_value = 0.0
+            self._self_motion_q = None
             self._self_motion_text = ("-", "-")
             self._syncing = True
             try:
@@ -776,12 +780,12 @@ class LabPage:
             return
         with self._lock:
             value = float(self.self_motion.value)
-            if self._anchor is None:
+            if self._anchor is None or self._self_motion_q is None:
                 self._anchor = self.sim.targets.copy()
                 self._self_motion_value = 0.0
+                self._self_motion_q = self._anchor[None]
             old, new = self._self_motion_value, value
-            anchor = self._anchor
-            old_q = self.sim.self_motion_path(anchor, old).q if old != 0 else anchor[None]
+            anchor, old_q = self._anchor, self._self_motion_q
             path = self.sim.self_motion_path(anchor, new) if new != 0 else None
             new_q = path.q if path is not None else anchor[None]
             # Back along the old path to the steps both share (all but a path's last step,
@@ -789,9 +793,9 @@ class LabPage:
             common = max(0, min(len(old_q), len(new_q)) - 2) if old * new > 0 else 0
             route = np.vstack([old_q[common:][::-1], new_q[common + 1 :]])
             self.sim.follow(route)
-            self._self_motion_value = new
-            p0 = self.arm.site_pose(anchor)[0]
-            drift = float(np.linalg.norm(self.arm.site_pose(new_q[-1])[0] - p0))
+            self._self_motion_value, self._self_motion_q = new, new_q
+            # |tool - tool at the anchor| at the path's end, as the path measured it.
+            drift = float(path.position_drift[-1]) if path is not None else 0.0
             elbow = float(
                 np.linalg.norm(self.sim.elbow_position(new_q[-1]) - self.sim.elbow_position(anchor))
             )

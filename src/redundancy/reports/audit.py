@@ -100,6 +100,7 @@ class AuditReport:
         s = self.sections
         j, g, c = s.joints, s.gravity, s.contacts
         cc, eq = self.engines.crosscheck, self.engines.equivalence
+        gravity = {k: v for k, v in asdict(g).items() if k != "agreement"}  # in "crosscheck"
         doc = {
             "model": self.model,
             "site": self.site,
@@ -125,7 +126,7 @@ class AuditReport:
                 }
                 for k in s.keyframes
             ],
-            "gravity": {**asdict(g), "peak": g.peak, "ratio": g.ratio},
+            "gravity": {**gravity, "peak": g.peak, "ratio": g.ratio},
             "collision": {
                 "n_poses": c.n_poses,
                 "seed": c.seed,
@@ -223,7 +224,7 @@ def audit(
     if computed is None:
         computed = sections.compute(arm, n_poses, seed, kd, progress=say)
     say("engine cross-check")
-    engines = _engines(arm, n_poses, seed)
+    engines = _engines(arm, n_poses, seed, computed.gravity.agreement)
     findings = (
         _joint_findings(computed.joints)
         + _simulation_findings(computed)
@@ -234,13 +235,17 @@ def audit(
     return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
 
 
-def _engines(arm: Arm, n_poses: int, seed: int) -> EngineAgreement:
-    """Cross-check over the gravity sweep's poses, chunk by chunk, and compare the models."""
+def _engines(arm: Arm, n_poses: int, seed: int, gravity: Agreement) -> EngineAgreement:
+    """Cross-check over the gravity sweep's poses, chunk by chunk, and compare the models.
+
+    ``gravity`` is the sweep's own row (it computed both engines' gravity on these poses).
+    """
+    batched = tuple(q for q in BATCH_QUANTITIES if q != gravity.quantity)
     rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES)
-    merged: dict[str, Agreement] = {}
+    merged: dict[str, Agreement] = {gravity.quantity: gravity}
     offset, second = 0, 0
     for Q in sections.pose_chunks(arm, n_poses, seed):
-        parts = crosscheck_batch(arm, Q, quantities=BATCH_QUANTITIES).agreements
+        parts = crosscheck_batch(arm, Q, quantities=batched).agreements
         if offset < CROSSCHECK_POSES:
             head = Q[: CROSSCHECK_POSES - offset]
             parts += crosscheck_batch(arm, head, quantities=rest).agreements

@@ -20,6 +20,7 @@ from ..arm import Arm
 from ..collision import CollisionStatistics
 from ..lab.control import simulate_hold
 from . import sections
+from .tables import ms
 
 Array = NDArray[np.float64]
 
@@ -33,10 +34,6 @@ def joint_table(arm: Arm, key: str = "home", kd: float = KD) -> sections.JointSe
     return sections.joints(arm, kd, key)
 
 
-def _ms(h: float) -> str:
-    return "any" if not np.isfinite(h) else f"{1000 * h:.2f} ms"
-
-
 def format_joint_table(t: sections.JointSection) -> list[str]:
     """Table (1) lines."""
     out = [
@@ -47,8 +44,8 @@ def format_joint_table(t: sections.JointSection) -> list[str]:
         rng = np.array2string(np.array([r.lower, r.upper]), precision=1)
         out.append(
             f"  {r.name:<5}{r.axis:>5}{rng:>15}{r.armature:>10.3f}{r.damping:>9.2f}"
-            f"{r.effort_limit:>7.0f}{r.m_ii:>9.4f}{r.m_ii_bare:>11.5f}{_ms(r.h_max):>10}"
-            f"{_ms(r.h_max_bare):>11}"
+            f"{r.effort_limit:>7.0f}{r.m_ii:>9.4f}{r.m_ii_bare:>11.5f}{ms(r.h_max, ' ms'):>10}"
+            f"{ms(r.h_max_bare, ' ms'):>11}"
         )
     out.append(
         "  units: limit N m, M_ii kg m^2 at the home pose; h_max = 2 M_ii / (kd - b) for a "

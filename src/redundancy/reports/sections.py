@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from .. import linalg
 from ..analysis import batch
+from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, pose_errors, worst
 from ..arm import Arm, sampling_ranges
 from ..collision import (
     CollisionStatistics,
@@ -319,6 +320,9 @@ class GravityBudget:
         engine_diff: Largest |Pinocchio - MuJoCo| gravity torque [N m or N].
         gravcomp: Whether gravity compensation is subtracted.
         gravity_enabled: False when the model disables gravity (the needs are then 0).
+        agreement: The engines' gravity torques by the cross-check's measure, worst pose
+            counted over the sweep: the audit's ``gravity`` row, taken from the torques
+            computed here rather than computed again.
     """
 
     n_poses: int
@@ -336,6 +340,7 @@ class GravityBudget:
     engine_diff: float
     gravcomp: bool
     gravity_enabled: bool
+    agreement: Agreement
 
     @property
     def peak(self) -> Array:
@@ -377,10 +382,13 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
     over_high = np.zeros(nv, dtype=int)
     worst_low, worst_high = _Worst(nv), _Worst(nv)
     n_over, diff = 0, 0.0
+    found, offset = (0.0, 0), 0
     for Q in pose_chunks(arm, n_poses, seed):
         tau = batch.gravities(arm, Q, "mujoco")
         tau_p = batch.gravities(arm, Q, "pinocchio")
         diff = max(diff, float(np.max(np.abs(tau - tau_p))))
+        found = merge_worst(found, worst(pose_errors(tau, tau_p)), offset)
+        offset += len(Q)
         need, effort = load(Q, tau)
         low, high = np.minimum(low, need.min(axis=0)), np.maximum(high, need.max(axis=0))
         lim_lo = np.maximum(lim_lo, effort.lower.max(axis=0))
@@ -411,6 +419,7 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
         diff,
         load.uniform != 0.0,
         sim.gravity_enabled,
+        Agreement("gravity", found[0], TOLERANCES["gravity"], found[1]),
     )
 
 

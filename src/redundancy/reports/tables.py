@@ -20,9 +20,14 @@ def fmt(x: float, digits: int = 4) -> str:
     return f"{x:.{digits}g}"
 
 
-def ms(h: float) -> str:
-    """A timestep in milliseconds with two decimals, ``any`` when unbounded [s in]."""
-    return "any" if not math.isfinite(h) else f"{1e3 * h:.2f}"
+def ms(h: float, unit: str = "") -> str:
+    """A timestep in milliseconds with two decimals, ``any`` when unbounded.
+
+    Args:
+        h: The timestep [s].
+        unit: Text after a number (the lesson's ``" ms"``; a table's header names it).
+    """
+    return "any" if not math.isfinite(h) else f"{1e3 * h:.2f}{unit}"
 
 
 def table(header: Sequence[str], rows: Sequence[Sequence[str]], align: str) -> list[str]:
