@@ -7,7 +7,6 @@ declarations) and are shared with ``test_compare.py``.
 from __future__ import annotations
 
 import pickle
-import struct
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -24,6 +23,7 @@ from redundancy.arm import random_poses, sampling_ranges
 from redundancy.collision import collision_pairs
 from redundancy.model.equivalence import compare_models
 
+from .corpus import write_binary_stl
 from .test_fuzz import VALUES, Worker
 
 MODELS = Path(rd.model_path("arm7")).parent
@@ -170,20 +170,9 @@ def tiny_urdf(body: str = "", joint_type: str = "revolute", extra: str = "") -> 
 
 def write_stl(path: Path) -> None:
     """A binary STL tetrahedron (0.1 m edges)."""
-    tris = [
-        ((0, 0, 0), (1, 0, 0), (0, 1, 0)),
-        ((0, 0, 0), (0, 0, 1), (1, 0, 0)),
-        ((0, 0, 0), (0, 1, 0), (0, 0, 1)),
-        ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
-    ]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("wb") as f:
-        f.write(b"\0" * 80 + struct.pack("<I", len(tris)))
-        for tri in tris:
-            f.write(struct.pack("<3f", 0, 0, 0))
-            for v in tri:
-                f.write(struct.pack("<3f", *(0.1 * x for x in v)))
-            f.write(b"\0\0")
+    verts = 0.1 * np.array([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], dtype=float)
+    write_binary_stl(path, verts, np.array([(0, 1, 2), (0, 3, 1), (0, 2, 3), (1, 3, 2)]))
 
 
 # -- the bundled URDFs ---------------------------------------------------------------------
