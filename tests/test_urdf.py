@@ -10,6 +10,7 @@ import pickle
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -613,32 +614,30 @@ def urdf_mutants(draw: st.DrawFn) -> tuple[bytes, str]:
     return (head + text).encode(encoding), f"{'; '.join(done)} ({encoding})"
 
 
+@pytest.fixture(scope="module")
+def fuzz_worker() -> Iterator[Worker]:
+    """The guarded worker process of test_fuzz.py, closed when this module's tests end."""
+    worker = Worker()
+    yield worker
+    worker.close()
+
+
 @settings(
     max_examples=300 if settings().max_examples >= 1000 else 25,
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(mutant=urdf_mutants())
-def test_fuzzed_urdf(mutant: tuple[bytes, str], tmp_path_factory: pytest.TempPathFactory) -> None:
+def test_fuzzed_urdf(
+    mutant: tuple[bytes, str], fuzz_worker: Worker, tmp_path_factory: pytest.TempPathFactory
+) -> None:
     """Each mutant loads in a guarded worker: an engine abort fails the example, not pytest."""
     data, what = mutant
     path = tmp_path_factory.mktemp("urdf_fuzz") / "arm7.urdf"
     path.write_bytes(data)
-    worker = _FUZZ_WORKER.setdefault("worker", Worker())
-    result = worker.load(path, site="ee")
+    result = fuzz_worker.load(path, site="ee")
     assert result["status"] in ("refused", "loaded"), f"{what}: {result}"
     if result["status"] == "refused":
         assert result["message"], what
     elif result["equivalent"] and result["finite"]:
         assert result["agree"], f"{what}:\n" + "\n".join(result["lines"])  # type: ignore[arg-type]
-
-
-_FUZZ_WORKER: dict[str, object] = {}
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _close_fuzz_worker() -> object:
-    yield
-    worker = _FUZZ_WORKER.pop("worker", None)
-    if worker is not None:
-        worker.close()  # type: ignore[attr-defined]
