@@ -29,7 +29,6 @@ import gc
 import itertools
 import os
 import pickle
-import struct
 import threading
 import weakref
 from collections.abc import Callable
@@ -46,6 +45,8 @@ import redundancy as rd
 from redundancy import collision as col
 from redundancy.collision import pathcheck as pc
 from redundancy.testing import poses
+
+from .corpus import write_binary_stl, write_obj
 
 TIGHT = 1e-9
 BAND = col.AMBIGUITY_BAND
@@ -986,22 +987,6 @@ BLOB = (
 TET5 = "0 0 0  0.08 0 0  0 0.09 0  0 0 0.07  0.01 0.01 0.01"
 
 
-def write_obj(path: Path, mesh: tuple[np.ndarray, list[tuple[int, int, int]]]) -> None:
-    verts, faces = mesh
-    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in verts.tolist()]
-    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
-    path.write_text("\n".join(lines) + "\n")
-
-
-def write_binary_stl(path: Path, mesh: tuple[np.ndarray, list[tuple[int, int, int]]]) -> None:
-    verts, faces = mesh
-    out = [b"redundancy test mesh".ljust(80, b" "), struct.pack("<I", len(faces))]
-    for f in faces:
-        tri = verts[list(f)]
-        out.append(struct.pack("<12fH", 0.0, 0.0, 0.0, *tri.ravel().tolist(), 0))
-    path.write_bytes(b"".join(out))
-
-
 INERTIAL = '<inertial pos="0 0 0" mass="0.5" diaginertia="0.002 0.002 0.002"/>'
 
 #: Mesh geoms against every primitive and against each other, posed and rotated so that
@@ -1055,8 +1040,8 @@ MESHES = f"""
 
 def mesh_arm(folder: Path) -> rd.Arm:
     """The MESHES model with its mesh files written into ``folder``."""
-    write_obj(folder / "tetra.obj", TETRA)
-    write_binary_stl(folder / "prism.stl", PRISM)
+    write_obj(folder / "tetra.obj", *TETRA)
+    write_binary_stl(folder / "prism.stl", *PRISM)
     (folder / "meshes.xml").write_text(MESHES)
     # Strict loading refuses mesh geoms (Pinocchio's parser gives them placeholder inertia);
     # every body here has an explicit <inertial>, so both engines read the same masses.

@@ -101,12 +101,17 @@ INERTIAL = '<inertial pos="0 0 0.1" mass="2" diaginertia="0.01 0.02 0.03"/>'
 POSES = np.array([[0.4, -1.1], [-2.0, 0.7], [1.3, 2.9]])
 
 
-def _raw_pinocchio_inertia(xml: str, joint: str) -> tuple[float, np.ndarray]:
-    """Mass and centre of mass of a joint's bodies as Pinocchio's parser alone reads them."""
+def _raw_pinocchio(xml: str) -> pin.Model:
+    """The model Pinocchio's MJCF parser alone builds from ``xml`` (no bridges)."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "m.xml"
         path.write_text(xml)
-        pm = pin.buildModelFromMJCF(str(path))
+        return pin.buildModelFromMJCF(str(path))
+
+
+def _raw_pinocchio_inertia(xml: str, joint: str) -> tuple[float, np.ndarray]:
+    """Mass and centre of mass of a joint's bodies as Pinocchio's parser alone reads them."""
+    pm = _raw_pinocchio(xml)
     inertia = pm.inertias[pm.getJointId(joint)]
     return float(inertia.mass), np.array(inertia.lever)
 
@@ -223,10 +228,7 @@ POSED_ROOT = (
 
 
 def test_posed_fixed_root_is_bridged_into_joint_placements_and_frames():
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "m.xml"
-        path.write_text(POSED_ROOT)
-        raw = pin.buildModelFromMJCF(str(path))
+    raw = _raw_pinocchio(POSED_ROOT)
     arm = rd.load_string(POSED_ROOT, site="tip")
     # Pinocchio alone drops the pose: its tool site is off by the root's offset.
     raw_data = raw.createData()
@@ -386,10 +388,7 @@ def test_gravity_flag_is_bridged_and_listed():
     arm = rd.load_string(xml, site="tip")
     q = np.array([0.7, -0.4])
     # Pinocchio alone keeps 9.81 m/s^2: its gravity torque is not what MuJoCo simulates.
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "m.xml"
-        path.write_text(xml)
-        raw = pin.buildModelFromMJCF(str(path))
+    raw = _raw_pinocchio(xml)
     assert np.abs(pin.computeGeneralizedGravity(raw, raw.createData(), q)).max() > 1.0
     assert [(b.quantity, b.value, b.source) for b in arm.bridges] == [
         ("gravity", (0.0, 0.0, 0.0), '<flag gravity="disable"/>')

@@ -32,6 +32,12 @@ import redundancy as rd
 ARM7 = rd.model_path("arm7").read_text()
 SRC = Path(rd.__file__).resolve().parent.parent
 EXAMPLES = 400 if settings().max_examples >= 1000 else 30
+#: The settings of the three fuzz tests below.
+FUZZ_SETTINGS = settings(
+    max_examples=EXAMPLES,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 #: Text an engine prints when it complains (MuJoCo's warnings, C++ or Python tracebacks).
 ENGINE_NOISE = re.compile(r"WARNING|Error|error:|Traceback|terminate|Segmentation|Assertion")
 #: Largest mass [kg], inertia [kg m^2] or offset [m] at which agreement is required. Beyond
@@ -304,11 +310,7 @@ def mutants(draw: st.DrawFn) -> tuple[bytes, str]:
     return data, "; ".join(done)
 
 
-@settings(
-    max_examples=EXAMPLES,
-    deadline=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-)
+@FUZZ_SETTINGS
 @given(mutant=mutants())
 def test_fuzzed_arm7(mutant: tuple[bytes, str], worker: Worker, tmp_path_factory) -> None:
     _check(mutant, worker, tmp_path_factory, strict=True)
@@ -381,21 +383,13 @@ def text_mutants(draw: st.DrawFn) -> tuple[bytes, str]:
     return text.encode("utf-8", "surrogatepass"), "; ".join(done)
 
 
-@settings(
-    max_examples=EXAMPLES,
-    deadline=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-)
+@FUZZ_SETTINGS
 @given(mutant=text_mutants())
 def test_text_mutants_of_arm7(mutant: tuple[bytes, str], worker: Worker, tmp_path_factory) -> None:
     _check(mutant, worker, tmp_path_factory, strict=True)
 
 
-@settings(
-    max_examples=EXAMPLES,
-    deadline=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-)
+@FUZZ_SETTINGS
 @given(mutant=mutants())
 def test_lenient_loads_of_mutants(
     mutant: tuple[bytes, str], worker: Worker, tmp_path_factory

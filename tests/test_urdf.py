@@ -7,10 +7,10 @@ declarations) and are shared with ``test_compare.py``.
 from __future__ import annotations
 
 import pickle
-import struct
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,7 @@ from redundancy.arm import random_poses, sampling_ranges
 from redundancy.collision import collision_pairs
 from redundancy.model.equivalence import compare_models
 
+from .corpus import write_binary_stl
 from .test_fuzz import VALUES, Worker
 
 MODELS = Path(rd.model_path("arm7")).parent
@@ -170,20 +171,9 @@ def tiny_urdf(body: str = "", joint_type: str = "revolute", extra: str = "") -> 
 
 def write_stl(path: Path) -> None:
     """A binary STL tetrahedron (0.1 m edges)."""
-    tris = [
-        ((0, 0, 0), (1, 0, 0), (0, 1, 0)),
-        ((0, 0, 0), (0, 0, 1), (1, 0, 0)),
-        ((0, 0, 0), (0, 1, 0), (0, 0, 1)),
-        ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
-    ]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("wb") as f:
-        f.write(b"\0" * 80 + struct.pack("<I", len(tris)))
-        for tri in tris:
-            f.write(struct.pack("<3f", 0, 0, 0))
-            for v in tri:
-                f.write(struct.pack("<3f", *(0.1 * x for x in v)))
-            f.write(b"\0\0")
+    verts = 0.1 * np.array([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], dtype=float)
+    write_binary_stl(path, verts, np.array([(0, 1, 2), (0, 3, 1), (0, 2, 3), (1, 3, 2)]))
 
 
 # -- the bundled URDFs ---------------------------------------------------------------------
@@ -624,32 +614,30 @@ def urdf_mutants(draw: st.DrawFn) -> tuple[bytes, str]:
     return (head + text).encode(encoding), f"{'; '.join(done)} ({encoding})"
 
 
+@pytest.fixture(scope="module")
+def fuzz_worker() -> Iterator[Worker]:
+    """The guarded worker process of test_fuzz.py, closed when this module's tests end."""
+    worker = Worker()
+    yield worker
+    worker.close()
+
+
 @settings(
     max_examples=300 if settings().max_examples >= 1000 else 25,
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(mutant=urdf_mutants())
-def test_fuzzed_urdf(mutant: tuple[bytes, str], tmp_path_factory: pytest.TempPathFactory) -> None:
+def test_fuzzed_urdf(
+    mutant: tuple[bytes, str], fuzz_worker: Worker, tmp_path_factory: pytest.TempPathFactory
+) -> None:
     """Each mutant loads in a guarded worker: an engine abort fails the example, not pytest."""
     data, what = mutant
     path = tmp_path_factory.mktemp("urdf_fuzz") / "arm7.urdf"
     path.write_bytes(data)
-    worker = _FUZZ_WORKER.setdefault("worker", Worker())
-    result = worker.load(path, site="ee")
+    result = fuzz_worker.load(path, site="ee")
     assert result["status"] in ("refused", "loaded"), f"{what}: {result}"
     if result["status"] == "refused":
         assert result["message"], what
     elif result["equivalent"] and result["finite"]:
         assert result["agree"], f"{what}:\n" + "\n".join(result["lines"])  # type: ignore[arg-type]
-
-
-_FUZZ_WORKER: dict[str, object] = {}
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _close_fuzz_worker() -> object:
-    yield
-    worker = _FUZZ_WORKER.pop("worker", None)
-    if worker is not None:
-        worker.close()  # type: ignore[attr-defined]
