@@ -29,6 +29,8 @@ from hypothesis import strategies as st
 
 import redundancy as rd
 
+from .test_bad_input import ENGINE_NOISE
+
 ARM7 = rd.model_path("arm7").read_text()
 SRC = Path(rd.__file__).resolve().parent.parent
 EXAMPLES = 400 if settings().max_examples >= 1000 else 30
@@ -38,8 +40,6 @@ FUZZ_SETTINGS = settings(
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
-#: Text an engine prints when it complains (MuJoCo's warnings, C++ or Python tracebacks).
-ENGINE_NOISE = re.compile(r"WARNING|Error|error:|Traceback|terminate|Segmentation|Assertion")
 #: Largest mass [kg], inertia [kg m^2] or offset [m] at which agreement is required. Beyond
 #: it (a mutant with a 1e300 kg link) rounding noise of order 1e-16 x the largest entry
 #: exceeds the cross-check's per-element tolerance 1e-9 x max(1, |value|) on entries that are
