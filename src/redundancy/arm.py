@@ -15,7 +15,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import linalg
-from .checks import check_count, check_number, check_pose
+from .checks import (
+    check_count,
+    check_direction,
+    check_joint_subset,
+    check_number,
+    check_pose,
+)
 from .engines import ENGINES, EngineName
 from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
@@ -207,6 +213,101 @@ class Arm:
     def damping(self, engine: EngineName = "mujoco") -> Array:
         """Damping b per joint: dof damping plus gear^2 x actuator damping [N m s/rad]."""
         return self.engine(engine).damping
+
+    # -- the mass a contact at the tool feels ------------------------------------------------
+    def _mobility(
+        self, q: ArrayLike, armature: bool, joints: object, engine: EngineName
+    ) -> tuple[Array, Array]:
+        """J of the free joints and M_ff^-1 J_f^T from one engine (the inputs checked)."""
+        eng = self.engine(engine)
+        free = check_joint_subset("joints", joints, self.joint_names)
+        return eng.tool_mobility(q, bool(armature), free)
+
+    def operational_inertia(
+        self,
+        q: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> Array:
+        """Operational-space inertia Lambda = (J M^-1 J^T)^-1 at the tool, shape (6, 6).
+
+        Rows and axes as :meth:`jacobian`: linear block [kg], angular block [kg m^2].
+
+        Args:
+            q: Pose [rad or m].
+            armature: Include the armature (the motors' rotor inertia) in M.
+            joints: Names of the joints free to move; the others are held rigid (their
+                column leaves J, their row and column leave M). None: every joint.
+            engine: ``"mujoco"`` (sparse ``mj_solveM``) or ``"pinocchio"``
+                (``computeMinverse``).
+
+        Raises:
+            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6);
+                names the lost tool directions.
+            UnknownNameError: A joint or engine name the arm does not have.
+            ParameterError: ``joints`` empty, repeated or not names.
+        """
+        return linalg.operational_inertia(*self._mobility(q, armature, joints, engine))
+
+    def effective_mass(
+        self,
+        q: ArrayLike,
+        direction: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> float:
+        """Mass a point contact at the tool feels pushing along ``direction`` [kg].
+
+        1 / (u^T J_v M^-1 J_v^T u), u the unit direction in world axes; ``inf`` along a
+        direction the tool cannot move. Defined at singular poses too.
+
+        Args:
+            q: Pose [rad or m].
+            direction: Direction, world axes, any nonzero length (3,).
+            armature: As :meth:`operational_inertia`.
+            joints: As :meth:`operational_inertia`.
+            engine: As :meth:`operational_inertia`.
+
+        Raises:
+            ParameterError: ``direction`` zero, non-finite or not a 3-vector.
+        """
+        u = check_direction("direction", direction)
+        return linalg.effective_mass(*self._mobility(q, armature, joints, engine), u)
+
+    def effective_mass_range(
+        self,
+        q: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> linalg.EffectiveMassRange:
+        """Least and greatest effective mass over all directions at ``q``, with directions.
+
+        The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
+        :meth:`operational_inertia`); the greatest is ``inf`` where the tool cannot move
+        along some direction.
+        """
+        return linalg.effective_mass_range(*self._mobility(q, armature, joints, engine))
+
+    def dynamic_manipulability(
+        self,
+        q: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> float:
+        """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) at ``q``.
+
+        Arguments as :meth:`operational_inertia`; zero where fewer than six joints are free
+        or at a singular pose [mixed units].
+        """
+        return float(linalg.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
 
     def __repr__(self) -> str:
         return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"

@@ -186,3 +186,100 @@ def check_choice(kind: str, value: object, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise UnknownNameError(kind, str(value), choices)
     return value
+
+
+def check_direction(name: str, u: object, size: int = 3) -> Array:
+    """A direction as a unit float64 vector of shape (size,).
+
+    Raises:
+        ParameterError: Not a real vector of that shape, non-finite, or of zero length.
+    """
+    valid = f"a finite nonzero real vector of shape ({size},)"
+    if type(u) is np.ndarray and u.dtype is _F64 and u.shape == (size,):
+        norm = math.sqrt(sum(x * x for x in u.tolist()))  # NaN or inf if any value is
+        if 0.0 < norm < math.inf:
+            return u / norm
+        raise ParameterError(name, u, valid)
+    try:
+        arr = np.asarray(u)
+        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
+            raise ParameterError(name, u, valid)
+        arr = np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, u, valid) from None
+    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+        raise ParameterError(name, u, valid)
+    norm = float(np.linalg.norm(arr))
+    if not (norm > 0.0 and math.isfinite(norm)):
+        raise ParameterError(name, u, valid)
+    return arr / norm
+
+
+#: How far from orthonormal (max |R^T R - I|) a target rotation may be.
+ROTATION_ATOL = 1e-6
+
+
+def check_tool_pose(name: str, target: object) -> tuple[Array, Array]:
+    """A tool pose as (position (3,) [m], rotation (3, 3)): a 4 x 4 homogeneous matrix or a pair.
+
+    The pair is what :meth:`Arm.site_pose <redundancy.Arm.site_pose>` returns. The rotation
+    must be orthonormal with determinant +1 (to :data:`ROTATION_ATOL`).
+
+    Raises:
+        ParameterError: Anything else (the message says what a target is).
+    """
+    valid = (
+        "a 4 x 4 homogeneous pose or a (position [m], 3 x 3 rotation matrix) pair, "
+        "finite, with an orthonormal rotation of determinant +1"
+    )
+    try:
+        if isinstance(target, tuple | list) and len(target) == 2:
+            p, R = (np.asarray(x) for x in target)
+        else:
+            T = np.asarray(target)
+            if T.shape != (4, 4) or np.iscomplexobj(T) or T.dtype.kind not in "biuf":
+                raise ParameterError(name, target, valid)
+            T = T.astype(np.float64)
+            if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=ROTATION_ATOL):
+                raise ParameterError(name, target, valid)
+            p, R = T[:3, 3], T[:3, :3]
+        if np.iscomplexobj(p) or np.iscomplexobj(R) or p.dtype.kind not in "biuf":
+            raise ParameterError(name, target, valid)
+        if R.dtype.kind not in "biuf":
+            raise ParameterError(name, target, valid)
+        p = np.array(p, dtype=np.float64)
+        R = np.array(R, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, target, valid) from None
+    if p.shape != (3,) or R.shape != (3, 3):
+        raise ParameterError(name, target, valid)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(R))):
+        raise ParameterError(name, target, valid)
+    if np.abs(R.T @ R - np.eye(3)).max() > ROTATION_ATOL or np.linalg.det(R) <= 0.0:
+        raise ParameterError(name, target, valid)
+    return p, R
+
+
+def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArray[np.intp] | None:
+    """Indices (ascending) of the joints named in ``joints``; None for None or every joint.
+
+    Raises:
+        UnknownNameError: A name that is not one of ``names`` (lists them).
+        ParameterError: Not an iterable of names, empty, or with a name twice.
+    """
+    if joints is None:
+        return None
+    valid = f"None or a nonempty collection of distinct joint names from {list(names)}"
+    if isinstance(joints, str | bytes) or not hasattr(joints, "__iter__"):
+        raise ParameterError(name, joints, valid)
+    given = list(joints)  # type: ignore[call-overload]
+    for j in given:
+        if not isinstance(j, str):
+            raise ParameterError(name, joints, valid)
+        if j not in names:
+            raise UnknownNameError("joint", j, names)
+    if not given or len(set(given)) != len(given):
+        raise ParameterError(name, joints, valid)
+    if len(given) == len(names):
+        return None
+    return np.array(sorted(names.index(j) for j in given), dtype=np.intp)
