@@ -173,7 +173,7 @@ def test_the_scanner_sees_calls(tmp_path: Path) -> None:
 LAYERS = [
     {"errors", "checks", "caching"},
     {"engines"},
-    {"linalg", "inertia"},
+    {"linalg", "inertia", "ik"},
     {"arm"},
     {"model", "models"},
     {"collision"},

@@ -14,19 +14,20 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import linalg
+from . import ik, linalg
 from .checks import (
     check_count,
     check_direction,
     check_joint_subset,
     check_number,
     check_pose,
+    check_tool_pose,
 )
 from .engines import ENGINES, EngineName
 from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
 from .engines.pinocchio import PinocchioEngine
-from .errors import OutOfRangeError, PoseError, UnknownNameError
+from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
 
@@ -308,6 +309,113 @@ class Arm:
         or at a singular pose [mixed units].
         """
         return float(linalg.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
+
+    # -- inverse kinematics -----------------------------------------------------------------
+    def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
+        """The cost function behind an ``objective`` argument of :meth:`solve_ik`.
+
+        ``"joint_limits"`` is :func:`redundancy.ik.joint_limit_objective` over the joint
+        ranges; ``"manipulability"`` is minus Yoshikawa's sqrt(det(J J^T)) with its analytic
+        gradient (:meth:`manipulability_gradient`); a callable is taken as the cost itself.
+
+        Raises:
+            UnknownNameError: A name that is not one of :data:`redundancy.ik.OBJECTIVES`.
+            ParameterError: Neither None, a name nor a callable.
+        """
+        if objective is None:
+            return None
+        if isinstance(objective, str):
+            if objective not in ik.OBJECTIVES:
+                raise UnknownNameError("objective", objective, ik.OBJECTIVES)
+            if objective == "joint_limits":
+                return ik.joint_limit_objective(self.lower, self.upper)
+            eng = self.engine(engine)
+
+            def manipulability(q: Array) -> tuple[float, Array]:
+                J = eng.site_jacobian(q)
+                return (
+                    -linalg.yoshikawa(J),
+                    -linalg.manipulability_gradient(J, eng.jacobian_derivatives(q)),
+                )
+
+            return manipulability
+        if callable(objective):
+            return objective  # type: ignore[no-any-return]
+        raise ParameterError(
+            "objective", objective, f"None, one of {list(ik.OBJECTIVES)} or a callable"
+        )
+
+    def solve_ik(
+        self,
+        target: object,
+        q0: ArrayLike | None = None,
+        *,
+        objective: object = None,
+        position_only: bool = False,
+        position_tol: float = 1e-6,
+        orientation_tol: float = 1e-6,
+        restarts: int = 100,
+        seed: int | None = 0,
+        engine: EngineName = "mujoco",
+    ) -> ik.IKResult:
+        """Joint values that put the tool at ``target``, inside the joint ranges.
+
+        Damped Levenberg-Marquardt with the joints clamped to their ranges and random
+        restarts inside them; the answer is recomputed by the other engine, whose errors
+        decide ``success`` (see :mod:`redundancy.ik`).
+
+        Args:
+            target: A 4 x 4 homogeneous pose, or a (position [m], rotation) pair as
+                :meth:`site_pose` returns, world frame.
+            q0: First start [rad or m]; None: the middle of the joint ranges.
+            objective: Pursued in the task's null space once the task is met, never at its
+                expense: ``"joint_limits"`` (away from the limits), ``"manipulability"``
+                (Yoshikawa's measure up), or a callable q -> (cost, gradient (nq,)) to lower.
+            position_only: Reach the position alone; the orientation is free.
+            position_tol: Position tolerance [m], > 0.
+            orientation_tol: Orientation tolerance [rad], > 0.
+            restarts: Random restarts at most, >= 0.
+            seed: Seed of the restarts' random starts (None: fresh entropy).
+            engine: The engine that iterates; the other checks.
+
+        Returns:
+            The :class:`~redundancy.ik.IKResult`: ``q`` (inside the ranges in every case),
+            ``success``, ``position_error`` [m], ``orientation_error`` [rad],
+            ``iterations``.
+
+        Raises:
+            ParameterError: A bad target, tolerance, count, seed or objective.
+            PoseError: A bad ``q0``.
+        """
+        p_t, R_t = check_tool_pose("target", target)
+        eng = self.engine(engine)
+        other = self.engine("pinocchio" if engine == "mujoco" else "mujoco")
+        settings = ik.Settings(
+            position_tol=check_number("position_tol", position_tol, 0.0, low_open=True, unit="m"),
+            orientation_tol=check_number(
+                "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
+            ),
+            restarts=check_count("restarts", restarts, 0),
+        )
+        if seed is not None:
+            seed = check_count("seed", seed, 0)
+        lo, hi = sampling_ranges(self, unlimited_slide=1.0)
+        start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
+        return ik.solve(
+            eng,
+            other,
+            self.lower,
+            self.upper,
+            lo,
+            hi,
+            p_t,
+            R_t,
+            start,
+            np.random.default_rng(seed),
+            self.ik_objective(objective, engine),
+            bool(position_only),
+            settings,
+        )
 
     def __repr__(self) -> str:
         return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"

@@ -144,6 +144,6 @@ class Engine(Protocol):
         """:meth:`tool_mobility` over a validated stack: (n, 6, k) and (n, k, 6)."""
         ...
 
-    def kinematics_kernel(self) -> Callable[[Array], tuple[Array, Array, Array]]:
-        """An unchecked q -> (site position, rotation, J) for this thread (IK inner loops)."""
+    def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
+        """An unchecked q -> (tool error [p* - p; log(R* R^T)], J) for this thread (IK loops)."""
         ...

@@ -460,30 +460,62 @@ class MujocoEngine:
         run_split(n, threads, span)
         return J, X.transpose(0, 2, 1)
 
-    def kinematics_kernel(self) -> Callable[[Array], tuple[Array, Array, Array]]:
-        """A function q -> (site position, rotation, Jacobian) for this thread, unchecked.
+    def ik_kernel(
+        self, position: Array, rotation: Array
+    ) -> Callable[[Array], tuple[Array, Array]]:
+        """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
 
-        The inverse-kinematics inner loop (:mod:`redundancy.ik`) calls it tens of times per
-        solve, where a pose check costs as much as the kinematics: the caller passes only
-        finite float64 (nv,) poses. The arrays returned are this thread's buffers, valid
-        until the next call; the kernel must stay in the thread that made it.
+        e = [p* - p; log(R* R^T)] in world axes [m; rad], for the target (``position``,
+        ``rotation``). The inverse-kinematics inner loop (:mod:`redundancy.ik`) calls it
+        tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs
+        as much as the kinematics: the caller passes only finite float64 (nv,) poses. The
+        arrays returned are this thread's buffers, valid until the next call; the kernel
+        must stay in the thread that made it.
         """
         w = self._work()
         m, d, sid = self.model, w.data, self.site_id
         qpos, jacp, jacr, jac = w.qpos, w.jacp, w.jacr, w.jac
-        x, R9 = d.site_xpos[sid], d.site_xmat[sid]
-        R = R9.reshape(3, 3)
-        kin, com, jsite = _kinematics, _com_pos, _jac_site
+        x, xmat = d.site_xpos[sid], d.site_xmat[sid]
+        p_t = np.array(position, dtype=np.float64)
+        quat_t = np.empty(4)
+        mujoco.mju_mat2Quat(quat_t, np.ascontiguousarray(rotation, dtype=np.float64).ravel())
+        quat, local = np.empty(4), np.empty(3)
+        e = np.empty(6)
+        ep, er = e[:3], e[3:]
+        kin, com, jsite, sub = _kinematics, _com_pos, _jac_site, np.subtract
+        to_quat, sub_quat, rotate = mujoco.mju_mat2Quat, mujoco.mju_subQuat, mujoco.mju_mulMatVec3
 
-        def kernel(q: Array) -> tuple[Array, Array, Array]:
+        def kernel(q: Array) -> tuple[Array, Array]:
             w.key = None  # the data no longer holds the pose cached for the checked methods
             qpos[:] = q
             kin(m, d)
             com(m, d)  # cdof, which mj_jacSite reads
             jsite(m, d, jacp, jacr, sid)
-            return x, R, jac
+            sub(p_t, x, out=ep)
+            # quat * quat(local) = quat_t: the rotation still to go, in the site's axes;
+            # R local is the same vector in world axes, log(R* R^T).
+            to_quat(quat, xmat)
+            sub_quat(local, quat_t, quat)
+            rotate(er, xmat, local)
+            return e, jac
 
         return kernel
+
+
+def spd_solve(A: Array, b: Array) -> Array:
+    """x = A^-1 b for one small symmetric positive definite A (overwritten), by Cholesky.
+
+    MuJoCo's dense ``mju_cholFactor`` / ``mju_cholSolve``: for the 6 x 6 systems of the
+    inverse-kinematics loop a third of ``np.linalg.solve``'s time, which its Python wrapper
+    dominates at this size. A must be C-contiguous float64 (the caller's scratch).
+    """
+    x = np.empty(len(b))
+    _chol_factor(A, 0.0)
+    _chol_solve(x, A, b)
+    return x
+
+
+_chol_factor, _chol_solve = mujoco.mju_cholFactor, mujoco.mju_cholSolve
 
 
 def _cholesky_solve(M: Array, B: Array) -> Array:

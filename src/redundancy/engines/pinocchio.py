@@ -352,21 +352,29 @@ class PinocchioEngine:
         X = np.linalg.solve(L.transpose(0, 2, 1), np.linalg.solve(L, Jf.transpose(0, 2, 1)))
         return Jf, X
 
-    def kinematics_kernel(self) -> Callable[[Array], tuple[Array, Array, Array]]:
-        """A function q -> (site position, rotation, Jacobian) for this thread, unchecked.
+    def ik_kernel(
+        self, position: Array, rotation: Array
+    ) -> Callable[[Array], tuple[Array, Array]]:
+        """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
 
-        As the MuJoCo engine's: for the inverse-kinematics loop, finite float64 (nv,) poses
-        only, arrays valid until the next call, used in the thread that made it.
+        As the MuJoCo engine's: e = [p* - p; log(R* R^T)] in world axes [m; rad], finite
+        float64 (nv,) poses only, arrays valid until the next call, used in the thread that
+        made it.
         """
         w = self._work()
         model, data, fid, nv = self.model, w.data, self.frame_id, self.nv
-        cfj, place = pin.computeFrameJacobian, pin.updateFramePlacement
+        cfj, place, log3 = pin.computeFrameJacobian, pin.updateFramePlacement, pin.log3
         perm, identity = self.perm, self.identity
+        p_t = np.array(position, dtype=np.float64)
+        R_t = np.array(rotation, dtype=np.float64)
+        e = np.empty(6)
 
-        def kernel(q: Array) -> tuple[Array, Array, Array]:
+        def kernel(q: Array) -> tuple[Array, Array]:
             w.key = None
             J = np.reshape(cfj(model, data, self._pin_q(w, q), fid, _LWA), (6, nv))
             oMf = place(model, data, fid)
-            return oMf.translation, oMf.rotation, (J if identity else J[:, perm])
+            e[:3] = p_t - oMf.translation
+            e[3:] = log3(R_t @ oMf.rotation.T)
+            return e, (J if identity else J[:, perm])
 
         return kernel
