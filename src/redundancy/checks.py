@@ -283,3 +283,27 @@ def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArr
     if len(given) == len(names):
         return None
     return np.array(sorted(names.index(j) for j in given), dtype=np.intp)
+
+
+def check_directions(name: str, U: object, n: int) -> Array:
+    """One direction (3,) for every pose, or one per pose (n, 3), as unit rows (n, 3).
+
+    Raises:
+        ParameterError: Not a real (3,) or (n, 3) array, non-finite, or a zero row.
+    """
+    valid = f"a finite nonzero real vector of shape (3,) or ({n}, 3)"
+    try:
+        arr = np.asarray(U)
+        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
+            raise ParameterError(name, U, valid)
+        arr = np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, U, valid) from None
+    if arr.shape == (3,):
+        arr = np.broadcast_to(arr, (n, 3))
+    if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
+        raise ParameterError(name, U, valid)
+    norms = np.linalg.norm(arr, axis=1)
+    if not np.all((norms > 0) & np.isfinite(norms)):
+        raise ParameterError(name, U, valid)
+    return arr / norms[:, None]

@@ -18,7 +18,7 @@ from ..arm import Arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
-from ..linalg import manipulability_gradient
+from ..linalg import dynamic_manipulability, manipulability_gradient, mobility
 from ..model.bridges import Bridge
 
 Array = NDArray[np.float64]
@@ -34,6 +34,11 @@ TOLERANCES: dict[str, float] = {
     "mass matrix (bare)": 1e-9,
     "gravity": 1e-9,
     "manipulability gradient": 1e-8,
+    # J M^-1 J^T (the inverse of the operational-space inertia, defined at singular poses
+    # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse) and Yoshikawa's
+    # dynamic manipulability, the product of the singular values of M^-1 J^T.
+    "operational inertia^-1": 1e-9,
+    "dynamic manipulability": 1e-9,
 }
 
 
@@ -226,6 +231,13 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
         bare = stacks.M.copy()  # type: ignore[union-attr]
         remove_armature(bare, engine.armature)
         out["mass matrix (bare)"] = bare
+    # The tool's mobility: one stacked J and M^-1 J^T serve both quantities.
+    if want & {"operational inertia^-1", "dynamic manipulability"}:
+        J, X = engine.tool_mobilities(Q, True, None, threads)
+        if "operational inertia^-1" in want:
+            out["operational inertia^-1"] = mobility(J, X)
+        if "dynamic manipulability" in want:
+            out["dynamic manipulability"] = np.asarray(dynamic_manipulability(X)).reshape(n)
     # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
     if "jacobian derivative" in want:
         out["jacobian derivative"] = np.empty((n, nv, 6, nv))

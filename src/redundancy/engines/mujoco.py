@@ -460,9 +460,7 @@ class MujocoEngine:
         run_split(n, threads, span)
         return J, X.transpose(0, 2, 1)
 
-    def ik_kernel(
-        self, position: Array, rotation: Array
-    ) -> Callable[[Array], tuple[Array, Array]]:
+    def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
         """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
 
         e = [p* - p; log(R* R^T)] in world axes [m; rad], for the target (``position``,
@@ -503,7 +501,7 @@ class MujocoEngine:
 
 
 def spd_solve(A: Array, b: Array) -> Array:
-    """x = A^-1 b for one small symmetric positive definite A (overwritten), by Cholesky.
+    """Solve A x = b for one small symmetric positive definite A (overwritten), by Cholesky.
 
     MuJoCo's dense ``mju_cholFactor`` / ``mju_cholSolve``: for the 6 x 6 systems of the
     inverse-kinematics loop a third of ``np.linalg.solve``'s time, which its Python wrapper

@@ -352,9 +352,7 @@ class PinocchioEngine:
         X = np.linalg.solve(L.transpose(0, 2, 1), np.linalg.solve(L, Jf.transpose(0, 2, 1)))
         return Jf, X
 
-    def ik_kernel(
-        self, position: Array, rotation: Array
-    ) -> Callable[[Array], tuple[Array, Array]]:
+    def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
         """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
 
         As the MuJoCo engine's: e = [p* - p; log(R* R^T)] in world axes [m; rad], finite

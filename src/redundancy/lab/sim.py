@@ -22,8 +22,8 @@ the links collide and stop each other.
 Redundancy is something to touch here: :meth:`LabSim.self_motion_targets` moves the targets
 along the Jacobian's null space with the tool held (the library's
 :func:`redundancy.analysis.selfmotion.self_motion` with drift correction), and
-:func:`solve_ik` takes the targets to a dragged tool pose by damped least squares with a
-null-space term that pulls toward a rest posture.
+:func:`solve_ik` takes the targets to a dragged tool pose with the library's inverse
+kinematics (:meth:`redundancy.Arm.solve_ik`), pulling toward a rest posture in the null space.
 """
 
 from __future__ import annotations
@@ -166,51 +166,33 @@ def solve_ik(
     position: ArrayLike,
     rotation: ArrayLike | None = None,
     rest: ArrayLike | None = None,
-    damping: float = 0.05,
-    posture_gain: float = 0.2,
-    tol: float = 1e-6,
-    iterations: int = 200,
 ) -> tuple[Array, float]:
-    """Joint targets that put the tool at a pose: damped least squares with a posture term.
+    """The lab's drag: :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` from the current targets.
 
-    Each iteration takes ``dq = J^# e + N k (rest - q)``: ``J^#`` is the damped inverse
-    (:func:`redundancy.linalg.damped_pinv`, bounded near singular poses), ``e`` the tool's
-    error (:func:`redundancy.analysis.selfmotion.pose_error`), and ``N`` the null-space
-    projector, so the posture term moves the elbow toward ``rest`` without moving the tool.
-    Joints are clipped to their ranges.
+    No random restarts (a drag must not make the arm jump to another branch), and the
+    posture pulled toward ``rest`` in the task's null space (the objective
+    |q - rest|^2 / 2), so the elbow stays where the user left it while the tool follows.
 
     Args:
         arm: The arm.
-        q0: Start pose [rad or m].
+        q0: Start pose, the current targets [rad or m].
         position: Tool target position [m].
         rotation: Tool target orientation (3 x 3), or None to keep the orientation at ``q0``.
         rest: Rest posture for the null-space term (default ``q0``).
-        damping: lambda of the damped inverse [m/rad].
-        posture_gain: k, the share of the posture error taken per iteration.
-        tol: Stop when the tool's position error is below this [m] (and the orientation
-            error below 1e3 * tol [rad]).
-        iterations: Iterations at most.
 
     Returns:
-        The pose and the tool's remaining position error [m].
+        The pose (inside the joint ranges) and the tool's remaining position error [m].
     """
     q = arm.pose(q0)
-    p_t = np.asarray(position, dtype=float).reshape(3)
-    R_t = arm.site_pose(q)[1] if rotation is None else np.asarray(rotation, float).reshape(3, 3)
+    R_t = arm.site_pose(q)[1] if rotation is None else rotation
     q_rest = q.copy() if rest is None else arm.pose(rest)
-    err = np.inf
-    for _ in range(iterations):
-        e = selfmotion.pose_error(arm, q, p_t, R_t)
-        err = float(np.linalg.norm(e[:3]))
-        if err < tol and np.linalg.norm(e[3:]) < 1e3 * tol:
-            break
-        J = arm.jacobian(q)
-        dq = linalg.damped_pinv(J, damping) @ e
-        dq += linalg.nullspace_projector(J) @ (posture_gain * (q_rest - q))
-        q = np.clip(q + dq, arm.lower, arm.upper)  # -inf/inf where unlimited
-    else:
-        err = float(np.linalg.norm(selfmotion.pose_error(arm, q, p_t, R_t)[:3]))
-    return q, err
+
+    def toward_rest(x: Array) -> tuple[float, Array]:
+        d = x - q_rest
+        return 0.5 * float(d @ d), d
+
+    result = arm.solve_ik((position, R_t), q, objective=toward_rest, restarts=0)
+    return result.q, result.position_error
 
 
 class LabSim:
