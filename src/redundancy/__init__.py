@@ -34,11 +34,13 @@ from .errors import (
     ParameterError,
     PoseError,
     RedundancyError,
+    SingularPoseError,
     UnknownNameError,
     UnsupportedFeatureError,
 )
 from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
-from .linalg import JacobianSVD, Manipulability
+from .ik import IKResult
+from .linalg import EffectiveMassRange, JacobianSVD, Manipulability
 from .model.bridges import Bridge
 from .model.equivalence import Difference, EquivalenceReport, compare_models
 from .model.loading import load, load_string
@@ -55,7 +57,9 @@ __all__ = [
     "Comparison",
     "CrossCheckReport",
     "Difference",
+    "EffectiveMassRange",
     "EquivalenceReport",
+    "IKResult",
     "JacobianSVD",
     "Manipulability",
     "MissingDependencyError",
@@ -64,6 +68,7 @@ __all__ = [
     "ParameterError",
     "PoseError",
     "RedundancyError",
+    "SingularPoseError",
     "UnknownNameError",
     "UnsupportedFeatureError",
     "__version__",
