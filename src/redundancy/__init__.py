@@ -38,8 +38,8 @@ from .errors import (
     UnknownNameError,
     UnsupportedFeatureError,
 )
-from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
 from .ik import IKResult
+from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
 from .linalg import EffectiveMassRange, JacobianSVD, Manipulability
 from .model.bridges import Bridge
 from .model.equivalence import Difference, EquivalenceReport, compare_models

@@ -399,7 +399,10 @@ class Arm:
         )
         if seed is not None:
             seed = check_count("seed", seed, 0)
-        lo, hi = sampling_ranges(self, unlimited_slide=1.0)
+        try:
+            lo, hi = self._ik_ranges
+        except AttributeError:  # drawn from where the sampling draws (an unlimited slide: +-1 m)
+            lo, hi = self._ik_ranges = sampling_ranges(self, unlimited_slide=1.0)
         start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
         return ik.solve(
             eng,
@@ -411,7 +414,7 @@ class Arm:
             p_t,
             R_t,
             start,
-            np.random.default_rng(seed),
+            lambda: np.random.default_rng(seed),
             self.ik_objective(objective, engine),
             bool(position_only),
             settings,

@@ -288,7 +288,7 @@ def solve(
     p_t: Array,
     R_t: Array,
     q0: Array,
-    rng: np.random.Generator,
+    rng: Callable[[], np.random.Generator],
     objective: Objective | None = None,
     position_only: bool = False,
     settings: Settings | None = None,
@@ -305,66 +305,66 @@ def solve(
         p_t: Target position [m].
         R_t: Target rotation (orthonormal).
         q0: First start [rad or m] (clamped into the ranges).
-        rng: The restarts' random numbers.
+        rng: Makes the restarts' random numbers (called on the first restart only: most
+            solves need none, and a generator costs tens of microseconds to seed).
         objective: A cost lowered in the null space after convergence, or None.
         position_only: Solve for the position alone (3 rows of J).
         settings: The knobs (:class:`Settings` defaults if None).
     """
     s = settings or Settings()
     solver = _Solver(engine, lower, upper, p_t, R_t, position_only, s)
-    q = np.clip(np.array(q0, dtype=np.float64), lower, upper)
+    q = np.minimum(np.maximum(q0, lower), upper)
     best: tuple[float, Array] | None = None
     restarts = 0
+    generator: np.random.Generator | None = None
     while True:
         q, ok, E = solver.descend(q, s.iterations)
         if ok:
-            result = _verify(solver, check, q, objective)
-            if result is not None:
-                return _result(solver, check, result, restarts, objective, engine)
+            errors = _checked_errors(solver, check, q)
+            if errors[2]:
+                if objective is not None:
+                    better = solver.pursue(q, objective)
+                    if better is not q:
+                        better_errors = _checked_errors(solver, check, better)
+                        if better_errors[2]:
+                            q, errors = better, better_errors
+                return _result(solver, check, q, errors, restarts, objective, engine)
         if best is None or E < best[0]:
             best = (E, q)
         if restarts >= s.restarts:
             break
         restarts += 1
-        q = rng.uniform(sample_lower, sample_upper)
-    return _result(solver, check, best[1], restarts, objective, engine)
+        if generator is None:
+            generator = rng()
+        q = generator.uniform(sample_lower, sample_upper)
+    q = best[1]
+    return _result(solver, check, q, _checked_errors(solver, check, q), restarts, objective, engine)
 
 
-def _verify(solver: _Solver, check: Engine, q: Array, objective: Objective | None) -> Array | None:
-    """The converged ``q``, improved by the objective if any, if the checking engine agrees."""
-    if not _passes(solver, check, q):
-        return None
-    if objective is None:
-        return q
-    better = solver.pursue(q, objective)
-    return better if better is not q and _passes(solver, check, better) else q
-
-
-def _passes(solver: _Solver, check: Engine, q: Array) -> bool:
+def _checked_errors(solver: _Solver, check: Engine, q: Array) -> tuple[float, float, bool]:
+    """Position and orientation errors by the checking engine, and whether they pass."""
     p, R = check.site_pose(q)
     npos, nrot = tool_errors(solver.p_t, solver.R_t, p, R)
     s = solver.s
-    return npos <= s.position_tol and (solver.position_only or nrot <= s.orientation_tol)
+    ok = npos <= s.position_tol and (solver.position_only or nrot <= s.orientation_tol)
+    return npos, nrot, ok
 
 
 def _result(
     solver: _Solver,
     check: Engine,
     q: Array,
+    errors: tuple[float, float, bool],
     restarts: int,
     objective: Objective | None,
     engine: Engine,
 ) -> IKResult:
-    p, R = check.site_pose(q)
-    npos, nrot = tool_errors(solver.p_t, solver.R_t, p, R)
-    s = solver.s
-    ok = npos <= s.position_tol and (solver.position_only or nrot <= s.orientation_tol)
     value = None if objective is None else _checked(*objective(q), len(q))[0]
     return IKResult(
         q=q.copy(),
-        success=bool(ok),
-        position_error=npos,
-        orientation_error=nrot,
+        success=bool(errors[2]),
+        position_error=errors[0],
+        orientation_error=errors[1],
         iterations=solver.iterations,
         restarts=restarts,
         objective=value,
