@@ -308,17 +308,30 @@ def _lost_names(J: Array, rtol: float) -> list[str]:
 
 
 def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
-    """Lambda = (J M^-1 J^T)^-1 at one pose, symmetric (6, 6), from J (6, k) and M^-1 J^T.
+    """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
+
+    Not by inverting J M^-1 J^T, whose condition number is J's squared (near a singular pose
+    the inverse would be noise), but through J's SVD J = U S V^T: J M^-1 J^T = U S C S U^T
+    with C = V^T M^-1 V, as well conditioned as M, so Lambda = U S^-1 C^-1 S^-1 U^T loses
+    only J's condition number of accuracy. C is formed as V^T (X U S^-1) = V^T M^-1 V.
 
     Raises:
-        SingularPoseError: J has rank below 6 (by :func:`jacobian_svd`'s rule): names the
-            tool directions lost.
+        SingularPoseError: J has rank below 6 (by :func:`jacobian_svd`'s rule) at some pose:
+            names the tool directions lost (and the pose, for a stack).
     """
-    s = np.linalg.svd(J, compute_uv=False)
-    if len(s) < J.shape[0] or not s[0] > 0 or s[-1] <= rtol * s[0]:
-        raise SingularPoseError("operational inertia", _lost_names(J, rtol))
-    L = np.linalg.inv(mobility(J, X))
-    return 0.5 * (L + L.T)
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    bad = (s.shape[-1] < J.shape[-2]) | ~(s[..., 0] > 0) | (s[..., -1] <= rtol * s[..., 0])
+    if np.any(bad):
+        if J.ndim == 2:
+            raise SingularPoseError("operational inertia", _lost_names(J, rtol))
+        i = int(np.flatnonzero(bad)[0])
+        raise SingularPoseError("operational inertia", _lost_names(J[i], rtol), f" (pose {i})")
+    inv_s = 1.0 / s
+    C = Vt @ ((X @ U) * inv_s[..., None, :])
+    C = 0.5 * (C + np.swapaxes(C, -1, -2))
+    W = U * inv_s[..., None, :]
+    L = W @ np.linalg.inv(C) @ np.swapaxes(W, -1, -2)
+    return 0.5 * (L + np.swapaxes(L, -1, -2))
 
 
 def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:

@@ -49,15 +49,13 @@ from ..checks import (
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
-from ..errors import ParameterError, SingularPoseError
+from ..errors import ParameterError
 from ..ik import IKResult
 from ..linalg import (
     MANIPULABILITY_KINDS,
-    RANK_RTOL,
     ManipulabilityKind,
     dynamic_manipulability,
     manipulability_rows,
-    mobility,
     operational_inertia,
 )
 from ..linalg import effective_mass_ranges as linalg_effective_mass_ranges
@@ -306,20 +304,7 @@ def operational_inertias(
             tool directions).
     """
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    out = np.empty((len(J), 6, 6))
-    s = np.linalg.svd(J, compute_uv=False) if len(J) else np.ones((0, 6))
-    singular = np.flatnonzero((s.shape[1] < 6) | ~(s[:, 0] > 0) | (s[:, -1] <= RANK_RTOL * s[:, 0]))
-    if len(singular):
-        i = int(singular[0])
-        try:
-            operational_inertia(J[i], X[i])
-        except SingularPoseError as err:
-            raise SingularPoseError(err.quantity, err.lost, f" (pose {i})") from None
-    if len(J):
-        out[:] = np.linalg.inv(mobility(J, X))
-        out += out.transpose(0, 2, 1)
-        out *= 0.5
-    return out
+    return operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
 
 
 def effective_masses(

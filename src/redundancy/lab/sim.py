@@ -107,6 +107,9 @@ class LabReadouts:
         watch_peak: Its largest |speed| over the last :data:`PEAK_WINDOW` [rad/s].
         watch_torque: The torque its motor applies, after clamping [N m].
         watch_limit: Its motor's torque limit [N m].
+        contact_mass: Effective mass at the tool along its direction of motion, with the
+            simulated armature: what a contact in the tool's path would feel
+            (:meth:`redundancy.Arm.effective_mass`) [kg]; NaN while the tool is at rest.
     """
 
     time: float
@@ -133,6 +136,7 @@ class LabReadouts:
     watch_peak: float
     watch_torque: float
     watch_limit: float
+    contact_mass: float = float("nan")
 
     @property
     def contacts_text(self) -> str:
@@ -493,7 +497,16 @@ class LabSim:
                 watch_peak=float(np.max(np.abs(recent))) if recent else 0.0,
                 watch_torque=self._controller.applied(d, self.watch_index),
                 watch_limit=float(self.effort_limit[self.watch_index]),
+                contact_mass=self._contact_mass(q, J, d.qvel),
             )
+
+    def _contact_mass(self, q: Array, J: Array, qdot: Array) -> float:
+        """Effective mass along the tool's velocity J_v qdot, the armature as simulated [kg]."""
+        v = J[:3] @ qdot
+        if not np.linalg.norm(v) > 1e-6:  # at rest: no direction of motion
+            return float("nan")
+        M = self.arm.mass_matrix(q, armature=False) + np.diag(self.model.dof_armature)
+        return linalg.effective_mass(J, np.linalg.solve(M, J.T), v / np.linalg.norm(v))
 
     def _window(
         self, t: collections.deque[float], v: collections.deque[float], span: float

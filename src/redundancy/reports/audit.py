@@ -81,6 +81,7 @@ class AuditReport:
         sections: Joints, keyframes, gravity, self-collision.
         engines: Cross-check and model equivalence.
         findings: What to act on.
+        contact_mass: The effective mass at the tool beside ISO/TS 15066's estimate.
     """
 
     model: str
@@ -89,6 +90,7 @@ class AuditReport:
     sections: Sections
     engines: EngineAgreement
     findings: tuple[Finding, ...]
+    contact_mass: sections.ContactMass | None = None
 
     @property
     def exit_code(self) -> int:
@@ -164,6 +166,7 @@ class AuditReport:
                 "bridged": [asdict(b) for b in eq.bridges],
             },
             "findings": [asdict(f) for f in self.findings],
+            "contact_mass": None if self.contact_mass is None else asdict(self.contact_mass),
         }
         return _clean(doc)
 
@@ -232,7 +235,8 @@ def audit(
         + _gravity_findings(arm, computed.gravity, computed.joints)
         + _engine_findings(engines, computed.contacts)
     )
-    return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
+    contact = sections.contact_mass(arm, n_poses, seed)
+    return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings), contact)
 
 
 def _engines(arm: Arm, n_poses: int, seed: int, gravity: Agreement) -> EngineAgreement:
@@ -487,6 +491,7 @@ def format_report(r: AuditReport) -> list[str]:
     out += ["", *_gravity_lines(r)]
     out += ["", *_collision_lines(r)]
     out += ["", *_engine_lines(r)]
+    out += ["", *r.contact_mass.lines()] if r.contact_mass is not None else []
     out += ["", f"findings: {len(r.findings)}"]
     out += [f"  [{f.kind}] {f.message}" for f in r.findings] or ["  none"]
     return out
