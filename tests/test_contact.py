@@ -240,3 +240,15 @@ def test_the_audit_section_against_ts_15066(panda: rd.Arm) -> None:
     lines = c.lines()
     assert lines[0].startswith("effective mass at the tool (ISO/TS 15066 transient contact)")
     assert f"= {c.estimate:.3g} kg" in lines[-1]
+
+
+def test_pinocchios_inverse_mass_is_taken_at_the_pose_asked(arm7: rd.Arm) -> None:
+    # integrate() writes the engine's pose buffer without moving its cache key: the mobility
+    # must not read that buffer (it once did, and returned M^-1 of the wrong pose).
+    a, b = rd.arm.random_poses(arm7, 2, seed=9)
+    arm7.pinocchio.site_jacobian(b)
+    arm7.pinocchio.integrate(a, np.zeros(7))
+    u = np.array([1.0, 0.0, 0.0])
+    assert arm7.effective_mass(b, u, engine="pinocchio") == pytest.approx(
+        arm7.effective_mass(b, u), rel=1e-12
+    )

@@ -181,3 +181,17 @@ def test_rotation_error_handles_half_turns() -> None:
     assert np.linalg.norm(v) == pytest.approx(math.pi)
     assert abs(v[0]) == pytest.approx(math.pi)
     assert ik.rotation_error(np.eye(3), np.eye(3)) == (0.0, 0.0, 0.0)
+
+
+def test_joint_limit_cost_gradient_and_its_finite_value_at_a_limit() -> None:
+    lo, hi = np.array([-1.0, -2.0, -np.inf]), np.array([2.0, 1.0, np.inf])
+    cost = ik.joint_limit_objective(lo, hi)
+    q = np.array([0.3, -1.5, 4.0])
+    value, grad = cost(q)
+    h = 1e-6
+    numeric = [(cost(q + h * e)[0] - cost(q - h * e)[0]) / (2 * h) for e in np.eye(3)]
+    np.testing.assert_allclose(grad, numeric, rtol=1e-6, atol=1e-12)
+    assert grad[2] == 0.0  # an unlimited joint has no limit to keep away from
+    middle, _ = cost(np.array([0.5, -0.5, 0.0]))
+    at_limit, g = cost(np.array([2.0, -0.5, 0.0]))
+    assert middle < value < at_limit < np.inf and np.all(np.isfinite(g))

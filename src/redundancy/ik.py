@@ -135,19 +135,27 @@ def tool_errors(p_t: Array, R_t: Array, p: Array, R: Array) -> tuple[float, floa
     return float(np.linalg.norm(p_t - p)), math.sqrt(x * x + y * y + z * z)
 
 
-def joint_limit_objective(lower: Array, upper: Array) -> Objective:
-    """Liegeois' cost: mean of ((q - middle) / range)^2 over the limited joints.
+def joint_limit_objective(lower: Array, upper: Array, margin: float = 1e-3) -> Objective:
+    """Chan and Dubey's joint-limit cost: the mean of r^2 / (4 (upper - q)(q - lower)).
 
-    Lowering it moves the joints toward the middles of their ranges, away from the limits.
+    1 with every limited joint at the middle of its range (r, the range's width), growing
+    without bound toward a limit, so lowering it moves first the joints nearest their limits
+    (a quadratic cost would trade one joint at its limit for several nearer their middles).
+    The distances carry ``margin`` times the range, so a joint clamped at its limit still
+    has a finite cost and gradient.
     """
     limited = np.isfinite(lower) & np.isfinite(upper) & (upper > lower)
-    mid = np.where(limited, 0.5 * (lower + upper), 0.0)
-    w = np.where(limited, 1.0 / np.where(limited, upper - lower, 1.0) ** 2, 0.0)
-    w /= max(1, int(limited.sum()))
+    lo = np.where(limited, lower, -1.0)
+    hi = np.where(limited, upper, 1.0)
+    r = hi - lo
+    w = np.where(limited, 0.25 * r * r, 0.0) / max(1, int(limited.sum()))
+    pad = margin * r
 
     def cost(q: Array) -> tuple[float, Array]:
-        d = q - mid
-        return float(np.dot(w, d * d)), 2.0 * w * d
+        x = np.where(limited, q, 0.5 * (lo + hi))
+        a, b = hi - x + pad, x - lo + pad
+        f = a * b
+        return float(np.sum(w / f)), w * (b - a) / (f * f)
 
     return cost
 

@@ -293,7 +293,8 @@ class PinocchioEngine:
         """M^-1 with armature, in the library's joint order, from ``computeMinverse``."""
         # computeMinverse: the articulated-body extension of ABA (armature included), which
         # fills the upper triangle of data.Minv; its forward pass recomputes the joint
-        # placements at the same q, so the site frame and J the work holds stay valid.
+        # placements at the same q (the caller's), so the site frame and J the work holds
+        # stay valid.
         Minv = np.array(pin.computeMinverse(self.model, w.data, q_pin))
         _mirror_upper(Minv)
         return Minv if self.identity else Minv[np.ix_(self.perm, self.perm)]
@@ -310,10 +311,13 @@ class PinocchioEngine:
         Returns:
             J_f, shape (6, k) [m/rad; rad/rad], and M_ff^-1 J_f^T, shape (k, 6).
         """
+        q = check_pose(q, self.joint_names)
         J = self.site_jacobian(q)
         if free is None and armature:
             w = self._work()
-            return J, self._inverse_mass(w, w.q) @ J.T  # w.q: the pose update() loaded
+            qp = np.empty(self.nv)
+            qp[self.perm] = q  # not w.q: integrate() writes it without moving the key
+            return J, self._inverse_mass(w, qp) @ J.T
         M = self.mass_matrix(q, armature)
         ix = np.arange(self.nv) if free is None else np.asarray(free)
         Jf = J[:, ix]
