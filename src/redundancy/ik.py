@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .engines.contract import Engine
-from .engines.mujoco import spd_solve
+from .engines.mujoco import damped_step
 from .errors import ParameterError
 
 Array = NDArray[np.float64]
@@ -83,6 +83,9 @@ class Settings:
         restarts: Random restarts at most.
         damping: w_N, the constant part of Sugihara's damping [m^2 or rad^2].
         objective_steps: Null-space steps at most when pursuing an objective.
+        stall_window: An attempt whose E fell by less than ``stall_ratio`` over this many
+            iterations (while above 1e-8) is given up for a restart.
+        stall_ratio: See ``stall_window``.
     """
 
     position_tol: float = 1e-6
@@ -92,6 +95,8 @@ class Settings:
     damping: float = 1e-6
     gain: float = 0.1
     objective_steps: int = 40
+    stall_window: int = 5
+    stall_ratio: float = 0.5
 
 
 #: The iterating engine converges to this fraction of the tolerances before the other engine
@@ -224,7 +229,8 @@ class _Solver:
         """
         lo, hi, k, wn = self.lower, self.upper, self.s.gain, self.s.damping
         tol_p, tol_r, only = self.tol_p, self.tol_r, self.position_only
-        solve, maximum, minimum = spd_solve, np.maximum, np.minimum
+        window, ratio = self.s.stall_window, self.s.stall_ratio
+        step_of, maximum, minimum = damped_step, np.maximum, np.minimum
         e, J, npos, nrot = self.error(q)
         E = 0.5 * (npos * npos + (0.0 if only else nrot * nrot))
         history = [E]
@@ -233,19 +239,14 @@ class _Solver:
                 return q, True, E
             self.iterations += 1
             lam = k * E + wn  # Sugihara's lambda = E + w_N (with the gain k of Chan's)
-            A = J.dot(J.T)
-            A.flat[:: len(A) + 1] += lam
-            step = q + J.T.dot(solve(A, e))
+            step = q + step_of(J, e, lam)
             clamped = maximum(step, lo)  # -inf / inf where a joint is unlimited
             minimum(clamped, hi, out=clamped)
             if clamped.tolist() != step.tolist():
                 # A joint the step pushes past its limit stops there; the step is solved
                 # again without it, so the other joints make up for it (the redundancy at
                 # work).
-                Jf = J * (clamped == step)
-                A = Jf.dot(Jf.T)
-                A.flat[:: len(A) + 1] += lam
-                clamped = maximum(q + Jf.T.dot(solve(A, e)), lo)
+                clamped = maximum(q + step_of(J * (clamped == step), e, lam), lo)
                 minimum(clamped, hi, out=clamped)
             q = clamped
             e, J, npos, nrot = self.error(q)
@@ -253,7 +254,7 @@ class _Solver:
             # A stalled attempt (E down by less than half over the last 5 iterations, far
             # from the tolerance) is given up for a restart rather than run to the budget.
             history.append(E)
-            if len(history) > 5 and E > 0.5 * history[-6] and E > 1e-8:
+            if len(history) > window and E > ratio * history[-window - 1] and E > 1e-8:
                 break
         return q, npos <= tol_p and nrot <= tol_r, E
 
