@@ -28,8 +28,8 @@ from .urdf import (
     build_mujoco,
     build_pinocchio,
     check_urdf,
-    frame_clash,
     is_urdf,
+    prepare_urdf,
     read_disabled_pairs,
     resolve_frame,
 )
@@ -208,11 +208,11 @@ def load(
     if is_urdf(root):
         return _load_urdf(text, root, p.resolve().parent, pairs, robot)
     _check_mjcf(pairs)
-    expanded = _expand_includes(root, p.resolve().parent, robot)
     if as_is:
         spec, mj = _read_mujoco(None, p)
     else:
         spec, mj = _read_mujoco(text, None, p.resolve().parent)
+    expanded = _expand_includes(root, p.resolve().parent, robot)
     return _load_mjcf(spec, mj, expanded, strict, robot, None if robot.changed or not as_is else p)
 
 
@@ -246,8 +246,8 @@ def load_string(
     if is_urdf(root):
         return _load_urdf(xml, root, Path.cwd(), pairs, robot)
     _check_mjcf(pairs)
-    expanded = _expand_includes(root, Path.cwd(), robot)
     spec, mj = _read_mujoco(xml, None)
+    expanded = _expand_includes(root, Path.cwd(), robot)
     return _load_mjcf(spec, mj, expanded, strict, robot, None)
 
 
@@ -270,6 +270,7 @@ class _Robot:
         self.tool, self.base, self.rest = tool, base, rest
         self.recipe, self.source = recipe, source
         self.set_aside: list[SetAside] = []
+        self.defects: list[str] = []  # defects of the file on bodies the arm moves
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
@@ -353,15 +354,15 @@ def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
     Raises:
         UnknownNameError: Neither a site nor a body (the message lists both).
     """
+    names = [s.name for s in spec.sites if s.name] + [
+        b.name for b in spec.bodies if b.name and b.name != "world"
+    ]
     if not isinstance(tool, str):
-        raise ModelError(f"frame must be a name (str), got {type(tool).__name__}")
+        raise UnknownNameError("site or body", repr(tool), names)
     if tool and spec.site(tool) is not None:
         return "site"
     body = spec.body(tool) if tool and tool != "world" else None
     if body is None:
-        names = [s.name for s in spec.sites if s.name] + [
-            b.name for b in spec.bodies if b.name and b.name != "world"
-        ]
         raise UnknownNameError("site or body", tool, names)
     # MuJoCo's tool is a site: one at the body's origin, named after it (Pinocchio reads
     # the body's own frame).
@@ -443,23 +444,20 @@ def _load_urdf(
     source = robot.source
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
+    base_link = robot.base
+    if base_link is not None and base_link not in tree.links:
+        raise UnknownNameError("link", str(base_link), tree.links)
     disabled = read_disabled_pairs(pairs, tree)
+    mended, notes, defects = prepare_urdf(root, tree, tool_link, base_link, source)
+    if notes:
+        text = ET.tostring(mended, encoding="unicode")
+        robot.set_aside += notes
+    robot.defects += defects
     pm, continuous = build_pinocchio(text, source)
-    clash = frame_clash(pm, tool_link)
-    if clash:
-        raise UnsupportedFeatureError(
-            "tool frame name used twice",
-            f"link {tool_link!r} in {source}",
-            f"Pinocchio has {len(clash)} frames of that name at different places "
-            f"({', '.join(clash)}); rename the link or the joint",
-        )
-    spec, full, notes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
-    robot.set_aside += notes
-    base_body = robot.base
-    if base_body is not None and base_body not in tree.links:
-        raise UnknownNameError("link", str(base_body), tree.links)
+    spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    robot.set_aside += meshes
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
-    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_body, robot.rest)
+    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
     robot.set_aside += aside
     # URDF inertials are explicit and the joints are checked above: only the generic
@@ -534,6 +532,7 @@ def _build(
         model_format=model_format,
         held=sel.held,
         set_aside=tuple(robot.set_aside),
+        defects=tuple(robot.defects),
         robot_model=full,
         frame_type=frame_type,
         base=sel.base,

@@ -253,8 +253,6 @@ def reduce_mujoco(
             joint, or a held joint in a body that also carries an arm joint.
         ModelError: MuJoCo cannot compile the reduced model.
     """
-    if not sel.held:
-        return full, ()
     jnames = object_names(full, mujoco.mjtObj.mjOBJ_JOINT)
     bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
     arm_ids = {jnames.index(n) for n in sel.joints}
@@ -262,6 +260,8 @@ def reduce_mujoco(
     moved = moved_bodies(full, arm_ids)
     set_aside: list[SetAside] = []
     _check_couplings(full, arm_ids, moved, set_aside)
+    if not sel.held and not set_aside:
+        return full, ()
     # The whole robot at rest: each held body is placed relative to its parent from here.
     data = mujoco.MjData(full)
     data.qpos[:] = sel.qpos
@@ -330,11 +330,13 @@ def _check_couplings(
         if kind == mujoco.mjtEq.mjEQ_JOINT:
             touching = [jnames[j] for j in (a, b) if j in arm]
             if touching:
+                pair = " and ".join(repr(jnames[j]) for j in (a, b) if j >= 0)
                 raise UnsupportedFeatureError(
                     "joint coupling on the arm",
-                    f"equality {name!r} (arm joint {touching[0]!r})",
-                    "an arm joint coupled to another joint is not a free coordinate; "
-                    "choose a tool or base that leaves it off the chain",
+                    f"arm joint {touching[0]!r}, coupled by equality {name!r} ({pair})",
+                    "an arm joint coupled to another joint (a URDF <mimic>, an MJCF <equality "
+                    "joint>) is not a free coordinate, and Pinocchio's parsers ignore the "
+                    "coupling; choose a tool or base that leaves it off the chain",
                 )
             out.append(SetAside("equality constraint", name, "couples held joints only"))
         elif kind == mujoco.mjtEq.mjEQ_TENDON:
@@ -510,6 +512,16 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
     if not locked:
         return pm
     q = pinocchio_configuration(pm, full, sel.qpos)
+    # buildReducedModel finds each locked joint's frame by the joint's name alone and fails
+    # when a link shares it ("Several frames match the filter"): such a joint and its frame
+    # are renamed (q is already mapped; nothing looks a held joint up after this).
+    counts: dict[str, int] = {}
+    for f in pm.frames:  # type: ignore[attr-defined]
+        counts[f.name] = counts.get(f.name, 0) + 1
+    for i, f in enumerate(pm.frames):  # type: ignore[attr-defined]
+        if f.type == pin.FrameType.JOINT and counts[f.name] > 1 and f.parentJoint in locked:
+            pm.names[f.parentJoint] = f.name = f"{f.name} (held joint)"  # type: ignore[attr-defined]
+            pm.frames[i] = f  # type: ignore[attr-defined]
     reduced = pin.buildReducedModel(pm, locked, q)
     for n in sel.joints:  # pinocchio#2746: the reduced model's per-dof vectors restart
         a = pm.joints[pm.getJointId(n)]  # type: ignore[attr-defined]
