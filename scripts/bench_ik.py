@@ -1,6 +1,7 @@
 """Benchmark: inverse kinematics against its peers, the effective mass against bare engine loops.
 
-Inverse kinematics, per arm (arm7, the Panda, and example-robot-data's UR5 and xArm7), on the
+Inverse kinematics, per arm (arm7, the bundled Panda, and example-robot-data's Panda at its hand
+with the fingers held, UR5 and xArm7), on the
 same reachable targets (forward kinematics of random poses) from the same random starts:
 
 * this library: ``arm.solve_ik(target, q0)`` with default settings;
@@ -48,7 +49,7 @@ from redundancy.arm import random_poses
 
 TOL = 1e-6
 #: The arms of the IK rows.
-ARMS = ("arm7", "panda", "ur5", "xarm7")
+ARMS = ("arm7", "panda", "panda-erd", "ur5", "xarm7")
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -79,6 +80,9 @@ def arms() -> dict[str, tuple[Callable[[], rd.Arm], Path, str]]:
     if share is not None:
         robots = share / "example-robot-data/robots"
         for name, rel, tool in (
+            # The Panda of example-robot-data at its hand, the fingers held (rd.load holds
+            # every joint off the path to the tool).
+            ("panda-erd", "panda_description/urdf/panda.urdf", "panda_hand"),
             ("ur5", "ur_description/urdf/ur5_robot.urdf", "tool0"),
             ("xarm7", "xarm_description/urdf/xarm7.urdf", "link_eef"),
         ):
@@ -156,12 +160,12 @@ def ik_section(names: list[str], n: int, n_clik: int) -> list[str]:
     lines = [
         f"Inverse kinematics: {n} reachable targets per arm from random starts (CLIK on the "
         f"first {n_clik}); success = 1e-6 m and 1e-6 rad by both engines' FK, inside the ranges",
-        f"  {'arm':<7}{'solver':<34}{'success':>9}{'false':>7}{'in range':>10}"
+        f"  {'arm':<10}{'solver':<34}{'success':>9}{'false':>7}{'in range':>10}"
         f"{'median ms':>11}{'p95 ms':>9}   (CPU time of the solving thread)",
     ]
     for name in names:
         if name not in table:
-            lines.append(f"  {name:<7}not run (pip install -e '.[test]' for example-robot-data)")
+            lines.append(f"  {name:<10}not run (pip install -e '.[test]' for example-robot-data)")
             continue
         loader, urdf, tool = table[name]
         arm = loader()
@@ -199,16 +203,16 @@ def ik_section(names: list[str], n: int, n_clik: int) -> list[str]:
         }
         for key, rows in res.items():
             if not rows:
-                lines.append(f"  {name:<7}{labels[key]:<34}not run")
+                lines.append(f"  {name:<10}{labels[key]:<34}not run")
                 continue
             ok, false, inr, dt = (np.array(c) for c in zip(*rows, strict=True))
             lines.append(
-                f"  {name:<7}{labels[key]:<34}{100 * ok.mean():>8.1f}%{int(false.sum()):>7d}"
+                f"  {name:<10}{labels[key]:<34}{100 * ok.mean():>8.1f}%{int(false.sum()):>7d}"
                 f"{100 * inr.mean():>9.1f}%{1e3 * np.median(dt):>11.3f}"
                 f"{1e3 * np.percentile(dt, 95):>9.3f}"
             )
         if have_mink:
-            lines.append(f"  {name:<7}mink: installed but not wired in this script")
+            lines.append(f"  {name:<10}mink: installed but not wired in this script")
         # The joint-limit objective: farther from the limits, at no loss of success.
         m = min(n, 100)
         plain = [arm.solve_ik(targets[i], Q0[i]) for i in range(m)]
@@ -218,7 +222,7 @@ def ik_section(names: list[str], n: int, n_clik: int) -> list[str]:
             for rs in (plain, kept)
         ]
         lines.append(
-            f"  {name:<7}objective='joint_limits' on {m}: success {sum(r.success for r in kept)}"
+            f"  {name:<10}objective='joint_limits' on {m}: success {sum(r.success for r in kept)}"
             f"/{m} (without: {sum(r.success for r in plain)}), mean clearance to the nearest "
             f"limit {clear[1]:.3f} of the range (without: {clear[0]:.3f})"
         )
