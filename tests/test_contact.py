@@ -252,3 +252,21 @@ def test_pinocchios_inverse_mass_is_taken_at_the_pose_asked(arm7: rd.Arm) -> Non
     assert arm7.effective_mass(b, u, engine="pinocchio") == pytest.approx(
         arm7.effective_mass(b, u), rel=1e-12
     )
+
+
+def test_the_published_panda_at_its_hand_fingers_held() -> None:
+    from redundancy.reports import sections
+
+    from .test_ik import _erd
+
+    arm = rd.load(_erd("panda_description/urdf/panda.urdf"), frame="panda_hand")
+    worst = 0.0
+    for q in rd.arm.random_poses(arm, 4, seed=12):
+        for u in AXES[:3]:
+            sim = _simulated_effective_mass(arm, q, u, True)
+            for engine in ("mujoco", "pinocchio"):
+                worst = max(worst, abs(arm.effective_mass(q, u, engine=engine) - sim) / sim)
+    assert worst <= 1e-9
+    # Its links from link1 to the hand and fingers weigh 16.8 kg: TS 15066 says 8.41 kg.
+    c = sections.contact_mass(arm, 50, seed=0)
+    assert c.estimate == pytest.approx(8.41, abs=0.005)

@@ -32,6 +32,12 @@ def ur5() -> rd.Arm:
 
 
 @pytest.fixture(scope="module")
+def panda_erd() -> rd.Arm:
+    """example-robot-data's Panda at its hand; the fingers are held (not on the path)."""
+    return rd.load(_erd("panda_description/urdf/panda.urdf"), frame="panda_hand")
+
+
+@pytest.fixture(scope="module")
 def xarm7() -> rd.Arm:
     return rd.load(_erd("xarm_description/urdf/xarm7.urdf"), frame="link_eef")
 
@@ -65,13 +71,16 @@ def test_random_reachable_targets_are_solved_inside_the_ranges(name: str, arms) 
     assert all(r.checked_by == "pinocchio" for r in results)
 
 
-def test_published_arms_from_example_robot_data(ur5: rd.Arm, xarm7: rd.Arm) -> None:
-    for arm in (ur5, xarm7):
+def test_published_arms_from_example_robot_data(
+    ur5: rd.Arm, xarm7: rd.Arm, panda_erd: rd.Arm
+) -> None:
+    assert set(panda_erd.held) == {"panda_finger_joint1", "panda_finger_joint2"}
+    for arm in (ur5, xarm7, panda_erd):
         assert all(r.success for r in _sweep(arm, 30, seed=3))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["arm7", "panda", "ur5", "xarm7"])
+@pytest.mark.parametrize("name", ["arm7", "panda", "panda_erd", "ur5", "xarm7"])
 def test_thousand_targets_per_arm(name: str, arms, request) -> None:
     arm = arms[name] if name in arms else request.getfixturevalue(name)
     results = _sweep(arm, 1000, seed=100)
