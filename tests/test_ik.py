@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -135,6 +136,15 @@ def test_an_unreachable_target_fails_honestly(arm7: rd.Arm) -> None:
     assert r.position_error > 1.0
     assert np.all(r.q >= arm7.lower) and np.all(r.q <= arm7.upper)
     assert r.restarts == 3
+
+
+def test_absurdly_far_targets_fail_inside_the_ranges(arm7: rd.Arm) -> None:
+    for far in (1e10, 1e200, 1e308):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no overflow warning escapes
+            r = arm7.solve_ik((np.array([far, 0.0, 0.0]), np.eye(3)), restarts=2)
+        assert not r.success and r.position_error == pytest.approx(far, rel=1e-6)
+        assert np.all(r.q >= arm7.lower) and np.all(r.q <= arm7.upper)
 
 
 def test_target_forms_engines_seeds_and_the_batch_agree(arm7: rd.Arm) -> None:

@@ -199,7 +199,6 @@ def check_direction(name: str, u: object, size: int = 3) -> Array:
         norm = math.sqrt(sum(x * x for x in u.tolist()))  # NaN or inf if any value is
         if 0.0 < norm < math.inf:
             return u / norm
-        raise ParameterError(name, u, valid)
     try:
         arr = np.asarray(u)
         if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
@@ -209,10 +208,11 @@ def check_direction(name: str, u: object, size: int = 3) -> Array:
         raise ParameterError(name, u, valid) from None
     if arr.shape != (size,) or not np.all(np.isfinite(arr)):
         raise ParameterError(name, u, valid)
-    norm = float(np.linalg.norm(arr))
-    if not (norm > 0.0 and math.isfinite(norm)):
+    top = float(np.max(np.abs(arr)))
+    if not top > 0.0:
         raise ParameterError(name, u, valid)
-    return arr / norm
+    arr = arr / top  # scaled first: the norm of a vector of huge values would overflow
+    return arr / float(np.linalg.norm(arr))
 
 
 #: How far from orthonormal (max |R^T R - I|) a target rotation may be.

@@ -137,7 +137,7 @@ def rotation_error(Rt: Array, R: Array) -> tuple[float, float, float]:
 def tool_errors(p_t: Array, R_t: Array, p: Array, R: Array) -> tuple[float, float]:
     """Position error [m] and orientation error (an angle) [rad] of the tool at (p, R)."""
     x, y, z = rotation_error(R_t, R)
-    return float(np.linalg.norm(p_t - p)), math.sqrt(x * x + y * y + z * z)
+    return math.hypot(*(p_t - p).tolist()), math.sqrt(x * x + y * y + z * z)
 
 
 def joint_limit_objective(lower: Array, upper: Array, margin: float = 1e-3) -> Objective:
@@ -257,6 +257,8 @@ class _Solver:
                 # work).
                 clamped = maximum(q + step_of(Jt * (clamped == step), et, lam), lo)
                 minimum(clamped, hi, out=clamped)
+            if not math.isfinite(lam) or not math.isfinite(sum(clamped.tolist())):
+                break  # a target so far away that the squared error overflowed: q stays
             q = clamped
             e, J = kin(q)
             x, y, z, a, b, c = e.tolist()
@@ -351,7 +353,7 @@ def solve(
                         if better_errors[2]:
                             q, errors = better, better_errors
                 return _result(solver, check, q, errors, restarts, objective, engine)
-        if best is None or E < best[0]:
+        if best is None or E < best[0] or not math.isfinite(best[0]):
             best = (E, q)
         if restarts >= s.restarts:
             break
