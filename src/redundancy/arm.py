@@ -33,6 +33,9 @@ Array = NDArray[np.float64]
 
 __all__ = ["ENGINES", "Arm", "EngineName", "random_poses", "sampling_ranges"]
 
+#: solve_ik's default tolerances [m, rad] and restarts, which :data:`ik.DEFAULT_SETTINGS` holds.
+_IK_DEFAULTS = (1e-6, 1e-6, 100)
+
 
 class Arm:
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
@@ -419,13 +422,18 @@ class Arm:
         p_t, R_t = check_tool_pose("target", target)
         eng = self.engine(engine)
         other = self.engine("pinocchio" if engine == "mujoco" else "mujoco")
-        settings = ik.Settings(
-            position_tol=check_number("position_tol", position_tol, 0.0, low_open=True, unit="m"),
-            orientation_tol=check_number(
-                "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
-            ),
-            restarts=check_count("restarts", restarts, 0),
-        )
+        if (position_tol, orientation_tol, restarts) == _IK_DEFAULTS and type(restarts) is int:
+            settings = ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
+        else:
+            settings = ik.Settings(
+                position_tol=check_number(
+                    "position_tol", position_tol, 0.0, low_open=True, unit="m"
+                ),
+                orientation_tol=check_number(
+                    "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
+                ),
+                restarts=check_count("restarts", restarts, 0),
+            )
         if seed is not None:
             seed = check_count("seed", seed, 0)
         try:

@@ -99,6 +99,9 @@ class Settings:
     stall_ratio: float = 0.5
 
 
+#: The settings of a call with every default.
+DEFAULT_SETTINGS = Settings()
+
 #: The iterating engine converges to this fraction of the tolerances before the other engine
 #: checks (the engines agree to ~1e-15 m; the margin keeps a check from failing on rounding).
 _MARGIN = 0.1
