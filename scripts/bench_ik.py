@@ -392,6 +392,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=5)
     args = p.parse_args(argv)
     t0 = time.perf_counter()
+    from bench import machine  # the main benchmark's machine and load lines
+
+    print("\n".join(machine()) + "\n", flush=True)
     print("\n".join(ik_section(args.arms.split(","), args.n, args.clik)) + "\n", flush=True)
     print("\n".join(effective_mass_section(args.poses, args.repeats)), flush=True)
     print(f"\n(total {time.perf_counter() - t0:.0f} s)")
