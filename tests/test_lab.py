@@ -867,3 +867,18 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
     lap("end")
     spans = [f"{n} {laps[k + 1][1] - t:.1f} s" for k, (n, t) in enumerate(laps[:-1])]
     print("lab browser test:", ", ".join(spans))
+
+
+def test_the_effective_mass_readout_follows_the_tools_motion(arm7: rd.Arm) -> None:
+    sim = LabSim(arm7)
+    assert np.isnan(sim.readouts().contact_mass)  # at rest: no direction of motion
+    sim.nudge(0.2)
+    r = sim.readouts()
+    v = arm7.jacobian(r.q)[:3] @ r.qdot
+    # The lab's armature is the model's: the readout is the Arm's effective mass along v.
+    assert r.contact_mass == pytest.approx(arm7.effective_mass(r.q, v), rel=1e-12)
+    sim.set_armature(0.0)
+    bare = sim.readouts()
+    assert bare.contact_mass == pytest.approx(
+        arm7.effective_mass(bare.q, v, armature=False), rel=1e-12
+    )
