@@ -36,9 +36,15 @@ from .urdf import (
 
 
 def _read_mujoco(
-    xml: str | None, path: Path | None, base: Path | None = None
-) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-    """MuJoCo's spec of the whole robot and its compiled model (the spec is kept to hold joints)."""
+    xml: str | None, path: Path | None, base: Path | None = None, tool: object = None
+) -> tuple[mujoco.MjSpec, mujoco.MjModel, str]:
+    """MuJoCo's model of the whole robot, with the tool as a site.
+
+    Returns:
+        An uncompiled copy of the spec (the held joints are deleted from it: editing a
+        compiled spec costs 50 ms a joint, a fresh copy 2 ms), the compiled model, and
+        ``"site"`` or ``"body"``: what the tool is in the MJCF.
+    """
     try:
         # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
         # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
@@ -51,9 +57,17 @@ def _read_mujoco(
                 if base is not None:
                     # Transcoded text of a file: relative asset paths count from its directory.
                     spec.modelfiledir = str(base)
-            return spec, spec.compile()
+            pristine = spec.copy()
+            model = spec.compile()  # MuJoCo's own errors first, then the tool's
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the model: {err}") from err
+    kind = _mjcf_tool(pristine, tool)
+    if kind == "body":  # the site added to the copy: compile a copy of the copy
+        edited = pristine.copy()
+        with captured_warnings():
+            model = pristine.compile()
+        pristine = edited
+    return pristine, model, kind
 
 
 def _read_pinocchio(path: Path) -> object:
@@ -209,11 +223,12 @@ def load(
         return _load_urdf(text, root, p.resolve().parent, pairs, robot)
     _check_mjcf(pairs)
     if as_is:
-        spec, mj = _read_mujoco(None, p)
+        spec, mj, kind = _read_mujoco(None, p, tool=tool)
     else:
-        spec, mj = _read_mujoco(text, None, p.resolve().parent)
+        spec, mj, kind = _read_mujoco(text, None, p.resolve().parent, tool)
     expanded = _expand_includes(root, p.resolve().parent, robot)
-    return _load_mjcf(spec, mj, expanded, strict, robot, None if robot.changed or not as_is else p)
+    path_for_pin = None if robot.changed or not as_is else p
+    return _load_mjcf(spec, mj, kind, expanded, strict, robot, path_for_pin)
 
 
 def load_string(
@@ -246,9 +261,9 @@ def load_string(
     if is_urdf(root):
         return _load_urdf(xml, root, Path.cwd(), pairs, robot)
     _check_mjcf(pairs)
-    spec, mj = _read_mujoco(xml, None)
+    spec, mj, kind = _read_mujoco(xml, None, tool=tool)
     expanded = _expand_includes(root, Path.cwd(), robot)
-    return _load_mjcf(spec, mj, expanded, strict, robot, None)
+    return _load_mjcf(spec, mj, kind, expanded, strict, robot, None)
 
 
 def model_format(arm: Arm) -> str:
@@ -373,16 +388,13 @@ def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
 def _load_mjcf(
     spec: mujoco.MjSpec,
     full: mujoco.MjModel,
+    kind: str,
     root: ET.Element,
     strict: bool,
     robot: _Robot,
     path: Path | None,
 ) -> Arm:
     """Both engines' MJCF parsers on the whole robot, then the arm selected and the rest held."""
-    kind = _mjcf_tool(spec, robot.tool)
-    if kind == "body":
-        with captured_warnings():
-            full = spec.compile()
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
     sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
