@@ -480,14 +480,20 @@ def chain_only_urdf(path: str, tool: str) -> str:
 
     root = ET.parse(path).getroot()
     joints = root.findall("joint")
-    ends = {j.get("name"): (j.find("parent").get("link"), j.find("child").get("link")) for j in joints}  # type: ignore[union-attr]
+    ends = {
+        j.get("name"): (j.find("parent").get("link"), j.find("child").get("link")) for j in joints
+    }  # type: ignore[union-attr]
     child_of = {c: name for name, (_, c) in ends.items()}
     path_joints, link = [], tool
     while link in child_of:
         path_joints.append(child_of[link])
         link = ends[child_of[link]][0]
     path_joints.reverse()
-    moving = [j for j in path_joints if next(x for x in joints if x.get("name") == j).get("type") != "fixed"]
+    moving = [
+        j
+        for j in path_joints
+        if next(x for x in joints if x.get("name") == j).get("type") != "fixed"
+    ]
     keep = {ends[j][0] for j in path_joints} | {tool}
     stack = [ends[moving[0]][1]]
     while stack:  # everything the first arm joint moves

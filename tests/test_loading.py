@@ -143,6 +143,7 @@ def test_mjcf_site_and_frame() -> None:
     by_frame = rd.load(MODELS / "arm7.xml", frame="ee")
     assert by_frame.site == "ee"
     with pytest.raises(
-        rd.UnknownNameError, match="unknown site or body 'tool0'; valid site or body names: \\['ee', "
+        rd.UnknownNameError,
+        match="unknown site or body 'tool0'; valid site or body names: \\['ee', ",
     ):
         rd.load(MODELS / "arm7.xml", frame="tool0")

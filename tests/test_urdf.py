@@ -529,8 +529,7 @@ def test_mimic_joint_on_the_arm_is_refused_naming_it() -> None:
     with pytest.raises(rd.UnsupportedFeatureError) as err:
         rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
     assert str(err.value).startswith(
-        "unsupported feature: joint coupling on the arm (arm joint 'joint7', coupled by "
-        "equality"
+        "unsupported feature: joint coupling on the arm (arm joint 'joint7', coupled by equality"
     )
     assert "'joint7' and 'joint6'" in str(err.value)
 

@@ -33,3 +33,35 @@ def model_path(name: str) -> Path:
         if p.is_file():
             return p
     raise UnknownNameError("model", name, available())
+
+
+def example_robot_data(path: str) -> Path:
+    """Path of a robot file of example-robot-data (PyPI) by its path below ``robots/``.
+
+    Example: ``example_robot_data("ur_description/urdf/ur5_robot.urdf")``.
+
+    The package installs its robots under its own prefix in site-packages; this finds them.
+
+    Raises:
+        MissingDependencyError: example-robot-data is not installed.
+        UnknownNameError: No such file (the message lists the package's URDF files).
+    """
+    import importlib.metadata
+
+    from .errors import MissingDependencyError
+
+    try:
+        files = importlib.metadata.files("example-robot-data") or []
+    except importlib.metadata.PackageNotFoundError as err:
+        raise MissingDependencyError("example_robot_data", "test") from err
+    urdfs = []
+    for f in files:
+        text = str(f).replace("\\", "/")
+        if "/robots/" not in text:
+            continue
+        inner = text.split("/robots/", 1)[1]
+        if inner == path:
+            return Path(str(f.locate()))
+        if inner.endswith(".urdf"):
+            urdfs.append(inner)
+    raise UnknownNameError("example-robot-data file", path, sorted(urdfs))

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
-from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from ..errors import ModelError, ParameterError, UnknownNameError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .names import display_names

@@ -368,9 +368,7 @@ def prepare_urdf(
             defects.append(f"link {name!r}: published inertia invalid, {what}")
             notes.append(SetAside("invalid inertia", name, f"the arm moves it: {what}"))
         else:
-            notes.append(
-                SetAside("invalid inertia", name, f"the arm does not move it: {what}")
-            )
+            notes.append(SetAside("invalid inertia", name, f"the arm does not move it: {what}"))
     return out, notes, defects
 
 
@@ -573,7 +571,9 @@ def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
         vertices = np.asarray(loaded.vertices, dtype=float)
         faces = np.asarray(loaded.faces, dtype=int)
     except Exception as err:  # trimesh and pycollada raise many kinds of errors
-        raise ModelError(f"URDF {source}: cannot read the Collada mesh {str(path)!r}: {err}") from err
+        raise ModelError(
+            f"URDF {source}: cannot read the Collada mesh {str(path)!r}: {err}"
+        ) from err
     if len(vertices) < 4 or len(faces) == 0:
         raise ModelError(f"URDF {source}: the Collada mesh {str(path)!r} has no triangles")
     mesh.file = ""
