@@ -431,3 +431,17 @@ def test_arm_link_on_a_held_torso_is_its_child_not_a_collision() -> None:
     assert frozenset(("torso", "l_upper")) not in names
     assert frozenset(("head", "l_lower")) in names  # a held body against the arm
     assert frozenset(("head", "r_upper")) not in names  # two held bodies never move
+
+
+def test_sensors_and_actuators_of_held_joints_leave_with_them() -> None:
+    xml = MOBILE.replace(
+        "</worldbody>",
+        '</worldbody><actuator><motor name="drive" joint="base_x" gear="10" ctrlrange="-1 1"/>'
+        '<motor name="m1" joint="arm1" gear="20" ctrlrange="-1 1"/></actuator>'
+        '<sensor><jointpos name="s_base" joint="base_x"/><jointpos name="s_arm" joint="arm1"/>'
+        '<actuatorfrc name="s_drive" actuator="drive"/></sensor>',
+    )
+    arm = rd.load_string(xml, frame="tcp", base="base")
+    assert arm.mj_model.nu == 1 and arm.mj_model.nsensor == 1
+    assert arm.effort_limit[0] == 20
+    assert ("actuator", "drive") in {(a.what, a.name) for a in arm.set_aside}

@@ -322,9 +322,9 @@ def _check_couplings(
     """Set aside couplings among held joints; refuse those that reach an arm joint."""
     jnames = display_names(full, mujoco.mjtObj.mjOBJ_JOINT)
     bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
-    obj = mujoco.mjtObj
+    mjobj = mujoco.mjtObj
     for k in range(full.neq):
-        name = mujoco.mj_id2name(full, obj.mjOBJ_EQUALITY, k) or f"equality {k}"
+        name = mujoco.mj_id2name(full, mjobj.mjOBJ_EQUALITY, k) or f"equality {k}"
         kind = mujoco.mjtEq(full.eq_type[k])
         a, b = int(full.eq_obj1id[k]), int(full.eq_obj2id[k])
         if kind == mujoco.mjtEq.mjEQ_JOINT:
@@ -338,7 +338,7 @@ def _check_couplings(
                     "joint>) is not a free coordinate, and Pinocchio's parsers ignore the "
                     "coupling; choose a tool or base that leaves it off the chain",
                 )
-            shown = mujoco.mj_id2name(full, obj.mjOBJ_EQUALITY, k) or " = ".join(
+            shown = mujoco.mj_id2name(full, mjobj.mjOBJ_EQUALITY, k) or " = ".join(
                 jnames[j] for j in (a, b) if j >= 0
             )
             out.append(SetAside("joint equality", shown, "couples held joints only"))
@@ -346,7 +346,7 @@ def _check_couplings(
             out.append(SetAside("equality constraint", name, "couples tendons (checked below)"))
         else:
             objs = (a, b)
-            if full.eq_objtype[k] == obj.mjOBJ_SITE:
+            if full.eq_objtype[k] == mjobj.mjOBJ_SITE:
                 objs = tuple(int(full.site_bodyid[s]) for s in (a, b) if s >= 0)
             bodies = [x for x in objs if x in moved]
             if bodies:
@@ -358,7 +358,7 @@ def _check_couplings(
                 )
             out.append(SetAside("equality constraint", name, "acts on held bodies only"))
     for t in range(full.ntendon):
-        name = mujoco.mj_id2name(full, obj.mjOBJ_TENDON, t) or f"tendon {t}"
+        name = mujoco.mj_id2name(full, mjobj.mjOBJ_TENDON, t) or f"tendon {t}"
         lo, n = int(full.tendon_adr[t]), int(full.tendon_num[t])
         for w in range(lo, lo + n):
             wtype = mujoco.mjtWrap(full.wrap_type[w])
@@ -377,7 +377,7 @@ def _check_couplings(
                 )
         out.append(SetAside("tendon", name, "spans held joints or bodies only"))
     for u in range(full.nu):
-        name = mujoco.mj_id2name(full, obj.mjOBJ_ACTUATOR, u) or f"actuator {u}"
+        name = mujoco.mj_id2name(full, mjobj.mjOBJ_ACTUATOR, u) or f"actuator {u}"
         trn = mujoco.mjtTrn(full.actuator_trntype[u])
         target = int(full.actuator_trnid[u, 0])
         if trn in (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT):
@@ -398,7 +398,7 @@ def _check_couplings(
 
 def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
     """Delete what :func:`_check_couplings` set aside, and sensors of deleted elements."""
-    obj = mujoco.mjtObj
+    mjobj = mujoco.mjtObj
     kept_actuators = {
         u
         for u in range(full.nu)
@@ -410,9 +410,9 @@ def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) 
     for k in range(full.nsensor):
         kind, obj = int(full.sensor_objtype[k]), int(full.sensor_objid[k])
         gone = (
-            (kind == obj.mjOBJ_JOINT and obj not in arm)
-            or (kind == obj.mjOBJ_ACTUATOR and obj not in kept_actuators)
-            or kind in (obj.mjOBJ_TENDON, obj.mjOBJ_EQUALITY)
+            (kind == mjobj.mjOBJ_JOINT and obj not in arm)
+            or (kind == mjobj.mjOBJ_ACTUATOR and obj not in kept_actuators)
+            or kind in (mjobj.mjOBJ_TENDON, mjobj.mjOBJ_EQUALITY)
         )
         if gone:
             spec.delete(sensors[k])
