@@ -445,3 +445,26 @@ def test_sensors_and_actuators_of_held_joints_leave_with_them() -> None:
     assert arm.mj_model.nu == 1 and arm.mj_model.nsensor == 1
     assert arm.effort_limit[0] == 20
     assert ("actuator", "drive") in {(a.what, a.name) for a in arm.set_aside}
+
+
+def _audit_exit(file: str, tool: str, base: str | None, tmp: Path) -> int:
+    from redundancy.cli import main
+
+    args = ["audit", str(erd_robots() / file), "--site", tool, "--poses", "200"]
+    args += ["--json", str(tmp / "report.json")]
+    code = main(args)
+    assert (tmp / "report.json").is_file()
+    return code
+
+
+def test_audit_of_an_arm_inside_a_robot(tmp_path: Path) -> None:
+    """A CI gate on a published robot: the audit runs to its verdict (0 sound, 1 findings)."""
+    assert _audit_exit("panda_description/urdf/panda.urdf", "panda_hand", None, tmp_path) in (0, 1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("file", "tool", "base"), ERD_ARMS, ids=lambda x: str(x).split("/")[-1])
+def test_audit_of_every_published_arm(
+    file: str, tool: str, base: str | None, tmp_path: Path
+) -> None:
+    assert _audit_exit(file, tool, base, tmp_path) in (0, 1)
