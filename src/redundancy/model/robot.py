@@ -541,3 +541,68 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
             setattr(reduced, attr, vec)
     reduced.gravity = pm.gravity  # type: ignore[attr-defined]
     return reduced
+
+
+# -- the check against the whole robot -------------------------------------------------------
+
+
+def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
+    """The tool's Jacobian, the mass matrix and gravity of MuJoCo's model of the whole robot.
+
+    The whole robot (every joint free, ``arm.robot_model``) at its rest configuration with the
+    arm's values ``q`` put in; the arm's dofs' rows and columns read out. Independent of how
+    the arm holds its joints (no reduced model is involved): the reference the tests and
+    ``scripts/survey_robots.py`` hold both engines' arm models to.
+
+    Returns:
+        ``"jacobian"`` (6 x n), ``"mass matrix"`` (n x n), ``"gravity"`` (n) and ``"site
+        position"`` (3) [SI units].
+    """
+    m: mujoco.MjModel = arm.robot_model  # type: ignore[attr-defined]
+    d = mujoco.MjData(m)
+    names = object_names(m, mujoco.mjtObj.mjOBJ_JOINT)
+    shown = display_names(m, mujoco.mjtObj.mjOBJ_JOINT)
+    d.qpos[:] = m.qpos0
+    for name, value in arm.held.items():  # type: ignore[attr-defined]
+        j = names.index(name) if name in names else shown.index(name)
+        adr = int(m.jnt_qposadr[j])
+        d.qpos[adr : adr + np.size(value)] = value
+    ids = [names.index(n) for n in arm.joint_names]  # type: ignore[attr-defined]
+    for j, value in zip(ids, np.asarray(q, dtype=float), strict=True):
+        d.qpos[m.jnt_qposadr[j]] = value
+    dofs = [int(m.jnt_dofadr[j]) for j in ids]
+    # mj_forward with qvel = 0: kinematics, M (mj_crb) and the bias force, which is then
+    # gravity alone.
+    mujoco.mj_forward(m, d)
+    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.site)  # type: ignore[attr-defined]
+    mujoco.mj_jacSite(m, d, jp, jr, sid)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    return {
+        "jacobian": np.vstack([jp, jr])[:, dofs],
+        "mass matrix": M[np.ix_(dofs, dofs)],
+        "gravity": d.qfrc_bias[dofs].copy(),
+        "site position": d.site_xpos[sid].copy(),
+    }
+
+
+def difference_to_whole_robot(arm: object, q: Array) -> float:
+    """Largest difference of the arm (both engines) to :func:`whole_robot_quantities`.
+
+    Relative to each quantity's own scale: ``|arm - whole| / max(1, max |whole|)``, over the
+    Jacobian, mass matrix (with armature), gravity and tool position.
+    """
+    whole = whole_robot_quantities(arm, q)
+    worst = 0.0
+    for engine in ("mujoco", "pinocchio"):
+        ours = {
+            "jacobian": arm.jacobian(q, engine),  # type: ignore[attr-defined]
+            "mass matrix": arm.mass_matrix(q, engine=engine),  # type: ignore[attr-defined]
+            "gravity": arm.gravity(q, engine),  # type: ignore[attr-defined]
+            "site position": arm.site_pose(q, engine)[0],  # type: ignore[attr-defined]
+        }
+        for key, value in ours.items():
+            scale = max(1.0, float(np.max(np.abs(whole[key]))))
+            worst = max(worst, float(np.max(np.abs(value - whole[key]))) / scale)
+    return worst
