@@ -128,6 +128,10 @@ class PinocchioEngine:
         q, key = pose_key(q, self.joint_names)
         w = self._work()
         if key != w.key:
+            # No key while the data changes, the key only once every call returned: an
+            # exception in between (a KeyboardInterrupt caught by the user) leaves nothing
+            # that would let the next query read half-updated data.
+            w.key = None
             # computeFrameJacobian runs the forward kinematics (oMi) and returns the site's
             # Jacobian; LOCAL_WORLD_ALIGNED is MuJoCo's convention: velocity of the site
             # origin, along world axes. updateFramePlacement then places the site from oMi.
