@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import ParameterError, PoseError, UnknownNameError
+from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
 
@@ -106,6 +106,30 @@ def check_pose_or_poses(q: ArrayLike, names: Sequence[str]) -> Array:
     if arr.ndim == 1:
         return _check_pose_slow(arr, names).reshape(1, -1)
     return check_poses(arr, names)
+
+
+def check_in_range(
+    Q: Array, names: Sequence[str], lower: Array, upper: Array, what: str, tol: float = 1e-9
+) -> None:
+    """Every value of a checked stack of poses within its joint's range, to ``tol``.
+
+    Args:
+        Q: Poses, shape (n, nq), already checked by :func:`check_poses` [rad or m].
+        names: Joint names.
+        lower: Lower limits, ``-inf`` where unlimited [rad or m].
+        upper: Upper limits, ``inf`` where unlimited [rad or m].
+        what: What one pose of the stack is called in the message (``"waypoint"``).
+        tol: Slack on the limits [rad or m].
+
+    Raises:
+        OutOfRangeError: The first value outside its range, naming the pose and the joint.
+    """
+    bad = (Q < np.asarray(lower) - tol) | (Q > np.asarray(upper) + tol)
+    if bad.any():
+        i, j = (int(k) for k in np.argwhere(bad)[0])
+        raise OutOfRangeError(
+            names[j], float(Q[i, j]), float(lower[j]), float(upper[j]), f"{what} {i}"
+        )
 
 
 def check_number(

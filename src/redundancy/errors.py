@@ -64,15 +64,20 @@ class OutOfRangeError(PoseError):
         value: The offending value [rad or m].
         lower: Lower limit [rad or m].
         upper: Upper limit [rad or m].
+        where: Which of several poses holds the value (e.g. ``"waypoint 2"``), or ``""``.
     """
 
-    def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
+    def __init__(
+        self, joint: str, value: float, lower: float, upper: float, where: str = ""
+    ) -> None:
         self.joint = joint
         self.value = value
         self.lower = lower
         self.upper = upper
+        self.where = where
         super().__init__(
-            f"joint {joint!r} = {value:.6g} is outside its range [{lower:.6g}, {upper:.6g}]"
+            f"{where + ': ' if where else ''}joint {joint!r} = {value:.6g} is outside its "
+            f"range [{lower:.6g}, {upper:.6g}]"
         )
 
 
