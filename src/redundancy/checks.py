@@ -168,6 +168,57 @@ def check_number(
     return x
 
 
+def describe(value: object) -> str:
+    """A short description of a value for an error message: an array's shape, not its data."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape} and dtype {value.dtype}"
+    text = repr(value)
+    return text if len(text) <= 80 else f"{type(value).__name__} {text[:60]}..."
+
+
+def check_matrix(
+    name: str, value: object, shape: Sequence[int | None] | None = None, ndim: int = 2
+) -> Array:
+    """A non-empty real array of finite values, as float64, of ``ndim`` dimensions.
+
+    Args:
+        name: The argument's name, for the message.
+        value: What was passed.
+        shape: Required sizes per dimension, ``None`` for any (default: any).
+        ndim: Number of dimensions when ``shape`` is not given.
+
+    Raises:
+        ParameterError: Not numeric (strings, objects, complex), of another shape, empty, or
+            with NaN or infinite values; the message says which.
+    """
+    ndim = len(shape) if shape is not None else ndim
+    want = (
+        f"({', '.join('n' if k is None else str(k) for k in shape)})"
+        if shape is not None
+        else f"{ndim} dimensions"
+    )
+    valid = f"a non-empty real array of finite numbers, shape {want}"
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as err:  # ragged nested lists
+        raise ParameterError(name, value, valid, describe(value)) from err
+    if arr.dtype.kind not in "iuf":
+        raise ParameterError(name, value, valid, describe(value))
+    shown = f"shape {arr.shape}"
+    if arr.ndim != ndim or arr.size == 0:
+        raise ParameterError(name, value, valid, shown)
+    if shape is not None and any(
+        k is not None and k != a for k, a in zip(shape, arr.shape, strict=True)
+    ):
+        raise ParameterError(name, value, valid, shown)
+    arr = np.asarray(arr, dtype=np.float64)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ParameterError(name, value, valid, f"{arr[first]} at index {first}")
+    return arr
+
+
 def check_count(name: str, value: object, minimum: int = 0, maximum: int | None = None) -> int:
     """An integer in [minimum, maximum], as an int.
 

@@ -86,13 +86,15 @@ class ParameterError(RedundancyError, ValueError):
 
     Attributes:
         name: The parameter's name.
-        value: The value given.
+        value: The value given (the message shows ``shown`` instead when given: an array's
+            shape and its first bad entry rather than all of it).
     """
 
-    def __init__(self, name: str, value: object, valid: str) -> None:
+    def __init__(self, name: str, value: object, valid: str, shown: str | None = None) -> None:
         self.name = name
         self.value = value
-        super().__init__(f"{name} must be {valid}, got {value!r}")
+        got = repr(value) if shown is None else shown
+        super().__init__(f"{name} must be {valid}, got {got}")
 
 
 class MissingDependencyError(RedundancyError, ImportError):
