@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_matrix, check_number, describe
+from .checks import check_matrix, check_number, describe, one_line
 from .errors import ParameterError
 
 Array = NDArray[np.float64]
@@ -284,7 +284,7 @@ def damped_pinv(J: Array, damping: float) -> Array:
         raise ParameterError(
             "damping",
             damping,
-            f"> 0 for a rank-deficient J (singular values {np.array2string(s, precision=3)})",
+            f"> 0 for a rank-deficient J (singular values {one_line(s)})",
         )
     with np.errstate(over="ignore", under="ignore"):  # sigma^2 overflows: sigma / inf = 0
         gain = s / (s * s + damping * damping)
@@ -319,7 +319,7 @@ def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
     s = np.linalg.svd(J, compute_uv=False)
     if J.shape[0] > n or not s[-1] > RANK_RTOL * s[0]:
         raise ParameterError(
-            "J", J, "of full row rank", f"{describe(J)}, singular values {np.array2string(s)}"
+            "J", J, "of full row rank", f"{describe(J)}, singular values {one_line(s)}"
         )
     Minv_Jt = np.linalg.solve(M, J.T)
     Lambda = np.linalg.inv(J @ Minv_Jt)
