@@ -515,3 +515,26 @@ def test_bad_input(
 
 def test_table_size() -> None:
     assert len(NAMES) >= 40
+
+
+def test_attach_is_refused_in_strict_mode(tmp_path: Path) -> None:
+    """Issue 21: Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
+    the arm was in MuJoCo's M only: M11 0.456 vs 0.105); the strict load refuses it."""
+    (tmp_path / "block.xml").write_text(
+        '<mujoco><worldbody><body name="blk" pos="0 0 0.3">'
+        '<geom type="box" size="0.05 0.05 0.05" mass="3"/></body></worldbody></mujoco>'
+    )
+    arm = tmp_path / "arm.xml"
+    arm.write_text(
+        chain(body_extra='<attach model="block" body="blk" prefix="b_"/>').replace(
+            "<mujoco>", '<mujoco><asset><model name="block" file="block.xml"/></asset>'
+        )
+    )
+    expected = (
+        UF + "<attach> element (<attach model='block' body='blk' prefix='b_'>): Pinocchio's "
+        "MJCF parser does not expand it (the attached bodies would be missing from one "
+        "engine); write the attached model's bodies out"
+    )
+    with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(expected) + "$"):
+        rd.load(arm, site="tip")
+    assert rd.load(arm, site="tip", strict=False).mj_model.nbody == 4  # MuJoCo expands it
