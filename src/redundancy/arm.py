@@ -91,10 +91,22 @@ class Arm:
 
     @property
     def keyframes(self) -> dict[str, Array]:
-        """Keyframe name -> joint configuration [rad or m]."""
+        """Keyframe name -> joint configuration [rad or m].
+
+        An unnamed keyframe is called ``key<index>``, with ``_`` appended until the name is
+        not one a keyframe of the model has (an unnamed key never hides a named one).
+        """
         m = self.mj_model
         names = object_names(m, mujoco.mjtObj.mjOBJ_KEY)
-        return {(names[k] or f"key{k}"): m.key_qpos[k].copy() for k in range(m.nkey)}
+        taken = set(names)
+        for k, name in enumerate(names):
+            if not name:
+                name = f"key{k}"
+                while name in taken:
+                    name += "_"
+                names[k] = name
+                taken.add(name)
+        return {names[k]: m.key_qpos[k].copy() for k in range(m.nkey)}
 
     def keyframe(self, name: str) -> Array:
         """Joint configuration of a named keyframe [rad or m]."""
