@@ -19,7 +19,7 @@ from redundancy.testing import poses
 from .conftest import ARM_NAMES
 
 # Tolerances. Engines: both evaluate the same rigid-body algorithms in double precision, so
-# 1e-9 (relative to max(1, |value|)) leaves five orders of magnitude for rounding. Central
+# 1e-9 (relative to the quantity's scale, model.scales) leaves five orders of magnitude for rounding. Central
 # finite differences with step 1e-6 have truncation error ~ eps^2 * |third derivative| and
 # rounding ~ 1e-16 / eps, so 1e-7 absolute is their floor.
 ENGINE_TOL = 1e-9
