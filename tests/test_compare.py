@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 import redundancy as rd
 from redundancy.analysis.compare import compare, read_joint_map
 from redundancy.cli import main
-from redundancy.model.scales import arm_scales
+from redundancy.model.scales import FLOOR, arm_scales
 
 from .test_urdf import (
     MODELS,
@@ -31,8 +31,8 @@ from .test_urdf import (
 
 ARM7_URDF, ARM7_XML = MODELS / "arm7.urdf", MODELS / "arm7.xml"
 PANDA_URDF, PANDA_XML = MODELS / "panda.urdf", MODELS / "panda.xml"
-#: The length compare divides positions by (at least): arm7's, loaded from its URDF [m].
-ARM7_LENGTH = arm_scales(rd.load(ARM7_URDF, frame="ee")).length
+#: The floor of the scale compare divides positions by: FLOOR x arm7's length (URDF) [m].
+ARM7_LENGTH = FLOOR * arm_scales(rd.load(ARM7_URDF, frame="ee")).length
 
 
 def quantities(result: rd.Comparison) -> dict[str, list[str]]:
@@ -158,7 +158,7 @@ def test_offset_tool_frame_is_caught_named_and_located(tmp_path: Path) -> None:
     assert "joint axis (world)" not in found and "centre of mass (world)" not in found
     assert {"tool position", "jacobian"} <= set(found)
     tool = next(d for d in result.differences if d.quantity == "tool frame position (world)")
-    scale = max(np.max(np.abs(tool.a)), arm_scales(rd.load(tool_urdf, frame="ee")).length)
+    scale = max(np.max(np.abs(tool.a)), FLOOR * arm_scales(rd.load(tool_urdf, frame="ee")).length)
     assert result.largest["tool frame position (world)"] == pytest.approx(0.005 / scale, abs=1e-12)
 
 

@@ -867,3 +867,28 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
     lap("end")
     spans = [f"{n} {laps[k + 1][1] - t:.1f} s" for k, (n, t) in enumerate(laps[:-1])]
     print("lab browser test:", ", ".join(spans))
+
+
+@pytest.mark.parametrize("n", [3, 5])
+def test_lab_runs_an_arm_of_fewer_than_six_joints(n: int) -> None:
+    """Issue 21: the readouts raised IndexError (6 columns of U, n singular values)."""
+    from .test_core import SHORT_ARMS
+
+    arm = SHORT_ARMS[n]
+    sim = LabSim(arm)
+    r = sim.run_for(0.2)
+    # The 6 - n directions the tool cannot move along have sigma 0 and are shown as lost.
+    np.testing.assert_array_equal(r.sigma[n:], np.zeros(6 - n))
+    np.testing.assert_allclose(r.sigma[:n], arm.svd(r.q).sigma, rtol=1e-12)
+    assert r.sigma_min == 0.0 and r.lost.shape[1] >= 6 - n
+    assert r.manipulability == pytest.approx(arm.manipulability(r.q).full, rel=1e-12)
+    assert sim.sigma_history()[1][-1] == 0.0
+    path = sim.self_motion_path(sim.home, 0.5)
+    assert path.stopped == "no null space"  # fewer joints than tool directions
+    q, err = solve_ik(arm, sim.home, arm.site_pose(sim.home)[0])
+    assert err < 1e-6
+    page = _page_module()
+    with page.LabServer(arm, port=0) as lab:
+        lab.page.update(lab.sim, force=True)
+        with urllib.request.urlopen(lab.url, timeout=30) as resp:
+            assert resp.status == 200
