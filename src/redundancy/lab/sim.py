@@ -548,6 +548,17 @@ class LabSim:
         with self._lock:
             return self._window(self._sigma_t, self._sigma_v, SIGMA_WINDOW)
 
+    def histories(
+        self,
+    ) -> tuple[float, tuple[Array, Array], tuple[Array, Array], tuple[Array, Array]]:
+        """The simulated time [s] and the three plotted series, read at one instant.
+
+        One lock over all four, so no sample is later than the time returned (the runner
+        thread steps between separate reads: a plot drawn from them showed data after now).
+        """
+        with self._lock:
+            return self.time, self.speed_history(), self.torque_history(), self.sigma_history()
+
     def csv(self) -> str:
         """The plotted series as CSV: one block per plot, times relative to now [s].
 
@@ -555,11 +566,7 @@ class LabSim:
         (N m) or ``sigma_min``, and ``t_rel`` is the sample's time minus the current
         simulated time (0 is now, negative is the past), as on the plots.
         """
-        with self._lock:
-            now = self.time
-            t, v = self.speed_history()
-            _, tau = self.torque_history()
-            ts, s = self.sigma_history()
+        now, (t, v), (_, tau), (ts, s) = self.histories()
         out = io.StringIO()
         out.write(f"# {self.arm.source}: {self.watch_joint}, simulated time {now:.6f} s\n")
         out.write("series,t_rel (s),value\n")
