@@ -92,7 +92,7 @@ class Settings:
     orientation_tol: float = 1e-6
     iterations: int = 30
     restarts: int = 100
-    damping: float = 1e-6
+    damping: float = 1e-9
     gain: float = 0.1
     objective_steps: int = 40
     stall_window: int = 5
