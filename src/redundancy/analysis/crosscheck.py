@@ -20,7 +20,7 @@ from ..arm import Arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
-from ..linalg import dynamic_manipulability, manipulability_gradient, mobility
+from ..linalg import manipulability_gradient, mobility
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
 
@@ -41,7 +41,8 @@ TOLERANCES: dict[str, float] = {
     "manipulability gradient": 1e-8,
     # J M^-1 J^T (the inverse of the operational-space inertia, defined at singular poses
     # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse) and Yoshikawa's
-    # dynamic manipulability, the product of the singular values of M^-1 J^T. M^-1 multiplies
+    # dynamic manipulability, the product of the singular values of M^-1 J^T (compared through
+    # those factors, see quantity_errors). M^-1 multiplies
     # the engines' rounding of M by M's condition number: the bundled arms agree to 1e-13,
     # but a generated arm with a 4 g tip body on a 1 kg chain (cond(M) ~ 1e7) differed by
     # 1.3e-9, hence 1e-8.
@@ -158,7 +159,7 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
     matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and
     its derivatives are measured per block of rows, linear (size L) and angular (size 1),
     since their units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and
-    the dynamic manipulability against 1 / (m^6 L^9).
+    the dynamic manipulability through its factors, the singular values of M^-1 J^T.
 
     Args:
         name: A key of :data:`TOLERANCES`.
@@ -190,9 +191,9 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
         "mass matrix (bare)": scales.inertia,
         "gravity": scales.torque,
         "manipulability gradient": L**3,
-        # The product of the singular values of M^-1 J^T: three linear columns of
-        # [1/(kg m)], three angular of [1/(kg m^2)].
-        "dynamic manipulability": 1.0 / (scales.mass**6 * L**9),
+        # Its factors, the singular values of M^-1 J^T, against the largest; a linear
+        # column of M^-1 J^T is [1/(kg m)].
+        "dynamic manipulability": 1.0 / (scales.mass * L),
     }[name]
     return scaled_errors(a, b, size)
 
@@ -276,7 +277,10 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
         if "operational inertia^-1" in want:
             out["operational inertia^-1"] = mobility(J, X)
         if "dynamic manipulability" in want:
-            out["dynamic manipulability"] = np.asarray(dynamic_manipulability(X)).reshape(n)
+            # Compared through its factors, the singular values of M^-1 J^T, each against the
+            # largest: the product itself near a singular pose is the tiny factor times
+            # others, and carries that factor's rounding (eps sigma_max) as a relative error.
+            out["dynamic manipulability"] = np.linalg.svd(X, compute_uv=False)
     # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
     if "jacobian derivative" in want:
         out["jacobian derivative"] = np.empty((n, nv, 6, nv))
