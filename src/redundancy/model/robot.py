@@ -467,9 +467,26 @@ def pinocchio_configuration(pm: object, full: mujoco.MjModel, qpos: Array) -> Ar
     import pinocchio as pin
 
     q = np.array(pin.neutral(pm))
+    given = {  # bodies of the trees Pinocchio was given (by name)
+        str(f.name)
+        for f in pm.frames
+        if f.type == pin.FrameType.BODY  # type: ignore[attr-defined]
+    }
     for j in range(full.njnt):
         jid = pinocchio_joint(pm, full, j)
         if jid is None:
+            body = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_BODY, int(full.jnt_bodyid[j]))
+            adr, n = int(full.jnt_qposadr[j]), _NQ[_joint_kind(full, j)]
+            at_reference = np.array_equal(qpos[adr : adr + n], full.qpos0[adr : adr + n])
+            if body in given and not at_reference:
+                # Pinocchio has the body but not this joint (its MJCF parser merges the
+                # joints of one body into one): it can only hold it where the file puts it.
+                raise UnsupportedFeatureError(
+                    "held joint Pinocchio does not read",
+                    f"joint {display_names(full, mujoco.mjtObj.mjOBJ_JOINT)[j]!r} (body {body!r})",
+                    "Pinocchio merges the joints of one body; it can hold them only at the "
+                    "model's reference configuration (rest=None)",
+                )
             continue
         joint = pm.joints[jid]  # type: ignore[attr-defined]
         adr, kind = int(full.jnt_qposadr[j]), _joint_kind(full, j)
