@@ -26,7 +26,7 @@ test: $(STAMP)           ## the default (fast) suite, as CI runs it
 test-thorough: $(STAMP)  ## >= 1000 hypothesis examples per property, plus the slow sweeps
 	@# A fresh seed each run, printed in pytest's header; HYPOTHESIS_SEED=N reruns one.
 	SEED=$${HYPOTHESIS_SEED:-$$(od -An -N4 -tu4 /dev/urandom | tr -d ' ')}; \
-	HYPOTHESIS_PROFILE=thorough $(BIN)/python -m pytest -m "slow or not slow" --hypothesis-seed=$$SEED
+	HYPOTHESIS_PROFILE=redundancy-thorough $(BIN)/python -m pytest -m "slow or not slow" --hypothesis-seed=$$SEED
 
 lesson: $(STAMP)
 	$(BIN)/python scripts/l5_2_seven_dof.py
