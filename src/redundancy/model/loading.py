@@ -14,6 +14,7 @@ import mujoco
 
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
+from .. import models
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, check_pinocchio
@@ -125,11 +126,12 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
             f"load() takes a file path, and this looks like XML text ({text.strip()[:40]!r}...); "
             "use load_string() for model text"
         )
-    p = Path(text)
+    p = models.bundled(text) or Path(text)  # a bare "panda": the bundled model
     try:
         return p, p.read_bytes()
     except FileNotFoundError as err:
-        raise ModelError(f"model file not found: {str(p)!r}") from err
+        hint = models.not_found_hint(text)
+        raise ModelError(f"model file not found: {str(p)!r}{hint}") from err
     except IsADirectoryError as err:
         raise ModelError(f"model path is a directory, not a file: {str(p)!r}") from err
     except OSError as err:
