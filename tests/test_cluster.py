@@ -120,7 +120,8 @@ def test_empty_stack_and_thread_pool(arm7: rd.Arm, stack: np.ndarray) -> None:
 
 def test_bad_executor_and_bad_arguments_raise_here(arm7: rd.Arm, stack: np.ndarray) -> None:
     with pytest.raises(
-        rd.ParameterError, match="executor must be None or a concurrent.futures.Executor"
+        rd.ParameterError,
+        match=r"^executor must be None or a concurrent\.futures\.Executor \(e\.g\. a Dask Client\(\.\.\.\)\.get_executor\(\), a ProcessPoolExecutor\), got .dask.$",
     ):
         batch.jacobians(arm7, stack, executor="dask")  # type: ignore[arg-type]
     with ThreadPoolExecutor(1) as pool:

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import mujoco
 
+from .. import models
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
-from .. import models
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, check_pinocchio
