@@ -64,14 +64,18 @@ class Arm:
     ) -> None:
         self.source = source
         self.site = site
-        self.joint_names = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
-        self.joint_types = tuple(JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type)
-        self.nq = mj_model.nq
-        self.effort_limit = np.asarray(effort_limit, dtype=float)
-        self.bridges = tuple(bridges)
-        self.mujoco = MujocoEngine(mj_model, site, armature, damping)
-        self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names)
-        self.lower, self.upper = self.mujoco.limits
+        self.joint_names: tuple[str, ...] = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
+        self.joint_types: tuple[str, ...] = tuple(
+            JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type
+        )
+        self.nq: int = mj_model.nq
+        self.effort_limit: Array = np.asarray(effort_limit, dtype=float)
+        self.bridges: tuple[Any, ...] = tuple(bridges)
+        self.mujoco: MujocoEngine = MujocoEngine(mj_model, site, armature, damping)
+        self.pinocchio: PinocchioEngine = PinocchioEngine(pin_model, site, self.joint_names)
+        limits: tuple[Array, Array] = self.mujoco.limits
+        self.lower: Array = limits[0]
+        self.upper: Array = limits[1]
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
         self._recipe = recipe
         self.model_format = model_format

@@ -7,7 +7,7 @@ same code serves both engines and users' own matrices.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -161,7 +161,7 @@ class Manipulability(Report):
     def __init__(self, J: Array, length: float = 1.0) -> None:
         self._J = J
         self._values: dict[str, float] = {}
-        self.length = float(length)
+        self.length: float = float(length)
 
     def _get(self, kind: str) -> float:
         value = self._values.get(kind)
@@ -222,7 +222,7 @@ class Manipulability(Report):
         fields = ("full", "position", "orientation", "scaled", "length")
         return all(getattr(self, f) == getattr(other, f) for f in fields)
 
-    __hash__ = None  # type: ignore[assignment]
+    __hash__: ClassVar[None] = None  # type: ignore[assignment]  # equal by value: unhashable
 
 
 ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]

@@ -19,10 +19,10 @@ import numpy as np
 try:
     from hypothesis import HealthCheck, settings
     from hypothesis import strategies as st
-except ImportError as err:  # pragma: no cover - exercised only without the extra
+except ImportError as _err:  # pragma: no cover - exercised only without the extra
     from .errors import MissingDependencyError
 
-    raise MissingDependencyError("hypothesis", "test") from err
+    raise MissingDependencyError("hypothesis", "test") from _err
 
 from .arm import Arm, sampling_ranges
 
