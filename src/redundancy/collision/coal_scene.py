@@ -198,6 +198,12 @@ class CoalPairs:
             # The world body is Pinocchio's universe: joint 0, frame 0, identity placement.
             return pin.GeometryObject(gname, 0, 0, local, coal_shape(m, g))
         bname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body)
+        if m.body_weldid[body] == 0 and not (
+            bname and self.pin_model.existFrame(bname, pin.FrameType.BODY)
+        ):
+            # A body welded to the world that Pinocchio was not given (another tree of the
+            # robot, held): it never moves, so its place is its fixed pose in the file.
+            return pin.GeometryObject(gname, 0, 0, _static_pose(m, body) * local, coal_shape(m, g))
         if not bname or not self.pin_model.existFrame(bname, pin.FrameType.BODY):
             raise UnsupportedFeatureError(
                 "body Pinocchio does not name",
@@ -211,6 +217,17 @@ class CoalPairs:
         return pin.GeometryObject(
             gname, frame.parentJoint, fid, frame.placement * local, coal_shape(m, g)
         )
+
+
+def _static_pose(m: mujoco.MjModel, body: int) -> pin.SE3:
+    """World pose of a body welded to the world: its placements in its parents, composed."""
+    import pinocchio as pin
+
+    pose = pin.SE3.Identity()
+    while body != 0:
+        pose = pin.SE3(_quat_matrix(m.body_quat[body]), m.body_pos[body].copy()) * pose
+        body = int(m.body_parentid[body])
+    return pose
 
 
 class CoalScene:
