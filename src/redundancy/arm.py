@@ -99,12 +99,12 @@ class Arm:
         self._recipe = recipe
         self.model_format = model_format
         self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
-        self.set_aside = tuple(set_aside)
-        self.defects = tuple(defects)
-        self.robot_model = mj_model if robot_model is None else robot_model
-        self.frame_type = frame_type
-        self.base = base
-        self.rest = rest
+        self.set_aside: tuple[Any, ...] = tuple(set_aside)
+        self.defects: tuple[str, ...] = tuple(defects)
+        self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
+        self.frame_type: str = frame_type
+        self.base: str | None = base
+        self.rest: str = rest
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
         # Engine models and data do not pickle (and views into MjData would become detached
