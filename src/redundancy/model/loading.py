@@ -446,9 +446,7 @@ def _load_urdf(
     source = robot.source
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
-    base_link = robot.base
-    if base_link is not None and base_link not in tree.links:
-        raise UnknownNameError("link", str(base_link), tree.links)
+    base_link = robot.base  # select_arm checks it is a link on the chain to the tool
     disabled = read_disabled_pairs(pairs, tree)
     mended, notes, defects = prepare_urdf(root, tree, tool_link, base_link, source)
     if notes:
