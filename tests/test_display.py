@@ -102,7 +102,7 @@ def test_html_escapes_every_cell() -> None:
 def test_manipulability_is_typed_float(arm7: rd.Arm) -> None:
     m = arm7.manipulability(arm7.keyframe("home"), length=0.5)
     assert all(type(getattr(m, k)) is float for k in ("full", "position", "orientation", "scaled"))
-    assert rd.Manipulability.full.__doc__ == "sqrt(det(J J^T)) of the 6 x n J [mixed units]."
+    assert rd.Manipulability.full.__doc__ == "Product of the singular values of the 6 x n J [mixed units]."
     assert m == arm7.manipulability(arm7.keyframe("home"), length=0.5)
 
 
@@ -224,9 +224,9 @@ def test_a_bundled_model_by_name(panda: rd.Arm) -> None:
 def test_a_file_wins_over_a_bundled_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from .models import SKEW7
 
-    (tmp_path / "panda").write_text(SKEW7)
+    (tmp_path / "panda.xml").write_text(SKEW7)
     monkeypatch.chdir(tmp_path)
-    assert rd.load("panda", site="tool").source == "panda"
+    assert rd.load("panda.xml", site="tool").source == "panda.xml"
 
 
 def test_license_is_the_apache_text() -> None:

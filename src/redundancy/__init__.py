@@ -45,7 +45,7 @@ from .linalg import JacobianSVD, Manipulability
 from .model.bridges import Bridge
 from .model.equivalence import Difference, EquivalenceReport, compare_models
 from .model.loading import load, load_string
-from .models import model_path
+from .models import example_robot_data, model_path
 
 try:  # the installed distribution's version: one number, in pyproject.toml
     __version__: str = _version("redundancy")
@@ -83,6 +83,7 @@ __all__ = [
     "crosscheck",
     "crosscheck_batch",
     "engines",
+    "example_robot_data",
     "load",
     "load_string",
     "max_stable_kd",

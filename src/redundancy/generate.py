@@ -394,7 +394,12 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         jointed[0] = True
     if refuse in ("ball joint", "free joint") and len(jointed) < 2:
         jointed.append(True)  # the ball or free joint is held: the arm needs a hinge or slide
-    if refuse in ("tendon on an arm joint", "joint coupling on the arm", "ball joint", "free joint"):
+    if refuse in (
+        "tendon on an arm joint",
+        "joint coupling on the arm",
+        "ball joint",
+        "free joint",
+    ):
         jointed[-1] = True  # the tool's body: its joint is on the arm
     if "fixed root body with a pose" in extras:
         jointed[0] = False

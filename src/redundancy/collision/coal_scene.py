@@ -97,7 +97,11 @@ def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
     points = coal.StdVec_Vec3s()
     for p in hull.points:
         points.append(p)
-    if hull.faces is not None:
+    # coal keeps at most 255 neighbours per vertex (a uint8) and raises "Too many neighbors"
+    # on a hull where more faces meet at one vertex (a fan-triangulated cap of a scanned
+    # part: Centauro's arm, 566 faces at one vertex); qhull's own triangulation of the same
+    # points spans the same solid.
+    if hull.faces is not None and np.bincount(hull.faces.ravel()).max(initial=0) <= 255:
         triangles = coal.StdVec_Triangle()
         for a, b, c in hull.faces.tolist():
             triangles.append(coal.Triangle(a, b, c))

@@ -18,7 +18,7 @@ import numpy as np
 from .. import models
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
-from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from ..errors import ModelError, ParameterError, UnknownNameError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .names import display_names
@@ -37,9 +37,15 @@ from .urdf import (
 
 
 def _read_mujoco(
-    xml: str | None, path: Path | None, base: Path | None = None
-) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-    """MuJoCo's spec of the whole robot and its compiled model (the spec is kept to hold joints)."""
+    xml: str | None, path: Path | None, base: Path | None = None, tool: object = None
+) -> tuple[mujoco.MjSpec, mujoco.MjModel, str]:
+    """MuJoCo's model of the whole robot, with the tool as a site.
+
+    Returns:
+        An uncompiled copy of the spec (the held joints are deleted from it: editing a
+        compiled spec costs 50 ms a joint, a fresh copy 2 ms), the compiled model, and
+        ``"site"`` or ``"body"``: what the tool is in the MJCF.
+    """
     try:
         # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
         # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
@@ -52,9 +58,17 @@ def _read_mujoco(
                 if base is not None:
                     # Transcoded text of a file: relative asset paths count from its directory.
                     spec.modelfiledir = str(base)
-            return spec, spec.compile()
+            pristine = spec.copy()
+            model = spec.compile()  # MuJoCo's own errors first, then the tool's
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the model: {err}") from err
+    kind = _mjcf_tool(pristine, tool)
+    if kind == "body":  # the site added to the copy: compile a copy of the copy
+        edited = pristine.copy()
+        with captured_warnings():
+            model = pristine.compile()
+        pristine = edited
+    return pristine, model, kind
 
 
 def _read_pinocchio(path: Path) -> object:
@@ -129,12 +143,22 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
     if not isinstance(path, str | os.PathLike):
         raise ModelError(f"load() takes a file path, got {type(path).__name__}")
     text = os.fspath(path)
-    if isinstance(text, str) and text.lstrip().startswith("<"):
+    # An existing file may be named "<arm7>.xml": only a path to nothing can be XML text.
+    if isinstance(text, str) and text.lstrip().startswith("<") and not os.path.exists(text):
         raise ModelError(
             f"load() takes a file path, and this looks like XML text ({text.strip()[:40]!r}...); "
             "use load_string() for model text"
         )
     p = models.bundled(text) or Path(text)  # a bare "panda": the bundled model
+    if isinstance(text, str) and not text.isascii():
+        try:
+            text.encode("utf-8")
+        except UnicodeEncodeError:  # bytes that are not UTF-8, as the OS gave them to Python
+            shown = os.fsencode(text).decode("utf-8", "backslashreplace")
+            raise ModelError(
+                f"the model file name '{shown}' is not UTF-8, which MuJoCo and Pinocchio "
+                "require of file names: rename the file"
+            ) from None
     try:
         return p, p.read_bytes()
     except FileNotFoundError as err:
@@ -211,11 +235,12 @@ def load(
         return _load_urdf(text, root, p.resolve().parent, pairs, robot)
     _check_mjcf(pairs)
     if as_is:
-        spec, mj = _read_mujoco(None, p)
+        spec, mj, kind = _read_mujoco(None, p, tool=tool)
     else:
-        spec, mj = _read_mujoco(text, None, p.resolve().parent)
+        spec, mj, kind = _read_mujoco(text, None, p.resolve().parent, tool)
     expanded = _expand_includes(root, p.resolve().parent, robot)
-    return _load_mjcf(spec, mj, expanded, strict, robot, None if robot.changed or not as_is else p)
+    path_for_pin = None if robot.changed or not as_is else p
+    return _load_mjcf(spec, mj, kind, expanded, strict, robot, path_for_pin)
 
 
 def load_string(
@@ -248,9 +273,9 @@ def load_string(
     if is_urdf(root):
         return _load_urdf(xml, root, Path.cwd(), pairs, robot)
     _check_mjcf(pairs)
-    spec, mj = _read_mujoco(xml, None)
+    spec, mj, kind = _read_mujoco(xml, None, tool=tool)
     expanded = _expand_includes(root, Path.cwd(), robot)
-    return _load_mjcf(spec, mj, expanded, strict, robot, None)
+    return _load_mjcf(spec, mj, kind, expanded, strict, robot, None)
 
 
 def model_format(arm: Arm) -> str:
@@ -375,16 +400,13 @@ def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
 def _load_mjcf(
     spec: mujoco.MjSpec,
     full: mujoco.MjModel,
+    kind: str,
     root: ET.Element,
     strict: bool,
     robot: _Robot,
     path: Path | None,
 ) -> Arm:
     """Both engines' MJCF parsers on the whole robot, then the arm selected and the rest held."""
-    kind = _mjcf_tool(spec, robot.tool)
-    if kind == "body":
-        with captured_warnings():
-            full = spec.compile()
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
     sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
