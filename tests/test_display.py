@@ -102,7 +102,10 @@ def test_html_escapes_every_cell() -> None:
 def test_manipulability_is_typed_float(arm7: rd.Arm) -> None:
     m = arm7.manipulability(arm7.keyframe("home"), length=0.5)
     assert all(type(getattr(m, k)) is float for k in ("full", "position", "orientation", "scaled"))
-    assert rd.Manipulability.full.__doc__ == "Product of the singular values of the 6 x n J [mixed units]."
+    assert (
+        rd.Manipulability.full.__doc__
+        == "Product of the singular values of the 6 x n J [mixed units]."
+    )
     assert m == arm7.manipulability(arm7.keyframe("home"), length=0.5)
 
 

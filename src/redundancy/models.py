@@ -54,6 +54,8 @@ def not_found_hint(name: str) -> str:
         return ""
     names = ", ".join(available())
     return f"; bundled models (load by name or rd.model_path(name)): {names}"
+
+
 #: Arms of example-robot-data (PyPI) with the tool frame each file gives: (file below
 #: ``robots/``, tool frame, base body or None). Each is tested as published
 #: (``tests/test_robot.py``); ``scripts/survey_robots.py`` prints the table.
