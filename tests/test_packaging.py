@@ -90,6 +90,7 @@ def test_api_reference_builds_without_warnings(tmp_path: Path) -> None:
     assert "redundancy.analysis.batch.scatter" in batch  # built from the docstrings
 
 
+@pytest.mark.slow  # ~20 s of pyright: `make test-thorough` runs it, `make typecheck` prints it
 def test_public_api_types_are_complete_to_pyright() -> None:
     pyright = _tool("pyright")
     if shutil.which("node") is None and not (BIN / "node").exists():
