@@ -31,10 +31,10 @@ import numpy as np
 
 try:
     from hypothesis import strategies as st
-except ImportError as err:  # pragma: no cover - exercised only without the extra
+except ImportError as _err:  # pragma: no cover - exercised only without the extra
     from .errors import MissingDependencyError
 
-    raise MissingDependencyError("hypothesis", "test") from err
+    raise MissingDependencyError("hypothesis", "test") from _err
 
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
 EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")

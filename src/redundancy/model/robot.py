@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from ..engines.mujoco import JOINT_TYPES, object_names
 from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from .actuators import transmission_refusal
 from .names import display_names
 
 Array = NDArray[np.float64]
@@ -386,13 +387,13 @@ def _check_couplings(
             out.append(SetAside("actuator", name, f"drives held joint {jnames[target]!r}"))
         elif trn == mujoco.mjtTrn.mjTRN_TENDON:
             out.append(SetAside("actuator", name, "drives a tendon of held joints"))
-        elif trn == mujoco.mjtTrn.mjTRN_SITE and int(full.site_bodyid[target]) in moved:
-            raise UnsupportedFeatureError(
-                "site actuator on a body the arm moves",
-                f"actuator {name!r}",
-                "its wrench acts on the arm; the library reads joint actuators",
-            )
-        else:
+        else:  # site, slider-crank (sites) or body (adhesion) transmissions
+            if trn == mujoco.mjtTrn.mjTRN_BODY:
+                bodies = [target]
+            else:
+                bodies = [int(full.site_bodyid[i]) for i in full.actuator_trnid[u] if i >= 0]
+            if any(b in moved for b in bodies):
+                raise transmission_refusal(int(trn), name)
             out.append(SetAside("actuator", name, "acts on held bodies only"))
 
 
