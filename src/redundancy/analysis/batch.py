@@ -468,6 +468,7 @@ def operational_inertias(
     joints: object = None,
     engine: EngineName = "mujoco",
     threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Lambda at each pose, as :meth:`redundancy.Arm.operational_inertia`.
 
@@ -478,6 +479,8 @@ def operational_inertias(
         joints: Names of the joints free to move (the others held); None: all.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
+        executor: Run on this :class:`concurrent.futures.Executor` in chunks of poses (see
+            :func:`jacobians`); None runs here.
 
     Returns:
         Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
@@ -486,6 +489,17 @@ def operational_inertias(
         SingularPoseError: At the first singular pose (the message names it and the lost
             tool directions).
     """
+    if executor is not None:
+        return scatter(
+            executor,
+            operational_inertias,
+            arm,
+            Q,
+            armature=armature,
+            joints=joints,
+            engine=engine,
+            threads=threads,
+        )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     return operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
 
@@ -499,6 +513,7 @@ def effective_masses(
     joints: object = None,
     engine: EngineName = "mujoco",
     threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Effective mass at the tool at each pose, as :meth:`redundancy.Arm.effective_mass`.
 
@@ -510,10 +525,28 @@ def effective_masses(
         joints: Names of the joints free to move (the others held); None: all.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
+        executor: Run on this :class:`concurrent.futures.Executor` in chunks of poses (see
+            :func:`jacobians`); None runs here.
 
     Returns:
         Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
     """
+    if executor is not None and np.ndim(direction) != 1:
+        raise ParameterError(
+            "direction", direction, "one direction of shape (3,) when an executor is given"
+        )
+    if executor is not None:
+        return scatter(
+            executor,
+            effective_masses,
+            arm,
+            Q,
+            direction=direction,
+            armature=armature,
+            joints=joints,
+            engine=engine,
+            threads=threads,
+        )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     U = check_directions("direction", direction, len(J))
     return linalg_effective_masses(J, X, U)
@@ -527,12 +560,24 @@ def effective_mass_ranges(
     joints: object = None,
     engine: EngineName = "mujoco",
     threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
 
     As :meth:`Arm.effective_mass_range <redundancy.Arm.effective_mass_range>`'s ``min`` and
     ``max`` (arguments as :func:`effective_masses`).
     """
+    if executor is not None:
+        return scatter(
+            executor,
+            effective_mass_ranges,
+            arm,
+            Q,
+            armature=armature,
+            joints=joints,
+            engine=engine,
+            threads=threads,
+        )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     return linalg_effective_mass_ranges(J, X) if len(J) else np.empty((0, 2))
 
@@ -545,12 +590,24 @@ def dynamic_manipulabilities(
     joints: object = None,
     engine: EngineName = "mujoco",
     threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Yoshikawa's dynamic manipulability at each pose, shape (n,).
 
     As :meth:`Arm.dynamic_manipulability <redundancy.Arm.dynamic_manipulability>`
     (arguments as :func:`effective_masses`).
     """
+    if executor is not None:
+        return scatter(
+            executor,
+            dynamic_manipulabilities,
+            arm,
+            Q,
+            armature=armature,
+            joints=joints,
+            engine=engine,
+            threads=threads,
+        )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     if not len(J):
         return np.zeros(0)
