@@ -34,8 +34,8 @@ import queue
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arm import ENGINES, Arm, EngineName
-from ..checks import check_choice, check_number, check_poses, check_threads
+from ..arm import ENGINES, Arm, EngineName, check_arm
+from ..checks import check_choice, check_flag, check_number, check_poses, check_threads
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
@@ -49,8 +49,9 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
 
     Raises:
         PoseError: Not numeric, complex, not of shape (n, nq), or with NaN or infinite values.
+        ParameterError: ``arm`` is not an Arm.
     """
-    return check_poses(Q, arm.joint_names)
+    return check_poses(Q, check_arm(arm).joint_names)
 
 
 def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bool = True) -> Array:
@@ -206,7 +207,7 @@ def mass_matrices(
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
     """
-    return _stack(arm, Q, engine, threads, "M", armature)
+    return _stack(arm, Q, engine, threads, "M", check_flag("armature", armature))
 
 
 def gravities(arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: int = 1) -> Array:

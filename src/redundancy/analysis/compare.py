@@ -270,6 +270,16 @@ def compare(
         raise ModelError(f"tol must be a finite number > 0, got {tol!r}")
     if isinstance(n_poses, bool) or not isinstance(n_poses, int) or n_poses < 0:
         raise ModelError(f"n_poses must be an integer >= 0, got {n_poses!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ModelError(f"seed must be an integer >= 0, got {seed!r}")
+    for name, frame in (("frame_a", frame_a), ("frame_b", frame_b)):
+        if frame is not None and not isinstance(frame, str):
+            raise ModelError(f"{name} must be a name (str) or None, got {type(frame).__name__}")
+    if joint_map is not None and not isinstance(joint_map, Mapping | str | os.PathLike):
+        raise ModelError(
+            "joint_map must be a mapping (A's joint -> B's), a file path or None, "
+            f"got {type(joint_map).__name__}"
+        )
     if isinstance(joint_map, str | os.PathLike):
         joint_map = read_joint_map(joint_map)
     arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or "ee")

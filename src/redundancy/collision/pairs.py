@@ -184,6 +184,10 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             (``mujoco.set_mjcb_contactfilter``): it replaces the bitmask test with user code
             this function cannot reproduce.
     """
+    if not isinstance(model, mujoco.MjModel):
+        from ..arm import check_arm
+
+        model = check_arm(model, "model")
     m: mujoco.MjModel = model if isinstance(model, mujoco.MjModel) else model.mj_model
     dsbl = m.opt.disableflags
     if dsbl & (mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):

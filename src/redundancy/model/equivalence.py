@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from ..arm import Arm
+from ..arm import Arm, check_arm
 from ..errors import RedundancyError
 from .actuators import simulation
 from .bridges import Bridge, effective_gravity
@@ -152,6 +152,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
             (:func:`~redundancy.model.scales.scaled_error`; the arm's length for
             positions, m L^2 for inertias...) [-].
     """
+    arm = check_arm(arm)
     if not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol >= 0):
         raise RedundancyError(f"tol must be a finite number >= 0, got {tol!r}")
     mj, pn = arm.mujoco, arm.pinocchio
