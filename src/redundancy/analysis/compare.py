@@ -365,6 +365,16 @@ class _Comparer:
             self.diffs.append(Finding("presence", f"joint {n!r}", "present", "absent", math.inf))
         for n in only_b:
             self.diffs.append(Finding("presence", f"joint {n!r}", "absent", "present", math.inf))
+        # Joints off the arm (a gripper's, a torso's) are held still: one file may have them
+        # and the other not; their bodies' masses show in the mass matrix and gravity below.
+        for n in a.held:
+            if n not in b.held and n not in b.joint_names:
+                where = f"held joint {n!r}"
+                self.diffs.append(Finding("presence", where, "present", "absent", math.inf))
+        for n in b.held:
+            if n not in a.held and n not in a.joint_names:
+                where = f"held joint {n!r}"
+                self.diffs.append(Finding("presence", where, "absent", "present", math.inf))
         if only_a:
             self.kinematic.append(a.joint_index(only_a[0]))
         qa, qb = self.reference_poses()
