@@ -169,8 +169,6 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
 
 
 def _tool(site: str, frame: str | None) -> str:
-    if not isinstance(site, str):
-        raise ModelError(f"site must be a name (str), got {type(site).__name__}")
     if frame is None:
         return site
     if not isinstance(frame, str):
