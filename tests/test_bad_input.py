@@ -542,19 +542,28 @@ def test_jointinparent_actuator_reads_as_joint() -> None:
     assert effort.actuated.tolist() == [True, True]
 
 
-def test_site_transmission_on_the_arm_is_refused() -> None:
-    """Issue 21: read neither as effort nor as armature; refused, naming the actuator (the
-    whole-robot loader refuses it first; model.actuators.check_transmissions is the guard for
-    any model that reaches the actuator tables)."""
+@pytest.mark.parametrize(
+    ("actuator", "expected"),
+    [
+        (
+            '<motor site="tip" gear="1 0 0 0 0 0"/>',
+            "site transmission (actuator 'push')",
+        ),
+        (
+            '<adhesion body="l2" ctrlrange="0 1"/>',
+            "body (adhesion) transmission (actuator 'push')",
+        ),
+    ],
+)
+def test_site_and_body_transmissions_on_the_arm_are_refused(actuator: str, expected: str) -> None:
+    """Issue 21: read neither as effort nor as armature; refused, naming the actuator."""
+    named = actuator.replace(" ", ' name="push" ', 1)
     message = (
-        UF + "site actuator on a body the arm moves (actuator 'push'): its wrench acts on the "
-        "arm; the library reads joint actuators"
+        UF + expected + ": it drives the arm's joints through pose-dependent moment arms; the "
+        "library reads actuators with a joint transmission only (joint, jointinparent)"
     )
     with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(message) + "$"):
-        rd.load_string(
-            chain(extra='<actuator><motor name="push" site="tip" gear="1 0 0 0 0 0"/></actuator>'),
-            site="tip",
-        )
+        rd.load_string(chain(extra=f"<actuator>{named}</actuator>"), site="tip")
 
 
 @pytest.mark.parametrize("kind", ["site", "body"])
@@ -590,7 +599,10 @@ def test_tendon_transmission_is_refused_with_the_tendon() -> None:
         '<tendon><fixed name="t"><joint joint="a" coef="1"/></fixed></tendon>'
         '<actuator><motor tendon="t"/></actuator>'
     )
-    with pytest.raises(rd.UnsupportedFeatureError, match=r"^unsupported feature: tendon on an arm"):
+    with pytest.raises(
+        rd.UnsupportedFeatureError,
+        match=r"^unsupported feature: tendon on an arm joint \(tendon 't' \(arm joint 'a'\)\)",
+    ):
         rd.load_string(chain(extra=tendon), site="tip")
 
 
