@@ -469,8 +469,12 @@ def format_report(r: AuditReport) -> list[str]:
     """
     s = r.sections
     sim = s.joints.simulation
-    mode = "" if r.mode == "strict" else f", {r.mode} mode: Pinocchio's differences are findings"
-    out = [f"audit of {r.model} ({r.model_format}, tool frame {r.site!r}{mode})", ""]
+    lenient = ": Pinocchio's differences are findings" if r.mode == "lenient" else ""
+    out = [
+        f"audit of {r.model}",
+        f"  {r.model_format}, tool frame {r.site!r}, {r.mode} mode{lenient}",
+        "",
+    ]
     defaults = " (MuJoCo's defaults: URDF cannot set them)" if r.model_format == "URDF" else ""
     out.append(
         f"simulation: timestep {_h(sim.timestep)}, integrator {sim.integrator}"
@@ -565,11 +569,22 @@ def _gravity_lines(r: AuditReport) -> list[str]:
     comp = ", gravity compensation subtracted" if g.gravcomp else ""
     off = "" if g.gravity_enabled else " (gravity disabled: nothing to hold)"
 
-    def bound(x: float) -> str:
+    rows = r.sections.joints.rows
+    # An MJCF joint without an actuator: nothing applies a force there (a finding when
+    # gravity loads it); a URDF joint's limit is its <limit effort>.
+    unheld = [not x.actuated and r.model_format != "URDF" for x in rows]
+
+    def bound(i: int, x: float) -> str:
+        if g.varies[i]:
+            return "varies"
+        if unheld[i]:
+            return "-"
         return "none" if math.isinf(x) else fmt(x, 4)
 
     def ratio(i: int) -> str:
         value = float(g.ratio[i])
+        if unheld[i]:
+            return "no actuator"
         if math.isfinite(value):
             return f"{value:.2f}"
         return "-" if g.peak[i] <= 1e-9 else "none"
@@ -584,8 +599,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
                     names[i],
                     fmt(g.low[i], 4),
                     fmt(g.high[i], 4),
-                    "varies" if g.varies[i] else bound(g.limit_lower[i]),
-                    "varies" if g.varies[i] else bound(g.limit_upper[i]),
+                    bound(i, g.limit_lower[i]),
+                    bound(i, g.limit_upper[i]),
                     ratio(i),
                     str(int(g.over_low[i] + g.over_high[i])),
                 ]
