@@ -430,3 +430,26 @@ def test_panda_in_any_clothes_is_the_same_robot(seed: int, links: set[str]) -> N
     arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
     result = compare(arm, PANDA_XML, n_poses=20)
     assert result.equivalent, result.lines()
+
+
+def test_cli_one_frame_for_both_and_the_default(capsys: pytest.CaptureFixture[str]) -> None:
+    base = ["compare", str(PANDA_URDF), str(PANDA_XML), "--poses", "5"]
+    assert main(base) == 0  # one chain end each: 'ee'
+    assert main([*base, "--frame", "ee"]) == 0
+    assert main([*base, "--frame", "nowhere", "--frame-a", "ee", "--frame-b", "ee"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("A: ") == 3 and "tool frame 'ee'" in out
+    assert main([*base, "--frame", "nowhere"]) == 2
+    assert "unknown link 'nowhere'" in capsys.readouterr().err
+
+
+def test_cli_base_offset_exits_1_and_says_it_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    moved = _moved_base(PANDA_XML, tmp_path, "link0", "0 0 0.12")
+    assert main(["compare", str(PANDA_URDF), str(moved), "--poses", "5"]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert [x for x in lines if x.startswith(("OFFSET", "DIFFERS"))] == [
+        "OFFSET  base placement: B is A moved by [0 0 0.12] m in the world frame"
+    ]
+    assert lines[-1] == "verdict: same robot, placed differently"

@@ -72,8 +72,10 @@ class RigidOffset:
     @property
     def angle(self) -> float:
         """Angle of the rotation [rad]."""
-        c = (float(np.trace(self.rotation)) - 1.0) / 2.0
-        return math.acos(min(1.0, max(-1.0, c)))
+        R = self.rotation
+        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        # atan2 keeps small angles exact where acos of the trace would lose them.
+        return math.atan2(float(np.linalg.norm(w)) / 2.0, (float(np.trace(R)) - 1.0) / 2.0)
 
     @property
     def axis(self) -> Array:
@@ -408,7 +410,10 @@ class _Comparer:
             across = r - (r @ axis) * axis if hinge[k] else r
             if np.max(np.abs(axis - ax_b[ib[k]])) > tol or np.max(np.abs(across)) > tol:
                 return
-        if np.max(np.abs(R - np.eye(3))) <= self.tol and np.max(np.abs(t)) <= self.tol:
+        # Parts within the tolerance are none: a pure shift is said without a turn.
+        R = np.eye(3) if np.max(np.abs(R - np.eye(3))) <= self.tol else R
+        t = np.where(np.abs(t) <= self.tol, 0.0, t)
+        if not np.any(t) and np.array_equal(R, np.eye(3)):
             return
         self.R, self.t = R, t
         self.offsets.append(RigidOffset("base placement", t, R))
@@ -423,7 +428,9 @@ class _Comparer:
         rot_a, pos_a = self.R @ rot_a, self.R @ pos_a + self.t
         S = rot_a.T @ rot_b
         s = rot_a.T @ (pos_b - pos_a)
-        if np.max(np.abs(S - np.eye(3))) <= self.tol and np.max(np.abs(s)) <= self.tol:
+        S = np.eye(3) if np.max(np.abs(S - np.eye(3))) <= self.tol else S
+        s = np.where(np.abs(s) <= self.tol, 0.0, s)
+        if not np.any(s) and np.array_equal(S, np.eye(3)):
             return
         self.S, self.s = S, s
         self.offsets.append(RigidOffset("tool mount", s, S))
