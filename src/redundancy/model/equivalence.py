@@ -54,7 +54,7 @@ def format_value(x: object) -> str:
     if isinstance(x, np.ndarray):
         return np.array2string(x, precision=6, suppress_small=True, max_line_width=200)
     if isinstance(x, list | tuple):  # their items' text, never numpy's repr of a scalar
-        inner = ", ".join(format_value(v) for v in x)
+        inner = ", ".join(repr(v) if isinstance(v, str) else format_value(v) for v in x)
         return f"[{inner}]" if isinstance(x, list) else f"({inner})"
     if isinstance(x, np.generic):
         x = x.item()

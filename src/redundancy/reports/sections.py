@@ -1,6 +1,6 @@
 """The sections both reports are made of, each computed once: joints, keyframes, gravity, contacts.
 
-The lesson's tables and the audit format and judge these; neither computes them again. The
+The audit judges these and arm7's example tables format them; neither computes them again. The
 numbers come from the :class:`~redundancy.Arm`, :mod:`redundancy.analysis.batch` and
 :mod:`redundancy.collision`; what MuJoCo simulates beyond them (integrator, flags, actuator
 ranges, servo damping, gravity compensation) from :mod:`redundancy.model.actuators`.
