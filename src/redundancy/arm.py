@@ -7,7 +7,7 @@ Arm itself only dispatches: every number comes from an engine of :mod:`redundanc
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import mujoco
@@ -46,6 +46,14 @@ class Arm:
         bridges: What was copied from MuJoCo into Pinocchio, one entry per value.
         source: The file the model came from, or ``"<string>"``.
         model_format: ``"MJCF"`` or ``"URDF"``, the format it was loaded from.
+        held: Joints of the robot that are not the arm's, held still -> their rest value
+            [rad or m] (a tuple for a ball or free joint, quaternions w x y z).
+        set_aside: What in the robot's file does not reach the arm, with the reason
+            (:class:`redundancy.model.robot.SetAside`).
+        robot_model: MuJoCo's compiled model of the whole robot (all joints).
+        frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
+        base: The body the arm's chain starts below (None: the world).
+        rest: Where the held values come from: ``"qpos0"``, ``"keyframe 'name'"``, ``"given"``.
     """
 
     def __init__(
@@ -61,6 +69,12 @@ class Arm:
         bridges: tuple[Any, ...] = (),
         recipe: tuple[Callable[..., Arm], tuple[Any, ...]] | None = None,
         model_format: str = "MJCF",
+        held: Mapping[str, float | tuple[float, ...]] | None = None,
+        set_aside: tuple[Any, ...] = (),
+        robot_model: mujoco.MjModel | None = None,
+        frame_type: str = "site",
+        base: str | None = None,
+        rest: str = "qpos0",
     ) -> None:
         self.source = source
         self.site = site
@@ -70,11 +84,17 @@ class Arm:
         self.effort_limit = np.asarray(effort_limit, dtype=float)
         self.bridges = tuple(bridges)
         self.mujoco = MujocoEngine(mj_model, site, armature, damping)
-        self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names)
+        self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names, frame_type)
         self.lower, self.upper = self.mujoco.limits
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
         self._recipe = recipe
         self.model_format = model_format
+        self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
+        self.set_aside = tuple(set_aside)
+        self.robot_model = mj_model if robot_model is None else robot_model
+        self.frame_type = frame_type
+        self.base = base
+        self.rest = rest
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
         # Engine models and data do not pickle (and views into MjData would become detached
@@ -84,6 +104,11 @@ class Arm:
         return self._recipe
 
     # -- names, keyframes and poses --------------------------------------------------------
+    @property
+    def frame(self) -> str:
+        """Name of the tool frame (``site`` is its older name)."""
+        return self.site
+
     @property
     def mj_model(self) -> mujoco.MjModel:
         """MuJoCo's compiled model (shared, do not modify)."""
@@ -209,7 +234,8 @@ class Arm:
         return self.engine(engine).damping
 
     def __repr__(self) -> str:
-        return f"Arm({self.source!r}, site={self.site!r}, joints={list(self.joint_names)})"
+        held = f", held={len(self.held)}" if self.held else ""
+        return f"Arm({self.source!r}, frame={self.site!r}, joints={list(self.joint_names)}{held})"
 
 
 def sampling_ranges(

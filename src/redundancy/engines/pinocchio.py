@@ -65,15 +65,23 @@ class PinocchioEngine:
 
     Args:
         model: Pinocchio model (bridged by the loader).
-        site: Name of the tool site (an ``OP_FRAME`` frame in Pinocchio).
+        site: Name of the tool frame.
         joint_names: Joint names in the library's order.
+        frame_type: ``"site"`` (an ``OP_FRAME`` in Pinocchio) or ``"body"`` (a ``BODY`` frame).
     """
 
     name = "pinocchio"
 
-    def __init__(self, model: pin.Model, site: str, joint_names: Sequence[str]) -> None:
+    def __init__(
+        self, model: pin.Model, site: str, joint_names: Sequence[str], frame_type: str = "site"
+    ) -> None:
         self.model = model
-        self.frame_id = model.getFrameId(site)
+        # An MJCF site is an OP_FRAME, an MJCF body or a URDF link a BODY frame; a joint or
+        # another kind of frame may share the name.
+        kind = pin.FrameType.BODY if frame_type == "body" else pin.FrameType.OP_FRAME
+        self.frame_id = (
+            model.getFrameId(site, kind) if model.existFrame(site, kind) else model.getFrameId(site)
+        )
         self.nv = model.nv
         # perm[i] is Pinocchio's index of the library's joint i (nq == nv: 1-dof joints only).
         self.perm = np.array(

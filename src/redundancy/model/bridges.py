@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from ..engines.pinocchio import joint_kind
 from ..errors import UnsupportedFeatureError
 from .names import body_name, display_names
+from .robot import pinocchio_configuration
 from .support import inertia_causes
 
 Array = NDArray[np.float64]
@@ -48,7 +49,9 @@ class Bridge:
         return f"{self.value:g}"
 
 
-def check_pinocchio(pm: pin.Model, joint_names: Sequence[str], site: str) -> None:
+def check_pinocchio(
+    pm: pin.Model, joint_names: Sequence[str], site: str, frame_type: str = "site"
+) -> None:
     """Refuse a Pinocchio model whose joints or tool frame differ from MuJoCo's.
 
     Raises:
@@ -63,10 +66,10 @@ def check_pinocchio(pm: pin.Model, joint_names: Sequence[str], site: str) -> Non
             f"(nq {pm.nq}, nv {pm.nv})",
             "the engines must see the same joints",
         )
-    if site not in [f.name for f in pm.frames]:
+    if tool_frame_id(pm, site, frame_type) is None:
         raise UnsupportedFeatureError(
-            "site Pinocchio does not read",
-            f"site {site!r}",
+            f"tool {frame_type} Pinocchio does not read",
+            f"{frame_type} {site!r}",
             "Pinocchio has no frame of that name",
         )
     for n in joint_names:
@@ -79,34 +82,65 @@ def check_pinocchio(pm: pin.Model, joint_names: Sequence[str], site: str) -> Non
             )
 
 
+def tool_frame_id(pm: pin.Model, name: str, frame_type: str = "site") -> int | None:
+    """Pinocchio's frame for the tool: an MJCF site's ``OP_FRAME``, a body's or link's ``BODY``.
+
+    A URDF link and a fixed joint of the same name (one frame, same placement) resolve to
+    the link's BODY frame; a frame of another type is taken only when it is the one frame of
+    that name. None when Pinocchio has no such frame.
+    """
+    wanted = pin.FrameType.BODY if frame_type == "body" else pin.FrameType.OP_FRAME
+    if pm.existFrame(name, wanted):
+        return int(pm.getFrameId(name, wanted))
+    matches = [i for i, f in enumerate(pm.frames) if f.name == name]
+    return matches[0] if len(matches) == 1 else None
+
+
+def bridge_robot(
+    pm: pin.Model,
+    mm: mujoco.MjModel,
+    site: str,
+    frame_type: str = "site",
+    xml_root: ET.Element | None = None,
+) -> tuple[Bridge, ...]:
+    """Copy into Pinocchio's model of the whole robot what its MJCF parser reads differently.
+
+    Done before the held joints are locked (the values are the robot's, not the arm's): the
+    pose of a fixed root body; the mass, centre of mass and inertia of bodies whose inertia
+    Pinocchio derives from what it reads differently (see
+    :func:`redundancy.model.support.inertia_causes`, which needs ``xml_root``); a tool site
+    placed by site defaults. Each value is compared first and copied only when Pinocchio's
+    differs.
+    """
+    bridges: list[Bridge] = []
+    rest = _rest_kinematics(mm)  # MuJoCo's world placements at qpos0, for the bridges below
+    # The root pose first: the site bridge below compares frames placed from the root.
+    sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
+    bridges += _bridge_root_pose(pm, mm, sid)
+    if xml_root is not None:
+        bridges += _bridge_inertia(pm, mm, inertia_causes(xml_root, mm), rest)
+    bridges += _bridge_site(pm, mm, site, frame_type, rest)
+    return tuple(bridges)
+
+
 def bridge(
     pm: pin.Model,
     mm: mujoco.MjModel,
     joint_names: Sequence[str],
-    site: str,
     effort_limit: Array,
     armature: Array,
     damping: Array,
     lower: Array,
     upper: Array,
-    xml_root: ET.Element | None = None,
 ) -> tuple[Bridge, ...]:
-    """Copy into Pinocchio what its MJCF parser leaves out or reads differently.
+    """Copy into Pinocchio's arm model the per-joint values and gravity its parser leaves out.
 
     Each value is compared first and copied only when Pinocchio's differs, so the list
     says exactly where the engines would otherwise have seen different arms. Bridged: effort
     limits, armature, damping and joint ranges per dof; gravity (``<option gravity>`` and
-    ``<flag gravity="disable"/>``); the pose of a fixed root body; the mass, centre of mass
-    and inertia of bodies whose inertia Pinocchio derives from what it reads differently
-    (see :func:`redundancy.model.support.inertia_causes`, which needs ``xml_root``); a site
-    placed by site defaults.
+    ``<flag gravity="disable"/>``).
     """
     bridges: list[Bridge] = []
-    rest = _rest_kinematics(mm)  # MuJoCo's world placements at qpos0, for both bridges below
-    # The root pose first: the site bridge below compares frames placed from the root.
-    bridges += _bridge_root_pose(pm, mm)
-    if xml_root is not None:
-        bridges += _bridge_inertia(pm, mm, inertia_causes(xml_root, mm), rest)
     # Per-dof values Pinocchio keeps in a vector of its own: (name, its vector, ours, source).
     per_dof = (
         (
@@ -142,7 +176,6 @@ def bridge(
         )
         bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), source))
         pm.gravity = pin.Motion(g, np.zeros(3))
-    bridges += _bridge_site(pm, mm, joint_names, site, rest)
     return tuple(bridges)
 
 
@@ -156,8 +189,8 @@ def _rest_kinematics(mm: mujoco.MjModel) -> mujoco.MjData:
 def _bridge_site(
     pm: pin.Model,
     mm: mujoco.MjModel,
-    joint_names: Sequence[str],
     site: str,
+    frame_type: str,
     data: mujoco.MjData,
 ) -> list[Bridge]:
     """Fix the site frame's placement when only the site itself is misplaced.
@@ -168,14 +201,11 @@ def _bridge_site(
     report to show. ``data`` is MuJoCo's at ``qpos0`` (:func:`_rest_kinematics`).
     """
     pd = pm.createData()
-    q = np.zeros(pm.nq)
-    for i, name in enumerate(joint_names):
-        q[pm.joints[pm.getJointId(name)].idx_q] = mm.qpos0[i]
-    pin.framesForwardKinematics(pm, pd, q)
+    pin.framesForwardKinematics(pm, pd, pinocchio_configuration(pm, mm, mm.qpos0))
     sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
-    # An MJCF site is an OP_FRAME (a body or joint may share its name); a URDF tool is a link.
-    op = pin.FrameType.OP_FRAME
-    fid = pm.getFrameId(site, op) if pm.existFrame(site, op) else pm.getFrameId(site)
+    fid = tool_frame_id(pm, site, frame_type)
+    if fid is None:
+        return []  # check_pinocchio refuses it, naming the frame
     site_mj = pin.SE3(data.site_xmat[sid].reshape(3, 3).copy(), data.site_xpos[sid].copy())
     if np.max(np.abs((site_mj.inverse() * pd.oMf[fid]).homogeneous - np.eye(4))) < 1e-12:
         return []
@@ -208,13 +238,13 @@ def effective_gravity(mm: mujoco.MjModel) -> Array:
     return mm.opt.gravity.copy()
 
 
-def _root_body(mm: mujoco.MjModel) -> int | None:
-    """The first body in ``<worldbody>`` (the one Pinocchio's parser reads), if any."""
-    roots = [b for b in range(1, mm.nbody) if mm.body_parentid[b] == 0]
-    return roots[0] if roots else None
+def _root_body(mm: mujoco.MjModel, site: int) -> int | None:
+    """The root body of the tree that carries the tool (the one Pinocchio's parser reads)."""
+    root = int(mm.body_rootid[mm.site_bodyid[site]])
+    return root if root > 0 else None
 
 
-def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
+def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel, site: int) -> list[Bridge]:
     """Place a posed fixed root body where MuJoCo places it.
 
     Pinocchio's parser attaches a root body without joints to the world at the identity and
@@ -224,7 +254,7 @@ def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
     placements of the root's child joints and the frames (bodies, fixed bodies, sites)
     whose parent joint is the world.
     """
-    root = _root_body(mm)
+    root = _root_body(mm, site)
     if root is None or mm.body_jntnum[root] > 0:
         return []  # a root with a joint: Pinocchio composes its pose into the joint placement
     pos, quat = mm.body_pos[root].copy(), mm.body_quat[root].copy()

@@ -3,20 +3,25 @@
 from __future__ import annotations
 
 import codecs
+import copy
 import math
 import os
 import re
 import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
-from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
+from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
-from .bridges import Bridge, bridge, check_pinocchio
+from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
+from .names import display_names
+from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
 from .support import check_supported
 from .urdf import (
     DisabledPairs,
@@ -30,20 +35,23 @@ from .urdf import (
 )
 
 
-def _read_mujoco(xml: str | None, path: Path | None, base: Path | None = None) -> mujoco.MjModel:
+def _read_mujoco(
+    xml: str | None, path: Path | None, base: Path | None = None
+) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    """MuJoCo's spec of the whole robot and its compiled model (the spec is kept to hold joints)."""
     try:
         # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
         # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
         # their causes with the library's own message instead.
         with captured_warnings():
             if path is not None:
-                return mujoco.MjModel.from_xml_path(str(path))
-            if base is None:
-                return mujoco.MjModel.from_xml_string(xml or "")
-            # Transcoded text of a file: relative asset paths still count from its directory.
-            spec = mujoco.MjSpec.from_string(xml or "")
-            spec.modelfiledir = str(base)
-            return spec.compile()
+                spec = mujoco.MjSpec.from_file(str(path))
+            else:
+                spec = mujoco.MjSpec.from_string(xml or "")
+                if base is not None:
+                    # Transcoded text of a file: relative asset paths count from its directory.
+                    spec.modelfiledir = str(base)
+            return spec, spec.compile()
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the model: {err}") from err
 
@@ -150,47 +158,62 @@ def load(
     strict: bool = True,
     frame: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
+    base: str | None = None,
+    rest: RestSpec = None,
 ) -> Arm:
-    """Load an MJCF or URDF file into MuJoCo and Pinocchio.
+    """Load a robot from an MJCF or URDF file; its arm is the chain to the tool.
 
-    The file is read as bytes and decoded as XML says (byte-order mark or declared encoding);
-    a URDF (root element ``<robot>``) goes through each engine's URDF importer (see
-    :mod:`redundancy.model.urdf`), an MJCF through each engine's MJCF parser.
+    The file is read whole by both engines (MuJoCo's and Pinocchio's own parsers): a
+    URDF (root element ``<robot>``) through each engine's URDF importer (see
+    :mod:`redundancy.model.urdf`), an MJCF through each engine's MJCF parser. The **arm** is
+    every hinge and slide joint on the path from the world (or from ``base``) to the tool
+    frame, in chain order; every other joint (a gripper's, a second arm's, a torso's, a
+    floating base's) is **held** at a rest configuration (see
+    :mod:`redundancy.model.robot`). ``arm.held`` says which joints and at what values,
+    ``arm.set_aside`` what in the file does not reach the arm.
 
     Args:
         path: MJCF or URDF file.
-        site: Name of the tool site (MJCF), or of the tool link (URDF).
+        site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
         strict: Refuse features Pinocchio's MJCF parser reads differently (see
             :func:`check_supported`); MJCF only.
-        frame: The tool frame by the name its format gives it: a site (MJCF), a link or a
-            fixed joint (URDF). Overrides ``site``.
+        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
+            Overrides ``site``.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
             joined by a joint are always excluded.
+        base: A body (MJCF) or link (URDF) on the chain to the tool: the arm starts below it,
+            its own joints and those above it are held. None: the world.
+        rest: The held joints' values: None for the model's reference configuration
+            (MuJoCo's ``qpos0``: each joint's ``ref``, a free body at its pose in the file),
+            a keyframe name, or a dict joint name -> value [rad or m] (a ball joint's
+            quaternion, a free joint's position and quaternion in MuJoCo's w x y z order).
 
     Raises:
         ModelError: The file is missing, not XML, not decodable, XML text instead of a path,
             or an engine cannot compile it.
-        UnsupportedFeatureError: The model uses something the engines may not agree on.
-        UnknownNameError: The tool is not a site (MJCF) or link (URDF) of the model (the
-            message lists them).
+        UnsupportedFeatureError: The arm uses something the engines may not agree on (the
+            message names the joint or body of this arm that matters).
+        UnknownNameError: The tool is not a frame of the model, ``base`` not a body on its
+            chain, ``rest`` not a keyframe or held joint (the message lists the valid names).
     """
     p, data = _read_file(path)
     tool = _tool(site, frame)
     text, as_is = decode_xml(data, str(p))
     root = _xml_root(text)
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
-    recipe = (load, (str(p), site, strict, frame, pairs))
+    rest = _frozen_rest(rest)
+    recipe = (load, (str(p), site, strict, frame, pairs, base, rest))
+    robot = _Robot(tool, base, rest, recipe, str(p))
     if is_urdf(root):
-        return _load_urdf(text, root, p.resolve().parent, str(p), tool, pairs, recipe)
-    _check_mjcf(root, pairs, str(p))
+        return _load_urdf(text, root, p.resolve().parent, pairs, robot)
+    _check_mjcf(pairs)
+    expanded = _expand_includes(root, p.resolve().parent, robot)
     if as_is:
-        mj = _read_mujoco(None, p)
-        check_supported(mj, root, strict)
-        return _build(mj, _read_pinocchio(p), tool, str(p), recipe, xml_root=root)
-    mj = _read_mujoco(text, None, p.resolve().parent)
-    check_supported(mj, root, strict)
-    return _build(mj, _pinocchio_from_text(text), tool, str(p), recipe, xml_root=root)
+        spec, mj = _read_mujoco(None, p)
+    else:
+        spec, mj = _read_mujoco(text, None, p.resolve().parent)
+    return _load_mjcf(spec, mj, expanded, strict, robot, None if robot.changed or not as_is else p)
 
 
 def load_string(
@@ -199,6 +222,8 @@ def load_string(
     strict: bool = True,
     frame: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
+    base: str | None = None,
+    rest: RestSpec = None,
 ) -> Arm:
     """Load MJCF or URDF text into MuJoCo and Pinocchio (see :func:`load`).
 
@@ -215,13 +240,15 @@ def load_string(
     tool = _tool(site, frame)
     root = _xml_root(xml)
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
-    recipe = (load_string, (xml, site, strict, frame, pairs))
+    rest = _frozen_rest(rest)
+    recipe = (load_string, (xml, site, strict, frame, pairs, base, rest))
+    robot = _Robot(tool, base, rest, recipe, "<string>")
     if is_urdf(root):
-        return _load_urdf(xml, root, Path.cwd(), "<string>", tool, pairs, recipe)
-    _check_mjcf(root, pairs, "<string>")
-    mj = _read_mujoco(xml, None)
-    check_supported(mj, root, strict)
-    return _build(mj, _pinocchio_from_text(xml), tool, "<string>", recipe, xml_root=root)
+        return _load_urdf(xml, root, Path.cwd(), pairs, robot)
+    _check_mjcf(pairs)
+    expanded = _expand_includes(root, Path.cwd(), robot)
+    spec, mj = _read_mujoco(xml, None)
+    return _load_mjcf(spec, mj, expanded, strict, robot, None)
 
 
 def model_format(arm: Arm) -> str:
@@ -229,19 +256,76 @@ def model_format(arm: Arm) -> str:
     return arm.model_format
 
 
-def _check_mjcf(root: ET.Element, pairs: DisabledPairs | None, source: str) -> None:
-    """Refuse what an MJCF cannot be loaded with: disabled pairs, an ``<include>``."""
+class _Robot:
+    """What a load asks for (tool, base, rest) and what it has set aside so far."""
+
+    def __init__(
+        self,
+        tool: str,
+        base: str | None,
+        rest: RestSpec,
+        recipe: tuple[object, tuple[object, ...]],
+        source: str,
+    ) -> None:
+        self.tool, self.base, self.rest = tool, base, rest
+        self.recipe, self.source = recipe, source
+        self.set_aside: list[SetAside] = []
+        self.changed = False  # Pinocchio must read an edited copy of the MJCF
+
+
+def _frozen_rest(rest: RestSpec) -> RestSpec:
+    """A rest dict as a plain dict of floats or tuples (it pickles with the recipe)."""
+    if rest is None or isinstance(rest, str):
+        return rest
+    if not isinstance(rest, Mapping):
+        raise ParameterError(
+            "rest", rest, "None, a keyframe name, or a dict joint name -> value [rad or m]"
+        )
+    return {
+        str(k): (tuple(v) if isinstance(v, list | tuple | np.ndarray) else v)
+        for k, v in rest.items()
+    }
+
+
+def _check_mjcf(pairs: DisabledPairs | None) -> None:
+    """Refuse what an MJCF cannot be loaded with: disabled pairs."""
     if pairs is not None:
         raise ModelError(
             "disabled_collisions is for URDF; an MJCF model excludes pairs itself, with "
             "<contact><exclude body1=... body2=...>"
         )
-    if root.find(".//include") is not None:
-        raise UnsupportedFeatureError(
-            "<include> element",
-            source,
-            "Pinocchio's MJCF parser does not follow includes; inline the file",
-        )
+
+
+def _expand_includes(root: ET.Element, base: Path, robot: _Robot, depth: int = 0) -> ET.Element:
+    """The MJCF with each ``<include file=...>`` replaced by the included file's elements.
+
+    MuJoCo follows includes itself; Pinocchio's parser does not, so Pinocchio (and the
+    library's checks of the text) read this expanded copy. Paths count from the model file's
+    directory, as MuJoCo counts them.
+    """
+    if root.find(".//include") is None:
+        return root
+    if depth > 20:
+        raise ModelError("<include> nested more than 20 deep (a loop?)")
+    root = copy.deepcopy(root)
+    for parent in list(root.iter()):
+        for i, child in enumerate(list(parent)):
+            if child.tag != "include":
+                continue
+            name = child.get("file", "")
+            try:
+                inner = _xml_root((base / name).read_text(encoding="utf-8"))
+            except OSError as err:
+                raise ModelError(f"cannot read the included file {name!r}: {err}") from err
+            inner = _expand_includes(inner, base, robot, depth + 1)
+            parent.remove(child)
+            for k, el in enumerate(list(inner)):
+                parent.insert(i + k, el)
+            robot.set_aside.append(
+                SetAside("include", name, "expanded in place for Pinocchio's parser")
+            )
+    robot.changed = True
+    return root
 
 
 def _frozen_pairs(pairs: DisabledPairs) -> DisabledPairs:
@@ -263,18 +347,102 @@ def _pinocchio_from_text(xml: str) -> object:
         return _read_pinocchio(p)
 
 
+def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
+    """``"site"`` or ``"body"``: what the MJCF tool frame is; a body gets a site of its name.
+
+    Raises:
+        UnknownNameError: Neither a site nor a body (the message lists both).
+    """
+    if not isinstance(tool, str):
+        raise ModelError(f"frame must be a name (str), got {type(tool).__name__}")
+    if tool and spec.site(tool) is not None:
+        return "site"
+    body = spec.body(tool) if tool and tool != "world" else None
+    if body is None:
+        names = [s.name for s in spec.sites if s.name] + [
+            b.name for b in spec.bodies if b.name and b.name != "world"
+        ]
+        raise UnknownNameError("site or body", tool, names)
+    # MuJoCo's tool is a site: one at the body's origin, named after it (Pinocchio reads
+    # the body's own frame).
+    body.add_site(name=tool)
+    return "body"
+
+
+def _load_mjcf(
+    spec: mujoco.MjSpec,
+    full: mujoco.MjModel,
+    root: ET.Element,
+    strict: bool,
+    robot: _Robot,
+    path: Path | None,
+) -> Arm:
+    """Both engines' MJCF parsers on the whole robot, then the arm selected and the rest held."""
+    kind = _mjcf_tool(spec, robot.tool)
+    if kind == "body":
+        with captured_warnings():
+            full = spec.compile()
+    sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
+    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
+    mj, aside = reduce_mujoco(spec, full, sel)
+    robot.set_aside += aside
+    tree_root = int(full.body_rootid[sel.tool_body])
+    roots = [b for b in range(1, full.nbody) if full.body_parentid[b] == 0]
+    pin_root = root
+    if len(roots) > 1:
+        bodies = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
+        for r in roots:
+            if r != tree_root:
+                robot.set_aside.append(
+                    SetAside(
+                        "root body",
+                        bodies[r],
+                        "another tree: not given to Pinocchio (it does not move with the "
+                        "arm); MuJoCo keeps it for collisions",
+                    )
+                )
+        pin_root = _only_tree(root, roots.index(tree_root))
+        robot.changed = True
+    check_supported(mj, pin_root, strict, tool_site=robot.tool if kind == "body" else None)
+    if path is not None and not robot.changed:
+        pm = _read_pinocchio(path)
+    else:
+        pm = _pinocchio_from_text(ET.tostring(pin_root, encoding="unicode"))
+    frame_type = "body" if kind == "body" else "site"
+    return _build(mj, full, pm, sel, robot, (), pin_root, "MJCF", frame_type)
+
+
+def _only_tree(root: ET.Element, index: int) -> ET.Element:
+    """The MJCF with one tree of ``<worldbody>`` (the ``index``-th root body) and no keyframes.
+
+    Pinocchio's MJCF parser reads only the first body of ``<worldbody>``; the arm's tree is
+    handed to it alone. Keyframes go (their qpos is the whole robot's), as do elements that
+    refer to other trees and that Pinocchio does not read (contact, equality, tendon,
+    actuator, sensor).
+    """
+    root = copy.deepcopy(root)
+    for world in root.findall("worldbody"):
+        bodies = [el for el in world if el.tag == "body"]
+        for k, el in enumerate(bodies):
+            if k != index:
+                world.remove(el)
+    for tag in ("keyframe", "contact", "equality", "tendon", "actuator", "sensor"):
+        for el in root.findall(tag):
+            root.remove(el)
+    return root
+
+
 def _load_urdf(
     text: str,
     root: ET.Element,
     base: Path,
-    source: str,
-    tool: str,
     pairs: DisabledPairs | None,
-    recipe: tuple[object, tuple[object, ...]],
+    robot: _Robot,
 ) -> Arm:
-    """Both engines' URDF importers, checked (see :mod:`redundancy.model.urdf`)."""
+    """Both engines' URDF importers on the whole robot, checked (see :mod:`.urdf`)."""
+    source = robot.source
     tree = check_urdf(root, source)
-    tool_link = resolve_frame(tree, tool)
+    tool_link = resolve_frame(tree, robot.tool)
     disabled = read_disabled_pairs(pairs, tree)
     pm, continuous = build_pinocchio(text, source)
     clash = frame_clash(pm, tool_link)
@@ -282,12 +450,20 @@ def _load_urdf(
         raise UnsupportedFeatureError(
             "tool frame name used twice",
             f"link {tool_link!r} in {source}",
-            f"Pinocchio has {len(clash)} frames of that name ({', '.join(clash)}); "
-            "rename the link or the joint",
+            f"Pinocchio has {len(clash)} frames of that name at different places "
+            f"({', '.join(clash)}); rename the link or the joint",
         )
-    mj = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    spec, full, notes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    robot.set_aside += notes
+    base_body = robot.base
+    if base_body is not None and base_body not in tree.links:
+        raise UnknownNameError("link", str(base_body), tree.links)
+    sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
+    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_body, robot.rest)
+    mj, aside = reduce_mujoco(spec, full, sel)
+    robot.set_aside += aside
     # URDF inertials are explicit and the joints are checked above: only the generic
-    # refusals apply (non-finite values, negative damping, inverted ranges, several trees).
+    # refusals apply (non-finite values, negative damping, inverted ranges).
     check_supported(mj, None, strict=False)
     rebuilt = tuple(
         Bridge(
@@ -297,56 +473,69 @@ def _load_urdf(
             "URDF continuous joint (Pinocchio's parser makes it a cos/sin pair)",
         )
         for name in continuous
+        if name in sel.joints
     )
-    return _build(mj, pm, tool_link, source, recipe, rebuilt, model_format="URDF")
+    robot.tool = tool_link
+    return _build(mj, full, pm, sel, robot, rebuilt, None, "URDF", "body")
 
 
 def _build(
     mj: mujoco.MjModel,
-    pm: object,
-    site: str,
-    source: str,
-    recipe: tuple[object, tuple[object, ...]],
-    bridged: tuple[Bridge, ...] = (),
-    xml_root: ET.Element | None = None,
-    model_format: str = "MJCF",
+    full: mujoco.MjModel,
+    pm_full: object,
+    sel: ArmSelection,
+    robot: _Robot,
+    bridged: tuple[Bridge, ...],
+    xml_root: ET.Element | None,
+    model_format: str,
+    frame_type: str,
 ) -> Arm:
-    """Check that both engines see the same joints and tool, bridge, and build the Arm.
+    """Bridge and reduce Pinocchio's model, check both engines see the same arm, build it.
 
-    ``bridged`` lists what the loader has already changed in Pinocchio's model.
+    ``bridged`` lists what the loader has already changed in Pinocchio's model. What is
+    bridged on the whole robot (a posed root, inertias Pinocchio reads differently, the tool
+    frame's placement) is bridged before the held joints are locked; per-joint values after.
     """
-    sites = object_names(mj, mujoco.mjtObj.mjOBJ_SITE)
-    if site not in sites:
-        raise UnknownNameError("site", site, [s for s in sites if s])
+    site = robot.tool
+    robot_bridges = bridge_robot(pm_full, full, site, frame_type, xml_root)  # type: ignore[arg-type]
+    pm = reduce_pinocchio(pm_full, full, sel)
     joint_names = object_names(mj, mujoco.mjtObj.mjOBJ_JOINT)
-    check_pinocchio(pm, joint_names, site)  # type: ignore[arg-type]
+    check_pinocchio(pm, joint_names, site, frame_type)  # type: ignore[arg-type]
     lower, upper = joint_limits(mj)
     # Armature and damping as the dynamics see them: the joint's own plus gear^2 times what
     # its actuators add (rotor-side values reflected through the transmission).
     armature = mj.dof_armature + actuator_armature(mj)
     damping = mj.dof_damping + actuator_damping(mj)
     effort = joint_force_limits(mj)
-    bridges = bridged + bridge(
-        pm,
-        mj,
-        joint_names,
-        site,
-        effort,
-        armature,
-        damping,
-        lower,
-        upper,  # type: ignore[arg-type]
-        xml_root=xml_root,
+    bridges = (
+        bridged
+        + robot_bridges
+        + bridge(
+            pm,  # type: ignore[arg-type]
+            mj,
+            joint_names,
+            effort,
+            armature,
+            damping,
+            lower,
+            upper,
+        )
     )
     return Arm(
         mj,
         pm,
         site,
-        source,
+        robot.source,
         armature=armature,
         damping=damping,
         effort_limit=effort,
         bridges=bridges,
-        recipe=recipe,  # type: ignore[arg-type]
+        recipe=robot.recipe,  # type: ignore[arg-type]
         model_format=model_format,
+        held=sel.held,
+        set_aside=tuple(robot.set_aside),
+        robot_model=full,
+        frame_type=frame_type,
+        base=sel.base,
+        rest=sel.rest,
     )

@@ -33,7 +33,10 @@ _MASS_OPTIONS = ("settotalmass", "boundmass", "boundinertia")
 
 
 def check_supported(
-    model: mujoco.MjModel, xml_root: ET.Element | None = None, strict: bool = True
+    model: mujoco.MjModel,
+    xml_root: ET.Element | None = None,
+    strict: bool = True,
+    tool_site: str | None = None,
 ) -> None:
     """Raise :class:`UnsupportedFeatureError` for anything the engines may not agree on.
 
@@ -49,6 +52,8 @@ def check_supported(
             such a model loads and :func:`redundancy.compare_models` shows the differences;
             what Pinocchio cannot represent at all, and invalid values (non-finite numbers,
             negative armature or damping, inverted ranges), are refused either way.
+        tool_site: The site the loader put on a tool body (named after the body, whose
+            frame Pinocchio reads instead): exempt from the site-name check.
 
     Raises:
         UnsupportedFeatureError: A feature the engines may not agree on.
@@ -151,14 +156,6 @@ def check_supported(
             raise UnsupportedFeatureError(
                 what, f"{count} in the model", "Pinocchio's MJCF parser does not read it"
             )
-    root_bodies = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
-    if len(root_bodies) > 1:
-        raise UnsupportedFeatureError(
-            "several root bodies",
-            "bodies " + ", ".join(repr(bodies[r]) for r in root_bodies),
-            "Pinocchio's MJCF parser reads only the first body in <worldbody>; "
-            "nest them in one body",
-        )
     for g in range(model.ngeom):
         if int(model.geom_type[g]) in _UNREADABLE_GEOMS:
             raise UnsupportedFeatureError(
@@ -167,7 +164,7 @@ def check_supported(
                 "Pinocchio's MJCF parser cannot read it; use primitive or mesh geoms",
             )
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
-        check_names(model)
+        check_names(model, tool_site)
     if strict and xml_root is not None:
         _check_xml_strict(xml_root)  # _check_xml_values ran first, above
 
@@ -344,7 +341,7 @@ def _check_xml_strict(root: ET.Element) -> None:
         walk(world, None)
 
 
-def check_names(model: mujoco.MjModel) -> None:
+def check_names(model: mujoco.MjModel, tool_site: str | None = None) -> None:
     """Refuse names Pinocchio cannot tell apart, before Pinocchio reads the model.
 
     Pinocchio makes one frame per body, joint and site (and ``<body>_fixed`` for a body
@@ -377,7 +374,7 @@ def check_names(model: mujoco.MjModel) -> None:
     for n in joints:
         owners.setdefault(n, f"joint {n!r}")
     for s in _names(model, mujoco.mjtObj.mjOBJ_SITE):
-        if s and s in owners:
+        if s and s in owners and s != tool_site:  # the site the library puts on a tool body
             raise UnsupportedFeatureError(
                 "site named like another frame",
                 f"site {s!r} and {owners[s]}",

@@ -21,7 +21,9 @@ part, this module decides:
   library compiles with ``inertiafromgeom`` false, so both read a missing inertial as no
   mass; a moving link left with no mass at all (with the links fixed to it) is refused,
   naming it (MuJoCo would raise a mass error, Pinocchio a singular mass matrix).
-* **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: refused.
+* **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside
+  when the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
+  (:mod:`redundancy.model.robot`); a mimic on a fixed joint is nothing.
 * **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
 * **armature**: URDF cannot express it; both engines read 0.
 * **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
@@ -45,6 +47,7 @@ import numpy as np
 
 from ..engines.mujoco import captured_warnings
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
+from .robot import SetAside
 
 _XACRO_NS = "{http://www.ros.org/wiki/xacro}"
 _JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -107,7 +110,7 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
         source: File name or ``"<string>"``, for messages.
 
     Raises:
-        UnsupportedFeatureError: xacro macros, floating or planar joints, mimic joints,
+        UnsupportedFeatureError: xacro macros, floating or planar joints,
             a moving link without inertial, MuJoCo compiler settings that change masses.
         ModelError: Not a valid URDF (missing names, unknown link, several roots).
     """
@@ -141,13 +144,9 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
                 "only revolute, continuous, prismatic and fixed joints are supported "
                 "(a fixed-base arm)",
             )
-        if el.find("mimic") is not None:
-            raise UnsupportedFeatureError(
-                "mimic joint",
-                where,
-                "MuJoCo couples it with an equality constraint and Pinocchio's parser ignores "
-                "it, so the engines would see different arms; make it an independent joint",
-            )
+        # A <mimic> becomes an equality constraint in MuJoCo (none on a fixed joint) and is
+        # ignored by Pinocchio's parser: it is set aside when it couples held joints and
+        # refused when it reaches an arm joint (redundancy.model.robot).
         for link in (parent.get("link", ""), child.get("link", "")):
             if link not in links:
                 raise UnknownNameError("link", link, links)
@@ -368,8 +367,14 @@ def build_mujoco(
     tool_link: str,
     site: str,
     disabled: Sequence[tuple[str, str]],
-) -> mujoco.MjModel:
+) -> tuple[mujoco.MjSpec, mujoco.MjModel, list[SetAside]]:
     """Compile a URDF with MuJoCo, keeping fixed links as bodies, with a site on the tool link.
+
+    Collada (``.dae``) meshes, which MuJoCo has no decoder for, are read with trimesh and
+    handed to MuJoCo as vertices and faces (coal then collides the same vertices); each is
+    reported. Meshes whose volume MuJoCo finds too small to take an inertia from get
+    ``inertia="shell"``: URDF inertials are explicit (``inertiafromgeom`` is off), so no
+    mass comes from a mesh either way.
 
     Args:
         text: The URDF text.
@@ -380,9 +385,13 @@ def build_mujoco(
         site: Name of the site added at the tool link's origin.
         disabled: Extra link pairs excluded from collision.
 
+    Returns:
+        The spec (kept to hold joints), its compiled model, and the notes on meshes.
+
     Raises:
         ModelError: MuJoCo cannot compile it (the message carries MuJoCo's).
     """
+    notes: list[SetAside] = []
     try:
         with captured_warnings():
             spec = mujoco.MjSpec.from_string(text)
@@ -393,7 +402,18 @@ def build_mujoco(
             # default would infer one from the link's collision geoms.
             spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
             for mesh in spec.meshes:
-                mesh.file = str(resolve_mesh(mesh.file, base, source))
+                path = resolve_mesh(mesh.file, base, source)
+                if path.suffix.lower() == ".dae":
+                    _collada_mesh(mesh, path, source)
+                    notes.append(
+                        SetAside(
+                            "Collada mesh",
+                            path.name,
+                            "read with trimesh; MuJoCo and coal get the same vertices",
+                        )
+                    )
+                else:
+                    mesh.file = str(path)
             _name_geoms(spec)
             body = spec.body(tool_link)
             if body is None:
@@ -403,7 +423,15 @@ def build_mujoco(
             for a, b in dict.fromkeys([*adjacent_pairs(tree), *disabled]):
                 if a in bodies and b in bodies and a != b:  # "world" is MuJoCo's world body
                     spec.add_exclude(bodyname1=a, bodyname2=b)
-            return spec.compile()
+            try:
+                return spec, spec.compile(), notes
+            except ValueError as err:
+                if "mesh volume is too small" not in str(err):
+                    raise
+                # Only the mesh's own inertia fails; with inertiafromgeom off it is unused.
+                for mesh in spec.meshes:
+                    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+                return spec, spec.compile(), notes
     except (ValueError, TypeError) as err:
         found = re.search(r"no decoder found for mesh file '([^']+)'", str(err))
         if found:
@@ -415,6 +443,28 @@ def build_mujoco(
                 "STL or OBJ, or as primitives"
             ) from err
         raise ModelError(f"MuJoCo could not compile the URDF {source}: {err}") from err
+
+
+def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
+    """Give MuJoCo a Collada mesh's triangles as vertex data (MuJoCo cannot decode .dae)."""
+    try:
+        import trimesh
+    except ImportError as err:  # pragma: no cover - trimesh comes with the lab extra
+        raise ModelError(
+            f"URDF {source}: the mesh {path.name!r} is Collada (.dae); reading it needs "
+            "trimesh and pycollada (pip install 'redundancy[meshes]')"
+        ) from err
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=False)
+        vertices = np.asarray(loaded.vertices, dtype=float)
+        faces = np.asarray(loaded.faces, dtype=int)
+    except Exception as err:  # trimesh and pycollada raise many kinds of errors
+        raise ModelError(f"URDF {source}: cannot read the Collada mesh {str(path)!r}: {err}") from err
+    if len(vertices) < 4 or len(faces) == 0:
+        raise ModelError(f"URDF {source}: the Collada mesh {str(path)!r} has no triangles")
+    mesh.file = ""
+    mesh.uservert = vertices.ravel().tolist()
+    mesh.userface = faces.ravel().tolist()
 
 
 def _name_geoms(spec: mujoco.MjSpec) -> None:
@@ -537,6 +587,20 @@ def _bounded_revolutes(model: object) -> tuple[object, list[str]]:
 
 
 def frame_clash(pin_model: object, name: str) -> list[str]:
-    """Kinds of the Pinocchio frames named ``name`` when there are several (else empty)."""
+    """Kinds of the Pinocchio frames named ``name`` when several of them sit at different places.
+
+    A URDF link and a fixed joint of the same name whose frames coincide (the joint's child
+    is the link, or they have the same placement) are one frame: no clash.
+    """
+    import pinocchio as pin
+
     frames = [f for f in pin_model.frames if f.name == name]  # type: ignore[attr-defined]
-    return [str(f.type).rsplit(".", 1)[-1] for f in frames] if len(frames) > 1 else []
+    if len(frames) < 2:
+        return []
+    data = pin_model.createData()  # type: ignore[attr-defined]
+    pin.framesForwardKinematics(pin_model, data, pin.neutral(pin_model))
+    ids = [i for i, f in enumerate(pin_model.frames) if f.name == name]  # type: ignore[attr-defined]
+    first = data.oMf[ids[0]]
+    if all(np.allclose((first.inverse() * data.oMf[i]).homogeneous, np.eye(4), atol=1e-12) for i in ids):
+        return []
+    return [str(f.type).rsplit(".", 1)[-1] for f in frames]

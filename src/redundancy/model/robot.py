@@ -1,0 +1,526 @@
+"""The robot and its arm: the chain from the world to the tool, the rest of the robot held.
+
+A published file describes a robot (a gripper, a second arm, a torso, legs, a floating base);
+the library's arm is the chain to the tool. :func:`select_arm` reads MuJoCo's compiled model
+of the *whole* robot and returns an :class:`ArmSelection`: the hinge and slide joints on the
+path from the world (or from ``base``) to the tool, in chain order, and every other joint held
+at a rest configuration. Both engines then get the robot with the held joints welded at that
+configuration:
+
+* MuJoCo: :func:`reduce_mujoco` edits the robot's :class:`mujoco.MjSpec`: each held joint is
+  deleted and its body placed where the rest configuration puts it (from MuJoCo's own
+  kinematics of the whole robot), and every element that refers to a held joint (actuators,
+  tendons, equality constraints, sensors) is set aside, or refused when it reaches an arm
+  joint. Bodies, geoms and sites are all kept, in the same order (body ids do not change).
+* Pinocchio: :func:`reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the
+  same configuration (in Pinocchio's quaternion convention, x y z w, where MuJoCo's is
+  w x y z) and carries over what ``buildReducedModel`` drops (armature: pinocchio#2746).
+
+Nothing of the whole robot is lost for the arm: a held body keeps its mass where the rest
+configuration places it, so the arm's Jacobian, mass matrix and gravity are those of the
+whole robot with the held joints still (tested against MuJoCo's full model, rows and columns
+of the arm's dofs).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engines.mujoco import JOINT_TYPES, object_names
+from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from .names import display_names
+
+Array = NDArray[np.float64]
+
+#: Coordinates of each MuJoCo joint type in qpos.
+_NQ = {"hinge": 1, "slide": 1, "ball": 4, "free": 7}
+
+RestSpec = str | Mapping[str, float | Sequence[float]] | None
+
+
+@dataclass(frozen=True)
+class SetAside:
+    """Something in the robot's file that does not reach the arm, and why it does not matter.
+
+    Attributes:
+        what: The element, e.g. ``"equality constraint"``.
+        name: Its name (or display name).
+        reason: Why the arm's numbers do not depend on it.
+    """
+
+    what: str
+    name: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.what} {self.name!r}: {self.reason}"
+
+
+@dataclass(frozen=True)
+class ArmSelection:
+    """The arm inside a robot: its joints, and the joints held at rest.
+
+    Attributes:
+        tool: Name of the tool frame (site, body or link) as the user gave it.
+        tool_body: MuJoCo body id that carries the tool.
+        base: Body the chain starts below, or None (the world).
+        joints: Arm joint names, in chain order (world to tool).
+        held: Held joint name -> its rest value (a float for hinge and slide joints, a tuple
+            for ball and free joints, MuJoCo's convention: quaternions w x y z) [rad or m].
+        rest: Where the held values come from: ``"qpos0"``, ``"keyframe 'name'"`` or
+            ``"given"``.
+        qpos: The whole robot's configuration at rest (MuJoCo's qpos; the arm joints at their
+            ``qpos0``).
+        set_aside: Elements of the file the arm does not depend on.
+    """
+
+    tool: str
+    tool_body: int
+    base: str | None
+    joints: tuple[str, ...]
+    held: dict[str, float | tuple[float, ...]]
+    rest: str
+    qpos: Array
+    set_aside: tuple[SetAside, ...] = field(default=())
+
+
+def chain_bodies(model: mujoco.MjModel, body: int, base: int = 0) -> list[int]:
+    """Bodies from below ``base`` down to ``body``, in chain order (``base`` excluded)."""
+    out = []
+    while body != base and body != 0:
+        out.append(body)
+        body = int(model.body_parentid[body])
+    if body != base:
+        raise ValueError("base not on the chain")
+    return out[::-1]
+
+
+def _joint_kind(model: mujoco.MjModel, j: int) -> str:
+    return JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
+
+
+def select_arm(
+    model: mujoco.MjModel,
+    tool: str,
+    tool_body: int,
+    base: str | None = None,
+    rest: RestSpec = None,
+) -> ArmSelection:
+    """The arm joints on the path to ``tool_body`` and the held joints with their rest values.
+
+    Args:
+        model: MuJoCo's compiled model of the whole robot.
+        tool: Tool frame name (for messages).
+        tool_body: Body id carrying the tool.
+        base: Body name the chain starts below (its own joints are held); None: the world.
+        rest: Held joints' values: None for ``qpos0`` (each joint's ``ref``, a free body at
+            its pose in the file), a keyframe name, or a dict joint name -> value (a float, or
+            4 / 7 numbers for a ball / free joint in MuJoCo's w x y z order).
+
+    Raises:
+        UnknownNameError: ``base`` is not a body on the chain, ``rest`` names no keyframe or a
+            joint that is not held.
+        UnsupportedFeatureError: No hinge or slide joint on the chain.
+        ParameterError: A rest value of the wrong size or not finite.
+    """
+    bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
+    joint_names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    base_id = 0
+    if base is not None:
+        path = chain_bodies(model, tool_body)
+        if not isinstance(base, str):
+            raise ParameterError("base", base, "a body name (str) on the chain to the tool")
+        names = [bodies[b] for b in path[:-1]]
+        if base not in names:
+            raise UnknownNameError("base body on the chain to the tool", base, names)
+        base_id = path[names.index(base)]
+    path = chain_bodies(model, tool_body, base_id)
+    arm_ids = [
+        j
+        for b in path
+        for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b])
+        if _joint_kind(model, j) in ("hinge", "slide")
+    ]
+    if not arm_ids:
+        where = f"the chain from {bodies[base_id]!r} to {tool!r}"
+        raise UnsupportedFeatureError(
+            "no joints", where, "an arm needs at least one hinge or slide joint on its chain"
+        )
+    qpos, rest_name = _rest_qpos(model, rest, set(arm_ids))
+    held: dict[str, float | tuple[float, ...]] = {}
+    for j in range(model.njnt):
+        if j in arm_ids:
+            continue
+        adr, kind = int(model.jnt_qposadr[j]), _joint_kind(model, j)
+        values = qpos[adr : adr + _NQ[kind]]
+        held[joint_names[j] or display_names(model, mujoco.mjtObj.mjOBJ_JOINT)[j]] = (
+            float(values[0]) if len(values) == 1 else tuple(float(v) for v in values)
+        )
+    for j in arm_ids:  # the arm's own joints rest at qpos0 (their ref)
+        qpos[model.jnt_qposadr[j]] = model.qpos0[model.jnt_qposadr[j]]
+    return ArmSelection(
+        tool=tool,
+        tool_body=tool_body,
+        base=base,
+        joints=tuple(joint_names[j] for j in arm_ids),
+        held=held,
+        rest=rest_name,
+        qpos=qpos,
+    )
+
+
+def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Array, str]:
+    """The whole robot's qpos at rest, and where it came from."""
+    if rest is None:
+        return model.qpos0.copy(), "qpos0"
+    if isinstance(rest, str):
+        keys = object_names(model, mujoco.mjtObj.mjOBJ_KEY)
+        if rest not in keys or not rest:
+            raise UnknownNameError("keyframe", rest, [k for k in keys if k])
+        return model.key_qpos[keys.index(rest)].copy(), f"keyframe {rest!r}"
+    if not isinstance(rest, Mapping):
+        raise ParameterError(
+            "rest", rest, "None, a keyframe name, or a dict joint name -> value [rad or m]"
+        )
+    qpos = model.qpos0.copy()
+    names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    held_names = [n for j, n in enumerate(names) if j not in arm and n]
+    for name, value in rest.items():
+        if name not in names or names.index(name) in arm:
+            raise UnknownNameError("held joint", str(name), held_names)
+        j = names.index(name)
+        kind = _joint_kind(model, j)
+        try:
+            arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        except (TypeError, ValueError):
+            arr = np.array([])
+        if arr.size != _NQ[kind] or not np.isfinite(arr).all():
+            raise ParameterError(
+                f"rest[{name!r}]",
+                value,
+                f"{_NQ[kind]} finite number(s) for a {kind} joint"
+                + (" (w x y z quaternion)" if kind == "ball" else "")
+                + (" (x y z, then w x y z quaternion)" if kind == "free" else ""),
+            )
+        if kind in ("ball", "free"):
+            quat = arr[-4:]
+            norm = float(np.linalg.norm(quat))
+            if norm == 0:
+                raise ParameterError(f"rest[{name!r}]", value, "a non-zero quaternion")
+            arr = np.concatenate([arr[:-4], quat / norm])
+        adr = int(model.jnt_qposadr[j])
+        qpos[adr : adr + arr.size] = arr
+    return qpos, "given"
+
+
+# -- MuJoCo ---------------------------------------------------------------------------------
+
+
+def moved_bodies(model: mujoco.MjModel, arm_joints: set[int]) -> set[int]:
+    """Bodies an arm joint moves: the bodies of the arm joints and everything below them."""
+    out: set[int] = set()
+    for b in range(1, model.nbody):
+        c = b
+        while c != 0:
+            lo, n = model.body_jntadr[c], model.body_jntnum[c]
+            if any(j in arm_joints for j in range(lo, lo + n)):
+                out.add(b)
+                break
+            c = int(model.body_parentid[c])
+    return out
+
+
+def reduce_mujoco(
+    spec: mujoco.MjSpec, full: mujoco.MjModel, sel: ArmSelection
+) -> tuple[mujoco.MjModel, tuple[SetAside, ...]]:
+    """MuJoCo's model of the robot with the held joints welded at rest.
+
+    Args:
+        spec: The robot's spec (edited in place; it compiles to ``full`` as given).
+        full: MuJoCo's compiled model of the whole robot.
+        sel: The arm selection.
+
+    Returns:
+        The compiled reduced model and what was set aside.
+
+    Raises:
+        UnsupportedFeatureError: A coupling (equality, tendon, actuator) that reaches an arm
+            joint, or a held joint in a body that also carries an arm joint.
+        ModelError: MuJoCo cannot compile the reduced model.
+    """
+    if not sel.held:
+        return full, ()
+    jnames = object_names(full, mujoco.mjtObj.mjOBJ_JOINT)
+    bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
+    arm_ids = {jnames.index(n) for n in sel.joints}
+    held_ids = [j for j in range(full.njnt) if j not in arm_ids]
+    moved = moved_bodies(full, arm_ids)
+    set_aside: list[SetAside] = []
+    _check_couplings(full, arm_ids, moved, set_aside)
+    # The whole robot at rest: each held body is placed relative to its parent from here.
+    data = mujoco.MjData(full)
+    data.qpos[:] = sel.qpos
+    mujoco.mj_kinematics(full, data)
+    spec_bodies = list(spec.bodies)  # depth-first, as MuJoCo numbers them; 0 is the world
+    spec_joints = list(spec.joints)
+    if len(spec_bodies) != full.nbody or len(spec_joints) != full.njnt:
+        raise ModelError("the robot's spec and its compiled model differ in bodies or joints")
+    held_bodies = sorted({int(full.jnt_bodyid[j]) for j in held_ids})
+    for b in held_bodies:
+        lo, n = int(full.body_jntadr[b]), int(full.body_jntnum[b])
+        mixed = [jnames[j] for j in range(lo, lo + n) if j in arm_ids]
+        if mixed:
+            raise UnsupportedFeatureError(
+                "held and arm joints in one body",
+                f"body {bnames[b]!r} (arm joint {mixed[0]!r})",
+                "a body on the arm's chain may carry hinge and slide joints only",
+            )
+        body = spec_bodies[b]
+        if body.frame is not None:
+            raise UnsupportedFeatureError(
+                "<frame> around a held body",
+                f"body {bnames[b]!r}",
+                "a held body is placed relative to its parent body; move it out of the <frame>",
+            )
+        p = int(full.body_parentid[b])
+        Rp = data.xmat[p].reshape(3, 3)
+        body.pos = Rp.T @ (data.xpos[b] - data.xpos[p])
+        q = np.zeros(4)
+        mujoco.mju_negQuat(q, data.xquat[p])
+        rel = np.zeros(4)
+        mujoco.mju_mulQuat(rel, q, data.xquat[b])
+        body.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
+        body.quat = rel
+    _delete_couplings(spec, full, arm_ids)
+    for j in held_ids:
+        spec.delete(spec_joints[j])
+    _reduce_keys(spec, full, sel, arm_ids)
+    # A body left without joints must stay a body (it may carry the tool, geoms, sites).
+    spec.compiler.fusestatic = False
+    try:
+        from ..engines.mujoco import captured_warnings
+
+        with captured_warnings():
+            model = spec.compile()
+    except ValueError as err:
+        raise ModelError(
+            f"MuJoCo could not compile the arm with the rest of the robot held: {err}"
+        ) from err
+    if model.nbody != full.nbody:
+        raise ModelError("holding the joints changed MuJoCo's bodies")
+    return model, tuple(set_aside)
+
+
+def _check_couplings(
+    full: mujoco.MjModel, arm: set[int], moved: set[int], out: list[SetAside]
+) -> None:
+    """Set aside couplings among held joints; refuse those that reach an arm joint."""
+    jnames = display_names(full, mujoco.mjtObj.mjOBJ_JOINT)
+    bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
+    O = mujoco.mjtObj
+    for k in range(full.neq):
+        name = mujoco.mj_id2name(full, O.mjOBJ_EQUALITY, k) or f"equality {k}"
+        kind = mujoco.mjtEq(full.eq_type[k])
+        a, b = int(full.eq_obj1id[k]), int(full.eq_obj2id[k])
+        if kind == mujoco.mjtEq.mjEQ_JOINT:
+            touching = [jnames[j] for j in (a, b) if j in arm]
+            if touching:
+                raise UnsupportedFeatureError(
+                    "joint coupling on the arm",
+                    f"equality {name!r} (arm joint {touching[0]!r})",
+                    "an arm joint coupled to another joint is not a free coordinate; "
+                    "choose a tool or base that leaves it off the chain",
+                )
+            out.append(SetAside("equality constraint", name, "couples held joints only"))
+        elif kind == mujoco.mjtEq.mjEQ_TENDON:
+            out.append(SetAside("equality constraint", name, "couples tendons (checked below)"))
+        else:
+            objs = (a, b)
+            if full.eq_objtype[k] == O.mjOBJ_SITE:
+                objs = tuple(int(full.site_bodyid[s]) for s in (a, b) if s >= 0)
+            bodies = [x for x in objs if x in moved]
+            if bodies:
+                raise UnsupportedFeatureError(
+                    "equality constraint on a body the arm moves",
+                    f"equality {name!r} (body {bnames[bodies[0]]!r})",
+                    "a constraint on the arm's bodies changes its motion; "
+                    "the library handles an open chain",
+                )
+            out.append(SetAside("equality constraint", name, "acts on held bodies only"))
+    for t in range(full.ntendon):
+        name = mujoco.mj_id2name(full, O.mjOBJ_TENDON, t) or f"tendon {t}"
+        lo, n = int(full.tendon_adr[t]), int(full.tendon_num[t])
+        for w in range(lo, lo + n):
+            wtype = mujoco.mjtWrap(full.wrap_type[w])
+            obj = int(full.wrap_objid[w])
+            if wtype == mujoco.mjtWrap.mjWRAP_JOINT and obj in arm:
+                raise UnsupportedFeatureError(
+                    "tendon on an arm joint",
+                    f"tendon {name!r} (arm joint {jnames[obj]!r})",
+                    "Pinocchio has no tendons; the engines would see different arms",
+                )
+            if wtype == mujoco.mjtWrap.mjWRAP_SITE and int(full.site_bodyid[obj]) in moved:
+                raise UnsupportedFeatureError(
+                    "tendon through a body the arm moves",
+                    f"tendon {name!r} (body {bnames[int(full.site_bodyid[obj])]!r})",
+                    "Pinocchio has no tendons; the engines would see different arms",
+                )
+        out.append(SetAside("tendon", name, "spans held joints or bodies only"))
+    for u in range(full.nu):
+        name = mujoco.mj_id2name(full, O.mjOBJ_ACTUATOR, u) or f"actuator {u}"
+        trn = mujoco.mjtTrn(full.actuator_trntype[u])
+        target = int(full.actuator_trnid[u, 0])
+        if trn in (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT):
+            if target in arm:
+                continue
+            out.append(SetAside("actuator", name, f"drives held joint {jnames[target]!r}"))
+        elif trn == mujoco.mjtTrn.mjTRN_TENDON:
+            out.append(SetAside("actuator", name, "drives a tendon of held joints"))
+        elif trn == mujoco.mjtTrn.mjTRN_SITE and int(full.site_bodyid[target]) in moved:
+            raise UnsupportedFeatureError(
+                "site actuator on a body the arm moves",
+                f"actuator {name!r}",
+                "its wrench acts on the arm; the library reads joint actuators",
+            )
+        else:
+            out.append(SetAside("actuator", name, "acts on held bodies only"))
+
+
+def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
+    """Delete what :func:`_check_couplings` set aside, and sensors of deleted elements."""
+    O = mujoco.mjtObj
+    kept_actuators = {
+        u
+        for u in range(full.nu)
+        if mujoco.mjtTrn(full.actuator_trntype[u])
+        in (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT)
+        and int(full.actuator_trnid[u, 0]) in arm
+    }
+    sensors = list(spec.sensors)
+    for k in range(full.nsensor):
+        kind, obj = int(full.sensor_objtype[k]), int(full.sensor_objid[k])
+        gone = (
+            (kind == O.mjOBJ_JOINT and obj not in arm)
+            or (kind == O.mjOBJ_ACTUATOR and obj not in kept_actuators)
+            or kind in (O.mjOBJ_TENDON, O.mjOBJ_EQUALITY)
+        )
+        if gone:
+            spec.delete(sensors[k])
+    for u, actuator in enumerate(list(spec.actuators)):
+        if u not in kept_actuators:
+            spec.delete(actuator)
+    for el in [*spec.equalities, *spec.tendons]:
+        spec.delete(el)
+
+
+def _reduce_keys(spec: mujoco.MjSpec, full: mujoco.MjModel, sel: ArmSelection, arm: set[int]) -> None:
+    """Keyframes keep their names and the arm joints' values; held values leave with the joints."""
+    qadr = [int(full.jnt_qposadr[j]) for j in sorted(arm)]
+    vadr = [int(full.jnt_dofadr[j]) for j in sorted(arm)]
+    for k, key in enumerate(spec.keys):
+        key.qpos = full.key_qpos[k][qadr]
+        key.qvel = full.key_qvel[k][vadr]
+        key.act = []
+        key.ctrl = []  # the held joints' actuators are gone
+
+
+# -- Pinocchio ------------------------------------------------------------------------------
+
+
+def pinocchio_joint(pm: object, full: mujoco.MjModel, j: int) -> int | None:
+    """Pinocchio's joint id for MuJoCo joint ``j``: by name, else (unnamed) by its body's frame."""
+    import pinocchio as pin
+
+    name = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_JOINT, j)
+    if name:
+        return int(pm.getJointId(name)) if pm.existJointName(name) else None  # type: ignore[attr-defined]
+    body = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_BODY, int(full.jnt_bodyid[j]))
+    if body and full.body_jntnum[full.jnt_bodyid[j]] == 1:
+        if pm.existFrame(body, pin.FrameType.BODY):  # type: ignore[attr-defined]
+            frame = pm.frames[pm.getFrameId(body, pin.FrameType.BODY)]  # type: ignore[attr-defined]
+            return int(frame.parentJoint) or None
+    return None
+
+
+def pinocchio_configuration(pm: object, full: mujoco.MjModel, qpos: Array) -> Array:
+    """Pinocchio's configuration vector for MuJoCo's ``qpos`` of the same robot.
+
+    Joints are matched by name (an unnamed one by its body's frame). Hinge and slide values
+    carry over. A ball joint's quaternion w x y z becomes Pinocchio's x y z w. A free joint's
+    qpos is the body's world pose, where Pinocchio's free-flyer configuration is the pose
+    relative to the joint's placement (the body's pose in the file): it becomes
+    ``placement^-1 * pose``, as x y z, qx qy qz qw. A Pinocchio joint MuJoCo does not have
+    stays at Pinocchio's neutral configuration.
+    """
+    import pinocchio as pin
+
+    q = np.array(pin.neutral(pm))
+    for j in range(full.njnt):
+        jid = pinocchio_joint(pm, full, j)
+        if jid is None:
+            continue
+        joint = pm.joints[jid]  # type: ignore[attr-defined]
+        adr, kind = int(full.jnt_qposadr[j]), _joint_kind(full, j)
+        values = np.asarray(qpos[adr : adr + _NQ[kind]], dtype=float)
+        if kind == "free":
+            rot = np.zeros(9)
+            mujoco.mju_quat2Mat(rot, values[3:7])
+            world = pin.SE3(rot.reshape(3, 3), values[:3].copy())
+            rel = pm.jointPlacements[jid].inverse() * world  # type: ignore[attr-defined]
+            values = np.asarray(pin.SE3ToXYZQUAT(rel))
+        elif kind == "ball":
+            values = np.concatenate([values[1:4], values[0:1]])
+        if joint.nq != len(values):
+            raise UnsupportedFeatureError(
+                "joint Pinocchio reads differently",
+                f"joint {display_names(full, mujoco.mjtObj.mjOBJ_JOINT)[j]!r}",
+                f"MuJoCo gives it {len(values)} coordinate(s), Pinocchio {joint.nq}",
+            )
+        q[joint.idx_q : joint.idx_q + joint.nq] = values
+    return q
+
+
+#: Per-dof vectors of a Pinocchio model that ``buildReducedModel`` does not carry over.
+_PER_DOF = ("armature", "damping", "friction", "effortLimit", "velocityLimit")
+_PER_Q = ("lowerPositionLimit", "upperPositionLimit")
+
+
+def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> object:
+    """Pinocchio's model with every joint but the arm's locked at the rest configuration.
+
+    Raises:
+        UnsupportedFeatureError: Pinocchio lacks an arm joint, or has joints MuJoCo does not.
+    """
+    import pinocchio as pin
+
+    names = [pm.names[j] for j in range(1, pm.njoints)]  # type: ignore[attr-defined]
+    missing = [n for n in sel.joints if n not in names]
+    if missing:
+        raise UnsupportedFeatureError(
+            "arm joint Pinocchio does not read",
+            f"joint {missing[0]!r}",
+            f"Pinocchio's joints are {names}",
+        )
+    locked = [pm.getJointId(n) for n in names if n not in sel.joints]  # type: ignore[attr-defined]
+    if not locked:
+        return pm
+    q = pinocchio_configuration(pm, full, sel.qpos)
+    reduced = pin.buildReducedModel(pm, locked, q)
+    for n in sel.joints:  # pinocchio#2746: the reduced model's per-dof vectors restart
+        a = pm.joints[pm.getJointId(n)]  # type: ignore[attr-defined]
+        b = reduced.joints[reduced.getJointId(n)]
+        for attr in _PER_DOF:
+            vec = np.array(getattr(reduced, attr))
+            vec[b.idx_v] = np.asarray(getattr(pm, attr))[a.idx_v]
+            setattr(reduced, attr, vec)
+        for attr in _PER_Q:
+            vec = np.array(getattr(reduced, attr))
+            vec[b.idx_q] = np.asarray(getattr(pm, attr))[a.idx_q]
+            setattr(reduced, attr, vec)
+    reduced.gravity = pm.gravity  # type: ignore[attr-defined]
+    return reduced
