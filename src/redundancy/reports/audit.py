@@ -656,12 +656,12 @@ def _engine_lines(r: AuditReport) -> list[str]:
         "model equivalence (MuJoCo's compiled model vs Pinocchio's):",
     ]
     out += [f"  DIFFERS {_one_line(d)}" for d in eq.differences] or ["  no differences"]
-    kinds: dict[str, list[str]] = {}
+    kinds: dict[tuple[str, str], list[str]] = {}
     for b in eq.bridges:
-        kinds.setdefault(b.quantity, []).append(f"{b.joint}={b.value_text}")
-    for kind, vals in kinds.items():
+        kinds.setdefault((b.quantity, b.source), []).append(f"{b.joint}={b.value_text}")
+    for (kind, source), vals in kinds.items():
         out.append(
-            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): "
-            f"{', '.join(vals)}"
+            f"  BRIDGED {kind} (from MuJoCo's {source}; Pinocchio's parser does not read it "
+            f"as MuJoCo does): {', '.join(vals)}"
         )
     return out
