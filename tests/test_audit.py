@@ -9,6 +9,7 @@ shows.
 from __future__ import annotations
 
 import json
+import warnings
 
 import mujoco
 import numpy as np
@@ -206,7 +207,10 @@ def test_gravity_flag_the_budget_follows_mujoco():
     weak = arm_xml(ctrl_a="-2 2", flags='<flag gravity="disable"/>')
     arm, found, msgs = run(weak)
     assert found == ["simulation"]  # both engines see no gravity (Pinocchio's is bridged)
-    assert msgs[0].startswith('gravity is disabled (<flag gravity="disable"/>)')
+    assert msgs[0].startswith(
+        'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm weightless, '
+        "ignoring gravity [0, 0, -9.81] m/s^2"
+    )
     assert not moves(arm, compensate=False)
     arm, found, _ = run(arm_xml(ctrl_a="-2 2"))
     assert "gravity" in found and moves(arm, compensate=False)
@@ -565,3 +569,29 @@ def test_a_stiff_servo_needs_a_small_step_even_under_implicitfast(kp, stable):
     if not stable:
         assert "explicit stiffness 2000 N m/rad" in next(m for m in msgs if "timestep" in m)
     assert moves(arm, kp=0.0, kd=0.0, compensate=False) != stable
+
+
+def test_an_unlimited_servo_has_effort_none_and_nothing_overflows():
+    # Servos without a forcerange (as the Menagerie iiwa14's): MuJoCo applies no limit. The
+    # effort was +-1.8e308 (numpy's largest float for infinity) and its ratios overflowed.
+    servos = "".join(
+        f'<general joint="{j}" gaintype="fixed" biastype="affine" gainprm="2000" '
+        f'biasprm="0 -2000 -200" ctrlrange="-2 2"/>'
+        for j in "abc"
+    )
+    xml = arm_xml(key="0.3 0.5", actuators=servos, option='integrator="implicitfast"')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        report = audit(rd.load_string(xml, site="tip"), n_poses=50)
+        lines = format_report(report)
+        data = json.loads(report.to_json())
+    rows = report.sections.joints.rows
+    assert [(r.effort_lower, r.effort_upper) for r in rows] == [(-np.inf, np.inf)] * 3
+    assert [j["effort_upper"] for j in data["joints"]] == [None] * 3
+    text = "\n".join(lines)
+    assert "e+308" not in text and "np.float64" not in text
+    joint_a = next(x for x in lines if x.startswith("  a "))
+    assert joint_a.split()[4] == "none"  # joint, type, range (two words), effort
+    gravity_a = [x for x in lines if x.startswith("  a ")][1]
+    assert gravity_a.split()[3:6] == ["none", "none", "none"]  # limits, limit/need
+    assert report.findings == ()

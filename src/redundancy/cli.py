@@ -98,8 +98,8 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
         "--site",
         dest="frame",
         metavar="NAME",
-        help="tool frame: an MJCF site, a URDF link or fixed joint (default: the model's one "
-        "chain end; with several, the error lists them)",
+        help="tool frame: an MJCF site or body, a URDF link or fixed joint (default: the "
+        "model's one chain end; with several, the error lists them)",
     )
     p.add_argument(
         "--srdf",
