@@ -337,8 +337,9 @@ def compare(
     Args:
         a: An Arm, or a model file (MJCF or URDF) loaded with ``frame_a``.
         b: Likewise, with ``frame_b``.
-        frame_a: A's tool frame (site for MJCF, link for URDF); default ``"ee"``.
-        frame_b: B's tool frame; default ``"ee"``.
+        frame_a: A's tool frame (an MJCF site or body, a URDF link or fixed joint); default:
+            the file's one chain end (:func:`redundancy.model.ends.default_tool_frame`).
+        frame_b: B's tool frame, likewise.
         joint_map: A's joint name -> B's, for joints whose names differ (others match by
             name), or the path of a joint map file (see :func:`read_joint_map`).
         n_poses: Random poses compared, besides the keyframes (>= 0).
@@ -348,7 +349,10 @@ def compare(
     Raises:
         ModelError: A file that does not load, a bad joint map, bad arguments.
         UnknownNameError: A tool frame or mapped joint the model does not have.
+        ModelError: No frame given for a file with several chain ends (the message lists
+            them).
     """
+    from ..model.ends import default_tool_frame
     from ..model.loading import load, model_format
 
     if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
@@ -357,8 +361,8 @@ def compare(
         raise ModelError(f"n_poses must be an integer >= 0, got {n_poses!r}")
     if isinstance(joint_map, str | os.PathLike):
         joint_map = read_joint_map(joint_map)
-    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or "ee")
-    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or "ee")
+    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or default_tool_frame(a))
+    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or default_tool_frame(b))
     fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
     pairs = _match(arm_a, arm_b, joint_map)
     return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)
