@@ -458,6 +458,126 @@ def rtb_section(calls: int, repeats: int) -> list[str]:
     ]
 
 
+def _erd(path: str) -> str:
+    """A file of example-robot-data (the test extra installs it from PyPI)."""
+    import importlib.metadata
+
+    for f in importlib.metadata.files("example-robot-data") or []:
+        if str(f).endswith(path):
+            return str(f.locate())
+    raise SystemExit(f"example-robot-data has no {path}: pip install -e '.[test]'")
+
+
+def chain_only_urdf(path: str, tool: str) -> str:
+    """The URDF cut to what the arm to ``tool`` moves: the arm written as its own file.
+
+    Kept: the path from the root to ``tool`` and every link below its first moving joint
+    (the other arm on a moving torso, the head, the hand); the moving joints off the chain
+    become fixed at 0, where an arm inside the robot holds them by default. Gone: the links
+    no arm joint moves (legs under the pelvis), which change none of the arm's numbers.
+    """
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    joints = root.findall("joint")
+    ends = {
+        j.get("name"): (j.find("parent").get("link"), j.find("child").get("link")) for j in joints
+    }  # type: ignore[union-attr]
+    child_of = {c: name for name, (_, c) in ends.items()}
+    path_joints, link = [], tool
+    while link in child_of:
+        path_joints.append(child_of[link])
+        link = ends[child_of[link]][0]
+    path_joints.reverse()
+    moving = [
+        j
+        for j in path_joints
+        if next(x for x in joints if x.get("name") == j).get("type") != "fixed"
+    ]
+    keep = {ends[j][0] for j in path_joints} | {tool}
+    stack = [ends[moving[0]][1]]
+    while stack:  # everything the first arm joint moves
+        link = stack.pop()
+        keep.add(link)
+        stack += [c for p, c in ends.values() if p == link]
+    for j in joints:
+        if ends[j.get("name")][1] not in keep:
+            root.remove(j)
+        elif j.get("name") not in moving:
+            j.set("type", "fixed")
+            for sub in j.findall("mimic"):
+                j.remove(sub)
+    for el in root.findall("link"):
+        if el.get("name") not in keep:
+            root.remove(el)
+    return ET.tostring(root, encoding="unicode")
+
+
+def robot_section(repeats: int, calls: int = 2000, n: int = 2000) -> list[str]:
+    """The G1's left arm inside the whole robot (10 joints of 43) against the chain alone."""
+    path = _erd("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf")
+    tool = "left_hand_palm_link"
+    inside = rd.load(path, frame=tool)
+    # The chain as its own file, without meshes (the dynamics are timed, not mesh loading).
+    alone = rd.load_string(_meshless(chain_only_urdf(path, tool)), frame=tool)
+    Q = random_poses(inside, n, seed=0)
+    worst = max(
+        float(np.max(np.abs(f(inside, q) - f(alone, q))))
+        for q in Q[:20]
+        for f in (
+            lambda a, q: a.jacobian(q),
+            lambda a, q: a.mass_matrix(q),
+            lambda a, q: a.gravity(q),
+        )
+    )
+    qs = list(Q[:calls])
+
+    def single(arm: rd.Arm, what: str) -> Callable[[], object]:
+        f = {"J": arm.jacobian, "M": arm.mass_matrix, "G": arm.gravity}[what]
+
+        def run() -> None:
+            for q in qs:
+                f(q)
+
+        return run
+
+    cases: dict[str, Callable[[], object]] = {}
+    for what in ("J", "M", "G"):
+        for label, arm in (("inside", inside), ("alone", alone)):
+            cases[f"{what} {label}"] = single(arm, what)
+            stack = {"J": batch.jacobians, "M": batch.mass_matrices, "G": batch.gravities}[what]
+            cases[f"{what} batch {label}"] = lambda stack=stack, arm=arm: stack(arm, Q)
+    times = rounds(cases, repeats)
+    out = [
+        f"G1 left arm: {inside.nq} joints inside the whole robot ({inside.robot_model.njnt} "
+        f"joints, {inside.mj_model.nbody} bodies) against the chain as its own file "
+        f"({alone.mj_model.nbody} bodies); largest difference of J, M, gravity {worst:.1e}",
+        f"  {'quantity':<42}{'alone ms':>9}{'inside ms':>12}{'ratio':>8}{'target':>8}",
+    ]
+    for what, name in (("J", "jacobian"), ("M", "mass matrix"), ("G", "gravity")):
+        for kind, key in (("single pose", ""), ("batched", "batch ")):
+            r = ratio(times, f"{what} {key}inside", f"{what} {key}alone")
+            alone_ms = ms(times, f"{what} {key}alone")
+            label = f"{name}, {kind} ({calls if not key else n} poses)"
+            out.append(
+                f"  {label:<42}{alone_ms:>9.1f}{ms(times, f'{what} {key}inside'):>12.1f}"
+                f"{r:>8.2f}{2.0:>7.2f}  {'ok' if r <= 2 else 'OVER'}"
+            )
+    return out
+
+
+def _meshless(text: str) -> str:
+    """The URDF without collision geometry (timing the dynamics, not mesh loading)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(text)
+    for link in root.findall("link"):
+        for tag in ("collision", "visual"):
+            for el in link.findall(tag):
+                link.remove(el)
+    return ET.tostring(root, encoding="unicode")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--model", default="arm7", help="arm7 or panda (site 'ee')")
@@ -478,7 +598,8 @@ def main(argv: list[str] | None = None) -> int:
     for section in (batched_section, crosscheck_section, gram_section):
         print("\n".join(section(arm, Q, args.repeats)) + "\n", flush=True)
     print("\n".join(controller_section(arm, args.calls, args.repeats)) + "\n", flush=True)
-    print("\n".join(rtb_section(args.calls, args.repeats)), flush=True)
+    print("\n".join(rtb_section(args.calls, args.repeats)) + "\n", flush=True)
+    print("\n".join(robot_section(args.repeats)), flush=True)
     print(f"\n(total {time.perf_counter() - t0:.0f} s)")
     return 0
 

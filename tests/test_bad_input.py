@@ -78,7 +78,9 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             _load(""), rd.ModelError, r"^not well-formed XML: no element found: line 1, column 0$"
         ),
         "bytes, decoded as XML says": Case(
-            _load(b"<mujoco/>"), rd.UnsupportedFeatureError, "^" + UF + "no joints"
+            _load(b"<mujoco/>"),
+            rd.UnknownNameError,
+            r"^unknown site or body 'tip'; valid site or body names: \[none\]$",
         ),
         "None, not str": Case(
             _load(None), rd.ModelError, r"^model text must be a str or bytes, got NoneType$"
@@ -128,22 +130,18 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             rd.ModelError,
             "^" + MJ + re.escape("Error: Error opening file '/nonexistent/m.stl'"),
         ),
-        "include in a file": Case(
+        "include in a file": Case(  # MuJoCo follows it first, and names what is missing
             _load_file(
                 tmp, "inc.xml", chain().replace("<mujoco>", '<mujoco><include file="x.xml"/>')
             ),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + f"<include> element ({tmp}/inc.xml): Pinocchio's MJCF parser does "
-                "not follow includes; inline the file"
-            )
-            + "$",
+            rd.ModelError,
+            "^" + MJ + ".*x\\.xml",
         ),
         "arm7 without its site": Case(
             _load_file(tmp, "nosite.xml", ARM7_TEXT, site="flange"),
             rd.UnknownNameError,
-            r"^unknown site 'flange'; valid site names: \['ee'\]$",
+            r"^unknown site or body 'flange'; valid site or body names: \['ee', 'link1', 'link2', "
+            r"'link3', 'link4', 'link5', 'link6', 'link7'\]$",
         ),
         # -- NaN, inf and impossible values -----------------------------------------------------
         "inf in a body pos": Case(
@@ -266,32 +264,17 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             rd.UnsupportedFeatureError,
             "^"
             + re.escape(
-                UF + "site Pinocchio does not read (site 'w'): Pinocchio has no frame of that name"
+                UF + "no joints (the chain from 'world' to 'w'): an arm needs at least one hinge "
+                "or slide joint on its chain"
             )
             + "$",
         ),
         "site None": Case(
             _load(chain(), site=None),
             rd.UnknownNameError,  # type: ignore[arg-type]
-            r"^unknown site None; valid site names: \['tip'\]$",
+            r"^unknown site or body 'None'; valid site or body names: \['tip', 'l1', 'l2'\]$",
         ),
         # -- features the engines read differently or not at all -----------------------------------
-        "second root body": Case(
-            _load(
-                chain().replace(
-                    "</worldbody>",
-                    '<body name="table" pos="1 0 0"><geom size="0.1"/></body></worldbody>',
-                ),
-                strict=False,
-            ),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "several root bodies (bodies 'l1', 'table'): Pinocchio's MJCF parser "
-                "reads only the first body in <worldbody>; nest them in one body"
-            )
-            + "$",
-        ),
         "frame around the arm": Case(
             _load(
                 chain()

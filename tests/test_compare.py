@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 import redundancy as rd
 from redundancy.analysis.compare import compare, read_joint_map
 from redundancy.cli import main
+from redundancy.model.ends import chain_ends, single_chain_end
 
 from .test_urdf import (
     MODELS,
@@ -214,7 +215,8 @@ def test_a_real_kinematic_difference_is_no_offset(tmp_path: Path) -> None:
 
 
 def test_an_extra_joint_is_named_and_the_rest_still_compared(tmp_path: Path) -> None:
-    """A gripper finger in one file only: named, and the poses compared over the arm joints."""
+    """A gripper finger in one file only: held (it is off the chain to the tool), named, and
+    the poses compared over the arm joints."""
     root = urdf_root("panda")
     finger = ET.fromstring(
         '<joint name="finger" type="prismatic"><parent link="link7"/><child link="finger"/>'
@@ -228,8 +230,8 @@ def test_an_extra_joint_is_named_and_the_rest_still_compared(tmp_path: Path) -> 
     root.extend([finger, link])
     result = compare(write(root, tmp_path / "with_finger.urdf"), PANDA_XML, n_poses=20)
     found = quantities(result)
-    assert found["presence"] == ["joint 'finger'"]
-    assert result.chains_part == "joint 'finger'"
+    assert found["presence"] == ["held joint 'finger'"]
+    assert result.chains_part is None
     assert result.n_poses == 21
     assert "mass matrix (without armature)" in found  # the finger's mass on the arm joints
     assert "jacobian" not in found  # the flange frame does not move with the finger
@@ -289,10 +291,11 @@ def test_fused_fixed_link_is_equivalent(tmp_path: Path) -> None:
     split_link(root, "link4")
     split_link(root, "link7")
     split = write(root, tmp_path / "split.urdf")
-    # link7_extra is a second leaf on link7 beside the tool link ee: the frame is named.
-    with pytest.raises(rd.ModelError, match="has 2 chain ends: 'ee', 'link7_extra'"):
-        compare(split, ARM7_XML)
-    result = compare(split, ARM7_XML, frame_a="ee")
+    # Three chain ends: without a frame, compare takes the one named "ee" (the command line
+    # asks for --frame).
+    assert chain_ends(split) == ("ee", "link4_extra", "link7_extra")
+    assert single_chain_end(split) is None
+    result = compare(split, ARM7_XML)
     assert result.equivalent, result.lines()
 
 

@@ -271,13 +271,19 @@ def test_several_joints_in_one_body_are_refused():
         rd.load_string(xml, site="tip", strict=False)
 
 
-def test_second_root_body_is_refused():
-    # Pinocchio reads only the first body under <worldbody>, silently.
-    xml = chain().replace(
-        "</worldbody>", '<body name="table" pos="1 0 0"><geom size="0.1"/></body></worldbody>'
-    )
-    with pytest.raises(rd.UnsupportedFeatureError, match="several root bodies"):
-        rd.load_string(xml, site="tip", strict=False)
+@pytest.mark.parametrize("first", [True, False])
+def test_second_root_body_is_set_aside_for_pinocchio(first: bool):
+    # Pinocchio's parser reads only the first body under <worldbody>: it is handed the arm's
+    # tree alone (the table first or second in the file), and the report says so.
+    table = '<body name="table" pos="1 0 0"><geom size="0.1"/></body>'
+    if first:
+        xml = chain().replace("<worldbody>", "<worldbody>" + table)
+    else:
+        xml = chain().replace("</worldbody>", table + "</worldbody>")
+    arm = rd.load_string(xml, site="tip", strict=False)
+    assert [(a.what, a.name) for a in arm.set_aside] == [("root body", "table")]
+    assert arm.pinocchio.model.existFrame("l1") and not arm.pinocchio.model.existFrame("table")
+    assert rd.crosscheck(arm, np.array([[0.3, -0.2], [1.0, 0.5]])).ok
 
 
 def test_extrinsic_euler_and_non_unit_axisangle_are_refused_or_reported():

@@ -20,8 +20,17 @@ from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import collision as col
-from redundancy.generate import REFUSED_FEATURES, GeneratedArm, arms, refused_arms
+from redundancy.generate import (
+    HELD_FEATURES,
+    REFUSED_FEATURES,
+    GeneratedArm,
+    arms,
+    held_arms,
+    refused_arms,
+)
 from redundancy.testing import PROFILES, poses
+
+from .fullmodel import largest_difference_to_full_model
 
 #: The loaded profile's examples per property: 60 by default, 1000 under "thorough".
 EXAMPLES = settings().max_examples
@@ -106,6 +115,27 @@ def test_generated_arms_agree(gen: GeneratedArm, data: st.DataObject) -> None:
     qs = [data.draw(poses(arm), label="q") for _ in range(2)]
     assert_engines_agree(gen, qs)
     SEEN["models"] += 1
+
+
+@pytest.mark.parametrize("feature", HELD_FEATURES)
+def test_held_variants_agree_with_the_whole_robot(feature: str) -> None:
+    """A ball or free joint, another tree, another root body: held, and the engines agree with
+    each other and with MuJoCo's model of the whole robot at rest (1e-9)."""
+
+    @settings(max_examples=max(3, EXAMPLES // len(REFUSED_FEATURES)))
+    @given(held_arms((feature,)), st.data())
+    def check(gen: GeneratedArm, data: st.DataObject) -> None:
+        arm = rd.load_string(gen.xml, site=gen.site)
+        qs = [data.draw(poses(arm), label="q") for _ in range(2)]
+        assert_engines_agree(gen, qs)
+        for q in qs:
+            assert largest_difference_to_full_model(arm, q) < 1e-9
+        if feature in ("ball joint", "free joint"):
+            assert "j0" in arm.held and "j0" not in arm.joint_names
+        if feature == "several root bodies":
+            assert [a.name for a in arm.set_aside if a.what == "root body"] == ["other"]
+
+    check()
 
 
 @pytest.mark.parametrize("feature", REFUSED_FEATURES)

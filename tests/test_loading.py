@@ -136,13 +136,14 @@ def test_urdf_without_inertials_is_the_librarys_error() -> None:
     )
     with pytest.raises(rd.UnsupportedFeatureError) as err:
         rd.load_string(text, frame="l1")
-    assert "moving link without inertial (link 'l1' (moved by joint 'j1')" in str(err.value)
+    assert "moving link without inertial (link 'l1' (moved by arm joint 'j1')" in str(err.value)
 
 
 def test_mjcf_site_and_frame() -> None:
     by_frame = rd.load(MODELS / "arm7.xml", frame="ee")
     assert by_frame.site == "ee"
     with pytest.raises(
-        rd.UnknownNameError, match="unknown site 'tool0'; valid site names: \\['ee'\\]"
+        rd.UnknownNameError,
+        match="unknown site or body 'tool0'; valid site or body names: \\['ee', ",
     ):
         rd.load(MODELS / "arm7.xml", frame="tool0")

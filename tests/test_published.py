@@ -2,30 +2,24 @@
 
 Exit 0 for a sound published arm (what URDF cannot express is a note), 1 for findings, 2 for
 bad input; every line of the report at most 100 characters. The files are found through the
-installed package's file list, never by a path into an environment.
+installed package's file list (``rd.example_robot_data``), never by a path into an
+environment.
 """
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import warnings
-from pathlib import Path
 
 import pytest
 
+import redundancy as rd
 from redundancy.cli import main
-
-ROBOTS = "share/example-robot-data/robots/"
 
 
 def published(relative: str) -> str:
     """The path of ``robots/<relative>`` in the installed example-robot-data."""
-    dist = importlib.metadata.distribution("example-robot-data")
-    for f in dist.files or ():
-        if str(f).endswith(ROBOTS + relative):
-            return str(Path(str(f.locate())).resolve())
-    raise AssertionError(f"example-robot-data has no robots/{relative}")
+    return str(rd.example_robot_data(relative))
 
 
 def audit_cli(capsys, *args: str) -> tuple[int, list[str], dict]:
@@ -101,7 +95,7 @@ def test_several_chain_ends_are_bad_input_listing_them(capsys):
 
 def test_kinova_arm_inside_the_robot_exits_0(capsys):
     # Three chain ends (the arm's end effector and two finger tips): the frame is named. Its
-    # meshes are COLLADA (.dae), read through trimesh and pycollada (the test extra).
+    # meshes are COLLADA (.dae), read through trimesh and pycollada.
     kinova = published("kinova_description/robots/kinova.urdf")
     status, lines, data = audit_cli(capsys, kinova, "--frame", "j2s6s200_end_effector")
     assert status == 0, "\n".join(lines)

@@ -375,16 +375,32 @@ def test_visual_meshes_are_not_opened(tmp_path: Path) -> None:
     assert arm.mj_model.nmesh == 0 and arm.mj_model.ngeom == 1
 
 
-def test_mesh_format_mujoco_cannot_read(tmp_path: Path) -> None:
-    """Collada collision meshes (common in ROS packages; the Kinova Gen2 of example-robot-data)."""
+def test_collada_mesh_is_read_for_both_colliders(tmp_path: Path) -> None:
+    """Collada collision meshes (common in ROS packages; the Kinova Gen2 of example-robot-data):
+    MuJoCo has no decoder, so trimesh reads them and MuJoCo gets the same vertices."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(0.04, 0.05, 0.06))
+    (tmp_path / "l1.dae").write_bytes(trimesh.exchange.dae.export_collada(box))
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(_mesh_urdf("l1.dae"))
+    arm = rd.load(urdf, frame="tool")
+    m = arm.mj_model
+    assert m.nmesh == 1
+    verts = m.mesh_vert[m.mesh_vertadr[0] : m.mesh_vertadr[0] + m.mesh_vertnum[0]]
+    # MuJoCo recentres a mesh at its centroid: the box's extents survive exactly.
+    assert np.allclose(verts.max(axis=0) - verts.min(axis=0), (0.04, 0.05, 0.06), atol=1e-12)
+    assert [(a.what, a.name) for a in arm.set_aside] == [("Collada mesh", "l1.dae")]
+
+
+def test_broken_collada_mesh_is_the_librarys_error(tmp_path: Path) -> None:
     (tmp_path / "l1.dae").write_text("<COLLADA/>")
     urdf = tmp_path / "robot.urdf"
     urdf.write_text(_mesh_urdf("l1.dae"))
     with pytest.raises(rd.ModelError) as err:
         rd.load(urdf, frame="tool")
-    assert str(err.value) == (
-        f"URDF {urdf}: MuJoCo cannot read the mesh '{tmp_path / 'l1.dae'}' (no decoder for "
-        "'.dae' files); give the collision geometry as STL or OBJ, or as primitives"
+    assert str(err.value).startswith(
+        f"URDF {urdf}: cannot read the Collada mesh '{tmp_path / 'l1.dae'}': "
     )
 
 
@@ -406,7 +422,7 @@ def test_missing_inertial_is_refused_not_a_mujoco_mass_error() -> None:
     with pytest.raises(rd.UnsupportedFeatureError) as err:
         rd.load_string(text, frame="tool")
     assert str(err.value) == (
-        "unsupported feature: moving link without inertial (link 'l1' (moved by joint 'j1') "
+        "unsupported feature: moving link without inertial (link 'l1' (moved by arm joint 'j1') "
         "in <string>): a URDF link without <inertial> has no mass, and a moving body needs one "
         "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an <inertial> "
         "with its mass, centre of mass and inertia"
@@ -418,7 +434,9 @@ def test_no_inertials_at_all(tmp_path: Path) -> None:
     for link in root.findall("link"):
         for inertial in link.findall("inertial"):
             link.remove(inertial)
-    with pytest.raises(rd.UnsupportedFeatureError, match="link 'link1' \\(moved by joint 'j1'\\)"):
+    with pytest.raises(
+        rd.UnsupportedFeatureError, match="link 'link1' \\(moved by arm joint 'j1'\\)"
+    ):
         rd.load(write(root, tmp_path / "arm7.urdf"), frame="ee")
 
 
@@ -505,15 +523,15 @@ def test_bad_urdf(change: object, expected: str) -> None:
     assert str(err.value) == expected
 
 
-def test_mimic_joint_is_refused() -> None:
+def test_mimic_joint_on_the_arm_is_refused_naming_it() -> None:
     root = urdf_root("panda")
     ET.SubElement(element(root, "joint", "joint7"), "mimic", joint="joint6", multiplier="1")
     with pytest.raises(rd.UnsupportedFeatureError) as err:
         rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
     assert str(err.value).startswith(
-        "unsupported feature: mimic joint (joint 'joint7' in <string>): MuJoCo couples it with "
-        "an equality constraint and Pinocchio's parser ignores it"
+        "unsupported feature: joint coupling on the arm (arm joint 'joint7', coupled by equality"
     )
+    assert "'joint7' and 'joint6'" in str(err.value)
 
 
 @pytest.mark.parametrize(
@@ -536,14 +554,14 @@ def test_xacro_is_refused(tmp_path: Path, text: str) -> None:
     )
 
 
-def test_tool_frame_name_used_twice() -> None:
+def test_tool_name_of_a_link_and_a_fixed_joint_is_one_frame() -> None:
+    """Z1's ``gripperStator``: a link and the fixed joint to it share the name and the place."""
     text = tiny_urdf().replace('name="tool_joint"', 'name="tool"')
-    with pytest.raises(rd.UnsupportedFeatureError) as err:
-        rd.load_string(text, frame="tool")
-    assert str(err.value) == (
-        "unsupported feature: tool frame name used twice (link 'tool' in <string>): Pinocchio "
-        "has 2 frames of that name (FIXED_JOINT, BODY); rename the link or the joint"
-    )
+    arm = rd.load_string(text, frame="tool")
+    plain = rd.load_string(tiny_urdf(), frame="tool")
+    q = np.array([0.3])
+    assert np.array_equal(arm.jacobian(q, "pinocchio"), plain.jacobian(q, "pinocchio"))
+    assert crosscheck(arm, q).ok
 
 
 def test_no_engine_abort_on_bad_urdf(tmp_path: Path) -> None:

@@ -42,7 +42,7 @@ from .linalg import JacobianSVD, Manipulability
 from .model.bridges import Bridge
 from .model.equivalence import Difference, EquivalenceReport, compare_models
 from .model.loading import load, load_string
-from .models import model_path
+from .models import example_robot_data, model_path
 
 __version__ = "0.1.0"
 
@@ -77,6 +77,7 @@ __all__ = [
     "crosscheck",
     "crosscheck_batch",
     "engines",
+    "example_robot_data",
     "load",
     "load_string",
     "max_stable_kd",

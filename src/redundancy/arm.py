@@ -50,6 +50,8 @@ class Arm:
             [rad or m] (a tuple for a ball or free joint, quaternions w x y z).
         set_aside: What in the robot's file does not reach the arm, with the reason
             (:class:`redundancy.model.robot.SetAside`).
+        defects: Defects of the published file on bodies the arm moves, mended the same way
+            in both engines (an invalid inertia); the audit reports each as a finding.
         robot_model: MuJoCo's compiled model of the whole robot (all joints).
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
@@ -71,6 +73,7 @@ class Arm:
         model_format: str = "MJCF",
         held: Mapping[str, float | tuple[float, ...]] | None = None,
         set_aside: tuple[Any, ...] = (),
+        defects: tuple[str, ...] = (),
         robot_model: mujoco.MjModel | None = None,
         frame_type: str = "site",
         base: str | None = None,
@@ -91,6 +94,7 @@ class Arm:
         self.model_format = model_format
         self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
         self.set_aside = tuple(set_aside)
+        self.defects = tuple(defects)
         self.robot_model = mj_model if robot_model is None else robot_model
         self.frame_type = frame_type
         self.base = base

@@ -39,18 +39,23 @@ except ImportError as err:  # pragma: no cover - exercised only without the extr
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
 EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")
 
+#: Robot features off the arm that the loader holds or sets aside (:func:`held_arms`): the arm
+#: is the chain to the tool, and these must not change what the engines agree on.
+HELD_FEATURES = (
+    "several root bodies",
+    "several kinematic trees",
+    "ball joint",
+    "free joint",
+)
+
 #: Features :func:`refused_arms` can add, each the ``feature`` of the loader's refusal.
 REFUSED_FEATURES = (
     "extrinsic eulerseq",
     "axisangle with a non-unit axis",
     "<frame> element",
     "several joints in one body",
-    "several root bodies",
-    "several kinematic trees",
-    "ball joint",
-    "free joint",
-    "tendon",
-    "equality constraint",
+    "tendon on an arm joint",
+    "joint coupling on the arm",
     "unnamed joint",
     "no joints",
     "class inside a different childclass",
@@ -387,6 +392,15 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         jointed.insert(draw(st.integers(0, len(jointed))), False)
     if refuse == "free joint":
         jointed[0] = True
+    if refuse in ("ball joint", "free joint") and len(jointed) < 2:
+        jointed.append(True)  # the ball or free joint is held: the arm needs a hinge or slide
+    if refuse in (
+        "tendon on an arm joint",
+        "joint coupling on the arm",
+        "ball joint",
+        "free joint",
+    ):
+        jointed[-1] = True  # the tool's body: its joint is on the arm
     if "fixed root body with a pose" in extras:
         jointed[0] = False
         if not any(jointed):
@@ -486,11 +500,11 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
             lim = _num(draw(_real(1, 50, 1)))
             motors.append(f'<motor joint="{name}" gear="{gear}" ctrlrange="-{lim} {lim}"/>')
         tail += "  <actuator>" + "".join(motors) + "</actuator>\n"
-    if refuse == "tendon":
-        fixed = f'<fixed name="t"><joint joint="{joint_names[0]}" coef="1"/></fixed>'
+    if refuse == "tendon on an arm joint":
+        fixed = f'<fixed name="t"><joint joint="{joint_names[-1]}" coef="1"/></fixed>'
         tail += f"  <tendon>{fixed}</tendon>\n"
-    if refuse == "equality constraint":
-        tail += f'  <equality><joint joint1="{joint_names[0]}"/></equality>\n'
+    if refuse == "joint coupling on the arm":
+        tail += f'  <equality><joint joint1="{joint_names[-1]}"/></equality>\n'
     asset = ""
     if "mesh geom" in extras:
         verts = "0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"
@@ -512,6 +526,18 @@ def arms(max_joints: int = 9, branching: bool = True) -> st.SearchStrategy[Gener
     return _model(max(1, max_joints), branching, None)
 
 
+def held_arms(
+    features: tuple[str, ...] = HELD_FEATURES, max_joints: int = 4
+) -> st.SearchStrategy[GeneratedArm]:
+    """Random robots with one feature off the arm (see :data:`HELD_FEATURES`); ``refused`` names it.
+
+    Args:
+        features: Which features to draw from (a subset of :data:`HELD_FEATURES`).
+        max_joints: Largest number of hinge and slide joints.
+    """
+    return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
+
+
 def refused_arms(
     features: tuple[str, ...] = REFUSED_FEATURES, max_joints: int = 4
 ) -> st.SearchStrategy[GeneratedArm]:
@@ -527,8 +553,10 @@ def refused_arms(
 __all__ = [
     "BRIDGED_FEATURES",
     "EULER_SEQUENCES",
+    "HELD_FEATURES",
     "REFUSED_FEATURES",
     "GeneratedArm",
     "arms",
+    "held_arms",
     "refused_arms",
 ]

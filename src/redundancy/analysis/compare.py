@@ -338,7 +338,8 @@ def compare(
         a: An Arm, or a model file (MJCF or URDF) loaded with ``frame_a``.
         b: Likewise, with ``frame_b``.
         frame_a: A's tool frame (an MJCF site or body, a URDF link or fixed joint); default:
-            the file's one chain end (:func:`redundancy.model.ends.default_tool_frame`).
+            the file's one chain end (:func:`redundancy.model.ends.single_chain_end`), else
+            ``"ee"``.
         frame_b: B's tool frame, likewise.
         joint_map: A's joint name -> B's, for joints whose names differ (others match by
             name), or the path of a joint map file (see :func:`read_joint_map`).
@@ -349,10 +350,8 @@ def compare(
     Raises:
         ModelError: A file that does not load, a bad joint map, bad arguments.
         UnknownNameError: A tool frame or mapped joint the model does not have.
-        ModelError: No frame given for a file with several chain ends (the message lists
-            them).
     """
-    from ..model.ends import default_tool_frame
+    from ..model.ends import single_chain_end
     from ..model.loading import load, model_format
 
     if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
@@ -361,8 +360,9 @@ def compare(
         raise ModelError(f"n_poses must be an integer >= 0, got {n_poses!r}")
     if isinstance(joint_map, str | os.PathLike):
         joint_map = read_joint_map(joint_map)
-    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or default_tool_frame(a))
-    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or default_tool_frame(b))
+    # No frame: the file's one chain end, else load's own default (a frame named "ee").
+    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or single_chain_end(a))
+    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or single_chain_end(b))
     fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
     pairs = _match(arm_a, arm_b, joint_map)
     return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)
@@ -486,6 +486,16 @@ class _Comparer:
             self.diffs.append(Finding("presence", f"joint {n!r}", "present", "absent", math.inf))
         for n in only_b:
             self.diffs.append(Finding("presence", f"joint {n!r}", "absent", "present", math.inf))
+        # Joints off the arm (a gripper's, a torso's) are held still: one file may have them
+        # and the other not; their bodies' masses show in the mass matrix and gravity below.
+        for n in a.held:
+            if n not in b.held and n not in b.joint_names:
+                where = f"held joint {n!r}"
+                self.diffs.append(Finding("presence", where, "present", "absent", math.inf))
+        for n in b.held:
+            if n not in a.held and n not in a.joint_names:
+                where = f"held joint {n!r}"
+                self.diffs.append(Finding("presence", where, "absent", "present", math.inf))
         if only_a:
             self.kinematic.append(a.joint_index(only_a[0]))
         qa, qb = self.reference_poses()

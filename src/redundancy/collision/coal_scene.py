@@ -97,7 +97,11 @@ def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
     points = coal.StdVec_Vec3s()
     for p in hull.points:
         points.append(p)
-    if hull.faces is not None:
+    # coal keeps at most 255 neighbours per vertex (a uint8) and raises "Too many neighbors"
+    # on a hull where more faces meet at one vertex (a fan-triangulated cap of a scanned
+    # part: Centauro's arm, 566 faces at one vertex); qhull's own triangulation of the same
+    # points spans the same solid.
+    if hull.faces is not None and np.bincount(hull.faces.ravel()).max(initial=0) <= 255:
         triangles = coal.StdVec_Triangle()
         for a, b, c in hull.faces.tolist():
             triangles.append(coal.Triangle(a, b, c))
@@ -198,6 +202,12 @@ class CoalPairs:
             # The world body is Pinocchio's universe: joint 0, frame 0, identity placement.
             return pin.GeometryObject(gname, 0, 0, local, coal_shape(m, g))
         bname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body)
+        if m.body_weldid[body] == 0 and not (
+            bname and self.pin_model.existFrame(bname, pin.FrameType.BODY)
+        ):
+            # A body welded to the world that Pinocchio was not given (another tree of the
+            # robot, held): it never moves, so its place is its fixed pose in the file.
+            return pin.GeometryObject(gname, 0, 0, _static_pose(m, body) * local, coal_shape(m, g))
         if not bname or not self.pin_model.existFrame(bname, pin.FrameType.BODY):
             raise UnsupportedFeatureError(
                 "body Pinocchio does not name",
@@ -211,6 +221,17 @@ class CoalPairs:
         return pin.GeometryObject(
             gname, frame.parentJoint, fid, frame.placement * local, coal_shape(m, g)
         )
+
+
+def _static_pose(m: mujoco.MjModel, body: int) -> pin.SE3:
+    """World pose of a body welded to the world: its placements in its parents, composed."""
+    import pinocchio as pin
+
+    pose = pin.SE3.Identity()
+    while body != 0:
+        pose = pin.SE3(_quat_matrix(m.body_quat[body]), m.body_pos[body].copy()) * pose
+        body = int(m.body_parentid[body])
+    return pose
 
 
 class CoalScene:

@@ -167,7 +167,8 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
     * none at all when ``<flag contact="disable"/>`` or ``constraint="disable"``;
     * every ``<contact><pair>``, whatever its geoms' bitmasks, bodies or exclusions;
     * otherwise geoms on bodies that pass the body filter (not welded together, not parent
-      and child unless ``filterparent`` is disabled or one side is welded to the world), whose
+      and child unless ``filterparent`` is disabled or one side is welded to the world; for an
+      arm inside a robot, welded in the arm's model and parent and child in the robot's), whose
       bodies are not listed in a ``<contact><exclude>``, and whose bitmasks match:
       ``(contype1 & conaffinity2) | (contype2 & conaffinity1) != 0``. A pair also named in a
       ``<pair>`` element is tested once, with the element's parameters.
@@ -185,6 +186,11 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             this function cannot reproduce.
     """
     m: mujoco.MjModel = model if isinstance(model, mujoco.MjModel) else model.mj_model
+    # An arm inside a robot: its model welds the held joints, which would make a body whose
+    # parent is held (the first arm link on a torso) a world-welded parent's child, and the
+    # parent filter skips those. The parent rule is the whole robot's (same body ids); bodies
+    # welded together in the arm's model never move relative to each other.
+    robot: mujoco.MjModel = m if isinstance(model, mujoco.MjModel) else model.robot_model
     dsbl = m.opt.disableflags
     if dsbl & (mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):
         return ()
@@ -205,7 +211,7 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             if (g1, g2) in found:
                 continue
             b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
-            if _bodies_filtered(m, b1, b2):
+            if _bodies_filtered(m, b1, b2) or _bodies_filtered(robot, b1, b2):
                 continue
             if (min(b1, b2), max(b1, b2)) in excluded:
                 continue

@@ -1,10 +1,8 @@
 """The ends of a model's kinematic chains, read from the file: the tool frame by default.
 
 A *chain end* is a leaf of the kinematic tree (a URDF link that is no joint's parent, an
-MJCF body with no child body) carried by the last moving joint of its branch: the link it is
-welded to (itself, or through fixed joints) is moved by a joint and has no moving joint below
-it. A link welded to the base is no end of the arm, nor a link welded to the middle of a chain
-(a second visual or inertial link of an elbow). A model with one chain end needs no tool
+MJCF body with no child body) with at least one moving joint between it and the root: a
+link welded to the base is no end of the arm. A model with one chain end needs no tool
 frame: :func:`default_tool_frame` gives it (the leaf link of a URDF; the one site of the leaf
 body of an MJCF, else the body). The file is only parsed (no engine compiles it), so the
 command line can choose the frame before loading.
@@ -18,7 +16,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 
-__all__ = ["chain_ends", "default_tool_frame"]
+__all__ = ["chain_ends", "default_tool_frame", "single_chain_end"]
 
 #: URDF joint types that move.
 _MOVING = {"revolute", "continuous", "prismatic", "floating", "planar"}
@@ -57,6 +55,12 @@ def chain_ends(path: str | os.PathLike[str]) -> tuple[str, ...]:
     raise ModelError(f"{str(path)!r} is neither MJCF (<mujoco>) nor URDF (<robot>): <{root.tag}>")
 
 
+def single_chain_end(path: str | os.PathLike[str]) -> str | None:
+    """The model's chain end when it has exactly one, else None (see :func:`chain_ends`)."""
+    ends = chain_ends(path)
+    return ends[0] if len(ends) == 1 else None
+
+
 def default_tool_frame(path: str | os.PathLike[str]) -> str:
     """The tool frame of a model with one chain end (see :func:`chain_ends`).
 
@@ -77,37 +81,23 @@ def default_tool_frame(path: str | os.PathLike[str]) -> str:
 def _urdf_ends(root: ET.Element) -> tuple[str, ...]:
     links = [link.get("name", "") for link in root.findall("link")]
     parent_of: dict[str, tuple[str, bool]] = {}  # child link -> (parent link, joint moves)
-    children: dict[str, list[tuple[str, bool]]] = {}
     for joint in root.findall("joint"):
         parent, child = joint.find("parent"), joint.find("child")
         if parent is None or child is None:
             continue
         moving = joint.get("type", "") in _MOVING
-        p, c = parent.get("link", ""), child.get("link", "")
-        parent_of[c] = (p, moving)
-        children.setdefault(p, []).append((c, moving))
-
-    def moves_below(link: str, seen: set[str]) -> bool:
-        if link in seen:  # a cycle is the loader's to refuse
-            return False
-        seen.add(link)
-        return any(m or moves_below(c, seen) for c, m in children.get(link, ()))
-
+        parent_of[child.get("link", "")] = (parent.get("link", ""), moving)
+    parents = {p for p, _ in parent_of.values()}
     ends = []
     for link in links:
-        if link in children:
+        if link in parents:
             continue
-        node, seen = link, set()
-        # Up through fixed joints to the link a moving joint carries (None: the base).
-        carrier: str | None = None
-        while node in parent_of and node not in seen:
+        node, seen, moves = link, set(), False
+        while node in parent_of and node not in seen:  # a cycle is the loader's to refuse
             seen.add(node)
-            up, moving = parent_of[node]
-            if moving:
-                carrier = node
-                break
-            node = up
-        if carrier is not None and not moves_below(carrier, set()):
+            node, moving = parent_of[node]
+            moves |= moving
+        if moves:
             ends.append(link)
     return tuple(ends)
 
@@ -134,28 +124,20 @@ def _own(element: ET.Element, tag: str) -> list[ET.Element]:
     return out
 
 
-def _moves_below(body: ET.Element) -> bool:
-    """Whether a body below ``body`` has a joint."""
-    return any(
-        _own(kid, "joint") or _own(kid, "freejoint") or _moves_below(kid) for kid in _children(body)
-    )
-
-
 def _mjcf_ends(root: ET.Element) -> tuple[str, ...]:
     ends: list[str] = []
 
-    def walk(body: ET.Element, carrier: ET.Element | None) -> None:
-        if _own(body, "joint") or _own(body, "freejoint"):
-            carrier = body
+    def walk(body: ET.Element, moves: bool) -> None:
+        moves = moves or bool(_own(body, "joint") or _own(body, "freejoint"))
         kids = _children(body)
-        if not kids and carrier is not None and not _moves_below(carrier):
+        if not kids and moves:
             sites = [s.get("name") for s in _own(body, "site")]
             name = sites[0] if len(sites) == 1 and sites[0] else body.get("name")
             ends.append(name or "(unnamed body)")
         for kid in kids:
-            walk(kid, carrier)
+            walk(kid, moves)
 
     for world in root.findall("worldbody"):
         for body in _children(world):
-            walk(body, None)
+            walk(body, False)
     return tuple(ends)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
-from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from ..errors import ModelError, ParameterError, UnknownNameError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .names import display_names
@@ -28,17 +28,23 @@ from .urdf import (
     build_mujoco,
     build_pinocchio,
     check_urdf,
-    frame_clash,
     is_urdf,
+    prepare_urdf,
     read_disabled_pairs,
     resolve_frame,
 )
 
 
 def _read_mujoco(
-    xml: str | None, path: Path | None, base: Path | None = None
-) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-    """MuJoCo's spec of the whole robot and its compiled model (the spec is kept to hold joints)."""
+    xml: str | None, path: Path | None, base: Path | None = None, tool: object = None
+) -> tuple[mujoco.MjSpec, mujoco.MjModel, str]:
+    """MuJoCo's model of the whole robot, with the tool as a site.
+
+    Returns:
+        An uncompiled copy of the spec (the held joints are deleted from it: editing a
+        compiled spec costs 50 ms a joint, a fresh copy 2 ms), the compiled model, and
+        ``"site"`` or ``"body"``: what the tool is in the MJCF.
+    """
     try:
         # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
         # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
@@ -51,9 +57,17 @@ def _read_mujoco(
                 if base is not None:
                     # Transcoded text of a file: relative asset paths count from its directory.
                     spec.modelfiledir = str(base)
-            return spec, spec.compile()
+            pristine = spec.copy()
+            model = spec.compile()  # MuJoCo's own errors first, then the tool's
     except (ValueError, TypeError) as err:
         raise ModelError(f"MuJoCo could not compile the model: {err}") from err
+    kind = _mjcf_tool(pristine, tool)
+    if kind == "body":  # the site added to the copy: compile a copy of the copy
+        edited = pristine.copy()
+        with captured_warnings():
+            model = pristine.compile()
+        pristine = edited
+    return pristine, model, kind
 
 
 def _read_pinocchio(path: Path) -> object:
@@ -208,12 +222,13 @@ def load(
     if is_urdf(root):
         return _load_urdf(text, root, p.resolve().parent, pairs, robot)
     _check_mjcf(pairs)
-    expanded = _expand_includes(root, p.resolve().parent, robot)
     if as_is:
-        spec, mj = _read_mujoco(None, p)
+        spec, mj, kind = _read_mujoco(None, p, tool=tool)
     else:
-        spec, mj = _read_mujoco(text, None, p.resolve().parent)
-    return _load_mjcf(spec, mj, expanded, strict, robot, None if robot.changed or not as_is else p)
+        spec, mj, kind = _read_mujoco(text, None, p.resolve().parent, tool)
+    expanded = _expand_includes(root, p.resolve().parent, robot)
+    path_for_pin = None if robot.changed or not as_is else p
+    return _load_mjcf(spec, mj, kind, expanded, strict, robot, path_for_pin)
 
 
 def load_string(
@@ -246,9 +261,9 @@ def load_string(
     if is_urdf(root):
         return _load_urdf(xml, root, Path.cwd(), pairs, robot)
     _check_mjcf(pairs)
+    spec, mj, kind = _read_mujoco(xml, None, tool=tool)
     expanded = _expand_includes(root, Path.cwd(), robot)
-    spec, mj = _read_mujoco(xml, None)
-    return _load_mjcf(spec, mj, expanded, strict, robot, None)
+    return _load_mjcf(spec, mj, kind, expanded, strict, robot, None)
 
 
 def model_format(arm: Arm) -> str:
@@ -270,6 +285,7 @@ class _Robot:
         self.tool, self.base, self.rest = tool, base, rest
         self.recipe, self.source = recipe, source
         self.set_aside: list[SetAside] = []
+        self.defects: list[str] = []  # defects of the file on bodies the arm moves
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
@@ -353,15 +369,15 @@ def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
     Raises:
         UnknownNameError: Neither a site nor a body (the message lists both).
     """
+    names = [s.name for s in spec.sites if s.name] + [
+        b.name for b in spec.bodies if b.name and b.name != "world"
+    ]
     if not isinstance(tool, str):
-        raise ModelError(f"frame must be a name (str), got {type(tool).__name__}")
+        raise UnknownNameError("site or body", repr(tool), names)
     if tool and spec.site(tool) is not None:
         return "site"
     body = spec.body(tool) if tool and tool != "world" else None
     if body is None:
-        names = [s.name for s in spec.sites if s.name] + [
-            b.name for b in spec.bodies if b.name and b.name != "world"
-        ]
         raise UnknownNameError("site or body", tool, names)
     # MuJoCo's tool is a site: one at the body's origin, named after it (Pinocchio reads
     # the body's own frame).
@@ -372,16 +388,13 @@ def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
 def _load_mjcf(
     spec: mujoco.MjSpec,
     full: mujoco.MjModel,
+    kind: str,
     root: ET.Element,
     strict: bool,
     robot: _Robot,
     path: Path | None,
 ) -> Arm:
     """Both engines' MJCF parsers on the whole robot, then the arm selected and the rest held."""
-    kind = _mjcf_tool(spec, robot.tool)
-    if kind == "body":
-        with captured_warnings():
-            full = spec.compile()
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
     sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
@@ -443,23 +456,18 @@ def _load_urdf(
     source = robot.source
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
+    base_link = robot.base  # select_arm checks it is a link on the chain to the tool
     disabled = read_disabled_pairs(pairs, tree)
+    mended, notes, defects = prepare_urdf(root, tree, tool_link, base_link, source)
+    if notes:
+        text = ET.tostring(mended, encoding="unicode")
+        robot.set_aside += notes
+    robot.defects += defects
     pm, continuous = build_pinocchio(text, source)
-    clash = frame_clash(pm, tool_link)
-    if clash:
-        raise UnsupportedFeatureError(
-            "tool frame name used twice",
-            f"link {tool_link!r} in {source}",
-            f"Pinocchio has {len(clash)} frames of that name at different places "
-            f"({', '.join(clash)}); rename the link or the joint",
-        )
-    spec, full, notes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
-    robot.set_aside += notes
-    base_body = robot.base
-    if base_body is not None and base_body not in tree.links:
-        raise UnknownNameError("link", str(base_body), tree.links)
+    spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    robot.set_aside += meshes
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
-    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_body, robot.rest)
+    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
     robot.set_aside += aside
     # URDF inertials are explicit and the joints are checked above: only the generic
@@ -534,6 +542,7 @@ def _build(
         model_format=model_format,
         held=sel.held,
         set_aside=tuple(robot.set_aside),
+        defects=tuple(robot.defects),
         robot_model=full,
         frame_type=frame_type,
         base=sel.base,

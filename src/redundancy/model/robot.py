@@ -253,8 +253,6 @@ def reduce_mujoco(
             joint, or a held joint in a body that also carries an arm joint.
         ModelError: MuJoCo cannot compile the reduced model.
     """
-    if not sel.held:
-        return full, ()
     jnames = object_names(full, mujoco.mjtObj.mjOBJ_JOINT)
     bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
     arm_ids = {jnames.index(n) for n in sel.joints}
@@ -262,6 +260,8 @@ def reduce_mujoco(
     moved = moved_bodies(full, arm_ids)
     set_aside: list[SetAside] = []
     _check_couplings(full, arm_ids, moved, set_aside)
+    if not sel.held and not set_aside:
+        return full, ()
     # The whole robot at rest: each held body is placed relative to its parent from here.
     data = mujoco.MjData(full)
     data.qpos[:] = sel.qpos
@@ -322,26 +322,31 @@ def _check_couplings(
     """Set aside couplings among held joints; refuse those that reach an arm joint."""
     jnames = display_names(full, mujoco.mjtObj.mjOBJ_JOINT)
     bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
-    O = mujoco.mjtObj
+    mjobj = mujoco.mjtObj
     for k in range(full.neq):
-        name = mujoco.mj_id2name(full, O.mjOBJ_EQUALITY, k) or f"equality {k}"
+        name = mujoco.mj_id2name(full, mjobj.mjOBJ_EQUALITY, k) or f"equality {k}"
         kind = mujoco.mjtEq(full.eq_type[k])
         a, b = int(full.eq_obj1id[k]), int(full.eq_obj2id[k])
         if kind == mujoco.mjtEq.mjEQ_JOINT:
             touching = [jnames[j] for j in (a, b) if j in arm]
             if touching:
+                pair = " and ".join(repr(jnames[j]) for j in (a, b) if j >= 0)
                 raise UnsupportedFeatureError(
                     "joint coupling on the arm",
-                    f"equality {name!r} (arm joint {touching[0]!r})",
-                    "an arm joint coupled to another joint is not a free coordinate; "
-                    "choose a tool or base that leaves it off the chain",
+                    f"arm joint {touching[0]!r}, coupled by equality {name!r} ({pair})",
+                    "an arm joint coupled to another joint (a URDF <mimic>, an MJCF <equality "
+                    "joint>) is not a free coordinate, and Pinocchio's parsers ignore the "
+                    "coupling; choose a tool or base that leaves it off the chain",
                 )
-            out.append(SetAside("equality constraint", name, "couples held joints only"))
+            shown = mujoco.mj_id2name(full, mjobj.mjOBJ_EQUALITY, k) or " = ".join(
+                jnames[j] for j in (a, b) if j >= 0
+            )
+            out.append(SetAside("joint equality", shown, "couples held joints only"))
         elif kind == mujoco.mjtEq.mjEQ_TENDON:
             out.append(SetAside("equality constraint", name, "couples tendons (checked below)"))
         else:
             objs = (a, b)
-            if full.eq_objtype[k] == O.mjOBJ_SITE:
+            if full.eq_objtype[k] == mjobj.mjOBJ_SITE:
                 objs = tuple(int(full.site_bodyid[s]) for s in (a, b) if s >= 0)
             bodies = [x for x in objs if x in moved]
             if bodies:
@@ -353,7 +358,7 @@ def _check_couplings(
                 )
             out.append(SetAside("equality constraint", name, "acts on held bodies only"))
     for t in range(full.ntendon):
-        name = mujoco.mj_id2name(full, O.mjOBJ_TENDON, t) or f"tendon {t}"
+        name = mujoco.mj_id2name(full, mjobj.mjOBJ_TENDON, t) or f"tendon {t}"
         lo, n = int(full.tendon_adr[t]), int(full.tendon_num[t])
         for w in range(lo, lo + n):
             wtype = mujoco.mjtWrap(full.wrap_type[w])
@@ -372,7 +377,7 @@ def _check_couplings(
                 )
         out.append(SetAside("tendon", name, "spans held joints or bodies only"))
     for u in range(full.nu):
-        name = mujoco.mj_id2name(full, O.mjOBJ_ACTUATOR, u) or f"actuator {u}"
+        name = mujoco.mj_id2name(full, mjobj.mjOBJ_ACTUATOR, u) or f"actuator {u}"
         trn = mujoco.mjtTrn(full.actuator_trntype[u])
         target = int(full.actuator_trnid[u, 0])
         if trn in (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT):
@@ -393,7 +398,7 @@ def _check_couplings(
 
 def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
     """Delete what :func:`_check_couplings` set aside, and sensors of deleted elements."""
-    O = mujoco.mjtObj
+    mjobj = mujoco.mjtObj
     kept_actuators = {
         u
         for u in range(full.nu)
@@ -405,9 +410,9 @@ def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) 
     for k in range(full.nsensor):
         kind, obj = int(full.sensor_objtype[k]), int(full.sensor_objid[k])
         gone = (
-            (kind == O.mjOBJ_JOINT and obj not in arm)
-            or (kind == O.mjOBJ_ACTUATOR and obj not in kept_actuators)
-            or kind in (O.mjOBJ_TENDON, O.mjOBJ_EQUALITY)
+            (kind == mjobj.mjOBJ_JOINT and obj not in arm)
+            or (kind == mjobj.mjOBJ_ACTUATOR and obj not in kept_actuators)
+            or kind in (mjobj.mjOBJ_TENDON, mjobj.mjOBJ_EQUALITY)
         )
         if gone:
             spec.delete(sensors[k])
@@ -418,7 +423,9 @@ def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) 
         spec.delete(el)
 
 
-def _reduce_keys(spec: mujoco.MjSpec, full: mujoco.MjModel, sel: ArmSelection, arm: set[int]) -> None:
+def _reduce_keys(
+    spec: mujoco.MjSpec, full: mujoco.MjModel, sel: ArmSelection, arm: set[int]
+) -> None:
     """Keyframes keep their names and the arm joints' values; held values leave with the joints."""
     qadr = [int(full.jnt_qposadr[j]) for j in sorted(arm)]
     vadr = [int(full.jnt_dofadr[j]) for j in sorted(arm)]
@@ -510,6 +517,16 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
     if not locked:
         return pm
     q = pinocchio_configuration(pm, full, sel.qpos)
+    # buildReducedModel finds each locked joint's frame by the joint's name alone and fails
+    # when a link shares it ("Several frames match the filter"): such a joint and its frame
+    # are renamed (q is already mapped; nothing looks a held joint up after this).
+    counts: dict[str, int] = {}
+    for f in pm.frames:  # type: ignore[attr-defined]
+        counts[f.name] = counts.get(f.name, 0) + 1
+    for i, f in enumerate(pm.frames):  # type: ignore[attr-defined]
+        if f.type == pin.FrameType.JOINT and counts[f.name] > 1 and f.parentJoint in locked:
+            pm.names[f.parentJoint] = f.name = f"{f.name} (held joint)"  # type: ignore[attr-defined]
+            pm.frames[i] = f  # type: ignore[attr-defined]
     reduced = pin.buildReducedModel(pm, locked, q)
     for n in sel.joints:  # pinocchio#2746: the reduced model's per-dof vectors restart
         a = pm.joints[pm.getJointId(n)]  # type: ignore[attr-defined]
@@ -524,3 +541,68 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
             setattr(reduced, attr, vec)
     reduced.gravity = pm.gravity  # type: ignore[attr-defined]
     return reduced
+
+
+# -- the check against the whole robot -------------------------------------------------------
+
+
+def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
+    """The tool's Jacobian, the mass matrix and gravity of MuJoCo's model of the whole robot.
+
+    The whole robot (every joint free, ``arm.robot_model``) at its rest configuration with the
+    arm's values ``q`` put in; the arm's dofs' rows and columns read out. Independent of how
+    the arm holds its joints (no reduced model is involved): the reference the tests and
+    ``scripts/survey_robots.py`` hold both engines' arm models to.
+
+    Returns:
+        ``"jacobian"`` (6 x n), ``"mass matrix"`` (n x n), ``"gravity"`` (n) and ``"site
+        position"`` (3) [SI units].
+    """
+    m: mujoco.MjModel = arm.robot_model  # type: ignore[attr-defined]
+    d = mujoco.MjData(m)
+    names = object_names(m, mujoco.mjtObj.mjOBJ_JOINT)
+    shown = display_names(m, mujoco.mjtObj.mjOBJ_JOINT)
+    d.qpos[:] = m.qpos0
+    for name, value in arm.held.items():  # type: ignore[attr-defined]
+        j = names.index(name) if name in names else shown.index(name)
+        adr = int(m.jnt_qposadr[j])
+        d.qpos[adr : adr + np.size(value)] = value
+    ids = [names.index(n) for n in arm.joint_names]  # type: ignore[attr-defined]
+    for j, value in zip(ids, np.asarray(q, dtype=float), strict=True):
+        d.qpos[m.jnt_qposadr[j]] = value
+    dofs = [int(m.jnt_dofadr[j]) for j in ids]
+    # mj_forward with qvel = 0: kinematics, M (mj_crb) and the bias force, which is then
+    # gravity alone.
+    mujoco.mj_forward(m, d)
+    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.site)  # type: ignore[attr-defined]
+    mujoco.mj_jacSite(m, d, jp, jr, sid)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    return {
+        "jacobian": np.vstack([jp, jr])[:, dofs],
+        "mass matrix": M[np.ix_(dofs, dofs)],
+        "gravity": d.qfrc_bias[dofs].copy(),
+        "site position": d.site_xpos[sid].copy(),
+    }
+
+
+def difference_to_whole_robot(arm: object, q: Array) -> float:
+    """Largest difference of the arm (both engines) to :func:`whole_robot_quantities`.
+
+    Relative to each quantity's own scale: ``|arm - whole| / max(1, max |whole|)``, over the
+    Jacobian, mass matrix (with armature), gravity and tool position.
+    """
+    whole = whole_robot_quantities(arm, q)
+    worst = 0.0
+    for engine in ("mujoco", "pinocchio"):
+        ours = {
+            "jacobian": arm.jacobian(q, engine),  # type: ignore[attr-defined]
+            "mass matrix": arm.mass_matrix(q, engine=engine),  # type: ignore[attr-defined]
+            "gravity": arm.gravity(q, engine),  # type: ignore[attr-defined]
+            "site position": arm.site_pose(q, engine)[0],  # type: ignore[attr-defined]
+        }
+        for key, value in ours.items():
+            scale = max(1.0, float(np.max(np.abs(whole[key]))))
+            worst = max(worst, float(np.max(np.abs(value - whole[key]))) / scale)
+    return worst

@@ -35,6 +35,7 @@ part, this module decides:
 
 from __future__ import annotations
 
+import copy
 import os
 import re
 import xml.etree.ElementTree as ET
@@ -222,7 +223,7 @@ def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
 
 
 def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
-    """Every moving link (with the links welded to it) must carry a positive mass."""
+    """Every mass must be a number >= 0 (a moving link without one: :func:`prepare_urdf`)."""
     mass: dict[str, float] = {}
     for el in root.findall("link"):
         inertial = el.find("inertial")
@@ -235,17 +236,6 @@ def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
         if not value >= 0:  # negative or NaN
             raise ModelError(
                 f"URDF {source}: link {link!r} has mass {value:g} [kg]; a mass must be >= 0"
-            )
-    for joint in tree.moving_joints:
-        child = tree.joints[joint][2]
-        group = tree.groups[child]
-        if sum(mass[link] for link in group) <= 0:
-            raise UnsupportedFeatureError(
-                "moving link without inertial",
-                f"link {child!r} (moved by joint {joint!r}) in {source}",
-                "a URDF link without <inertial> has no mass, and a moving body needs one "
-                "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an "
-                "<inertial> with its mass, centre of mass and inertia",
             )
 
 
@@ -266,8 +256,127 @@ def _check_mujoco_extension(root: ET.Element, source: str) -> None:
             )
 
 
+def chain_joints(tree: UrdfTree, link: str, base: str | None = None) -> list[str]:
+    """Moving joints on the path from the root (or from ``base``) down to ``link``, in order."""
+    child_of = {c: (n, kind, p) for n, (kind, p, c) in tree.joints.items()}
+    out = []
+    while link in child_of and link != base:
+        name, kind, parent = child_of[link]
+        if kind != "fixed":
+            out.append(name)
+        link = parent
+    return out[::-1]
+
+
+def _link_masses(root: ET.Element) -> dict[str, float]:
+    out = {}
+    for el in root.findall("link"):
+        m = el.find("inertial/mass")
+        out[el.get("name", "")] = float(m.get("value", "0")) if m is not None else 0.0
+    return out
+
+
+def _valid_inertia(m: Sequence[Sequence[float]]) -> bool:
+    """MuJoCo's test of a body's inertia: positive principal moments, A + B >= C."""
+    eig = np.linalg.eigvalsh(np.asarray(m, dtype=float))
+    if eig.min() <= 0:
+        return False
+    a, b, c = eig
+    return bool(a + b >= c * (1 - 1e-12))  # the sorted moments: c is the largest
+
+
+def prepare_urdf(
+    root: ET.Element, tree: UrdfTree, tool_link: str, base: str | None, source: str
+) -> tuple[ET.Element, list[SetAside], list[str]]:
+    """The URDF as both engines read it, with what they would refuse mended off the arm.
+
+    * A joint off the arm's chain that moves links without mass (MuJoCo refuses a moving
+      body without mass; it is held anyway) becomes fixed at 0, the URDF's reference. On the
+      chain it is refused, naming the link.
+    * A published inertia MuJoCo rejects (a principal moment <= 0, or A + B < C) is replaced
+      by MuJoCo's ``balanceinertia`` rule (all three moments their mean, about the same
+      centre of mass), in the text both engines read. On a body the arm moves it is also a
+      defect of the file, returned for the audit.
+
+    Returns:
+        The (possibly) mended URDF, what was set aside, and the defects on the arm's bodies.
+
+    Raises:
+        UnsupportedFeatureError: A joint of the arm moves links without mass.
+    """
+    chain = chain_joints(tree, tool_link, base)
+    moved: set[str] = set()  # links an arm joint moves
+    children: dict[str, list[str]] = {}
+    for _, parent, child in tree.joints.values():
+        children.setdefault(parent, []).append(child)
+    stack = [tree.joints[j][2] for j in chain]
+    while stack:
+        link = stack.pop()
+        if link not in moved:
+            moved.add(link)
+            stack += children.get(link, [])
+    mass = _link_masses(root)
+    out = copy.deepcopy(root)
+    notes: list[SetAside] = []
+    defects: list[str] = []
+    joints = {el.get("name", ""): el for el in out.findall("joint")}
+    for joint in tree.moving_joints:
+        child = tree.joints[joint][2]
+        if sum(mass[link] for link in tree.groups[child]) > 0:
+            continue
+        if joint in chain:
+            raise UnsupportedFeatureError(
+                "moving link without inertial",
+                f"link {child!r} (moved by arm joint {joint!r}) in {source}",
+                "a URDF link without <inertial> has no mass, and a moving body needs one "
+                "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an "
+                "<inertial> with its mass, centre of mass and inertia",
+            )
+        el = joints[joint]
+        el.set("type", "fixed")
+        for sub in [*el.findall("mimic"), *el.findall("limit")]:
+            el.remove(sub)
+        notes.append(
+            SetAside("joint", joint, f"moves link {child!r}, which has no mass: held as fixed at 0")
+        )
+    for link in out.findall("link"):
+        inertia = link.find("inertial/inertia")
+        if inertia is None or mass.get(link.get("name", ""), 0.0) <= 0:
+            continue
+        v = {k: float(inertia.get(k, "0")) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")}
+        m = [
+            [v["ixx"], v["ixy"], v["ixz"]],
+            [v["ixy"], v["iyy"], v["iyz"]],
+            [v["ixz"], v["iyz"], v["izz"]],
+        ]
+        if _valid_inertia(m):
+            continue
+        eig = np.linalg.eigvalsh(np.asarray(m))
+        mean = float(max(np.trace(np.asarray(m)) / 3.0, 1e-12))
+        for k in ("ixx", "iyy", "izz"):
+            inertia.set(k, repr(mean))
+        for k in ("ixy", "ixz", "iyz"):
+            inertia.set(k, "0")
+        name = link.get("name", "")
+        violated = (
+            f"principal moment {eig.min():.3g} <= 0"
+            if eig.min() <= 0
+            else f"A + B < C ({eig[0]:.3g} + {eig[1]:.3g} < {eig[2]:.3g})"
+        )
+        what = f"{violated} [kg m^2]; replaced by {mean:.3g} about each axis (balanceinertia)"
+        if name in moved:
+            defects.append(f"link {name!r}: published inertia invalid, {what}")
+            notes.append(SetAside("invalid inertia", name, f"the arm moves it: {what}"))
+        else:
+            notes.append(SetAside("invalid inertia", name, f"the arm does not move it: {what}"))
+    return out, notes, defects
+
+
 def resolve_frame(tree: UrdfTree, frame: str) -> str:
     """The link that carries the tool frame: ``frame`` names a link or a fixed joint.
+
+    A name that is both a link and a joint is the link (URDF keeps the two apart; the tool
+    is then the link's frame, Pinocchio's BODY frame, whatever the joint's placement).
 
     Raises:
         UnknownNameError: Neither a link nor a fixed joint (the message lists the links).
@@ -386,7 +495,8 @@ def build_mujoco(
         disabled: Extra link pairs excluded from collision.
 
     Returns:
-        The spec (kept to hold joints), its compiled model, and the notes on meshes.
+        An uncompiled copy of the spec (to hold joints in), its compiled model, and the notes
+        on meshes.
 
     Raises:
         ModelError: MuJoCo cannot compile it (the message carries MuJoCo's).
@@ -423,15 +533,17 @@ def build_mujoco(
             for a, b in dict.fromkeys([*adjacent_pairs(tree), *disabled]):
                 if a in bodies and b in bodies and a != b:  # "world" is MuJoCo's world body
                     spec.add_exclude(bodyname1=a, bodyname2=b)
+            # The spec is copied before it compiles: editing a compiled spec (deleting the
+            # held joints) costs 50 ms a joint, a fresh copy 2 ms.
             try:
-                return spec, spec.compile(), notes
+                return spec.copy(), spec.compile(), notes
             except ValueError as err:
                 if "mesh volume is too small" not in str(err):
                     raise
                 # Only the mesh's own inertia fails; with inertiafromgeom off it is unused.
                 for mesh in spec.meshes:
                     mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-                return spec, spec.compile(), notes
+                return spec.copy(), spec.compile(), notes
     except (ValueError, TypeError) as err:
         found = re.search(r"no decoder found for mesh file '([^']+)'", str(err))
         if found:
@@ -459,7 +571,9 @@ def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
         vertices = np.asarray(loaded.vertices, dtype=float)
         faces = np.asarray(loaded.faces, dtype=int)
     except Exception as err:  # trimesh and pycollada raise many kinds of errors
-        raise ModelError(f"URDF {source}: cannot read the Collada mesh {str(path)!r}: {err}") from err
+        raise ModelError(
+            f"URDF {source}: cannot read the Collada mesh {str(path)!r}: {err}"
+        ) from err
     if len(vertices) < 4 or len(faces) == 0:
         raise ModelError(f"URDF {source}: the Collada mesh {str(path)!r} has no triangles")
     mesh.file = ""
@@ -584,23 +698,3 @@ def _bounded_revolutes(model: object) -> tuple[object, list[str]]:
         setattr(new, name, out)
     new.gravity = model.gravity
     return new, rebuilt
-
-
-def frame_clash(pin_model: object, name: str) -> list[str]:
-    """Kinds of the Pinocchio frames named ``name`` when several of them sit at different places.
-
-    A URDF link and a fixed joint of the same name whose frames coincide (the joint's child
-    is the link, or they have the same placement) are one frame: no clash.
-    """
-    import pinocchio as pin
-
-    frames = [f for f in pin_model.frames if f.name == name]  # type: ignore[attr-defined]
-    if len(frames) < 2:
-        return []
-    data = pin_model.createData()  # type: ignore[attr-defined]
-    pin.framesForwardKinematics(pin_model, data, pin.neutral(pin_model))
-    ids = [i for i, f in enumerate(pin_model.frames) if f.name == name]  # type: ignore[attr-defined]
-    first = data.oMf[ids[0]]
-    if all(np.allclose((first.inverse() * data.oMf[i]).homogeneous, np.eye(4), atol=1e-12) for i in ids):
-        return []
-    return [str(f.type).rsplit(".", 1)[-1] for f in frames]
