@@ -101,3 +101,20 @@ def test_kinova_arm_inside_the_robot_exits_0(capsys):
     assert status == 0, "\n".join(lines)
     assert data["findings"] == [] and len(data["joints"]) == 6
     assert max(len(line) for line in lines) <= 100
+
+
+def test_a_published_arm_whose_effort_limits_gravity_exceeds_exits_1(capsys):
+    # Baxter's shoulder (s1) is limited to 50 N m in its URDF; gravity needs up to 56 N m.
+    baxter = published("baxter_description/urdf/baxter.urdf")
+    status, lines, data = audit_cli(capsys, baxter, "--frame", "left_gripper")
+    assert status == 1
+    (finding,) = data["findings"]
+    i = [j["name"] for j in data["joints"]].index("left_s1")
+    g = data["gravity"]
+    assert g["limit_lower"][i] == -50 and g["low"][i] < -50 and g["over_low"][i] > 0
+    assert finding["message"] == (
+        "gravity at joint 'left_s1' needs more negative torque than its <limit effort> allows "
+        f"in {g['over_low'][i]} of 300 poses; worst: needs {g['worst_low'][i][0]:.3g} N m "
+        "where the limit is -50 N m"
+    )
+    assert max(len(line) for line in lines) <= 100

@@ -430,7 +430,14 @@ def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, ur
             (g.over_low[i], g.worst_low[i], "negative"),
             (g.over_high[i], g.worst_high[i], "positive"),
         ):
-            if count:
+            if count and urdf:  # no actuators: the file's effort limit is what binds
+                out.finding(
+                    "gravity",
+                    f"gravity at joint {name!r} needs more {side} torque than its <limit "
+                    f"effort> allows in {count} of {g.n_poses} poses; worst: needs "
+                    f"{need:.3g} N m where the limit is {lim:.3g} N m",
+                )
+            elif count:
                 out.finding(
                     "gravity",
                     f"gravity{comp} at joint {name!r} needs more {side} torque than its "
