@@ -73,7 +73,7 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
     log = EngineLog(terminalreporter.config.stash[_LOG])
     if log.worst:
         tr = terminalreporter
-        tr.section("largest engine differences (|MuJoCo - Pinocchio| / max(1, |value|))")
+        tr.section("largest engine differences (|MuJoCo - Pinocchio| / the quantity's scale)")
         for name, n in sorted(log.examples.items()):
             row = ", ".join(f"{q} {e:.1e}" for (a, q), e in log.worst.items() if a == name)
             tr.write_line(f"{name} ({n} examples): {row}")

@@ -498,3 +498,94 @@ def test_bad_input(
 
 def test_table_size() -> None:
     assert len(NAMES) >= 40
+
+
+def test_attach_is_refused_in_strict_mode(tmp_path: Path) -> None:
+    """Issue 21: Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
+    the arm was in MuJoCo's M only: M11 0.456 vs 0.105); the strict load refuses it."""
+    (tmp_path / "block.xml").write_text(
+        '<mujoco><worldbody><body name="blk" pos="0 0 0.3">'
+        '<geom type="box" size="0.05 0.05 0.05" mass="3"/></body></worldbody></mujoco>'
+    )
+    arm = tmp_path / "arm.xml"
+    arm.write_text(
+        chain(body_extra='<attach model="block" body="blk" prefix="b_"/>').replace(
+            "<mujoco>", '<mujoco><asset><model name="block" file="block.xml"/></asset>'
+        )
+    )
+    expected = (
+        UF + "<attach> element (<attach model='block' body='blk' prefix='b_'>): Pinocchio's "
+        "MJCF parser does not expand it (the attached bodies would be missing from one "
+        "engine); write the attached model's bodies out"
+    )
+    with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(expected) + "$"):
+        rd.load(arm, site="tip")
+    assert rd.load(arm, site="tip", strict=False).mj_model.nbody == 4  # MuJoCo expands it
+
+
+def test_jointinparent_actuator_reads_as_joint() -> None:
+    """Issue 21: MuJoCo applies +-80 N m through ``jointinparent`` on a hinge; it was
+    ignored (effort unlimited, ``actuated`` False)."""
+    from redundancy.model.actuators import effort_range
+
+    extra = (
+        '<actuator><motor jointinparent="a" ctrlrange="-80 80"/>'
+        '<motor joint="b" ctrlrange="-1 1"/></actuator>'
+    )
+    arm = rd.load_string(
+        chain(extra=extra).replace("<mujoco>", '<mujoco><compiler autolimits="true"/>'),
+        site="tip",
+    )
+    effort = effort_range(arm.mj_model)
+    np.testing.assert_array_equal(effort.lower, [-80.0, -1.0])
+    np.testing.assert_array_equal(effort.upper, [80.0, 1.0])
+    assert effort.actuated.tolist() == [True, True]
+
+
+@pytest.mark.parametrize(
+    ("actuator", "expected"),
+    [
+        (
+            '<motor site="tip" gear="1 0 0 0 0 0"/>',
+            "site transmission (actuator 'push')",
+        ),
+        (
+            '<adhesion body="l2" ctrlrange="0 1"/>',
+            "body (adhesion) transmission (actuator 'push')",
+        ),
+    ],
+)
+def test_site_and_body_transmissions_on_the_arm_are_refused(actuator: str, expected: str) -> None:
+    """Issue 21: read neither as effort nor as armature; refused, naming the actuator."""
+    named = actuator.replace(" ", ' name="push" ', 1)
+    message = (
+        UF + expected + ": it drives the arm's joints through pose-dependent moment arms; the "
+        "library reads actuators with a joint transmission only (joint, jointinparent)"
+    )
+    with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(message) + "$"):
+        rd.load_string(chain(extra=f"<actuator>{named}</actuator>"), site="tip")
+
+
+def test_site_transmission_off_the_arm_is_allowed() -> None:
+    world_site = chain(extra='<actuator><motor site="w" gear="1 0 0 0 0 0"/></actuator>')
+    xml = world_site.replace("<worldbody>", '<worldbody><site name="w" pos="1 0 0"/>')
+    assert rd.load_string(xml, site="tip", strict=False).nq == 2
+
+
+def test_tendon_transmission_is_refused_with_the_tendon() -> None:
+    tendon = (
+        '<tendon><fixed name="t"><joint joint="a" coef="1"/></fixed></tendon>'
+        '<actuator><motor tendon="t"/></actuator>'
+    )
+    with pytest.raises(rd.UnsupportedFeatureError, match=r"^unsupported feature: tendon \(1 in"):
+        rd.load_string(chain(extra=tendon), site="tip")
+
+
+def test_unnamed_keyframe_does_not_overwrite_a_named_one() -> None:
+    """Issue 21: an unnamed key 1 was called key1 and replaced the real key1 (nkey 2, 1 kept)."""
+    keys = '<keyframe><key name="key1" qpos="0.1 0.2"/><key qpos="0.3 0.4"/></keyframe>'
+    arm = rd.load_string(chain(extra=keys), site="tip")
+    assert arm.mj_model.nkey == 2
+    assert list(arm.keyframes) == ["key1", "key1_"]
+    np.testing.assert_array_equal(arm.keyframe("key1"), [0.1, 0.2])
+    np.testing.assert_array_equal(arm.keyframe("key1_"), [0.3, 0.4])

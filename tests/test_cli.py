@@ -356,3 +356,83 @@ def test_base_and_rest_load_the_arm(capsys):
     assert main(["audit", PANDA, "--base", "link0", "--rest", "home", "--poses", "20"]) == 0
     assert main(["audit", PANDA, "--base", "nowhere", "--poses", "20"]) == 2
     assert "nowhere" in capsys.readouterr().err
+
+
+# -- issue 21: a CLI that behaves like a Unix tool ------------------------------------------
+
+RUN = "import sys; from redundancy.cli import main; sys.exit(main())"
+
+
+def test_closed_stdout_ends_quietly_as_after_sigpipe() -> None:
+    """``redundancy audit --json - | head -1``: the reader goes; no traceback, no exit 3."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", RUN, "audit", "--poses", "20", "--json", "-"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    proc.stdout.close()  # before the report is written: its write gets EPIPE
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == cli.PIPE_CLOSED == 141
+    assert "Traceback" not in err and "internal error" not in err, err[-500:]
+
+
+@pytest.mark.parametrize(
+    ("model", "status", "stdout_has"),
+    [("nothere.xml", 2, ""), (str(rd.model_path("arm7")), 1, "findings: ")],
+)
+def test_stderr_closed_error_path_works(model: str, status: int, stdout_has: str) -> None:
+    """Started with stderr closed (2>&-): no AttributeError on isatty (exit 3), and the error
+    line does not land on stdout; the status alone tells."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", RUN, "audit", model, "--poses", "10"],
+        capture_output=False,
+        stdout=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: os.close(2),
+        timeout=600,
+    )
+    assert done.returncode == status
+    assert stdout_has in done.stdout and "redundancy: error" not in done.stdout
+
+
+def test_engine_errors_are_one_line(tmp_path, capsys) -> None:
+    bad = tmp_path / "bad.xml"
+    bad.write_text('<mujoco><worldbody><body><joint/><geom size="x"/></body></worldbody></mujoco>')
+    assert main(["audit", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        "redundancy: error: MuJoCo could not compile the model: XML Error: bad format in "
+        "attribute 'size'; Element 'geom', line 1\n"
+    )
+
+
+def test_a_file_name_that_is_not_utf8(tmp_path, capsys) -> None:
+    raw = os.fsencode(tmp_path) + b"/arm\xff.xml"
+    with open(raw, "wb") as f:
+        f.write(rd.model_path("arm7").read_bytes())
+    name = os.fsdecode(raw)  # as Python gives argv: the byte as a surrogate
+    assert main(["audit", name, "--poses", "10"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.endswith(
+        "/arm\\xff.xml' is not UTF-8, which MuJoCo and Pinocchio require of file names: "
+        "rename the file\n"
+    )
+
+
+def test_json_with_a_long_legal_name_is_written_atomically(tmp_path, capsys) -> None:
+    """A 250-character name: the temporary file's name was the target's plus 15 characters,
+    over the 255-byte limit ("File name too long" for a name the user never chose)."""
+    target = tmp_path / ("r" * 245 + ".json")
+    assert len(target.name) == 250
+    assert main(["audit", "--poses", "10", "--json", str(target)]) == 1
+    assert "findings" in json.loads(target.read_text())
+    assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]  # no temporary left

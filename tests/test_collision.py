@@ -29,6 +29,7 @@ import gc
 import itertools
 import os
 import pickle
+import re
 import threading
 import weakref
 from collections.abc import Callable
@@ -882,7 +883,7 @@ def test_path_checker_edge_cases(arm7: rd.Arm) -> None:
     assert (start.contact.segment, start.contact.s) == (0, 0.0) and start.contact.touching
     still = pc.check_path(arm7, [home, home])
     assert still.free and still.evaluations == 2
-    with pytest.raises(rd.PoseError, match="tol must exceed"):
+    with pytest.raises(rd.ParameterError, match=r"tol must be a finite number > 1e-06 \[m\]"):
         pc.check_path(arm7, [home, q], tol=1e-7)
     with pytest.raises(rd.PoseError, match=r"poses must have shape \(n, 7\)"):
         pc.check_path(arm7, home)
@@ -1343,7 +1344,7 @@ def test_complex_poses_are_refused(arm7: rd.Arm) -> None:
 
 def test_a_model_without_collision_pairs_gives_empty_results() -> None:
     xml = """
-<mujoco><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
+<mujoco><compiler angle="radian"/><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
   <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
   <geom size="0.1" contype="0" conaffinity="0" mass="0"/><site name="ee"/>
 </body></worldbody></mujoco>"""
@@ -1433,7 +1434,7 @@ def test_pruning_skips_most_far_pairs(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_a_model_without_geoms_gives_empty_results() -> None:
     xml = """
-<mujoco><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
+<mujoco><compiler angle="radian"/><worldbody><body name="a"><joint name="j" axis="0 0 1" range="-1 1"/>
   <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/><site name="ee"/>
 </body></worldbody></mujoco>"""
     arm = rd.load_string(xml)
@@ -1459,3 +1460,26 @@ def test_batch_mujoco_distances_count_slide_travel_from_qpos0() -> None:
     Q = np.array([[0.05, 0.2], [0.0, -0.5]])
     single = np.array([col.checker(arm).distance_values(q, "mujoco") for q in Q])
     assert np.array_equal(rd.batch.distances(arm, Q, engine="mujoco"), single)
+
+
+def test_check_path_refuses_waypoints_outside_the_ranges(slider: rd.Arm) -> None:
+    """Issue 21: the motion bound counts a slide's travel within its range only, so a path
+    that leaves the range was called free through a contact; it is refused instead."""
+    home = np.zeros(slider.nq)
+    out = home.copy()
+    out[slider.joint_index("s3")] = -0.5  # range [-0.1, 0.2]
+    with pytest.raises(
+        rd.OutOfRangeError,
+        match=re.escape("waypoint 1: joint 's3' = -0.5 is outside its range [-0.1, 0.2]"),
+    ) as err:
+        pc.check_path(slider, [home, out])
+    assert (err.value.joint, err.value.where) == ("s3", "waypoint 1")
+    assert pc.check_path(slider, [home, home]).free  # within the ranges: checked as before
+
+
+def test_check_path_tol_must_be_a_number(arm7: rd.Arm) -> None:
+    home = arm7.keyframe("home")
+    with pytest.raises(
+        rd.ParameterError, match=re.escape("tol must be a finite number > 1e-06 [m], got '1e-3'")
+    ):
+        pc.check_path(arm7, [home, home], tol="1e-3")  # type: ignore[arg-type]

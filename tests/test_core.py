@@ -19,7 +19,7 @@ from redundancy.testing import poses
 from .conftest import ARM_NAMES
 
 # Tolerances. Engines: both evaluate the same rigid-body algorithms in double precision, so
-# 1e-9 (relative to max(1, |value|)) leaves five orders of magnitude for rounding. Central
+# 1e-9 (relative to the quantity's scale, model.scales) leaves five orders of magnitude for rounding. Central
 # finite differences with step 1e-6 have truncation error ~ eps^2 * |third derivative| and
 # rounding ~ 1e-16 / eps, so 1e-7 absolute is their floor.
 ENGINE_TOL = 1e-9
@@ -191,3 +191,70 @@ def test_manipulability_blocks_and_scaling(arm7):
     assert m.scaled == pytest.approx(m.full / 0.5**3, rel=1e-12)
     mm = linalg.manipulability(np.vstack([J[:3] * 1000, J[3:]]))  # lengths in mm
     assert mm.full == pytest.approx(m.full * 1000**3, rel=1e-9)
+
+
+#: Arms with fewer joints than tool directions: 3 (yaw, pitch, pitch) and 5 (a wrist added).
+SHORT_ARMS = {
+    n: rd.load_string(
+        f"""
+<mujoco><compiler angle="radian"/><worldbody>
+  <body name="l1"><joint name="j1" axis="0 0 1"/>
+    <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.04"/>
+    <body name="l2" pos="0 0 0.3"><joint name="j2" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.04"/>
+      <body name="l3" pos="0.3 0 0"><joint name="j3" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03"/>
+        {
+            '<body name="l4" pos="0.25 0 0"><joint name="j4" axis="1 0 0"/>'
+            '<geom type="sphere" size="0.03" pos="0.05 0 0"/>'
+            '<body name="l5" pos="0.1 0 0"><joint name="j5" axis="0 0 1"/>'
+            '<geom type="sphere" size="0.02" pos="0.05 0 0.02"/><site name="tip" pos="0.1 0 0.03"/>'
+            "</body></body>"
+            if n == 5
+            else '<site name="tip" pos="0.25 0 0"/>'
+        }
+      </body>
+    </body>
+  </body>
+</worldbody></mujoco>""",
+        site="tip",
+    )
+    for n in (3, 5)
+}
+
+
+@pytest.mark.parametrize("n", sorted(SHORT_ARMS))
+@pytest.mark.parametrize("engine", rd.engines.ENGINES)
+@given(data=st.data())
+def test_manipulability_of_short_arms_is_one_value_with_its_gradient(n, engine, data):
+    """Issue 21: with fewer than 6 joints, value (product of the singular values, which is
+    sqrt(det J^T J) there), stacks and gradient are one definition; the gradient was 0."""
+    arm = SHORT_ARMS[n]
+    assert arm.nq == n
+    q = data.draw(poses(arm))
+    J = arm.jacobian(q, engine)
+    assume(linalg.jacobian_svd(J).sigma[-1] > 1e-3)  # away from the kink, as above
+    w = arm.manipulability(q, engine=engine).full
+    assert w > 0
+    assert w == pytest.approx(np.sqrt(np.linalg.det(J.T @ J)), rel=1e-9)
+    assert arm.svd(q, engine).manipulability == pytest.approx(w, rel=1e-12)
+    assert rd.batch.manipulabilities(arm, q[None], engine=engine)[0] == pytest.approx(w, 1e-12)
+    g = arm.manipulability_gradient(q, engine)
+    fd = np.array(
+        [
+            (
+                arm.manipulability(q + FD_STEP * e, engine=engine).full
+                - arm.manipulability(q - FD_STEP * e, engine=engine).full
+            )
+            / (2 * FD_STEP)
+            for e in np.eye(n)
+        ]
+    )
+    assert np.max(np.abs(g - fd)) < FD_TOL
+
+
+def test_short_arm_manipulability_gradient_is_not_zero():
+    """The value changes with the elbow: the gradient was [0, 0, 0] before issue 21."""
+    arm = SHORT_ARMS[3]
+    g = arm.manipulability_gradient([0.3, 0.4, 0.5])
+    assert abs(g[2]) > 1e-3 and abs(g[0]) < 1e-12  # the yaw about the base changes nothing

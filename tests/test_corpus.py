@@ -22,7 +22,7 @@ from redundancy.reports.audit import audit
 from . import corpus
 
 NAMES = list(corpus.MODELS)
-#: Largest |MuJoCo - Pinocchio| / max(1, |value|) per (model, quantity), for the closing note.
+#: Largest |MuJoCo - Pinocchio| / the quantity's scale per (model, quantity), for the closing note.
 LARGEST: dict[tuple[str, str], float] = {}
 #: The audit's findings per model, for the closing note.
 FINDINGS: dict[str, list[str]] = {}

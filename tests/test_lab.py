@@ -627,22 +627,38 @@ def check_plots(b: object, titles: set[str], event: str) -> None:
 
     seen: dict[str, dict] = {}
 
+    def problems() -> list[str]:
+        """What is wrong with the plots the page shows now (empty: all as asserted)."""
+        out = []
+        for title, p in seen.items():
+            window = next(w for key, w in windows.items() if key in title)
+            x, y = np.array(p["x"]), np.array(p["y"])
+            where = f"{title!r} after {event}: x in [{x[0]:.3f}, {x[-1]:.3f}], window [{p['min']}, {p['max']}]"
+            checks = [
+                (p["min"], p["max"]) == (-window, 0.0),
+                len(x) == len(y) >= 2,
+                bool(np.all(np.diff(x) > 0)),
+                -window - 1e-9 <= x[0] and x[-1] <= 0.0,  # inside the window
+                x[-1] >= -0.05,  # up to now
+                p["ymin"] <= np.min(y) and np.max(y) <= p["ymax"],
+            ]
+            out += [f"{where} (check {i})" for i, ok in enumerate(checks) if not ok]
+        return out
+
     def ready() -> bool:
+        # The state asserted, not merely some data: right after a reset the page may still
+        # show the previous frame's series until its next update (issue 21: 1 run in 5).
         seen.clear()
         seen.update(b.plots())  # type: ignore[attr-defined]
-        return set(seen) == titles and all(len(p["x"]) >= 2 for p in seen.values())
+        if set(seen) != titles or any(len(p["x"]) < 2 for p in seen.values()):
+            return False
+        return not problems()
 
-    wait_for(f"plots with data after {event}", ready)
-    for title, p in seen.items():
-        window = next(w for key, w in windows.items() if key in title)
-        x, y = np.array(p["x"]), np.array(p["y"])
-        where = f"{title!r} after {event}: x in [{x[0]:.3f}, {x[-1]:.3f}], window [{p['min']}, {p['max']}]"
-        assert (p["min"], p["max"]) == (-window, 0.0), where
-        assert len(x) == len(y) >= 2, where
-        assert np.all(np.diff(x) > 0), where
-        assert -window - 1e-9 <= x[0] and x[-1] <= 0.0, where  # inside the window
-        assert x[-1] >= -0.05, where  # up to now
-        assert p["ymin"] <= np.min(y) and np.max(y) <= p["ymax"], where
+    try:
+        wait_for(f"plots with data after {event}", ready)
+    except TimeoutError:
+        raise AssertionError("; ".join(problems()) or f"no plot data after {event}") from None
+    assert problems() == []
 
 
 def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
@@ -867,3 +883,63 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
     lap("end")
     spans = [f"{n} {laps[k + 1][1] - t:.1f} s" for k, (n, t) in enumerate(laps[:-1])]
     print("lab browser test:", ", ".join(spans))
+
+
+@pytest.mark.parametrize("n", [3, 5])
+def test_lab_runs_an_arm_of_fewer_than_six_joints(n: int) -> None:
+    """Issue 21: the readouts raised IndexError (6 columns of U, n singular values)."""
+    from .test_core import SHORT_ARMS
+
+    arm = SHORT_ARMS[n]
+    sim = LabSim(arm)
+    r = sim.run_for(0.2)
+    # The 6 - n directions the tool cannot move along have sigma 0 and are shown as lost.
+    np.testing.assert_array_equal(r.sigma[n:], np.zeros(6 - n))
+    np.testing.assert_allclose(r.sigma[:n], arm.svd(r.q).sigma, rtol=1e-12)
+    assert r.sigma_min == 0.0 and r.lost.shape[1] >= 6 - n
+    assert r.manipulability == pytest.approx(arm.manipulability(r.q).full, rel=1e-12)
+    assert sim.sigma_history()[1][-1] == 0.0
+    path = sim.self_motion_path(sim.home, 0.5)
+    assert path.stopped == "no null space"  # fewer joints than tool directions
+    _, err = solve_ik(arm, sim.home, arm.site_pose(sim.home)[0])
+    assert err < 1e-6
+    page = _page_module()
+    with page.LabServer(arm, port=0) as lab:
+        lab.page.update(lab.sim, force=True)
+        with urllib.request.urlopen(lab.url, timeout=30) as resp:
+            assert resp.status == 200
+
+
+def test_plot_data_never_shows_samples_after_now(
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The page read the time, then the series: a runner step in between put samples after
+    "now" (issue 21). A step is attempted from another thread exactly there: it must find
+    the simulation locked."""
+    page = _page_module()
+    sim = LabSim(arm7)
+    sim.step(50)
+    original = sim.speed_history
+    stepped: list[bool] = []
+
+    def with_a_step_elsewhere() -> tuple[np.ndarray, np.ndarray]:
+        def other() -> None:
+            got = sim._lock.acquire(blocking=False)  # the runner would wait for the lock
+            if got:
+                try:
+                    sim.step(20)
+                finally:
+                    sim._lock.release()
+            stepped.append(got)
+
+        t = threading.Thread(target=other)
+        t.start()
+        t.join()
+        return original()
+
+    monkeypatch.setattr(sim, "speed_history", with_a_step_elsewhere)
+    with page.LabServer(arm7, port=0) as lab:
+        data = lab.page.plot_data(sim)
+    assert stepped == [False]
+    for name, (x, _) in data.items():
+        assert x[-1] <= 0.0, f"{name}: a sample {x[-1]:.3f} s after now"

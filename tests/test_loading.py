@@ -147,3 +147,13 @@ def test_mjcf_site_and_frame() -> None:
         match="unknown site or body 'tool0'; valid site or body names: \\['ee', ",
     ):
         rd.load(MODELS / "arm7.xml", frame="tool0")
+
+
+def test_an_existing_file_whose_name_starts_with_a_bracket_loads(tmp_path: Path) -> None:
+    """Issue 21: "<arm7>.xml" was refused as XML text; only a path to nothing can be text."""
+    path = tmp_path / "<arm7>.xml"
+    path.write_bytes(rd.model_path("arm7").read_bytes())
+    assert rd.load(path, site="ee").nq == 7
+    assert rd.load(str(path), site="ee").nq == 7
+    with pytest.raises(rd.ModelError, match="looks like XML text"):
+        rd.load("<arm7>.xml")  # no such file here: still the hint to load_string()

@@ -308,6 +308,9 @@ def test_bimanual_cell_with_two_roots_and_an_include(bimanual: Path, side: str, 
     # The arm's motors are read through the include: effort limit = ctrlrange x gear.
     assert arm.effort_limit[0] == 50
     assert np.allclose(arm.armature(), [0.1, 0.1])
+    # buildReducedModel drops armature (pinocchio#2746): carried over, not bridged afresh.
+    assert np.allclose(arm.armature("pinocchio"), [0.1, 0.1])
+    assert not [b for b in arm.bridges if b.quantity == "armature"]
     for q in random_poses(arm, 3, seed=6):
         assert largest_difference_to_full_model(arm, q) < 1e-9
     assert rd.crosscheck(arm, random_poses(arm, 4, seed=7)).ok

@@ -211,3 +211,60 @@ def test_forked_worker_runs_threaded_stacks_after_the_parent_did(arm7):
     with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
         got = pool.submit(_threaded_stack_in_worker, arm7, Q).result(timeout=120)
     assert np.array_equal(got, expected)
+
+
+#: Every path that starts threads (MuJoCo's in the library's pool, Pinocchio's OpenMP team,
+#: coal's in the pool), each run with 2 threads before a fork and again in the child.
+THREADED_PATHS = {
+    "gravities pinocchio": "batch.gravities(arm, Q, engine='pinocchio', threads=2)",
+    "gravities mujoco": "batch.gravities(arm, Q, engine='mujoco', threads=2)",
+    "mass matrices pinocchio": "batch.mass_matrices(arm, Q, engine='pinocchio', threads=2)",
+    "singular values": "batch.singular_values(arm, Q, threads=2)",
+    "distances coal": "batch.distances(arm, Q[:600], threads=2)",
+    "crosscheck_batch": "rd.crosscheck_batch(arm, Q, quantities=['gravity'], threads=2)",
+}
+
+FORK_SCRIPT = """
+import multiprocessing, os, sys
+import numpy as np
+import redundancy as rd
+from redundancy import batch
+
+arm = rd.load(rd.model_path("arm7"), site="ee")
+Q = rd.arm.random_poses(arm, 1024)
+call = lambda: {call}
+call()  # threads started in the parent
+pid = os.fork()
+if pid == 0:
+    call()  # the child, with the parent's threads gone
+    os._exit(0)
+_, status = os.waitpid(pid, 0)
+assert status == 0, status
+# A pool of the default (fork) start method after the threads ran: its workers too.
+with multiprocessing.get_context("fork").Pool(1) as pool:
+    assert pool.apply(call_in_worker) == "ok"
+print("ok")
+"""
+
+
+@pytest.mark.parametrize("path", list(THREADED_PATHS))
+def test_a_fork_after_each_threaded_path_leaves_the_child_usable(path: str) -> None:
+    """Issue 21: a fork after batch.gravities(engine="pinocchio", threads=2) hung the child
+    (libgomp's pool does not survive fork). Run in a subprocess: a hang fails the test at
+    the timeout (a bound for a hung child, not a measured time) instead of blocking."""
+    import subprocess
+    import sys
+
+    call = THREADED_PATHS[path]
+    script = FORK_SCRIPT.format(call=call).replace(
+        "import redundancy as rd\n",
+        f"import redundancy as rd\ndef call_in_worker():\n    {call}\n    return 'ok'\n",
+    )
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, timeout=300
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{path}: the forked child hung")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("ok")

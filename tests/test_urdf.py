@@ -659,3 +659,50 @@ def test_fuzzed_urdf(
         assert result["message"], what
     elif result["equivalent"] and result["finite"]:
         assert result["agree"], f"{what}:\n" + "\n".join(result["lines"])  # type: ignore[arg-type]
+
+
+def _tree_urdf(links: list[str], joints: list[tuple[str, str, str]]) -> str:
+    inertial = '<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+    body = "".join(f'<link name="{n}">{inertial}</link>' for n in links)
+    body += "".join(
+        f'<joint name="{j}" type="revolute"><parent link="{p}"/><child link="{c}"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        for j, p, c in joints
+    )
+    return f'<robot name="r">{body}</robot>'
+
+
+@pytest.mark.parametrize(
+    ("links", "joints", "message"),
+    [
+        (
+            ["base", "a", "a"],
+            [("j1", "base", "a")],
+            "URDF <string>: link names must be unique; repeated: ['a']",
+        ),
+        (
+            ["base", "a", "b"],
+            [("j1", "base", "a"), ("j1", "a", "b")],
+            "URDF <string>: joint names must be unique; repeated: 'j1'",
+        ),
+        (
+            ["base", "a", "b"],
+            [("j1", "base", "a"), ("j2", "a", "b"), ("j3", "b", "a")],
+            "URDF <string>: the links must form one tree; link 'a' is the child of several "
+            "joints ['j1', 'j3'] (a loop)",
+        ),
+    ],
+    ids=["duplicate link", "duplicate joint", "loop"],
+)
+def test_urdf_loops_and_duplicates_get_the_librarys_message(
+    links: list[str],
+    joints: list[tuple[str, str, str]],
+    message: str,
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    """Issue 21: the parsers' own text, and C++ output on stderr, before."""
+    with pytest.raises(rd.ModelError) as err:
+        rd.load_string(_tree_urdf(links, joints), frame="b" if "b" in links else "a")
+    assert str(err.value) == message
+    out, errtext = capfd.readouterr()
+    assert (out, errtext) == ("", "")

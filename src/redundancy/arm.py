@@ -120,10 +120,22 @@ class Arm:
 
     @property
     def keyframes(self) -> dict[str, Array]:
-        """Keyframe name -> joint configuration [rad or m]."""
+        """Keyframe name -> joint configuration [rad or m].
+
+        An unnamed keyframe is called ``key<index>``, with ``_`` appended until the name is
+        not one a keyframe of the model has (an unnamed key never hides a named one).
+        """
         m = self.mj_model
         names = object_names(m, mujoco.mjtObj.mjOBJ_KEY)
-        return {(names[k] or f"key{k}"): m.key_qpos[k].copy() for k in range(m.nkey)}
+        taken = set(names)
+        for k, name in enumerate(names):
+            if not name:
+                name = f"key{k}"
+                while name in taken:
+                    name += "_"
+                names[k] = name
+                taken.add(name)
+        return {names[k]: m.key_qpos[k].copy() for k in range(m.nkey)}
 
     def keyframe(self, name: str) -> Array:
         """Joint configuration of a named keyframe [rad or m]."""
@@ -200,13 +212,19 @@ class Arm:
     ) -> linalg.Manipulability:
         """Yoshikawa's measure of J, its blocks, and J with position rows divided by length [m].
 
+        Each is the product of the singular values of its rows of J (sqrt(det(J J^T)) with
+        6 or more joints, sqrt(det(J^T J)) with fewer; see :func:`redundancy.linalg.yoshikawa`).
         The measures are computed when read: ``arm.manipulability(q).full`` costs one J and
-        one determinant.
+        one SVD.
         """
         return linalg.manipulability(self.jacobian(q, engine), length)
 
     def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
-        """Gradient d sqrt(det(J J^T)) / dq from second-order kinematics, shape (nq,)."""
+        """Gradient of ``manipulability(q).full`` from second-order kinematics, shape (nq,).
+
+        The derivative of the same value for any joint count (the product of the singular
+        values of J); zeros at a singular pose, where it has a kink.
+        """
         q = check_pose(q, self.joint_names)
         eng = self.engine(engine)
         return linalg.manipulability_gradient(eng.site_jacobian(q), eng.jacobian_derivatives(q))

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import ParameterError, PoseError, UnknownNameError
+from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
 
@@ -108,6 +108,120 @@ def check_pose_or_poses(q: ArrayLike, names: Sequence[str]) -> Array:
     return check_poses(arr, names)
 
 
+def check_in_range(
+    Q: Array, names: Sequence[str], lower: Array, upper: Array, what: str, tol: float = 1e-9
+) -> None:
+    """Every value of a checked stack of poses within its joint's range, to ``tol``.
+
+    Args:
+        Q: Poses, shape (n, nq), already checked by :func:`check_poses` [rad or m].
+        names: Joint names.
+        lower: Lower limits, ``-inf`` where unlimited [rad or m].
+        upper: Upper limits, ``inf`` where unlimited [rad or m].
+        what: What one pose of the stack is called in the message (``"waypoint"``).
+        tol: Slack on the limits [rad or m].
+
+    Raises:
+        OutOfRangeError: The first value outside its range, naming the pose and the joint.
+    """
+    bad = (Q < np.asarray(lower) - tol) | (Q > np.asarray(upper) + tol)
+    if bad.any():
+        i, j = (int(k) for k in np.argwhere(bad)[0])
+        raise OutOfRangeError(
+            names[j], float(Q[i, j]), float(lower[j]), float(upper[j]), f"{what} {i}"
+        )
+
+
+def _valid_range(
+    what: str, low: float, high: float, low_open: bool, high_open: bool, unit: str
+) -> str:
+    """``what`` with its range, as error messages state it: "a finite number >= 0 [s]"."""
+    if math.isinf(low) and math.isinf(high):
+        valid = what
+    elif math.isinf(high):
+        valid = f"{what} {'>' if low_open else '>='} {low:g}"
+    elif math.isinf(low):
+        valid = f"{what} {'<' if high_open else '<='} {high:g}"
+    else:
+        lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
+        valid = f"{what} in {lo_b}{low:g}, {high:g}{hi_b}"
+    return valid + (f" [{unit}]" if unit else "")
+
+
+def check_values(
+    name: str,
+    value: object,
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+    unit: str = "",
+) -> Array:
+    """A real number or array of them, every value finite and in [low, high], as float64.
+
+    The array form of :func:`check_number`, for arguments given per joint.
+
+    Raises:
+        ParameterError: Not real numbers (strings, objects, complex, booleans), empty, or a
+            value NaN, infinite or outside the range; the message states the valid range.
+    """
+    valid = _valid_range("a finite number (or array of them)", low, high, low_open, high_open, unit)
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as err:  # ragged nested lists
+        raise ParameterError(name, value, valid, describe(value)) from err
+    if arr.dtype.kind not in "iuf" or arr.size == 0:
+        raise ParameterError(name, value, valid, describe(value))
+    arr = np.asarray(arr, dtype=np.float64)
+    outside = ~np.isfinite(arr) | (arr < low) | (arr > high)
+    if low_open:
+        outside |= arr == low
+    if high_open:
+        outside |= arr == high
+    if outside.any():
+        bad = arr.flat[int(np.flatnonzero(outside)[0])]
+        raise ParameterError(name, value, valid, repr(float(bad)) if arr.ndim else None)
+    return arr
+
+
+def check_broadcast(**arrays: Array) -> tuple[Array, ...]:
+    """Arrays broadcast to one shape (:func:`numpy.broadcast_arrays`).
+
+    Raises:
+        ParameterError: Their shapes do not broadcast (the message names every argument).
+    """
+    try:
+        return tuple(np.broadcast_arrays(*arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {np.shape(v)}" for k, v in arrays.items())
+        names = ", ".join(arrays)
+        raise ParameterError(names, shapes, "arrays of shapes that broadcast together") from None
+
+
+def check_returned(name: str, value: object, q: Array) -> float:
+    """The number a user's function (an objective) returned at pose ``q``, as a float.
+
+    Raises:
+        ParameterError: Not a finite real number; the message blames ``name`` and says
+            what it returned at which pose.
+    """
+    if (
+        isinstance(value, bool | np.bool_)
+        or not isinstance(value, int | float | np.integer | np.floating)
+        or not math.isfinite(float(value))
+    ):
+        got = f"one that returned {describe(value)} at q = {one_line(q)}"
+        raise ParameterError(name, value, "a function of q returning a finite real number", got)
+    return float(value)
+
+
+def check_callable(name: str, value: object, valid: str) -> None:
+    """Raise ParameterError unless ``value`` can be called."""
+    if not callable(value):
+        raise ParameterError(name, value, valid)
+
+
 def check_number(
     name: str,
     value: object,
@@ -124,16 +238,7 @@ def check_number(
         ParameterError: Not a real number, NaN, infinite, or outside the range; the message
             states the valid range.
     """
-    if math.isinf(low) and math.isinf(high):
-        valid = "a finite number"
-    elif math.isinf(high):
-        valid = f"a finite number {'>' if low_open else '>='} {low:g}"
-    elif math.isinf(low):
-        valid = f"a finite number {'<' if high_open else '<='} {high:g}"
-    else:
-        lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
-        valid = f"a finite number in {lo_b}{low:g}, {high:g}{hi_b}"
-    valid += f" [{unit}]" if unit else ""
+    valid = _valid_range("a finite number", low, high, low_open, high_open, unit)
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ParameterError(name, value, valid)
     x = float(value)
@@ -142,6 +247,62 @@ def check_number(
     if x < low or x > high or (low_open and x == low) or (high_open and x == high):
         raise ParameterError(name, value, valid)
     return x
+
+
+def one_line(x: ArrayLike) -> str:
+    """An array printed on one line (error messages are one line each)."""
+    return np.array2string(np.asarray(x), precision=6, max_line_width=1_000_000)
+
+
+def describe(value: object) -> str:
+    """A short description of a value for an error message: an array's shape, not its data."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape} and dtype {value.dtype}"
+    text = repr(value)
+    return text if len(text) <= 80 else f"{type(value).__name__} {text[:60]}..."
+
+
+def check_matrix(
+    name: str, value: object, shape: Sequence[int | None] | None = None, ndim: int = 2
+) -> Array:
+    """A non-empty real array of finite values, as float64, of ``ndim`` dimensions.
+
+    Args:
+        name: The argument's name, for the message.
+        value: What was passed.
+        shape: Required sizes per dimension, ``None`` for any (default: any).
+        ndim: Number of dimensions when ``shape`` is not given.
+
+    Raises:
+        ParameterError: Not numeric (strings, objects, complex), of another shape, empty, or
+            with NaN or infinite values; the message says which.
+    """
+    ndim = len(shape) if shape is not None else ndim
+    if shape is not None:
+        sizes = ["n" if k is None else str(k) for k in shape]
+        want = f"of shape ({', '.join(sizes)}{',' if len(sizes) == 1 else ''})"
+    else:
+        want = f"with {ndim} dimensions"
+    valid = f"a non-empty real array of finite numbers {want}"
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as err:  # ragged nested lists
+        raise ParameterError(name, value, valid, describe(value)) from err
+    if arr.dtype.kind not in "iuf":
+        raise ParameterError(name, value, valid, describe(value))
+    shown = f"shape {arr.shape}"
+    if arr.ndim != ndim or arr.size == 0:
+        raise ParameterError(name, value, valid, shown)
+    if shape is not None and any(
+        k is not None and k != a for k, a in zip(shape, arr.shape, strict=True)
+    ):
+        raise ParameterError(name, value, valid, shown)
+    arr = np.asarray(arr, dtype=np.float64)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ParameterError(name, value, valid, f"{arr[first]} at index {first}")
+    return arr
 
 
 def check_count(name: str, value: object, minimum: int = 0, maximum: int | None = None) -> int:

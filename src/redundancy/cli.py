@@ -6,7 +6,11 @@ subcommands, so ``--help`` is instant.
 Exit status:
     0: done, no findings; 1: the audit has findings; 2: bad input (an argument, the model
     file, a name), with one line on stderr; 3: an internal error (a bug: please report it),
-    with one line on stderr; 130: interrupted.
+    with one line on stderr; 130: interrupted; 141: the reader of stdout went away (as a
+    Unix tool killed by SIGPIPE: ``redundancy audit --json - | head -1`` ends quietly).
+
+Every error is one line on stderr (a multi-line engine message is joined with "; "); with
+stderr closed the status alone says what happened.
 """
 
 from __future__ import annotations
@@ -18,6 +22,35 @@ from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 OK, FINDINGS, BAD_INPUT, INTERNAL_ERROR, INTERRUPTED = 0, 1, 2, 3, 130
+PIPE_CLOSED = 128 + 13  # 128 + SIGPIPE, the status a shell shows for a tool that got it
+
+
+def _one_line(message: object) -> str:
+    """A message on one line: its lines, stripped, joined with "; "."""
+    return "; ".join(line.strip() for line in str(message).splitlines() if line.strip())
+
+
+def _error(message: object) -> None:
+    """Print one line on stderr; nothing when stderr is closed or gone."""
+    stream = sys.stderr
+    if stream is None:  # started with stderr closed (2>&-)
+        return
+    try:
+        print(_one_line(message), file=stream, flush=True)
+    except (OSError, ValueError):  # its reader went away, or the stream was closed
+        pass
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe: point stdout at /dev/null so the exit's flush raises nothing."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no real stdout (a test's capture)
+        pass
 
 
 class _BadInput(Exception):
@@ -245,28 +278,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 no findings, 1 findings, 2 bad input, 3 internal error (see the module docstring).
     """
     try:
-        args = _parser().parse_args(argv)
-    except _BadInput as err:
-        print(f"{err}", file=sys.stderr)
-        return BAD_INPUT
-    except SystemExit as exit_:  # --help
-        return int(exit_.code or 0)
-    from .errors import RedundancyError
+        try:
+            args = _parser().parse_args(argv)
+        except _BadInput as err:
+            _error(err)
+            return BAD_INPUT
+        except SystemExit as exit_:  # --help
+            return int(exit_.code or 0)
+        from .errors import RedundancyError
 
-    try:
-        _check_files(args)
-        return _run(args)
-    except (_BadInput, RedundancyError) as err:
-        print(f"redundancy: error: {err}", file=sys.stderr)
-        return BAD_INPUT
-    except KeyboardInterrupt:
-        print("redundancy: interrupted", file=sys.stderr)
-        return INTERRUPTED
+        try:
+            _check_files(args)
+            return _run(args)
+        except (_BadInput, RedundancyError) as err:
+            _error(f"redundancy: error: {err}")
+            return BAD_INPUT
+        except KeyboardInterrupt:
+            _error("redundancy: interrupted")
+            return INTERRUPTED
+    except BrokenPipeError:  # the reader of stdout (or stderr) went away: end quietly
+        _silence_stdout()
+        return PIPE_CLOSED
     except Exception as err:  # a bug, not the user's input: one line, and the status says so
-        print(
-            f"redundancy: internal error: {type(err).__name__}: {err} (please report it)",
-            file=sys.stderr,
-        )
+        _error(f"redundancy: internal error: {type(err).__name__}: {err} (please report it)")
         return INTERNAL_ERROR
 
 
@@ -337,7 +371,8 @@ def _audit(args: argparse.Namespace) -> int:
     stream = sys.stderr if to_stdout else sys.stdout
 
     def say(line: str = "") -> None:
-        print(line, file=stream, flush=True)
+        if stream is not None:  # None: started with that stream closed
+            print(line, file=stream, flush=True)
 
     arm = _load(args, strict=not args.lenient)
     mode = "lenient" if args.lenient else "strict"

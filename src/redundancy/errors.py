@@ -64,15 +64,20 @@ class OutOfRangeError(PoseError):
         value: The offending value [rad or m].
         lower: Lower limit [rad or m].
         upper: Upper limit [rad or m].
+        where: Which of several poses holds the value (e.g. ``"waypoint 2"``), or ``""``.
     """
 
-    def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
+    def __init__(
+        self, joint: str, value: float, lower: float, upper: float, where: str = ""
+    ) -> None:
         self.joint = joint
         self.value = value
         self.lower = lower
         self.upper = upper
+        self.where = where
         super().__init__(
-            f"joint {joint!r} = {value:.6g} is outside its range [{lower:.6g}, {upper:.6g}]"
+            f"{where + ': ' if where else ''}joint {joint!r} = {value:.6g} is outside its "
+            f"range [{lower:.6g}, {upper:.6g}]"
         )
 
 
@@ -81,13 +86,15 @@ class ParameterError(RedundancyError, ValueError):
 
     Attributes:
         name: The parameter's name.
-        value: The value given.
+        value: The value given (the message shows ``shown`` instead when given: an array's
+            shape and its first bad entry rather than all of it).
     """
 
-    def __init__(self, name: str, value: object, valid: str) -> None:
+    def __init__(self, name: str, value: object, valid: str, shown: str | None = None) -> None:
         self.name = name
         self.value = value
-        super().__init__(f"{name} must be {valid}, got {value!r}")
+        got = repr(value) if shown is None else shown
+        super().__init__(f"{name} must be {valid}, got {got}")
 
 
 class MissingDependencyError(RedundancyError, ImportError):

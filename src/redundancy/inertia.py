@@ -11,6 +11,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .checks import check_broadcast, check_number, check_values
+from .errors import ParameterError
+
 Array = NDArray[np.float64]
 
 
@@ -18,15 +21,32 @@ def reflected_inertia(rotor_inertia: ArrayLike, gear_ratio: ArrayLike) -> Array:
     """Armature seen at the joint: N^2 J_rotor [kg m^2].
 
     Args:
-        rotor_inertia: Rotor inertia J_rotor [kg m^2].
-        gear_ratio: Gear ratio N (rotor turns per joint turn) [-].
+        rotor_inertia: Rotor inertia J_rotor >= 0 [kg m^2].
+        gear_ratio: Gear ratio N (rotor turns per joint turn; its sign is the direction) [-].
+
+    Raises:
+        ParameterError: A value negative (inertia), NaN or infinite, not a number, or shapes
+            that do not broadcast.
     """
-    return np.asarray(gear_ratio, dtype=float) ** 2 * np.asarray(rotor_inertia, dtype=float)
+    J = check_values("rotor_inertia", rotor_inertia, 0.0, unit="kg m^2")
+    N = check_values("gear_ratio", gear_ratio)
+    J, N = check_broadcast(rotor_inertia=J, gear_ratio=N)
+    return N**2 * J
 
 
 def rotor_inertia(armature: ArrayLike, gear_ratio: ArrayLike) -> Array:
-    """Inverse of :func:`reflected_inertia`: J_rotor = armature / N^2 [kg m^2]."""
-    return np.asarray(armature, dtype=float) / np.asarray(gear_ratio, dtype=float) ** 2
+    """Inverse of :func:`reflected_inertia`: J_rotor = armature / N^2 [kg m^2].
+
+    Raises:
+        ParameterError: ``armature`` negative, ``gear_ratio`` zero, a value NaN or infinite,
+            not a number, or shapes that do not broadcast.
+    """
+    A = check_values("armature", armature, 0.0, unit="kg m^2")
+    N = check_values("gear_ratio", gear_ratio)
+    if np.any(N == 0):
+        raise ParameterError("gear_ratio", gear_ratio, "a finite nonzero number (or array)")
+    A, N = check_broadcast(armature=A, gear_ratio=N)
+    return A / N**2
 
 
 def max_stable_timestep(inertia: ArrayLike, kd: ArrayLike, damping: ArrayLike) -> Array:
@@ -39,9 +59,15 @@ def max_stable_timestep(inertia: ArrayLike, kd: ArrayLike, damping: ArrayLike) -
 
     Returns:
         The bound per joint [s]; ``inf`` where kd <= b (any step is stable).
+
+    Raises:
+        ParameterError: ``inertia`` not > 0, ``kd`` or ``damping`` negative, a value NaN or
+            infinite, not a number, or shapes that do not broadcast.
     """
-    inertia, kd, damping = np.broadcast_arrays(
-        np.asarray(inertia, float), np.asarray(kd, float), np.asarray(damping, float)
+    inertia, kd, damping = check_broadcast(
+        inertia=check_values("inertia", inertia, 0.0, low_open=True, unit="kg m^2"),
+        kd=check_values("kd", kd, 0.0, unit="N m s/rad"),
+        damping=check_values("damping", damping, 0.0, unit="N m s/rad"),
     )
     excess = kd - damping
     with np.errstate(divide="ignore"):
@@ -55,5 +81,14 @@ def max_stable_kd(inertia: ArrayLike, timestep: float, damping: ArrayLike) -> Ar
         inertia: Joint inertia I [kg m^2].
         timestep: Integration step h [s].
         damping: Joint damping b (implicit) [N m s/rad].
+
+    Raises:
+        ParameterError: ``inertia`` or ``timestep`` not > 0, ``damping`` negative, a value
+            NaN or infinite, not a number, or shapes that do not broadcast.
     """
-    return np.asarray(damping, float) + 2.0 * np.asarray(inertia, float) / timestep
+    inertia_, damping_ = check_broadcast(
+        inertia=check_values("inertia", inertia, 0.0, low_open=True, unit="kg m^2"),
+        damping=check_values("damping", damping, 0.0, unit="N m s/rad"),
+    )
+    h = check_number("timestep", timestep, 0.0, low_open=True, unit="s")
+    return damping_ + 2.0 * inertia_ / h

@@ -12,7 +12,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_number
+from .checks import check_matrix, check_number, describe, one_line
+from .errors import ParameterError
 
 Array = NDArray[np.float64]
 
@@ -55,7 +56,7 @@ class JacobianSVD:
 
     @property
     def manipulability(self) -> float:
-        """Yoshikawa's measure, the product of the singular values."""
+        """Yoshikawa's measure, the product of the singular values (see :func:`yoshikawa`)."""
         return float(np.prod(self.sigma))
 
     @property
@@ -71,7 +72,11 @@ class JacobianSVD:
 
         Returns:
             The names from :data:`TOOL_DIRECTIONS` that are lost, in row order.
+
+        Raises:
+            ParameterError: ``atol`` not a finite number > 0.
         """
+        atol = check_number("atol", atol, 0.0, low_open=True)
         lost = self.lost_directions
         return [
             TOOL_DIRECTIONS[i]
@@ -89,8 +94,10 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
             in (0, 1).
 
     Raises:
-        ParameterError: ``rtol`` not a finite number in (0, 1).
+        ParameterError: ``J`` not a non-empty finite real matrix, or ``rtol`` not a finite
+            number in (0, 1).
     """
+    J = check_matrix("J", J)
     rtol = check_number("rtol", rtol, 0.0, 1.0, low_open=True, high_open=True)
     U, s, Vt = np.linalg.svd(J)
     rank = int(np.sum(s > rtol * s[0])) if s[0] > 0 else 0
@@ -98,7 +105,7 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
 
 
 class Manipulability:
-    """Yoshikawa's manipulability sqrt(det(J J^T)) of the whole Jacobian and of its blocks.
+    """Yoshikawa's manipulability of the whole Jacobian and of its blocks (see :func:`yoshikawa`).
 
     Singular values of the full J mix m/rad and rad/rad, so ``full`` depends on the unit of
     length; ``position`` and ``orientation`` do not mix units, and ``scaled`` divides the
@@ -107,7 +114,7 @@ class Manipulability:
     Each measure is computed when first read (one SVD each), so asking for one costs one.
 
     Attributes:
-        full: sqrt(det(J J^T)) of the 6 x n Jacobian [mixed units].
+        full: Product of the singular values of the 6 x n Jacobian [mixed units].
         position: Same for the 3 linear rows [m^3/rad^3].
         orientation: Same for the 3 angular rows [dimensionless].
         scaled: Same for J with its linear rows divided by ``length`` [dimensionless].
@@ -127,7 +134,7 @@ class Manipulability:
             value = self._values[kind] = yoshikawa(manipulability_rows(self._J, kind, self.length))
         return value
 
-    full = property(lambda self: self._get("full"), doc="sqrt(det(J J^T)) of J [mixed units].")
+    full = property(lambda self: self._get("full"), doc="Product of J's singular values [mixed].")
     position = property(lambda self: self._get("position"), doc="Linear rows [m^3/rad^3].")
     orientation = property(lambda self: self._get("orientation"), doc="Angular rows [-].")
     scaled = property(lambda self: self._get("scaled"), doc="Linear rows / length [-].")
@@ -171,7 +178,15 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
 
 
 def yoshikawa(J: Array) -> float:
-    """sqrt(det(J J^T)), as the product of singular values (exactly 0 when rank-deficient)."""
+    """Manipulability of an m x n J: the product of its min(m, n) singular values.
+
+    This is the one definition the library uses, for any joint count: sqrt(det(J J^T))
+    (Yoshikawa's) when n >= m, and sqrt(det(J^T J)) when n < m, where det(J J^T) is
+    identically 0 (an arm of fewer than 6 joints still has a measure of how far it is from
+    losing one of the directions it can move along). The gradient
+    (:func:`manipulability_gradient`) and the batch stacks are of this same value.
+    """
+    J = check_matrix("J", J)
     return float(np.prod(np.linalg.svd(J, compute_uv=False)))
 
 
@@ -183,37 +198,44 @@ def manipulability(J: Array, length: float = 1.0) -> Manipulability:
         length: Characteristic length [m] that turns m/rad into rad/rad.
 
     Raises:
-        ParameterError: ``length`` not a finite number > 0.
+        ParameterError: ``J`` not a non-empty finite real matrix with 6 rows, or ``length``
+            not a finite number > 0.
     """
+    J = check_matrix("J", J, (6, None))
     length = check_number("length", length, 0.0, low_open=True, unit="m")
-    return Manipulability(np.array(J, dtype=float), length)
+    return Manipulability(J.copy(), length)
 
 
 def manipulability_gradient(J: Array, dJ: Array) -> Array:
-    """Gradient of w = sqrt(det(J J^T)) = prod(sigma) with respect to q.
+    """Gradient of w = prod(sigma) (:func:`yoshikawa`, any m and n) with respect to q.
 
-    With J = U diag(sigma) V^T, d w / d q_k = sum_i (prod_{j != i} sigma_j) u_i^T dJ_k v_i,
-    the same as w * trace((J J^T)^-1 dJ_k J^T) but without inverting J J^T, so it stays
-    accurate near singular poses. At a singular pose (numerical rank below m, see
-    :data:`RANK_RTOL`) the measure has a kink, like |x| at 0, and no gradient: zeros are
-    returned.
+    With the thin SVD J = U diag(sigma) V^T (r = min(m, n) singular values),
+    d w / d q_k = sum_i (prod_{j != i} sigma_j) u_i^T dJ_k v_i: for n >= m the same as
+    w * trace((J J^T)^-1 dJ_k J^T), without inverting J J^T, so it stays accurate near
+    singular poses. At a singular pose (numerical rank below r, see :data:`RANK_RTOL`) the
+    measure has a kink, like |x| at 0, and no gradient: zeros are returned.
 
     Args:
-        J: Jacobian, shape (m, n) with m <= n.
+        J: Jacobian, shape (m, n).
         dJ: Its partial derivatives, shape (n, m, n): dJ[k] = dJ/dq_k.
 
     Returns:
         Gradient, shape (n,).
+
+    Raises:
+        ParameterError: ``J`` or ``dJ`` not finite real arrays of those shapes.
     """
+    J = check_matrix("J", J)
     m, n = J.shape
-    if m > n:  # fewer joints than tool directions: w is identically 0
+    dJ = check_matrix("dJ", dJ, shape=(n, m, n))
+    if not J.size:
         return np.zeros(n)
-    U, s, Vt = np.linalg.svd(J)
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
     if s[-1] <= RANK_RTOL * s[0]:
-        return np.zeros(J.shape[1])
-    others = np.array([np.prod(np.delete(s, i)) for i in range(m)])
+        return np.zeros(n)
+    others = np.array([np.prod(np.delete(s, i)) for i in range(len(s))])
     # u_i^T dJ_k v_i for every k and i, weighted by the product of the other singular values.
-    proj = np.einsum("mi,kmn,in->ki", U, dJ, Vt[:m])
+    proj = np.einsum("mi,kmn,in->ki", U, dJ, Vt)
     return proj @ others
 
 
@@ -222,13 +244,20 @@ def nullspace_projector(J: Array, rtol: float = RANK_RTOL) -> Array:
 
     Built from one SVD as N = V_0 V_0^T, V_0 the right singular vectors past the rank: the
     same matrix as I - pinv(J) J (to rounding) at half the cost.
+
+    Raises:
+        ParameterError: As :func:`jacobian_svd`.
     """
     B = nullspace_basis(J, rtol)
     return B @ B.T
 
 
 def nullspace_basis(J: Array, rtol: float = RANK_RTOL) -> Array:
-    """Orthonormal basis of the null space of J, columns, shape (n, n - rank)."""
+    """Orthonormal basis of the null space of J, columns, shape (n, n - rank).
+
+    Raises:
+        ParameterError: As :func:`jacobian_svd`.
+    """
     s = jacobian_svd(J, rtol)
     return s.V[:, s.rank :]
 
@@ -236,13 +265,30 @@ def nullspace_basis(J: Array, rtol: float = RANK_RTOL) -> Array:
 def damped_pinv(J: Array, damping: float) -> Array:
     """Damped least-squares inverse J^T (J J^T + lambda^2 I)^-1, bounded near singular poses.
 
+    Computed from the thin SVD as V diag(sigma / (sigma^2 + lambda^2)) U^T, the same matrix
+    without forming J J^T (whose entries overflow where J's exceed 1e154).
+
     Args:
         J: Jacobian, shape (m, n).
-        damping: lambda [same unit as the singular values]; 0 gives the plain pseudo-inverse
-            of a full-row-rank J.
+        damping: lambda >= 0 [same unit as the singular values]; 0 gives the plain
+            pseudo-inverse, which needs J of full rank.
+
+    Raises:
+        ParameterError: ``J`` not a non-empty finite real matrix, ``damping`` not a finite
+            number >= 0, or ``damping`` 0 with a rank-deficient J.
     """
-    m = J.shape[0]
-    return J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(m), np.eye(m))
+    J = check_matrix("J", J)
+    damping = check_number("damping", damping, 0.0)
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    if damping == 0.0 and not s[-1] > RANK_RTOL * s[0]:
+        raise ParameterError(
+            "damping",
+            damping,
+            f"> 0 for a rank-deficient J (singular values {one_line(s)})",
+        )
+    with np.errstate(over="ignore", under="ignore"):  # sigma^2 overflows: sigma / inf = 0
+        gain = s / (s * s + damping * damping)
+    return (Vt.T * gain) @ U.T
 
 
 def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
@@ -253,9 +299,28 @@ def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
     Torques projected by N^T produce no tool acceleration. Requires J of full row rank.
 
     Args:
-        J: Jacobian, shape (m, n).
+        J: Jacobian, shape (m, n), of full row rank.
         M: Joint-space mass matrix, shape (n, n), symmetric positive definite.
+
+    Raises:
+        ParameterError: ``J`` or ``M`` not non-empty finite real matrices of those shapes,
+            ``M`` not symmetric positive definite, or ``J`` not of full row rank.
     """
+    J = check_matrix("J", J)
+    n = J.shape[1]
+    M = check_matrix("M", M, (n, n))
+    spd = "a symmetric positive definite matrix"
+    if not np.allclose(M, M.T, rtol=1e-9, atol=1e-12 * float(np.abs(M).max())):
+        raise ParameterError("M", M, spd, "a matrix that is not symmetric")
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        raise ParameterError("M", M, spd, "a matrix that is not positive definite") from None
+    s = np.linalg.svd(J, compute_uv=False)
+    if J.shape[0] > n or not s[-1] > RANK_RTOL * s[0]:
+        raise ParameterError(
+            "J", J, "of full row rank", f"{describe(J)}, singular values {one_line(s)}"
+        )
     Minv_Jt = np.linalg.solve(M, J.T)
     Lambda = np.linalg.inv(J @ Minv_Jt)
     J_bar = Minv_Jt @ Lambda

@@ -157,7 +157,10 @@ def manipulabilities(
     length: float = 1.0,
     threads: int = 1,
 ) -> Array:
-    """Yoshikawa's manipulability sqrt(det(J J^T)) at each pose, as :func:`linalg.manipulability`.
+    """Yoshikawa's manipulability at each pose, as :func:`linalg.manipulability`.
+
+    The product of the singular values of the chosen rows of J (sqrt(det(J J^T)) with at
+    least as many joints as rows, sqrt(det(J^T J)) with fewer: :func:`linalg.yoshikawa`).
 
     Args:
         arm: The arm.

@@ -41,15 +41,17 @@ from ..arm import Arm, sampling_ranges
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
-from ..model.equivalence import abs_error, fit_rigid, format_value, parent_joint
+from ..model.equivalence import fit_rigid, format_value, parent_joint
 from ..model.names import display_names
+from ..model.scales import arm_scales, scaled_error, scaled_errors
 
 Array = NDArray[np.float64]
 
 __all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map", "run_compare"]
 
 #: A rigid offset is taken as found when, after it, every joint axis of A lies on B's within
-#: this [m or rad] (or the comparison's tolerance, if larger); what remains is compared.
+#: this (or the comparison's tolerance, if larger), relative to the arm's length for
+#: positions [-]; what remains is compared.
 FIT_TOL = 1e-6
 
 
@@ -170,9 +172,10 @@ class Comparison:
         not_expressible: What one format cannot express, with the other's values.
         chains_part: Where the kinematic chains first part (a joint, ``"tool frame"``), or
             None when they do not.
-        largest: Largest difference per quantity compared (0 where identical) [SI units].
+        largest: Largest difference per quantity compared (0 where identical), relative to
+            the quantity's scale on A (:mod:`redundancy.model.scales`) [-].
         n_poses: Poses compared (random ones and keyframes).
-        tol: Absolute tolerance [SI units of each quantity].
+        tol: Relative tolerance [-].
         offsets: The rigid offsets found (base placement, tool mount), relative to which the
             rest was compared.
     """
@@ -345,7 +348,10 @@ def compare(
             name), or the path of a joint map file (see :func:`read_joint_map`).
         n_poses: Random poses compared, besides the keyframes (>= 0).
         seed: Seed of the random poses.
-        tol: Absolute tolerance per entry [SI units of each quantity], finite and > 0.
+        tol: Relative tolerance, finite and > 0: each difference is divided by its
+            quantity's scale (max |A's value|, never below the quantity's size on A: its
+            length for positions, m L^2 for inertias, m g L for torques; see
+            :mod:`redundancy.model.scales`), as in the cross-check [-].
 
     Raises:
         ModelError: A file that does not load, a bad joint map, bad arguments.
@@ -376,6 +382,24 @@ class _Comparer:
     ) -> None:
         self.a, self.b, self.fmt_a, self.fmt_b, self.tol = a, b, fmt_a, fmt_b, tol
         self.pairs = pairs
+        sc = self.scales = arm_scales(a)
+        L = sc.length
+        #: Each quantity's size on A (model.scales): what its differences are divided by.
+        self.sizes = {
+            "joint axis (world)": 1.0,
+            "joint axis line (world)": L,
+            "joint anchor (world)": L,
+            "effort limit": sc.torque,
+            "damping": sc.inertia * math.sqrt(sc.gravity / L),
+            "friction": sc.torque,
+            "body mass": sc.mass,
+            "centre of mass (world)": L,
+            "inertia about the centre of mass (world)": sc.inertia,
+            "armature": sc.inertia,
+            "tool frame position (world)": L,
+            "tool frame rotation (world)": 1.0,
+            "gravity vector": sc.gravity,
+        }
         self.diffs: list[Finding] = []
         self.inexpressible: list[Finding] = []
         self.largest: dict[str, float] = {}
@@ -407,16 +431,17 @@ class _Comparer:
         if fit is None:
             return
         R, t = fit
-        tol = max(self.tol, FIT_TOL)
+        # Directions are compared as they are, positions relative to the arm's length.
+        tol, L = max(self.tol, FIT_TOL), self.scales.length
         for k in range(len(ia)):  # every joint on B's after the offset, or no offset
             axis = R @ ax_a[ia[k]]
             r = an_b[ib[k]] - (R @ an_a[ia[k]] + t)
             across = r - (r @ axis) * axis if hinge[k] else r
-            if np.max(np.abs(axis - ax_b[ib[k]])) > tol or np.max(np.abs(across)) > tol:
+            if np.max(np.abs(axis - ax_b[ib[k]])) > tol or np.max(np.abs(across)) > tol * L:
                 return
         # Parts within the tolerance are none: a pure shift is said without a turn.
         R = np.eye(3) if np.max(np.abs(R - np.eye(3))) <= self.tol else R
-        t = np.where(np.abs(t) <= self.tol, 0.0, t)
+        t = np.where(np.abs(t) <= self.tol * L, 0.0, t)
         if not np.any(t) and np.array_equal(R, np.eye(3)):
             return
         self.R, self.t = R, t
@@ -433,7 +458,7 @@ class _Comparer:
         S = rot_a.T @ rot_b
         s = rot_a.T @ (pos_b - pos_a)
         S = np.eye(3) if np.max(np.abs(S - np.eye(3))) <= self.tol else S
-        s = np.where(np.abs(s) <= self.tol, 0.0, s)
+        s = np.where(np.abs(s) <= self.tol * self.scales.length, 0.0, s)
         if not np.any(s) and np.array_equal(S, np.eye(3)):
             return
         self.S, self.s = S, s
@@ -464,9 +489,14 @@ class _Comparer:
         shown = f"{ba!r}" + (f" [{bb!r}]" if bb != ba else "")
         return f"body {shown} (moved by {self.pairs[i][0]!r})"
 
-    def check(self, quantity: str, where: str, va: Any, vb: Any, note: str = "") -> bool:
-        """Record a difference when |va - vb| > tol; return True when they differ."""
-        err = abs_error(va, vb)
+    def check(
+        self, quantity: str, where: str, va: Any, vb: Any, note: str = "", size: float = 0.0
+    ) -> bool:
+        """Record a difference when it exceeds tol relative to the quantity's scale.
+
+        Returns True when they differ.
+        """
+        err = scaled_error(va, vb, size or self.sizes[quantity])
         self.largest[quantity] = max(self.largest.get(quantity, 0.0), err)
         if err > self.tol:
             self.diffs.append(Finding(quantity, where, va, vb, err, note))
@@ -534,7 +564,9 @@ class _Comparer:
                 kin |= self.check("joint anchor (world)", w, an_a[i], an_b[j])
             if kin:
                 self.kinematic.append(i)
-            self.check("joint range", w, [a.lower[i], a.upper[i]], [b.lower[j], b.upper[j]])
+            unit = 1.0 if a.joint_types[i] == "hinge" else self.scales.length  # rad or m
+            lo_hi_a, lo_hi_b = [a.lower[i], a.upper[i]], [b.lower[j], b.upper[j]]
+            self.check("joint range", w, lo_hi_a, lo_hi_b, size=unit)
             self.check("effort limit", w, a.effort_limit[i], b.effort_limit[j])
             self.check("damping", w, a.damping()[i], b.damping()[j])
             self.check(
@@ -562,7 +594,7 @@ class _Comparer:
         if "URDF" in (self.fmt_a, self.fmt_b) and self.fmt_a != self.fmt_b:
             standard = np.array([0.0, 0.0, -9.81])
             mjcf_g = g_b if self.fmt_a == "URDF" else g_a
-            if np.max(np.abs(mjcf_g - standard)) > self.tol:
+            if scaled_error(standard, mjcf_g, 1.0) > self.tol:
                 self.cannot("gravity vector", "model", g_a, g_b, "URDF")
                 return
         self.check("gravity vector", "model", g_a, g_b)
@@ -655,8 +687,20 @@ class _Comparer:
         }
         if Ga is not None and Gb is not None:
             values["gravity torque"] = (Ga[:, cols], Gb[:, perm], 0)
+        sc = self.scales
+        sizes = {
+            "tool position": sc.length,
+            "tool rotation": 1.0,
+            "mass matrix": sc.inertia,
+            "gravity torque": sc.torque,
+        }
         for quantity, (stack_a, stack_b, axis) in values.items():
-            errs = np.abs(stack_a - stack_b).reshape(len(qs), -1).max(axis=1).tolist()
+            if quantity == "jacobian":  # linear rows [m/rad] and angular rows, each its scale
+                lin = scaled_errors(stack_a[:, :3], stack_b[:, :3], sc.length)
+                ang = scaled_errors(stack_a[:, 3:], stack_b[:, 3:], 1.0)
+                errs = np.maximum(lin, ang).tolist()
+            else:
+                errs = scaled_errors(stack_a, stack_b, sizes[quantity]).tolist()
             p = 0  # the first pose with the largest difference
             for k, e in enumerate(errs):
                 if e > errs[p]:

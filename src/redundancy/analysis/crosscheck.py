@@ -1,7 +1,9 @@
 """Pose-by-pose agreement of the two engines, with a stated tolerance per quantity.
 
-One error measure, |mujoco - pinocchio| / max(1, |mujoco|) elementwise, its maximum per pose
-and over the poses (:func:`pose_errors`, :func:`worst`), serves the single-pose and the
+One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the scale is
+max |mujoco| at that pose, never below FLOOR x the quantity's size on the arm: see
+:mod:`redundancy.model.scales`), and its maximum over the poses (:func:`quantity_errors`,
+:func:`worst`), serves the single-pose and the
 stacked cross-check alike: :func:`crosscheck` and :func:`crosscheck_batch` are one
 computation, over stacks of poses taken in chunks so memory stays flat in their number.
 """
@@ -20,11 +22,14 @@ from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..linalg import manipulability_gradient
 from ..model.bridges import Bridge
+from ..model.scales import Scales, arm_scales, scaled_errors
 
 Array = NDArray[np.float64]
 
-#: Tolerance per quantity, on |mujoco - pinocchio| / max(1, |value|). Both engines evaluate
-#: the same closed-form rigid-body algorithms in double precision; differences are rounding.
+#: Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
+#: :func:`quantity_errors`): relative, so an arm of any size is held to the same 1e-9. Both
+#: engines evaluate the same closed-form rigid-body algorithms in double precision;
+#: differences are rounding.
 TOLERANCES: dict[str, float] = {
     "site position": 1e-9,
     "site rotation": 1e-9,
@@ -43,7 +48,7 @@ class Agreement:
 
     Attributes:
         quantity: Name, a key of :data:`TOLERANCES`.
-        max_error: Largest |mujoco - pinocchio| / max(1, |value|) seen.
+        max_error: Largest max |mujoco - pinocchio| / scale seen (:func:`quantity_errors`).
         tol: The tolerance it is held to.
         worst_pose: Index of the pose where ``max_error`` occurred.
     """
@@ -136,21 +141,39 @@ def tolerances_for(names: Iterable[str], overrides: dict[str, float] | None) -> 
     return {n: tols[n] for n in names}
 
 
-def pose_errors(a: Array, b: Array) -> Array:
-    """Per pose, max |a - b| / max(1, |a|) over the elements: the library's error measure.
+def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
+    """Per pose, the library's error measure for one quantity of :data:`TOLERANCES`.
+
+    max |a - b| / max(max |a|, FLOOR x size) over one pose's value
+    (:func:`~redundancy.model.scales.scaled_errors`), the size being the quantity's size on
+    the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
+    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and
+    its derivatives are measured per block of rows, linear (size L) and angular (size 1),
+    since their units differ.
 
     Args:
+        name: A key of :data:`TOLERANCES`.
         a: MuJoCo's values, stacked (n, ...).
         b: Pinocchio's values, same shape.
+        scales: The arm's scales (:func:`~redundancy.model.scales.arm_scales`).
 
     Returns:
         Errors, shape (n,); NaN or inf where a value is not finite.
     """
-    n = len(a)
-    if n == 0:
-        return np.zeros(0)
-    a, b = a.reshape(n, -1), b.reshape(n, -1)
-    return np.max(np.abs(a - b) / np.maximum(1.0, np.abs(a)), axis=1)
+    L = scales.length
+    if name in ("jacobian", "jacobian derivative"):
+        lin = scaled_errors(a[..., :3, :], b[..., :3, :], L)
+        ang = scaled_errors(a[..., 3:, :], b[..., 3:, :], 1.0)
+        return np.maximum(lin, ang)  # a NaN in either block stays NaN
+    size = {
+        "site position": L,
+        "site rotation": 1.0,
+        "mass matrix": scales.inertia,
+        "mass matrix (bare)": scales.inertia,
+        "gravity": scales.torque,
+        "manipulability gradient": L**3,
+    }[name]
+    return scaled_errors(a, b, size)
 
 
 def worst(err: Array) -> tuple[float, int]:
@@ -309,11 +332,12 @@ def crosscheck_batch(
     chunk = check_count("chunk", chunk, 1)
     Q = check_pose_or_poses(Q, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
+    scales = arm_scales(arm)
     for lo in range(0, len(Q), chunk):
         part = Q[lo : lo + chunk]
         out = _both_engines(arm, part, names, threads)
         for name in names:
-            errors = pose_errors(out["mujoco"][name], out["pinocchio"][name])
+            errors = quantity_errors(name, out["mujoco"][name], out["pinocchio"][name], scales)
             found[name] = merge_worst(found[name], worst(errors), lo)
     agreements = tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names)
     return CrossCheckReport(agreements, arm.bridges, len(Q))

@@ -33,7 +33,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import linalg
 from ..arm import ENGINES, Arm, EngineName
-from ..checks import check_choice, check_count, check_number, check_pose
+from ..checks import (
+    check_callable,
+    check_choice,
+    check_count,
+    check_matrix,
+    check_number,
+    check_pose,
+    check_returned,
+)
 from ..errors import ParameterError
 
 if TYPE_CHECKING:
@@ -235,6 +243,37 @@ class SelfMotionPath:
 Objectivelike = Objective | Callable[[Array], float]
 
 
+def _checked(objective: Objectivelike) -> Objective:
+    """The objective with its values and gradients checked.
+
+    A NaN or a string it returns is the objective's fault (ParameterError naming it), not
+    the pose's or numpy's.
+
+    Raises:
+        ParameterError: ``objective`` is not callable (or its ``gradient`` neither).
+    """
+    want = "an Objective or a callable q -> float"
+    check_callable("objective", objective, want)
+    if isinstance(objective, Objective):
+        check_callable("objective", objective.value, want)
+        if objective.gradient is not None:
+            check_callable("objective gradient", objective.gradient, "a callable q -> array")
+        name, value, gradient = objective.name, objective.value, objective.gradient
+    else:
+        name, value, gradient = getattr(objective, "__name__", "objective"), objective, None
+
+    def checked_value(q: Array) -> float:
+        return check_returned("objective", value(q), q)
+
+    checked_gradient = None
+    if gradient is not None:
+
+        def checked_gradient(q: Array) -> Array:
+            return check_matrix("objective gradient", gradient(q), (len(q),))
+
+    return Objective(name, checked_value, checked_gradient)
+
+
 def _objective_direction(objective: Objectivelike, q: Array, basis: Array, fd_step: float) -> Array:
     """Gradient of the objective projected onto the null space (basis columns), shape (nq,)."""
     grad = objective.gradient if isinstance(objective, Objective) else None
@@ -303,7 +342,8 @@ def self_motion(
     Raises:
         ParameterError: ``total`` not finite and > 0, ``step`` outside
             [total / MAX_STEPS, total], bad ``direction``, ``tol``, ``max_corrections`` or
-            ``fd_step``.
+            ``fd_step``; an ``objective`` or ``stop`` that is not callable, or an objective
+            that returns a non-number, NaN or infinity (or a gradient of the wrong shape).
         UnknownNameError: Unknown ``elbow`` joint, ``integrator`` or ``engine``.
         PoseError: Bad ``q0``.
     """
@@ -317,6 +357,10 @@ def self_motion(
     max_corrections = check_count("max_corrections", max_corrections, 0)
     fd_step = check_number("fd_step", fd_step, 0.0, low_open=True, unit="rad")
     q = check_pose(q0, arm.joint_names)
+    if objective is not None:
+        objective = _checked(objective)
+    if stop is not None:
+        check_callable("stop", stop, "a callable q -> bool, or None")
     elbow_idx = arm.nq // 2 if elbow is None else arm.joint_index(elbow)
     p0, R0 = arm.site_pose(q, engine)
 

@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..caching import PerObject
-from ..checks import check_choice, check_poses
+from ..checks import check_choice, check_count, check_in_range, check_number, check_poses
 from ..errors import PoseError, UnsupportedFeatureError
 from .checker import CollisionChecker, checker
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, DistanceEngine, GeomPair, NearPair
@@ -276,15 +276,23 @@ class PathChecker:
             max_evaluations: Give up (PoseError) after this many distance evaluations.
 
         Raises:
-            PoseError: Bad waypoints, ``tol`` too small, or the evaluation budget exhausted.
+            PoseError: Bad waypoints, or the evaluation budget exhausted.
+            OutOfRangeError: A waypoint outside a joint's range (the message names both).
+            ParameterError: ``tol`` not a number above the engines' accuracy, or
+                ``max_evaluations`` not a positive integer.
         """
         check_choice("distance engine", engine, DISTANCE_ENGINES)
         eps = AMBIGUITY_BAND
-        if not tol > eps:
-            raise PoseError(f"tol must exceed the engines' accuracy {eps:g} m, got {tol!r}")
-        Q = check_poses(waypoints, self.arm.joint_names)
+        # tol must exceed the engines' accuracy, or the safe steps could shrink to nothing.
+        tol = check_number("tol", tol, eps, low_open=True, unit="m")
+        max_evaluations = check_count("max_evaluations", max_evaluations, 1)
+        arm = self.arm
+        Q = check_poses(waypoints, arm.joint_names)
         if not len(Q):
-            raise PoseError(f"waypoints must have shape (k, {self.arm.nq}) with k >= 1, got (0,)")
+            raise PoseError(f"waypoints must have shape (k, {arm.nq}) with k >= 1, got (0,)")
+        # The motion bounds assume every joint within its range (a slide's travel is part of
+        # the reach of the links beyond it): a path outside the ranges is not covered.
+        check_in_range(Q, arm.joint_names, arm.lower, arm.upper, "waypoint")
         nseg = len(Q) - 1
         thr = self.thresholds
         # The waypoints are validated and every pose below is made from them: this thread's

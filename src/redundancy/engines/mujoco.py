@@ -71,6 +71,7 @@ class _Work:
         "jacp",
         "jacr",
         "key",
+        "moving",
         "qpos",
         "qvel",
         "tau",
@@ -88,6 +89,15 @@ class _Work:
         self.key: list[float] | None = None  # the pose the kinematics stage holds
         self.have_M = False  # M is current for that pose
         self.have_J = False  # jac is current for that pose
+        # qvel (and so cvel) may be nonzero: jacobian_derivatives was interrupted mid-loop.
+        self.moving = False
+
+
+def _stop(model: mujoco.MjModel, w: _Work) -> None:
+    """Zero the velocity and the quantities derived from it (cvel, cdof_dot: mj_rne reads them)."""
+    w.qvel[:] = 0.0
+    mujoco.mj_comVel(model, w.data)
+    w.moving = False
 
 
 class MujocoEngine:
@@ -159,13 +169,19 @@ class MujocoEngine:
         return w
 
     def _load(self, w: _Work, q: Array, key: list[float]) -> None:
+        # The key is cleared before the data changes and set only once every call has
+        # returned: an exception in between (a KeyboardInterrupt caught by the user) leaves
+        # no key that would let the next query read half-updated data.
+        w.key = None
+        w.have_M = w.have_J = False
         w.qpos[:] = q
         # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
         # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read. qvel stays 0.
         _kinematics(self.model, w.data)
         _com_pos(self.model, w.data)
+        if w.moving:
+            _stop(self.model, w)
         w.key = key
-        w.have_M = w.have_J = False
 
     # -- one pose ---------------------------------------------------------------------------
     def site_pose(self, q: ArrayLike) -> tuple[Array, Array]:
@@ -198,11 +214,14 @@ class MujocoEngine:
         if not plain:
             q, key = pose_key(q, self.joint_names)  # converts, or refuses naming the cause
         if key != w.key:
+            w.key = None  # as in _load: no key while the data changes
+            w.have_M = w.have_J = False
             w.qpos[:] = q
-            _kinematics(self.model, w.data)  # as in _load
+            _kinematics(self.model, w.data)
             _com_pos(self.model, w.data)
+            if w.moving:
+                _stop(self.model, w)
             w.key = key
-            w.have_M = False
         elif w.have_J:
             return w.jac.copy()
         _jac_site(self.model, w.data, w.jacp, w.jacr, self.site_id)
@@ -214,6 +233,7 @@ class MujocoEngine:
         w = self.update(q)
         if not w.have_M:
             # mj_crb fills d.M (sparse, armature included); mj_fullM makes it dense.
+            # have_M is False while w.M is written, True once both calls returned.
             mujoco.mj_crb(self.model, w.data)
             mujoco.mj_fullM(self.model, w.data, w.M)
             w.have_M = True
@@ -242,6 +262,9 @@ class MujocoEngine:
         point = d.site_xpos[self.site_id].copy()
         out = np.zeros((self.nv, 6, self.nv))
         w.have_J = False  # mj_jacDot writes into the Jacobian buffers below
+        # Until the velocity is zero again the data is not the pose's: an interrupt in the
+        # loop leaves no key, and the next query zeroes the velocity (_load, _stop).
+        key, w.key, w.moving = w.key, None, True
         for k in range(self.nv):
             w.qvel[:] = 0.0
             w.qvel[k] = 1.0
@@ -250,8 +273,8 @@ class MujocoEngine:
             mujoco.mj_jacDot(m, d, w.jacp, w.jacr, point, self.site_body)
             out[k] = w.jac
         # Leave no velocity behind: mj_rne (gravity) reads cvel and cdof_dot.
-        w.qvel[:] = 0.0
-        mujoco.mj_comVel(m, d)
+        _stop(m, w)
+        w.key = key
         return out
 
     def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
@@ -315,6 +338,8 @@ class MujocoEngine:
         def data() -> tuple[mujoco.MjData, Array]:
             w = self._work()
             w.key = None  # this thread's data is about to hold other poses
+            if w.moving:  # an interrupted jacobian_derivatives left a velocity (mj_rne)
+                _stop(m, w)
             return w.data, w.qpos
 
         def one_stack(lo: int, hi: int) -> None:

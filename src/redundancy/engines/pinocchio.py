@@ -7,6 +7,7 @@ every array it returns is in the same order as :mod:`redundancy.engines.mujoco`'
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 
 import numpy as np
@@ -20,6 +21,28 @@ from .threads import PerThread, spans
 Array = NDArray[np.float64]
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class _OpenMP:
+    """Whether this process may start OpenMP threads (``rneaInParallel``).
+
+    libgomp's thread pool does not survive ``fork``: a child whose parent had started a
+    team of OpenMP threads hangs in its first parallel region of more than one thread
+    (issue 21: ``batch.gravities(engine="pinocchio", threads=2)`` then a fork). Such a child
+    computes its stacked gravity on one thread (no pool involved); a child of a process
+    that never started a team, or a spawned process, keeps its threads.
+    """
+
+    team = False  # this process has run a parallel region of more than one thread
+    inherited = False  # ... or its parent had, before forking this process
+
+
+def _forked_child() -> None:
+    _OpenMP.inherited = _OpenMP.inherited or _OpenMP.team
+    _OpenMP.team = False
+
+
+os.register_at_fork(after_in_child=_forked_child)
 
 
 def joint_kind(joint: pin.JointModel) -> str:
@@ -136,6 +159,10 @@ class PinocchioEngine:
         q, key = pose_key(q, self.joint_names)
         w = self._work()
         if key != w.key:
+            # No key while the data changes, the key only once every call returned: an
+            # exception in between (a KeyboardInterrupt caught by the user) leaves nothing
+            # that would let the next query read half-updated data.
+            w.key = None
             # computeFrameJacobian runs the forward kinematics (oMi) and returns the site's
             # Jacobian; LOCAL_WORLD_ALIGNED is MuJoCo's convention: velocity of the site
             # origin, along world axes. updateFramePlacement then places the site from oMi.
@@ -242,7 +269,8 @@ class PinocchioEngine:
         Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread;
         gravity is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
         ``computeGeneralizedGravity``) on ``threads`` OpenMP threads (fewer on a small stack,
-        as :func:`~redundancy.engines.threads.spans` splits one).
+        as :func:`~redundancy.engines.threads.spans` splits one; one in a process forked
+        from one that had started OpenMP threads, whose pool does not survive the fork).
         """
         model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
         X, R, J, M, G = out.X, out.R, out.J, out.M, out.G
@@ -282,7 +310,8 @@ class PinocchioEngine:
             # As many OpenMP threads as run_split would use: below MIN_POSES_PER_THREAD poses
             # a thread costs more than it saves, and libgomp's workers busy-wait ~5 ms after
             # each call, on CPU the caller may need.
-            threads = len(spans(n, threads))
+            threads = 1 if _OpenMP.inherited else len(spans(n, threads))
+            _OpenMP.team = _OpenMP.team or threads > 1
             pool = w.pools.get(threads)
             if pool is None:
                 pool = w.pools[threads] = pin.ModelPool(model, threads)

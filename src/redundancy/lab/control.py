@@ -12,6 +12,8 @@ from ..engines.mujoco import captured_warnings
 
 Array = NDArray[np.float64]
 
+_JOINT_TRANSMISSIONS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+
 
 class JointPD:
     """The lesson's controller, tau = qfrc_bias + kp (q* - q) - kd qdot, stepped in MuJoCo.
@@ -28,7 +30,8 @@ class JointPD:
         actuators: list[tuple[int, int, float]] = []
         seen: set[int] = set()
         for a in range(model.nu):
-            if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+            # jointinparent is joint for a hinge or slide (model.actuators.JOINT_TRANSMISSIONS).
+            if int(model.actuator_trntype[a]) not in _JOINT_TRANSMISSIONS:
                 continue
             dof = int(model.jnt_dofadr[model.actuator_trnid[a, 0]])
             gear = float(model.actuator_gear[a, 0])

@@ -964,10 +964,9 @@ class LabPage:
     # -- per frame ------------------------------------------------------------------------
     def plot_data(self, sim: LabSim) -> dict[str, tuple[Array, Array]]:
         """The plotted series, times relative to now [s] (see :meth:`LabSim.csv`)."""
-        now = sim.time
-        t, v = sim.speed_history()
-        _, tau = sim.torque_history()
-        ts, s = sim.sigma_history()
+        # One read of the time and the series: a step between separate reads put samples
+        # after "now" (issue 21: the browser test saw them right after a reset).
+        now, (t, v), (_, tau), (ts, s) = sim.histories()
         return {
             "speed": (t - now, v),
             "torque": (t - now, tau),

@@ -140,6 +140,17 @@ class LabReadouts:
         return ", ".join(self.contact_pairs) or "none"
 
 
+def six_sigmas(sigma: Array) -> Array:
+    """The six singular values of a site Jacobian, zeros for the directions past its columns.
+
+    An arm of n < 6 joints has n singular values; the 6 - n tool directions it cannot move
+    along (the last columns of U) have sigma 0.
+    """
+    out = np.zeros(6)
+    out[: len(sigma)] = sigma[:6]
+    return out
+
+
 def velocity_ellipsoid(J: Array) -> tuple[Array, Array]:
     """Axes (columns, a rotation) and semi-axes of the tool's translational velocity ellipsoid.
 
@@ -466,7 +477,7 @@ class LabSim:
     def _record_sigma(self) -> None:
         J = self.arm.jacobian(self.data.qpos)
         self._sigma_t.append(self.time)
-        self._sigma_v.append(float(linalg.jacobian_svd(J).sigma[-1]))
+        self._sigma_v.append(float(six_sigmas(linalg.jacobian_svd(J).sigma)[-1]))
 
     # -- readouts ------------------------------------------------------------------------
     def readouts(self) -> LabReadouts:
@@ -476,6 +487,7 @@ class LabSim:
             q = d.qpos.copy()
             J = self.arm.jacobian(q)
             svd = linalg.jacobian_svd(J)
+            sigma = six_sigmas(svd.sigma)
             axes, semi = velocity_ellipsoid(J)
             contacts = self._checker.contacts(q)
             pairs = {c.pair for c in contacts}
@@ -495,10 +507,10 @@ class LabSim:
                 kd=self.kd,
                 armature=self.model.dof_armature.copy(),
                 contact_forces=self.contact_forces,
-                sigma=svd.sigma.copy(),
-                sigma_min=float(svd.sigma[-1]),
+                sigma=sigma,
+                sigma_min=float(sigma[-1]),
                 manipulability=svd.manipulability,
-                lost=svd.U[:, svd.sigma < LOST_SIGMA].copy(),
+                lost=svd.U[:, sigma < LOST_SIGMA].copy(),
                 velocity_axes=axes,
                 velocity_semi_axes=semi,
                 tool_position=self.arm.site_pose(q)[0],
@@ -536,6 +548,17 @@ class LabSim:
         with self._lock:
             return self._window(self._sigma_t, self._sigma_v, SIGMA_WINDOW)
 
+    def histories(
+        self,
+    ) -> tuple[float, tuple[Array, Array], tuple[Array, Array], tuple[Array, Array]]:
+        """The simulated time [s] and the three plotted series, read at one instant.
+
+        One lock over all four, so no sample is later than the time returned (the runner
+        thread steps between separate reads: a plot drawn from them showed data after now).
+        """
+        with self._lock:
+            return self.time, self.speed_history(), self.torque_history(), self.sigma_history()
+
     def csv(self) -> str:
         """The plotted series as CSV: one block per plot, times relative to now [s].
 
@@ -543,11 +566,7 @@ class LabSim:
         (N m) or ``sigma_min``, and ``t_rel`` is the sample's time minus the current
         simulated time (0 is now, negative is the past), as on the plots.
         """
-        with self._lock:
-            now = self.time
-            t, v = self.speed_history()
-            _, tau = self.torque_history()
-            ts, s = self.sigma_history()
+        now, (t, v), (_, tau), (ts, s) = self.histories()
         out = io.StringIO()
         out.write(f"# {self.arm.source}: {self.watch_joint}, simulated time {now:.6f} s\n")
         out.write("series,t_rel (s),value\n")

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..engines.mujoco import object_names
+from ..errors import UnsupportedFeatureError
 from ..inertia import max_stable_timestep as inertia_bound
 
 Array = NDArray[np.float64]
@@ -25,11 +26,62 @@ Array = NDArray[np.float64]
 RK4_STABILITY = 2.785293563405282
 
 
+#: Transmissions that drive one joint by its own coordinate: ``jointinparent`` differs from
+#: ``joint`` only for ball and free joints (their frame), which an arm does not have.
+JOINT_TRANSMISSIONS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+
+_TRANSMISSION_NAMES = {
+    int(mujoco.mjtTrn.mjTRN_SITE): "site",
+    int(mujoco.mjtTrn.mjTRN_SLIDERCRANK): "slider-crank",
+    int(mujoco.mjtTrn.mjTRN_BODY): "body (adhesion)",
+    int(mujoco.mjtTrn.mjTRN_TENDON): "tendon",
+}
+
+
+def check_transmissions(model: mujoco.MjModel) -> None:
+    """Refuse an actuator whose transmission reaches the arm other than through one joint.
+
+    Joint and joint-in-parent transmissions are read (effort, armature, damping). A site or
+    slider-crank transmission applies J^T of its sites (moment arms that depend on the
+    pose) and a body (adhesion) transmission applies contact forces: the per-joint effort,
+    reflected armature and damping this module reports would not describe them. One whose
+    site (or reference or slider site) is on a body a joint moves is refused; a body
+    transmission always. Tendons are refused when the model is loaded (Pinocchio does not
+    read them).
+
+    Raises:
+        UnsupportedFeatureError: Naming the actuator and its transmission.
+    """
+    names = object_names(model, mujoco.mjtObj.mjOBJ_ACTUATOR)
+    sites = (int(mujoco.mjtTrn.mjTRN_SITE), int(mujoco.mjtTrn.mjTRN_SLIDERCRANK))
+    for a in range(model.nu):
+        kind = int(model.actuator_trntype[a])
+        if kind in JOINT_TRANSMISSIONS:
+            continue
+        if kind in sites:
+            ids = [int(i) for i in model.actuator_trnid[a] if i >= 0]
+            # body_weldid 0: the body is welded to the world, no joint moves it.
+            if all(model.body_weldid[model.site_bodyid[i]] == 0 for i in ids):
+                continue
+        name = names[a] or f"#{a}"
+        raise UnsupportedFeatureError(
+            f"{_TRANSMISSION_NAMES.get(kind, str(kind))} transmission",
+            f"actuator {name!r}",
+            "it drives the arm's joints through pose-dependent moment arms; the library "
+            "reads actuators with a joint transmission only (joint, jointinparent)",
+        )
+
+
 def _joint_actuators(model: mujoco.MjModel) -> list[tuple[int, int, int, float]]:
-    """(actuator, dof, qpos address, gear) for every actuator with a joint transmission."""
+    """(actuator, dof, qpos address, gear) for every actuator with a joint transmission.
+
+    Raises:
+        UnsupportedFeatureError: As :func:`check_transmissions`.
+    """
+    check_transmissions(model)
     out = []
     for a in range(model.nu):
-        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
+        if int(model.actuator_trntype[a]) in JOINT_TRANSMISSIONS:
             j = model.actuator_trnid[a, 0]
             out.append(
                 (

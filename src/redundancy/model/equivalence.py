@@ -22,6 +22,7 @@ from ..errors import RedundancyError
 from .actuators import simulation
 from .bridges import Bridge, effective_gravity
 from .names import display_names
+from .scales import arm_scales, scaled_error
 
 
 @dataclass(frozen=True)
@@ -33,7 +34,7 @@ class Difference:
         item: Joint, body or site it concerns.
         mujoco: MuJoCo's value.
         pinocchio: Pinocchio's value.
-        error: Largest absolute difference.
+        error: Largest difference, relative to the quantity's scale (see model.scales).
     """
 
     quantity: str
@@ -90,9 +91,9 @@ class EquivalenceReport:
     Attributes:
         differences: Every mismatch, with both values.
         bridges: Values copied from MuJoCo into Pinocchio because its parser does not read them.
-        tol: Absolute tolerance used [SI units of each quantity].
+        tol: Relative tolerance used (differences over each quantity's scale) [-].
         checked: Names of the quantities compared.
-        largest: Largest absolute difference per compared quantity, within tolerance or not.
+        largest: Largest relative difference per compared quantity, within tolerance or not.
         simulated: What MuJoCo simulates that neither engine's numbers include.
     """
 
@@ -212,7 +213,9 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     Args:
         arm: The loaded arm.
         q: Reference pose [rad or m]; defaults to zeros clipped into the joint ranges.
-        tol: Absolute tolerance [SI units].
+        tol: Relative tolerance: each difference is divided by its quantity's scale
+            (:func:`~redundancy.model.scales.scaled_error`; the arm's length for
+            positions, m L^2 for inertias...) [-].
     """
     if not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol >= 0):
         raise RedundancyError(f"tol must be a finite number >= 0, got {tol!r}")
@@ -221,9 +224,24 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     names = arm.joint_names
     diffs: list[Difference] = []
     largest: dict[str, float] = {}
+    sc = arm_scales(arm)
+    L = sc.length
+    sizes = {  # each quantity's size on this arm (see model.scales)
+        "joint axis (world)": 1.0,
+        "joint axis line offset": L,
+        "armature": sc.inertia,
+        "damping": sc.inertia * np.sqrt(sc.gravity / L),  # m L^2 / (time scale sqrt(L/g))
+        "effort limit": sc.torque,
+        "body mass": sc.mass,
+        "centre of mass (world)": L,
+        "inertia about com (world)": sc.inertia,
+        "site position": L,
+        "site orientation": 1.0,
+        "gravity vector": sc.gravity,
+    }
 
-    def cmp(quantity: str, item: str, a: object, b: object) -> None:
-        e = abs_error(a, b)
+    def cmp(quantity: str, item: str, a: object, b: object, size: float | None = None) -> None:
+        e = scaled_error(a, b, sizes[quantity] if size is None else size)
         largest[quantity] = max(largest.get(quantity, 0.0), e)
         if e > tol:
             diffs.append(Difference(quantity, item, a, b, e))
@@ -256,7 +274,9 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
             cmp("joint axis line offset", n, np.zeros(3), r - (r @ ax_m[i]) * ax_m[i])
     lo_p, hi_p = pn.limits
     for i, n in enumerate(names):
-        cmp("joint range", n, np.array([arm.lower[i], arm.upper[i]]), np.array([lo_p[i], hi_p[i]]))
+        unit = 1.0 if arm.joint_types[i] == "hinge" else L  # rad or m
+        lo_hi = np.array([arm.lower[i], arm.upper[i]])
+        cmp("joint range", n, lo_hi, np.array([lo_p[i], hi_p[i]]), unit)
     cmp_vec = [
         ("armature", arm.armature("mujoco"), arm.armature("pinocchio")),
         ("damping", arm.damping("mujoco"), arm.damping("pinocchio")),

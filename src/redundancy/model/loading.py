@@ -142,12 +142,22 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
     if not isinstance(path, str | os.PathLike):
         raise ModelError(f"load() takes a file path, got {type(path).__name__}")
     text = os.fspath(path)
-    if isinstance(text, str) and text.lstrip().startswith("<"):
+    # An existing file may be named "<arm7>.xml": only a path to nothing can be XML text.
+    if isinstance(text, str) and text.lstrip().startswith("<") and not os.path.exists(text):
         raise ModelError(
             f"load() takes a file path, and this looks like XML text ({text.strip()[:40]!r}...); "
             "use load_string() for model text"
         )
     p = Path(text)
+    if isinstance(text, str) and not text.isascii():
+        try:
+            text.encode("utf-8")
+        except UnicodeEncodeError:  # bytes that are not UTF-8, as the OS gave them to Python
+            shown = os.fsencode(text).decode("utf-8", "backslashreplace")
+            raise ModelError(
+                f"the model file name '{shown}' is not UTF-8, which MuJoCo and Pinocchio "
+                "require of file names: rename the file"
+            ) from None
     try:
         return p, p.read_bytes()
     except FileNotFoundError as err:

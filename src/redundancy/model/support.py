@@ -299,6 +299,14 @@ def _check_xml_strict(root: ET.Element) -> None:
             "worldbody",
             "Pinocchio's MJCF parser does not expand it; write the copies out",
         )
+    attach = root.find(".//attach")
+    if attach is not None:
+        raise UnsupportedFeatureError(
+            "<attach> element",
+            _tag(attach, "model", "body", "prefix"),
+            "Pinocchio's MJCF parser does not expand it (the attached bodies would be missing "
+            "from one engine); write the attached model's bodies out",
+        )
     for default in root.iter("default"):
         where = f"<default class={default.get('class', 'main')!r}>"
         for joint in default.findall("joint"):

@@ -126,12 +126,17 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
         raise ModelError(f"URDF {source}: a <link> has no name")
     if not links:
         raise ModelError(f"URDF {source}: no <link> elements")
+    repeated = sorted({n for n in links if links.count(n) > 1})
+    if repeated:  # before the engines' parsers, which say it in their own words (and C++'s)
+        raise ModelError(f"URDF {source}: link names must be unique; repeated: {repeated}")
     joints: dict[str, tuple[str, str, str]] = {}
     for el in root.findall("joint"):
         name, kind = el.get("name", ""), el.get("type", "")
         parent, child = el.find("parent"), el.find("child")
         if not name or parent is None or child is None:
             raise ModelError(f"URDF {source}: joint {name!r} needs a name, <parent> and <child>")
+        if name in joints:
+            raise ModelError(f"URDF {source}: joint names must be unique; repeated: {name!r}")
         if kind not in _JOINT_TYPES:
             raise ModelError(
                 f"URDF {source}: joint {name!r} has type {kind!r}; "
@@ -164,6 +169,30 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
     if len(roots) != 1:
         raise ModelError(
             f"URDF {source}: the links must form one tree with one root; roots found: {roots}"
+        )
+    parents_of: dict[str, list[str]] = {}
+    for name, (_, _, c) in joints.items():
+        parents_of.setdefault(c, []).append(name)
+    for link, named in parents_of.items():
+        if len(named) > 1:
+            raise ModelError(
+                f"URDF {source}: the links must form one tree; link {link!r} is the child of "
+                f"several joints {named} (a loop)"
+            )
+    below: dict[str, list[str]] = {}
+    for _, p, c in joints.values():
+        below.setdefault(p, []).append(c)
+    reached, todo = {roots[0]}, [roots[0]]
+    while todo:
+        for c in below.get(todo.pop(), []):
+            if c not in reached:
+                reached.add(c)
+                todo.append(c)
+    if len(reached) != len(links):
+        cut = [n for n in links if n not in reached]
+        raise ModelError(
+            f"URDF {source}: the links must form one tree; {cut} are not reached from the "
+            f"root {roots[0]!r} (a loop)"
         )
     tree = UrdfTree(root.get("name", ""), links, joints, roots[0])
     if not tree.moving_joints:

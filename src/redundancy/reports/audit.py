@@ -650,7 +650,7 @@ def _engine_lines(r: AuditReport) -> list[str]:
     cc, eq = r.engines.crosscheck, r.engines.equivalence
     out = [
         f"engine cross-check over {cc.n_poses} poses ({r.engines.second_order_poses} for dJ/dq "
-        "and the manipulability gradient), |MuJoCo - Pinocchio| / max(1, |value|):",
+        "and the manipulability gradient), |MuJoCo - Pinocchio| / the quantity's scale:",
         *table(
             ["quantity", "max error", "tol", ""],
             [

@@ -8,8 +8,9 @@ Rules (checked by :func:`check_target` before any work, so a bad path fails at o
   link to nothing (dangling) is refused;
 * an existing file keeps its permission bits; a new one gets ``0o666`` less the umask, as
   ``open()`` would give it;
-* the new content goes to a temporary file in the same directory, is flushed to disk, then
-  renamed over the target: a crash leaves the old content or the new, never half of one.
+* the new content goes to a temporary file in the same directory (``.redundancy-*.tmp``, a
+  short name whatever the target's length), is flushed to disk, then renamed over the
+  target: a crash leaves the old content or the new, never half of one.
 """
 
 from __future__ import annotations
@@ -20,6 +21,10 @@ import tempfile
 from pathlib import Path
 
 from ..errors import RedundancyError
+
+#: Start of the temporary file's name beside the target: short and fixed, so any legal
+#: target name (up to 255 bytes) works; a name built from the target's overflowed there.
+_TMP_PREFIX = ".redundancy-"
 
 
 class OutputPathError(RedundancyError, OSError):
@@ -62,7 +67,7 @@ def check_target(path: str | os.PathLike[str]) -> Path:
     if not parent.is_dir():
         raise OutputPathError(f"directory {str(parent)!r} of {shown!r} does not exist")
     try:  # the one sure test of "can a file be created there": create one (procfs, read-only)
-        fd, probe = tempfile.mkstemp(dir=parent, prefix=f".{p.name}.", suffix=".probe")
+        fd, probe = tempfile.mkstemp(dir=parent, prefix=_TMP_PREFIX, suffix=".probe")
         os.close(fd)
         os.unlink(probe)
     except OSError as err:
@@ -97,7 +102,7 @@ def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
     """
     p = check_target(path)
     mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else 0o666 & ~_umask()
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=_TMP_PREFIX, suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)

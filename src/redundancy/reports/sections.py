@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from .. import linalg
 from ..analysis import batch
-from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, pose_errors, worst
+from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, quantity_errors, worst
 from ..arm import Arm, sampling_ranges
 from ..collision import (
     CollisionStatistics,
@@ -33,6 +33,7 @@ from ..collision import (
 from ..engines.mujoco import MujocoEngine
 from ..model import actuators
 from ..model.actuators import Simulation
+from ..model.scales import arm_scales
 
 Array = NDArray[np.float64]
 
@@ -401,11 +402,12 @@ def gravity_budget(
     worst_low, worst_high = _Worst(nv), _Worst(nv)
     n_over, diff = 0, 0.0
     found, offset = (0.0, 0), 0
+    scales = arm_scales(arm)
     for Q in pose_chunks(arm, n_poses, seed):
         tau = batch.gravities(arm, Q, "mujoco")
         tau_p = batch.gravities(arm, Q, "pinocchio")
         diff = max(diff, float(np.max(np.abs(tau - tau_p))))
-        found = merge_worst(found, worst(pose_errors(tau, tau_p)), offset)
+        found = merge_worst(found, worst(quantity_errors("gravity", tau, tau_p, scales)), offset)
         offset += len(Q)
         need, effort = load(Q, tau)
         low, high = np.minimum(low, need.min(axis=0)), np.maximum(high, need.max(axis=0))

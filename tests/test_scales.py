@@ -1,0 +1,125 @@
+"""Issue 21, case 5: tolerances relative to each quantity's scale on the arm.
+
+A 2.5 mm arm and a 150 m crane are held to the same relative 1e-9 by the cross-check,
+``compare`` and ``compare_models``: an absolute 1e-9 (or 1e-9 x max(1, |value|)) let the
+engines' mass matrices differ by 57 % on the small arm.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import redundancy as rd
+from redundancy.model.scales import arm_scales, scaled_error, scaled_errors
+
+
+def scaled_arm(length: float, mass: float = 1.0) -> str:
+    """Three links of ``length`` / 3 each [m], ``mass`` / 3 each [kg], hinges y, z, y."""
+    a = length / 3
+    inertial = (
+        f'<inertial pos="0 0 {a / 2}" mass="{mass / 3}" '
+        f'diaginertia="{mass * a * a / 36} {mass * a * a / 36} {mass * a * a / 360}"/>'
+    )
+    return f"""
+<mujoco><compiler angle="radian"/><worldbody>
+  <body name="l1"><joint name="j1" axis="0 1 0"/>{inertial}
+    <geom type="capsule" fromto="0 0 0 0 0 {a}" size="{a / 10}" contype="0" conaffinity="0"/>
+    <body name="l2" pos="0 0 {a}"><joint name="j2" axis="0 0 1"/>{inertial}
+      <geom type="capsule" fromto="0 0 0 0 0 {a}" size="{a / 10}" contype="0" conaffinity="0"/>
+      <body name="l3" pos="0 0 {a}"><joint name="j3" axis="0 1 0"/>{inertial}
+        <geom type="capsule" fromto="0 0 0 0 0 {a}" size="{a / 10}" contype="0" conaffinity="0"/>
+        <site name="tip" pos="0 0 {a}"/>
+      </body>
+    </body>
+  </body>
+</worldbody></mujoco>"""
+
+
+#: The issue's two ends: a 2.5 mm arm of 2 mg, and a 150 m crane of 200 t.
+TINY, CRANE = (2.5e-3, 2e-6), (150.0, 2e5)
+POSES = np.array([[0.3, -0.4, 0.9], [1.2, 0.5, -0.7], [0.0, 0.0, 0.0]])
+
+
+def test_scales_of_an_arm() -> None:
+    s = arm_scales(rd.load_string(scaled_arm(*TINY), site="tip"))
+    assert s.length == pytest.approx(2.5e-3) and s.mass == pytest.approx(2e-6)
+    assert s.gravity == pytest.approx(9.81)
+    assert s.inertia == pytest.approx(2e-6 * 2.5e-3**2)
+    assert s.torque == pytest.approx(2e-6 * 9.81 * 2.5e-3)
+
+
+@pytest.mark.parametrize("size", [TINY, CRANE], ids=["2.5 mm", "150 m"])
+def test_crosscheck_passes_both_ends_of_the_scale(size: tuple[float, float]) -> None:
+    arm = rd.load_string(scaled_arm(*size), site="tip")
+    report = rd.crosscheck(arm, POSES)
+    assert report.ok, report.lines()
+
+
+def scaled_pinocchio_inertia(arm: rd.Arm, factor: float) -> None:
+    """Make the engines disagree: every link inertia in Pinocchio's model times ``factor``."""
+    model = arm.pinocchio.model
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        model.inertias[j] = pin.Inertia(
+            inertia.mass * factor, inertia.lever, inertia.inertia * factor
+        )
+
+
+def test_crosscheck_sees_57_percent_on_a_small_arm() -> None:
+    """The engines' M differ by 57 %: the old measure called that ok (differences of 1e-12
+    kg m^2 against a tolerance of 1e-9 x max(1, |value|))."""
+    arm = rd.load_string(scaled_arm(*TINY), site="tip")
+    scaled_pinocchio_inertia(arm, 1.57)
+    M_mj, M_pin = arm.mass_matrix(POSES[0]), arm.mass_matrix(POSES[0], engine="pinocchio")
+    assert np.max(np.abs(M_mj - M_pin)) < 1e-9  # what an absolute tolerance passes
+    report = rd.crosscheck(arm, POSES, quantities=["mass matrix", "gravity"])
+    assert not report.ok
+    assert report["mass matrix"].max_error == pytest.approx(0.57, rel=1e-6)
+    assert report["gravity"].max_error > 0.1
+
+
+def test_crane_rounding_is_not_a_disagreement() -> None:
+    """On a 150 m, 200 t crane the M entries are 1e8 to 1e9 kg m^2: rounding is ~1e-7
+    absolute, 1e-16 of the scale."""
+    arm = rd.load_string(scaled_arm(*CRANE), site="tip")
+    report = rd.crosscheck(arm, POSES)
+    assert report.ok and report["mass matrix"].max_error < 1e-12, report.lines()
+
+
+def test_compare_sees_tenfold_inertias_on_a_small_arm(tmp_path: Path) -> None:
+    """Two files of a 2.5 mm arm whose masses and inertias differ 10x were "same robot"."""
+    a, b = tmp_path / "a.xml", tmp_path / "b.xml"
+    a.write_text(scaled_arm(*TINY))
+    b.write_text(scaled_arm(TINY[0], TINY[1] * 10))
+    result = rd.compare(a, b, frame_a="tip", frame_b="tip", n_poses=5)
+    assert result.verdict == "different"
+    assert result.largest["body mass"] == pytest.approx(9.0)  # |a - 10 a| / a
+    assert result.largest["mass matrix"] == pytest.approx(9.0)
+    # The same file against itself, at either end of the scale, is the same robot.
+    for size in (TINY, CRANE):
+        c = tmp_path / "c.xml"
+        c.write_text(scaled_arm(*size))
+        assert rd.compare(c, c, frame_a="tip", frame_b="tip", n_poses=5).equivalent
+
+
+def test_compare_models_sees_engines_apart_on_a_small_arm() -> None:
+    arm = rd.load_string(scaled_arm(*TINY), site="tip")
+    assert rd.compare_models(arm).equivalent
+    scaled_pinocchio_inertia(arm, 10.0)
+    report = rd.compare_models(arm)
+    assert {d.quantity for d in report.differences} == {"body mass", "inertia about com (world)"}
+
+
+def test_scaled_error_measure() -> None:
+    a = np.array([[1e-12, 2e-12], [0.0, 0.0]])
+    b = np.array([[1.5e-12, 2e-12], [1e-30, 0.0]])
+    # Pose 0: relative to its own size; pose 1: near zero, relative to the floor.
+    np.testing.assert_allclose(scaled_errors(a, b, 1e-12), [0.25, 1e-15])
+    assert scaled_error([0.0, 1e-9], [0.0, 0.0], 1.0) == pytest.approx(1e-6)  # FLOOR x size
+    assert scaled_error([np.inf, 1.0], [np.inf, 1.0], 1.0) == 0.0
+    assert scaled_error([np.inf, 1.0], [1.0, 1.0], 1.0) == np.inf
+    assert scaled_error(2.0, 3.0, 0.0) == 0.5
