@@ -5,7 +5,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup audit test test-thorough example bench lint clean lab screenshot
+.PHONY: setup audit test test-thorough example bench lint clean lab screenshot docs dist-check typecheck
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,7 +26,7 @@ test: $(STAMP)           ## the default (fast) suite, as CI runs it
 test-thorough: $(STAMP)  ## >= 1000 hypothesis examples per property, plus the slow sweeps
 	@# A fresh seed each run, printed in pytest's header; HYPOTHESIS_SEED=N reruns one.
 	SEED=$${HYPOTHESIS_SEED:-$$(od -An -N4 -tu4 /dev/urandom | tr -d ' ')}; \
-	HYPOTHESIS_PROFILE=thorough $(BIN)/python -m pytest -m "slow or not slow" --hypothesis-seed=$$SEED
+	HYPOTHESIS_PROFILE=redundancy-thorough $(BIN)/python -m pytest -m "slow or not slow" --hypothesis-seed=$$SEED
 
 example: $(STAMP)        ## the worked example: arm7's six tables (lesson 5.2)
 	$(BIN)/redundancy example arm7
@@ -41,9 +41,23 @@ lab: $(STAMP)            ## the interactive lab at http://127.0.0.1:8080/
 screenshot: $(STAMP)     ## docs/lab.png (needs chromium)
 	$(BIN)/python scripts/lab_screenshot.py
 
+docs: $(STAMP)           ## the API reference from the docstrings, into site/ (fails on any warning)
+	$(BIN)/mkdocs build --strict --site-dir site
+
+dist-check: $(STAMP)     ## build the sdist and the wheel into dist/ and run twine check on them
+	rm -rf dist
+	$(BIN)/python -m build --no-isolation --outdir dist .
+	$(BIN)/twine check --strict dist/*
+
+typecheck: $(STAMP)      ## pyright's completeness score of the public API (--verifytypes)
+	@# PYTHONPATH: the checkout's package, ahead of the models/ folder the editable wheel
+	@# force-includes into site-packages/redundancy.
+	PYTHONPATH=src $(BIN)/pyright --pythonpath $(BIN)/python --verifytypes redundancy \
+		--ignoreexternal | grep -E "^Type completeness score"
+
 lint: $(STAMP)
 	$(BIN)/ruff check src tests scripts
 	$(BIN)/ruff format --check src tests scripts
 
 clean:
-	rm -rf $(VENV) build dist .pytest_cache .hypothesis
+	rm -rf $(VENV) build dist site .pytest_cache .hypothesis

@@ -1,4 +1,5 @@
-"""Shared fixtures. Hypothesis profile: $HYPOTHESIS_PROFILE = default (CI) or thorough."""
+"""Shared fixtures. Hypothesis profile: $HYPOTHESIS_PROFILE = redundancy-ci (the default) or
+redundancy-thorough (`make test-thorough`); a profile of one's own is left in force."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from redundancy.testing import register_profiles
 
 from .models import SKEW7
 
-PROFILE = register_profiles()
+PROFILE = register_profiles(default="redundancy-ci")
 
 #: The arms the core properties run on: the lesson's, the Panda, and the oddities of SKEW7.
 ARM_NAMES = ("arm7", "panda", "skew7")
@@ -25,7 +26,7 @@ def pytest_configure(config: pytest.Config) -> None:
 
 def pytest_report_header(config: pytest.Config) -> str:
     seed = config.getoption("hypothesis_seed", None)
-    if PROFILE == "default":
+    if PROFILE == "redundancy-ci":
         return f"hypothesis profile: {PROFILE} (derandomized)"
     return f"hypothesis profile: {PROFILE}, seed {seed} (rerun with --hypothesis-seed={seed})"
 

@@ -577,7 +577,10 @@ def test_tendon_transmission_is_refused_with_the_tendon() -> None:
         '<tendon><fixed name="t"><joint joint="a" coef="1"/></fixed></tendon>'
         '<actuator><motor tendon="t"/></actuator>'
     )
-    with pytest.raises(rd.UnsupportedFeatureError, match=r"^unsupported feature: tendon \(1 in"):
+    with pytest.raises(
+        rd.UnsupportedFeatureError,
+        match=r"^unsupported feature: tendon on an arm joint \(tendon 't' \(arm joint 'a'\)\)",
+    ):
         rd.load_string(chain(extra=tendon), site="tip")
 
 

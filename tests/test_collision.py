@@ -501,7 +501,7 @@ def assert_engines_agree(arm: rd.Arm, q: np.ndarray) -> None:
 @given(data=st.data())
 def test_engines_agree(arm: rd.Arm, data: st.DataObject) -> None:
     """On every primitive type, and on arm7: the issue's acceptance property (>= 1000
-    examples under HYPOTHESIS_PROFILE=thorough)."""
+    examples under HYPOTHESIS_PROFILE=redundancy-thorough)."""
     q = data.draw(poses(arm))
     assert_engines_agree(arm, q)
 

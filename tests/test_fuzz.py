@@ -9,7 +9,7 @@ usable, and when its equivalence report shows no difference the engines must agr
 zero pose and at a bent pose (never agreement reported between two different arms), for
 masses, inertias and offsets below :data:`PLAUSIBLE`.
 
-Budget: 30 examples by default (a few seconds), 400 under ``HYPOTHESIS_PROFILE=thorough``.
+Budget: 30 examples by default (a few seconds), 400 under ``HYPOTHESIS_PROFILE=redundancy-thorough``.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Each drawn arm is loaded into both engines; the compiled models must be equivale
 site pose, J, dJ/dq, M and gravity must agree at poses drawn inside the joint ranges, as must
 the collision distances of MuJoCo's pair set (coal against ``mj_geomDistance``). A failure
 shrinks to a small model. The number of models scales with the hypothesis profile: 100 by
-default, 2000 under ``HYPOTHESIS_PROFILE=thorough``.
+default, 2000 under ``HYPOTHESIS_PROFILE=redundancy-thorough``.
 
 Every class of disagreement these properties found has a regression test below, holding the
 shrunk model: the library now refuses it with a clear error, or the disagreement is a known
@@ -32,10 +32,11 @@ from redundancy.testing import PROFILES, poses
 
 from .fullmodel import largest_difference_to_full_model
 
-#: The loaded profile's examples per property: 60 by default, 1000 under "thorough".
+#: The loaded profile's examples per property: 60 under "redundancy-ci", 1000 under
+#: "redundancy-thorough".
 EXAMPLES = settings().max_examples
 #: Generated models per run: 100 by default, 2000 under the thorough profile.
-N_MODELS = 100 if EXAMPLES < PROFILES["thorough"] else 2 * EXAMPLES
+N_MODELS = 100 if EXAMPLES < PROFILES["redundancy-thorough"] else 2 * EXAMPLES
 BAND = col.AMBIGUITY_BAND
 TIGHT = 1e-9
 CURVED = {"cylinder", "ellipsoid"}

@@ -123,3 +123,14 @@ def test_scaled_error_measure() -> None:
     assert scaled_error([np.inf, 1.0], [np.inf, 1.0], 1.0) == 0.0
     assert scaled_error([np.inf, 1.0], [1.0, 1.0], 1.0) == np.inf
     assert scaled_error(2.0, 3.0, 0.0) == 0.5
+
+
+def test_bodies_at_one_point_have_the_size_of_their_geoms() -> None:
+    """Every body offset zero: the length is MuJoCo's extent, not zero (which would turn
+    rounding noise into a relative error of 1e282)."""
+    xml = """<mujoco><worldbody><body name="b0"><geom type="sphere" size="0.062"/>
+      <body name="b1" euler="0 0 1"><joint name="j0" pos="0 0.062 0"/>
+      <geom type="sphere" size="0.062"/><site name="tip"/></body></body></worldbody></mujoco>"""
+    arm = rd.load_string(xml, site="tip")
+    assert arm_scales(arm).length == pytest.approx(arm.mj_model.stat.extent)
+    assert rd.compare_models(arm).equivalent

@@ -28,7 +28,7 @@ from redundancy.testing import poses
 from .models import SKEW7
 
 THREADS = 8
-#: Examples per threaded property: 5 under the default profile (60), 83 under "thorough".
+#: Examples per threaded property: 5 under "redundancy-ci" (60), 83 under "redundancy-thorough".
 HAMMER_EXAMPLES = max(3, settings.default.max_examples // 12)
 
 

@@ -9,6 +9,9 @@ Example:
 
 from __future__ import annotations
 
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as _version
+
 from . import collision, engines
 from .analysis import batch, selfmotion
 from .analysis.compare import Comparison, compare
@@ -19,7 +22,7 @@ from .analysis.crosscheck import (
     crosscheck,
     crosscheck_batch,
 )
-from .arm import Arm
+from .arm import Arm, random_poses
 from .collision import (
     CollisionChecker,
     check_path,
@@ -44,7 +47,10 @@ from .model.equivalence import Difference, EquivalenceReport, compare_models
 from .model.loading import load, load_string
 from .models import example_robot_data, model_path
 
-__version__ = "0.1.0"
+try:  # the installed distribution's version: one number, in pyproject.toml
+    __version__: str = _version("redundancy")
+except PackageNotFoundError:  # pragma: no cover - a source tree on sys.path, not installed
+    __version__ = "0+unknown"
 
 __all__ = [
     "TOLERANCES",
@@ -84,6 +90,7 @@ __all__ = [
     "max_stable_timestep",
     "model_path",
     "pathcheck",
+    "random_poses",
     "reflected_inertia",
     "rotor_inertia",
     "selfmotion",

@@ -81,24 +81,30 @@ class Arm:
     ) -> None:
         self.source = source
         self.site = site
-        self.joint_names = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
-        self.joint_types = tuple(JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type)
-        self.nq = mj_model.nq
-        self.effort_limit = np.asarray(effort_limit, dtype=float)
-        self.bridges = tuple(bridges)
-        self.mujoco = MujocoEngine(mj_model, site, armature, damping)
-        self.pinocchio = PinocchioEngine(pin_model, site, self.joint_names, frame_type)
-        self.lower, self.upper = self.mujoco.limits
+        self.joint_names: tuple[str, ...] = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
+        self.joint_types: tuple[str, ...] = tuple(
+            JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type
+        )
+        self.nq: int = mj_model.nq
+        self.effort_limit: Array = np.asarray(effort_limit, dtype=float)
+        self.bridges: tuple[Any, ...] = tuple(bridges)
+        self.mujoco: MujocoEngine = MujocoEngine(mj_model, site, armature, damping)
+        self.pinocchio: PinocchioEngine = PinocchioEngine(
+            pin_model, site, self.joint_names, frame_type
+        )
+        limits: tuple[Array, Array] = self.mujoco.limits
+        self.lower: Array = limits[0]
+        self.upper: Array = limits[1]
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
         self._recipe = recipe
         self.model_format = model_format
         self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
-        self.set_aside = tuple(set_aside)
-        self.defects = tuple(defects)
-        self.robot_model = mj_model if robot_model is None else robot_model
-        self.frame_type = frame_type
-        self.base = base
-        self.rest = rest
+        self.set_aside: tuple[Any, ...] = tuple(set_aside)
+        self.defects: tuple[str, ...] = tuple(defects)
+        self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
+        self.frame_type: str = frame_type
+        self.base: str | None = base
+        self.rest: str = rest
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
         # Engine models and data do not pickle (and views into MjData would become detached

@@ -44,7 +44,7 @@ class UnknownNameError(RedundancyError, KeyError):
     def __init__(self, kind: str, name: str, valid: Sequence[str]) -> None:
         self.kind = kind
         self.name = name
-        self.valid = tuple(valid)
+        self.valid: tuple[str, ...] = tuple(valid)
         super().__init__(kind, name)
 
     def __str__(self) -> str:

@@ -31,10 +31,10 @@ import numpy as np
 
 try:
     from hypothesis import strategies as st
-except ImportError as err:  # pragma: no cover - exercised only without the extra
+except ImportError as _err:  # pragma: no cover - exercised only without the extra
     from .errors import MissingDependencyError
 
-    raise MissingDependencyError("hypothesis", "test") from err
+    raise MissingDependencyError("hypothesis", "test") from _err
 
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
 EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")
@@ -392,7 +392,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         jointed.insert(draw(st.integers(0, len(jointed))), False)
     if refuse == "free joint":
         jointed[0] = True
-    if refuse in ("ball joint", "free joint") and len(jointed) < 2:
+    if refuse in ("ball joint", "free joint") and sum(jointed) < 2:
         jointed.append(True)  # the ball or free joint is held: the arm needs a hinge or slide
     if refuse in (
         "tendon on an arm joint",
@@ -448,7 +448,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
             jattrs = draw(_joint_attrs(ctx, kind))
             if jclass:
                 jattrs += f' class="{jclass}"'
-            if refuse == "unnamed joint" and not joint_names:
+            if refuse == "unnamed joint" and i == n - 1:  # on the arm's chain
                 lines.append(f"<joint{jattrs}/>")
             elif refuse == "ball joint" and not joint_names:
                 lines.append(f'<joint name="{name}" type="ball" limited="false"/>')
@@ -456,7 +456,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
                 lines.append(f'<freejoint name="{name}"/>')
             else:
                 lines.append(f'<joint name="{name}"{jattrs}/>')
-            if refuse == "several joints in one body" and not joint_names:
+            if refuse == "several joints in one body" and i == n - 1:  # on the arm's chain
                 lines.append(f'<joint name="{name}b" type="hinge" axis="1 0 0"/>')
             joint_names.append(name)
             joint_kinds.append(eff)

@@ -7,12 +7,13 @@ same code serves both engines and users' own matrices.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .checks import check_matrix, check_number, describe, one_line
+from .display import Report, Table, table
 from .errors import ParameterError
 
 Array = NDArray[np.float64]
@@ -31,9 +32,12 @@ TOOL_DIRECTIONS = (
 )
 
 
-@dataclass(frozen=True)
-class JacobianSVD:
+@dataclass(frozen=True, repr=False)
+class JacobianSVD(Report):
     """Singular value decomposition J = U diag(sigma) V^T of a 6 x n site Jacobian.
+
+    ``print(svd)`` prints the singular values and the lost directions; a notebook shows them
+    as a table.
 
     Attributes:
         sigma: Singular values, descending, shape (6,) [mixed units: m/rad and rad/rad].
@@ -84,6 +88,44 @@ class JacobianSVD:
             if abs(np.linalg.norm(lost[i]) - 1.0) < atol
         ]
 
+    def summary(self) -> str:
+        """Rank, manipulability and condition number on one line."""
+        return (
+            f"rank {self.rank} of {len(self.sigma)}, manipulability {self.manipulability:.4g}, "
+            f"condition {self.condition:.4g}"
+        )
+
+    def _rows(self) -> list[tuple[str, str, str]]:
+        return [
+            (str(i + 1), f"{s:.6g}", "yes" if i < self.rank else "no (lost)")
+            for i, s in enumerate(self.sigma)
+        ]
+
+    def lines(self) -> list[str]:
+        """The summary, one line per singular value, and the lost directions when named."""
+        out = [self.summary() + f" (rank rtol {self.rtol:g})", "   i  sigma         counts"]
+        out += [f"{i:>4}  {s:<12}  {c}" for i, s, c in self._rows()]
+        names = self.lost_direction_names() if self.rank < len(self.sigma) else []
+        if names:
+            out.append("lost tool directions: " + ", ".join(names))
+        return out
+
+    def html_tables(self) -> list[Table]:
+        """One row per singular value."""
+        return [
+            table(
+                f"singular values (rank rtol {self.rtol:g})",
+                ("i", "sigma", "counts for the rank"),
+                self._rows(),
+                (True, True, False),
+            )
+        ]
+
+    def html_notes(self) -> list[str]:
+        """The lost tool directions, when they are coordinate axes."""
+        names = self.lost_direction_names() if self.rank < len(self.sigma) else []
+        return ["lost tool directions: " + ", ".join(names)] if names else []
+
 
 def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
     """SVD of a Jacobian with its numerical rank.
@@ -104,7 +146,7 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
     return JacobianSVD(sigma=s, U=U, V=Vt.T, rank=rank, rtol=rtol)
 
 
-class Manipulability:
+class Manipulability(Report):
     """Yoshikawa's manipulability of the whole Jacobian and of its blocks (see :func:`yoshikawa`).
 
     Singular values of the full J mix m/rad and rad/rad, so ``full`` depends on the unit of
@@ -126,7 +168,7 @@ class Manipulability:
     def __init__(self, J: Array, length: float = 1.0) -> None:
         self._J = J
         self._values: dict[str, float] = {}
-        self.length = float(length)
+        self.length: float = float(length)
 
     def _get(self, kind: str) -> float:
         value = self._values.get(kind)
@@ -134,16 +176,52 @@ class Manipulability:
             value = self._values[kind] = yoshikawa(manipulability_rows(self._J, kind, self.length))
         return value
 
-    full = property(lambda self: self._get("full"), doc="Product of J's singular values [mixed].")
-    position = property(lambda self: self._get("position"), doc="Linear rows [m^3/rad^3].")
-    orientation = property(lambda self: self._get("orientation"), doc="Angular rows [-].")
-    scaled = property(lambda self: self._get("scaled"), doc="Linear rows / length [-].")
+    @property
+    def full(self) -> float:
+        """Product of the singular values of the 6 x n J [mixed units]."""
+        return self._get("full")
 
-    def __repr__(self) -> str:
-        return (
-            f"Manipulability(full={self.full!r}, position={self.position!r}, "
-            f"orientation={self.orientation!r}, scaled={self.scaled!r}, length={self.length!r})"
-        )
+    @property
+    def position(self) -> float:
+        """sqrt(det(J J^T)) of the 3 linear rows [m^3/rad^3]."""
+        return self._get("position")
+
+    @property
+    def orientation(self) -> float:
+        """sqrt(det(J J^T)) of the 3 angular rows [dimensionless]."""
+        return self._get("orientation")
+
+    @property
+    def scaled(self) -> float:
+        """sqrt(det(J J^T)) with the linear rows divided by ``length`` [dimensionless]."""
+        return self._get("scaled")
+
+    def _rows(self) -> list[tuple[str, str, str]]:
+        return [
+            ("full", f"{self.full:.6g}", "mixed (m/rad and rad/rad)"),
+            ("position", f"{self.position:.6g}", "m^3/rad^3"),
+            ("orientation", f"{self.orientation:.6g}", "-"),
+            ("scaled", f"{self.scaled:.6g}", f"- (length {self.length:g} m)"),
+        ]
+
+    def summary(self) -> str:
+        """The four measures on one line."""
+        return ", ".join(f"{k} {v}" for k, v, _ in self._rows())
+
+    def lines(self) -> list[str]:
+        """One line per measure, with its unit."""
+        return [f"{k:<12} {v:<12} {unit}" for k, v, unit in self._rows()]
+
+    def html_tables(self) -> list[Table]:
+        """One row per measure."""
+        return [
+            table(
+                "Yoshikawa's manipulability sqrt(det(J J^T))",
+                ("measure", "value", "unit"),
+                self._rows(),
+                (False, True, False),
+            )
+        ]
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Manipulability):
@@ -151,7 +229,7 @@ class Manipulability:
         fields = ("full", "position", "orientation", "scaled", "length")
         return all(getattr(self, f) == getattr(other, f) for f in fields)
 
-    __hash__ = None  # type: ignore[assignment]
+    __hash__: ClassVar[None] = None  # type: ignore[assignment]  # equal by value: unhashable
 
 
 ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]

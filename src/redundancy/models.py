@@ -35,6 +35,27 @@ def model_path(name: str) -> Path:
     raise UnknownNameError("model", name, available())
 
 
+def bundled(name: str) -> Path | None:
+    """The bundled model a bare name means (``"panda"``), or None.
+
+    A name means a bundled model only when it is not a file (so a file called ``panda`` in
+    the working directory still wins), has no directory part and names one of
+    :func:`available`.
+    """
+    if not name or Path(name).exists() or Path(name).name != name:
+        return None
+    stem = name.removesuffix(".xml")
+    return model_path(stem) if stem in available() else None
+
+
+def not_found_hint(name: str) -> str:
+    """What to say after "model file not found" for a bare name: the bundled models."""
+    if Path(name).name != name:
+        return ""
+    names = ", ".join(available())
+    return f"; bundled models (load by name or rd.model_path(name)): {names}"
+
+
 #: Arms of example-robot-data (PyPI) with the tool frame each file gives: (file below
 #: ``robots/``, tool frame, base body or None). Each is tested as published
 #: (``tests/test_robot.py``); ``scripts/survey_robots.py`` prints the table.

@@ -4,7 +4,7 @@ Example:
     >>> from hypothesis import given
     >>> import redundancy as rd
     >>> from redundancy.testing import poses
-    >>> arm = rd.load("my_arm.xml", site="tool")
+    >>> arm = rd.load(rd.model_path("panda"), site="ee")
     >>> @given(poses(arm))
     ... def test_engines_agree(q):
     ...     assert rd.crosscheck(arm, q).ok
@@ -19,43 +19,61 @@ import numpy as np
 try:
     from hypothesis import HealthCheck, settings
     from hypothesis import strategies as st
-except ImportError as err:  # pragma: no cover - exercised only without the extra
+except ImportError as _err:  # pragma: no cover - exercised only without the extra
     from .errors import MissingDependencyError
 
-    raise MissingDependencyError("hypothesis", "test") from err
+    raise MissingDependencyError("hypothesis", "test") from _err
 
 from .arm import Arm, sampling_ranges
 
-#: Profiles: "default" is fast enough for CI; "thorough" runs >= 1000 examples per property.
-PROFILES = {"default": 60, "thorough": 1000}
+#: The library's profiles, by name: examples per property. "redundancy-ci" is fast enough
+#: for CI and derandomized; "redundancy-thorough" runs >= 1000 examples per property.
+PROFILES = {"redundancy-ci": 60, "redundancy-thorough": 1000}
 
 
-def register_profiles() -> str:
-    """Register the "default" and "thorough" profiles and load the one in $HYPOTHESIS_PROFILE.
+def register_profiles(default: str | None = None) -> str:
+    """Register the library's profiles; load one when $HYPOTHESIS_PROFILE (or ``default``) names it.
+
+    The profiles are registered under the library's own names (:data:`PROFILES`), never
+    Hypothesis's ``"default"``. A profile name of the user's own (``HYPOTHESIS_PROFILE=ci``,
+    registered by their conftest) is left alone: nothing is loaded over it and nothing is
+    refused, so the user's settings stay in force.
+
+    Args:
+        default: The library profile to load when $HYPOTHESIS_PROFILE is unset (None:
+            load none, keep Hypothesis's current profile).
 
     Returns:
-        The name of the loaded profile.
+        The name of the profile in force afterwards (Hypothesis's current profile).
+
+    Raises:
+        UnknownNameError: ``default`` is not one of :data:`PROFILES`.
     """
+    if default is not None and default not in PROFILES:
+        from .errors import UnknownNameError
+
+        raise UnknownNameError("hypothesis profile", default, list(PROFILES))
     common = {
         "deadline": None,  # engines warm up their caches on the first call
         "suppress_health_check": [HealthCheck.too_slow, HealthCheck.differing_executors],
     }
-    # CI's default profile is derandomized, so a failure there reproduces on any machine;
-    # the thorough profile explores with a fresh seed each run (pytest prints it in the
-    # header; rerun with --hypothesis-seed=N).
+    # The CI profile is derandomized, so a failure there reproduces on any machine; the
+    # thorough profile explores with a fresh seed each run (pytest prints it in the header;
+    # rerun with --hypothesis-seed=N).
     settings.register_profile(
-        "default", max_examples=PROFILES["default"], derandomize=True, **common
+        "redundancy-ci", max_examples=PROFILES["redundancy-ci"], derandomize=True, **common
     )
     settings.register_profile(
-        "thorough", max_examples=PROFILES["thorough"], derandomize=False, print_blob=True, **common
+        "redundancy-thorough",
+        max_examples=PROFILES["redundancy-thorough"],
+        derandomize=False,
+        print_blob=True,
+        **common,
     )
-    name = os.environ.get("HYPOTHESIS_PROFILE", "default")
-    if name not in PROFILES:
-        from .errors import UnknownNameError
-
-        raise UnknownNameError("hypothesis profile", name, list(PROFILES))
-    settings.load_profile(name)
-    return name
+    name = os.environ.get("HYPOTHESIS_PROFILE") or default
+    if name in PROFILES:
+        settings.load_profile(name)
+    return settings.get_current_profile_name()
 
 
 def poses(arm: Arm, margin: float = 0.0, unlimited: float = np.pi) -> st.SearchStrategy[np.ndarray]:

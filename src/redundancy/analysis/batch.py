@@ -19,6 +19,12 @@ pose by pose (bit for bit; the tests hold them to it). What makes them fast:
   them, which holds the GIL, limits the gain); NumPy's SVD releases the GIL, so
   :func:`singular_values` overlaps the SVD of one chunk with the Jacobians of the next.
   Results do not depend on ``threads``: each pose is computed by one thread, start to end.
+* **Other processes and machines with** ``executor=``. Any
+  :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
+  ``Client(...).get_executor()``) gets the stack in chunks of poses (:func:`scatter`); the
+  arm travels as the loader call that built it and is rebuilt once per worker process, and
+  the chunks' results are put back in order. Every pose is computed by the same code as in
+  the caller's process, so the results equal the serial ones bit for bit.
 
 The singular values are NumPy's SVD (LAPACK ``gesdd`` without vectors), not the square roots
 of the eigenvalues of the 6 x 6 Gram matrix J J^T: that closed form is faster but squares
@@ -29,19 +35,32 @@ measures both).
 
 from __future__ import annotations
 
+import functools
+import pickle
 import queue
+from collections.abc import Callable
+from concurrent.futures import Executor, Future
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import ENGINES, Arm, EngineName
-from ..checks import check_choice, check_number, check_poses, check_threads
+from ..checks import check_choice, check_count, check_number, check_poses, check_threads
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
+from ..errors import ParameterError
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind, manipulability_rows
 
 Array = NDArray[np.float64]
+R = TypeVar("R")
+
+#: Chunks sent to an executor hold at least this many poses (a task's overhead, a few ms
+#: on a Dask cluster, stays small against its work) ...
+EXECUTOR_MIN_CHUNK = 1024
+#: ... and a stack is cut into at most this many chunks (so 10^8 poses are 256 tasks).
+EXECUTOR_MAX_TASKS = 256
 
 
 def poses(arm: Arm, Q: ArrayLike) -> Array:
@@ -51,6 +70,103 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
         PoseError: Not numeric, complex, not of shape (n, nq), or with NaN or infinite values.
     """
     return check_poses(Q, arm.joint_names)
+
+
+class _Shipped:
+    """An arm on its way to an executor's worker.
+
+    In the caller's process (a thread pool) it is the arm itself; pickled (a process pool, a
+    Dask worker) it is the arm's loader call, and each worker process rebuilds the arm once
+    (:func:`_arrive`) and keeps it for the next chunks instead of loading it per task.
+    """
+
+    __slots__ = ("arm",)
+
+    def __init__(self, arm: Arm) -> None:
+        self.arm = arm
+
+    def __reduce__(self) -> tuple[Callable[[bytes], _Shipped], tuple[bytes]]:
+        return _arrive, (pickle.dumps(self.arm),)
+
+
+@functools.lru_cache(maxsize=8)
+def _arrive(recipe: bytes) -> _Shipped:
+    return _Shipped(pickle.loads(recipe))
+
+
+def _run_chunk(fn: Callable[..., R], shipped: _Shipped, Q: Array, kwargs: dict[str, Any]) -> R:
+    """One task on a worker: ``fn`` on its chunk of poses, as in the caller's process."""
+    return fn(shipped.arm, Q, **kwargs)
+
+
+def map_chunks(
+    executor: Executor,
+    fn: Callable[..., R],
+    arm: Arm,
+    Q: Array,
+    chunk: int | None = None,
+    **kwargs: Any,
+) -> list[tuple[int, R]]:
+    """``fn(arm, Q[lo:hi], **kwargs)`` for consecutive chunks of ``Q``, run on ``executor``.
+
+    Args:
+        executor: Any :class:`concurrent.futures.Executor`; a Dask cluster's
+            ``Client(...).get_executor()`` included.
+        fn: A module-level function (it is pickled by name for a process or a cluster).
+        arm: The arm (it must pickle: built by :func:`redundancy.load` or ``load_string``).
+        Q: Validated poses, shape (n, nq).
+        chunk: Poses per task; by default at least :data:`EXECUTOR_MIN_CHUNK` and at most
+            :data:`EXECUTOR_MAX_TASKS` tasks.
+        **kwargs: Passed to ``fn``.
+
+    Returns:
+        (first pose of the chunk, ``fn``'s result) per chunk, in order.
+
+    Raises:
+        ParameterError: ``executor`` is not a :class:`concurrent.futures.Executor`.
+    """
+    if not isinstance(executor, Executor):
+        raise ParameterError(
+            "executor",
+            executor,
+            "None or a concurrent.futures.Executor (e.g. a Dask "
+            "Client(...).get_executor(), a ProcessPoolExecutor)",
+        )
+    n = len(Q)
+    if chunk is None:
+        chunk = max(EXECUTOR_MIN_CHUNK, -(-n // EXECUTOR_MAX_TASKS))
+    chunk = check_count("chunk", chunk, 1)
+    shipped = _Shipped(arm)
+    futures: list[tuple[int, Future[R]]] = []
+    try:
+        for lo in range(0, n, chunk):
+            part = np.ascontiguousarray(Q[lo : lo + chunk])
+            futures.append((lo, executor.submit(_run_chunk, fn, shipped, part, kwargs)))
+        return [(lo, f.result()) for lo, f in futures]
+    finally:  # an error or an interrupt: drop the tasks not yet started
+        for _, f in futures:
+            f.cancel()
+
+
+def scatter(
+    executor: Executor, fn: Callable[..., Array], arm: Arm, Q: ArrayLike, **kwargs: Any
+) -> Array:
+    """A batch function's stacked result, computed in chunks on ``executor``.
+
+    The one line that gives a batch function ``executor=``: ``fn`` is called locally on no
+    poses first (so bad arguments raise here, not on a worker, and an empty stack has its
+    shape), then on the chunks on the executor; the results are concatenated in order.
+
+    Example:
+        >>> def jacobians(arm, Q, engine="mujoco", threads=1, executor=None):
+        ...     if executor is not None:
+        ...         return scatter(executor, jacobians, arm, Q, engine=engine, threads=threads)
+        ...     ...
+    """
+    Q = poses(arm, Q)
+    empty = fn(arm, Q[:0], **kwargs)
+    parts = [r for _, r in map_chunks(executor, fn, arm, Q, **kwargs)]
+    return np.concatenate(parts, axis=0) if parts else empty
 
 
 def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bool = True) -> Array:
@@ -69,7 +185,13 @@ def _stack(
     return _fill(arm, poses(arm, Q), engine, check_threads(threads), what, armature)
 
 
-def jacobians(arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: int = 1) -> Array:
+def jacobians(
+    arm: Arm,
+    Q: ArrayLike,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+    executor: Executor | None = None,
+) -> Array:
     """Site Jacobians of a stack of poses, as :meth:`Arm.jacobian <redundancy.Arm.jacobian>`.
 
     Args:
@@ -77,10 +199,15 @@ def jacobians(arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: in
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
+            here. The results are the same, bit for bit.
 
     Returns:
         Jacobians, shape (n, 6, nq): linear rows [m/rad] then angular [rad/rad], world axes.
     """
+    if executor is not None:
+        return scatter(executor, jacobians, arm, Q, engine=engine, threads=threads)
     return _stack(arm, Q, engine, threads, "J")
 
 
@@ -127,7 +254,11 @@ def _jacobians_and_singular_values(
 
 
 def singular_values(
-    arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: int = 1
+    arm: Arm,
+    Q: ArrayLike,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Singular values of the site Jacobian at each pose, descending.
 
@@ -140,10 +271,15 @@ def singular_values(
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
+            here. The results are the same, bit for bit.
 
     Returns:
         Singular values, shape (n, min(6, nq)) [mixed units: m/rad and rad/rad].
     """
+    if executor is not None:
+        return scatter(executor, singular_values, arm, Q, engine=engine, threads=threads)
     check_choice("engine", engine, ENGINES)
     threads = check_threads(threads)
     return _jacobians_and_singular_values(arm, poses(arm, Q), engine, threads)[1]
@@ -156,6 +292,7 @@ def manipulabilities(
     kind: ManipulabilityKind = "full",
     length: float = 1.0,
     threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Yoshikawa's manipulability at each pose, as :func:`linalg.manipulability`.
 
@@ -171,10 +308,24 @@ def manipulabilities(
             ``length``, dimensionless); the fields of :class:`~redundancy.Manipulability`.
         length: Characteristic length for ``"scaled"`` [m].
         threads: As in :func:`singular_values` (``"full"`` only).
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
+            here. The results are the same, bit for bit.
 
     Returns:
         Manipulability per pose, shape (n,).
     """
+    if executor is not None:
+        return scatter(
+            executor,
+            manipulabilities,
+            arm,
+            Q,
+            engine=engine,
+            kind=kind,
+            length=length,
+            threads=threads,
+        )
     check_choice("engine", engine, ENGINES)
     threads = check_threads(threads)
     check_choice("manipulability kind", kind, MANIPULABILITY_KINDS)
@@ -193,6 +344,7 @@ def mass_matrices(
     armature: bool = True,
     engine: EngineName = "mujoco",
     threads: int = 1,
+    executor: Executor | None = None,
 ) -> Array:
     """Joint-space mass matrices, as :meth:`Arm.mass_matrix <redundancy.Arm.mass_matrix>`.
 
@@ -202,14 +354,27 @@ def mass_matrices(
         armature: Include armature on the diagonal.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
+            here. The results are the same, bit for bit.
 
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
     """
+    if executor is not None:
+        return scatter(
+            executor, mass_matrices, arm, Q, armature=armature, engine=engine, threads=threads
+        )
     return _stack(arm, Q, engine, threads, "M", armature)
 
 
-def gravities(arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: int = 1) -> Array:
+def gravities(
+    arm: Arm,
+    Q: ArrayLike,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+    executor: Executor | None = None,
+) -> Array:
     """Gravity torques to hold each pose, as :meth:`Arm.gravity <redundancy.Arm.gravity>`.
 
     Args:
@@ -217,14 +382,25 @@ def gravities(arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", threads: in
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"`` (``rneaInParallel`` on ``threads`` threads).
         threads: Worker threads.
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
+            here. The results are the same, bit for bit.
 
     Returns:
         Torques, shape (n, nq) [N m or N].
     """
+    if executor is not None:
+        return scatter(executor, gravities, arm, Q, engine=engine, threads=threads)
     return _stack(arm, Q, engine, threads, "G")
 
 
-def distances(arm: Arm, Q: ArrayLike, engine: DistanceEngine = "coal", threads: int = 1) -> Array:
+def distances(
+    arm: Arm,
+    Q: ArrayLike,
+    engine: DistanceEngine = "coal",
+    threads: int = 1,
+    executor: Executor | None = None,
+) -> Array:
     """Signed distance of every collision pair at each pose.
 
     Equal to :meth:`CollisionChecker.distance_values
@@ -236,10 +412,15 @@ def distances(arm: Arm, Q: ArrayLike, engine: DistanceEngine = "coal", threads: 
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         threads: Worker threads (MuJoCo only).
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
+            here. The results are the same, bit for bit.
 
     Returns:
         Distances, shape (n, npairs), negative where the geoms overlap [m].
     """
+    if executor is not None:
+        return scatter(executor, distances, arm, Q, engine=engine, threads=threads)
     check_choice("distance engine", engine, DISTANCE_ENGINES)
     threads = check_threads(threads)
     return distance_stack(checker(arm), poses(arm, Q), engine, threads)

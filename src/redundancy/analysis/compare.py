@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
+from ..display import Report, Table, plural, table
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
@@ -159,9 +160,11 @@ class Finding:
         }
 
 
-@dataclass(frozen=True)
-class Comparison:
+@dataclass(frozen=True, repr=False)
+class Comparison(Report):
     """Result of :func:`compare`.
+
+    ``print(comparison)`` prints :meth:`lines`; a notebook shows the HTML tables.
 
     Attributes:
         a: Description of A (file and format); b likewise.
@@ -253,6 +256,40 @@ class Comparison:
             "n_poses": self.n_poses,
             "tol": self.tol,
         }
+
+    def summary(self) -> str:
+        """The verdict and the counts, e.g. ``"different: 3 differences, 7 joints matched"``."""
+        n = plural(len(self.differences), "difference")
+        return f"{self.verdict}: {n}, {plural(len(self.joint_map), 'joint')} matched"
+
+    def html_tables(self) -> list[Table]:
+        """The differences, what a format cannot express, the largest difference per quantity."""
+        rows = [
+            (f.quantity, f.where, _fmt(f.a), _fmt(f.b), f"{f.error:.3g}", f.note)
+            for f in self.differences
+        ]
+        header = ("quantity", "where", "A", "B", "|diff|", "note")
+        align = (False, False, False, False, True, False)
+        return [
+            table(
+                "the two descriptions",
+                ("", "description", "tool frame"),
+                [("A", self.a, self.frame_a), ("B", self.b, self.frame_b)],
+            ),
+            table(plural(len(rows), "difference"), header, rows, align),
+            table(
+                "not expressible in one of the formats",
+                ("quantity", "where", "A", "B", "note"),
+                [(f.quantity, f.where, _fmt(f.a), _fmt(f.b), f.note) for f in self.not_expressible],
+            ),
+            table(
+                f"largest difference per quantity over {plural(self.n_poses, 'pose')}"
+                f" (tolerance {self.tol:g})",
+                ("quantity", "largest"),
+                [(k, f"{v:.2e}") for k, v in self.largest.items()],
+                (False, True),
+            ),
+        ]
 
 
 def _fmt(x: Any) -> str:

@@ -11,6 +11,7 @@ computation, over stacks of poses taken in chunks so memory stays flat in their 
 from __future__ import annotations
 
 from collections.abc import Iterable
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,11 +19,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
+from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..linalg import manipulability_gradient
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
+from .batch import map_chunks
 
 Array = NDArray[np.float64]
 
@@ -64,9 +67,12 @@ class Agreement:
         return self.max_error <= self.tol
 
 
-@dataclass(frozen=True)
-class CrossCheckReport:
+@dataclass(frozen=True, repr=False)
+class CrossCheckReport(Report):
     """Result of :func:`crosscheck`.
+
+    ``print(report)`` prints the table of :meth:`lines`; in a notebook the report shows as
+    an HTML table.
 
     Attributes:
         agreements: One entry per quantity.
@@ -96,6 +102,39 @@ class CrossCheckReport:
             if a.quantity == quantity:
                 return a
         raise KeyError(quantity)
+
+    def summary(self) -> str:
+        """``"ok, 8 quantities over 200 poses"`` (or ``DISAGREE`` naming the quantities)."""
+        if not self.checked:
+            return f"nothing checked ({plural(self.n_poses, 'pose')})"
+        bad = [a.quantity for a in self.agreements if not a.ok]
+        verdict = "ok" if not bad else "DISAGREE on " + ", ".join(bad)
+        n = plural(len(self.agreements), "quantity", "quantities")
+        return f"{verdict}, {n} over {plural(self.n_poses, 'pose')}"
+
+    def html_tables(self) -> list[Table]:
+        """One row per quantity: the largest relative difference, the tolerance, ok or not."""
+        return [
+            table(
+                f"MuJoCo against Pinocchio over {plural(self.n_poses, 'pose')}",
+                ("quantity", "max rel. diff", "tol", "worst pose", "agree"),
+                [
+                    (
+                        a.quantity,
+                        f"{a.max_error:.2e}",
+                        f"{a.tol:.0e}",
+                        a.worst_pose,
+                        "ok" if a.ok else "DISAGREE",
+                    )
+                    for a in self.agreements
+                ],
+                (False, True, True, True, False),
+            )
+        ]
+
+    def html_notes(self) -> list[str]:
+        """The bridged quantities (same numbers in both engines, not compared)."""
+        return self.lines()[len(self.agreements) + 1 :] if self.checked else self.lines()
 
     def lines(self) -> list[str]:
         """Human-readable table lines."""
@@ -301,6 +340,7 @@ def crosscheck_batch(
     tolerances: dict[str, float] | None = None,
     threads: int = 1,
     chunk: int = CHUNK,
+    executor: Executor | None = None,
 ) -> CrossCheckReport:
     """Compare MuJoCo and Pinocchio over a stack of poses (or one pose).
 
@@ -317,6 +357,11 @@ def crosscheck_batch(
             Pinocchio in the caller's thread, and Pinocchio's gravity uses the other
             ``threads - 1`` as OpenMP threads.
         chunk: Poses per chunk (>= 1).
+        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool), in chunks of poses each
+            cross-checked on a worker (:func:`redundancy.batch.map_chunks`); None runs here.
+            The report is the same, bit for bit: the worst pose of the chunks is merged as
+            within one process.
 
     Returns:
         The report; over zero poses it says that nothing was checked and is not ``ok``.
@@ -332,6 +377,16 @@ def crosscheck_batch(
     chunk = check_count("chunk", chunk, 1)
     Q = check_pose_or_poses(Q, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
+    if executor is not None:
+        kwargs = {"quantities": names, "tolerances": tols, "threads": threads, "chunk": chunk}
+        for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
+            for a in part.agreements:
+                found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
+        return CrossCheckReport(
+            tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names),
+            arm.bridges,
+            len(Q),
+        )
     scales = arm_scales(arm)
     for lo in range(0, len(Q), chunk):
         part = Q[lo : lo + chunk]

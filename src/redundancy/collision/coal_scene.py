@@ -169,11 +169,11 @@ class CoalPairs:
 
         self.model = model
         self.pin_model = pin_model
-        self.perm = np.asarray(perm)
-        self.pairs = tuple(pairs)
+        self.perm: NDArray[np.int_] = np.asarray(perm)
+        self.pairs: tuple[GeomPair, ...] = tuple(pairs)
         used = sorted({p.geom1 for p in self.pairs} | {p.geom2 for p in self.pairs})
         self._names = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
-        self.geom_model = pin.GeometryModel()
+        self.geom_model: pin.GeometryModel = pin.GeometryModel()
         self.slot: dict[int, int] = {}  # MuJoCo geom id -> GeometryObject index
         for g in used:
             self.slot[g] = self.geom_model.addGeometryObject(self._geometry_object(g))
@@ -185,11 +185,11 @@ class CoalPairs:
         for k, p in enumerate(self.pairs):
             cp = self.geom_model.collisionPairs[k]
             assert {cp.first, cp.second} == {self.slot[p.geom1], self.slot[p.geom2]}
-        self.swapped = [
+        self.swapped: list[bool] = [
             self.geom_model.collisionPairs[k].first != self.slot[p.geom1]
             for k, p in enumerate(self.pairs)
         ]
-        self.radius = {g: bounding_radius(model, g) for g in used}
+        self.radius: dict[int, float] = {g: bounding_radius(model, g) for g in used}
 
     def _geometry_object(self, g: int) -> pin.GeometryObject:
         import pinocchio as pin
@@ -241,9 +241,9 @@ class CoalScene:
         import pinocchio as pin
 
         self.shared = shared
-        self.pairs = shared.pairs
-        self.pin_data = shared.pin_model.createData()  # private: never disturbs the Arm's
-        self.geom_data = pin.GeometryData(shared.geom_model)
+        self.pairs: tuple[GeomPair, ...] = shared.pairs
+        self.pin_data: pin.Data = shared.pin_model.createData()  # private: never disturbs the Arm's
+        self.geom_data: pin.GeometryData = pin.GeometryData(shared.geom_model)
         self._qp = np.zeros(shared.pin_model.nq)
         # GeometryData owns one request per pair; computeDistance(s) reads them.
         ref = distance_request()

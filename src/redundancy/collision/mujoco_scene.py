@@ -50,11 +50,11 @@ class MujocoPairs:
 
     def __init__(self, model: mujoco.MjModel, pairs: Sequence[GeomPair]) -> None:
         self.model = model
-        self.pairs = tuple(pairs)
-        self.g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
-        self.g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
+        self.pairs: tuple[GeomPair, ...] = tuple(pairs)
+        self.g1: NDArray[np.int_] = np.array([p.geom1 for p in self.pairs], dtype=int)
+        self.g2: NDArray[np.int_] = np.array([p.geom2 for p in self.pairs], dtype=int)
         # index[g1, g2] = position of the pair in the set (-1: not a pair).
-        self.index = np.full((model.ngeom, model.ngeom), -1, dtype=int)
+        self.index: NDArray[np.int_] = np.full((model.ngeom, model.ngeom), -1, dtype=int)
         self.index[self.g1, self.g2] = np.arange(len(self.pairs))
         self.index[self.g2, self.g1] = np.arange(len(self.pairs))
         # mj_geomDistance returns min(distance, distmax). The distance never exceeds
@@ -67,8 +67,8 @@ class MujocoPairs:
                 for g in range(model.ngeom)
             ]
         )
-        self.cap_offset = radius[self.g1] + radius[self.g2] + 1.0
-        self.ids = list(zip(self.g1.tolist(), self.g2.tolist(), strict=True))
+        self.cap_offset: Array = radius[self.g1] + radius[self.g2] + 1.0
+        self.ids: list[tuple[int, int]] = list(zip(self.g1.tolist(), self.g2.tolist(), strict=True))
 
 
 class MujocoScene:
@@ -76,10 +76,10 @@ class MujocoScene:
 
     def __init__(self, shared: MujocoPairs) -> None:
         self.shared = shared
-        self.model = shared.model
-        self.pairs = shared.pairs
+        self.model: mujoco.MjModel = shared.model
+        self.pairs: tuple[GeomPair, ...] = shared.pairs
         # A private MjData: the contact list and geom poses here never disturb the Arm's.
-        self.data = mujoco.MjData(shared.model)
+        self.data: mujoco.MjData = mujoco.MjData(shared.model)
         self._fromto = np.zeros(6)
 
     @property

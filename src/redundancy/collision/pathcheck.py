@@ -243,10 +243,10 @@ class PathChecker:
     """
 
     def __init__(self, arm: Arm | CollisionChecker) -> None:
-        self.checker = arm if isinstance(arm, CollisionChecker) else checker(arm)
-        self.pairs = self.checker.pairs
-        self.weights = motion_weights(self.arm.mj_model, self.pairs)
-        self.thresholds = np.array([p.threshold for p in self.pairs])
+        self.checker: CollisionChecker = arm if isinstance(arm, CollisionChecker) else checker(arm)
+        self.pairs: tuple[GeomPair, ...] = self.checker.pairs
+        self.weights: Array = motion_weights(self.arm.mj_model, self.pairs)
+        self.thresholds: Array = np.array([p.threshold for p in self.pairs])
 
     @property
     def arm(self) -> Arm:

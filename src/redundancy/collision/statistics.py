@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import sampling_ranges
 from ..checks import check_choice, check_count, check_poses
+from ..display import Report, Table, plural, table
 from .checker import CollisionChecker, PairDistance, checker
 from .coal_scene import CoalScene
 from .mujoco_scene import MujocoScene
@@ -59,9 +60,11 @@ class KeyframeClearance:
     closest: PairDistance | None
 
 
-@dataclass(frozen=True)
-class CollisionStatistics:
+@dataclass(frozen=True, repr=False)
+class CollisionStatistics(Report):
     """Self-collision over random poses, as the lesson's table (4), labelled honestly.
+
+    ``print(stats)`` prints :meth:`lines`; a notebook shows the pairs as an HTML table.
 
     Attributes:
         n_poses: Number of poses drawn.
@@ -100,6 +103,47 @@ class CollisionStatistics:
         hit = [p for p in self.pairs if p.poses]
         return sorted(hit, key=lambda p: (-p.poses, -p.contacts, p.pair.label))
 
+    def summary(self) -> str:
+        """The share of poses in contact and the number of pairs."""
+        return (
+            f"{100 * self.share_with_contact:.1f}% of {plural(self.n_poses, 'pose')} in contact, "
+            f"{plural(len(self.pairs), 'pair')} tested"
+        )
+
+    def html_tables(self) -> list[Table]:
+        """Per pair: poses and contacts, and the closest approach with distances."""
+        dist = self.distance_engine is not None
+        rows = sorted(self.pairs, key=lambda p: (-p.poses, p.closest)) if dist else self.ranked()
+        header = ("pair", "poses", "contacts") + (("closest (m)",) if dist else ())
+        return [
+            table(
+                f"{self.n_poses} random poses (seed {self.seed})",
+                header,
+                [
+                    (p.pair.label, p.poses, p.contacts) + ((f"{p.closest:.4f}",) if dist else ())
+                    for p in rows
+                ],
+                (False, True, True, True)[: len(header)],
+            )
+        ]
+
+    def html_notes(self) -> list[str]:
+        """The keyframes' clearance and the engines' disagreements."""
+        return self._notes()
+
+    def _notes(self) -> list[str]:
+        out = []
+        for k in self.keyframes:
+            c = k.closest
+            near = f", closest {c.pair.label} at {c.distance:.4f} m" if c is not None else ""
+            out.append(f"at the {k.keyframe} pose: {k.contacts} contacts{near}")
+        if self.distance_engine is not None:
+            out.append(
+                f"distances by {self.distance_engine}; poses where its touching pairs differ "
+                f"from MuJoCo's contacts: {self.disagreements}"
+            )
+        return out
+
     def lines(self, top: int | None = None) -> list[str]:
         """The table as text lines: share of poses, then per pair poses and contacts."""
         out = [
@@ -117,16 +161,7 @@ class CollisionStatistics:
         for p in rows:
             line = f"  {p.pair.label:<{w}}{p.poses:>7}{p.contacts:>10}"
             out.append(line + (f"{p.closest:>13.4f}" if dist else ""))
-        for k in self.keyframes:
-            c = k.closest
-            near = f", closest {c.pair.label} at {c.distance:.4f} m" if c is not None else ""
-            out.append(f"  at the {k.keyframe} pose: {k.contacts} contacts{near}")
-        if dist:
-            out.append(
-                f"  distances by {self.distance_engine}; poses where its touching pairs differ "
-                f"from MuJoCo's contacts: {self.disagreements}"
-            )
-        return out
+        return out + ["  " + line for line in self._notes()]
 
 
 #: Poses per chunk of the sweep: memory stays flat in the number of poses.

@@ -78,19 +78,21 @@ class _Work:
     )
 
     def __init__(self, model: mujoco.MjModel) -> None:
-        self.data = mujoco.MjData(model)
+        self.data: mujoco.MjData = mujoco.MjData(model)
         # Each attribute access on MjData builds a new array view: keep the ones used per call.
-        self.qpos, self.qvel = self.data.qpos, self.data.qvel
+        self.qpos: Array = self.data.qpos
+        self.qvel: Array = self.data.qvel
         # mj_jacSite writes into contiguous row views of one 6 x nv array (no vstack).
-        self.jac = np.zeros((6, model.nv))
-        self.jacp, self.jacr = self.jac[:3], self.jac[3:]
+        self.jac: Array = np.zeros((6, model.nv))
+        self.jacp: Array = self.jac[:3]
+        self.jacr: Array = self.jac[3:]
         self.M = np.zeros((model.nv, model.nv))
-        self.tau = np.zeros(model.nv)
+        self.tau: Array = np.zeros(model.nv)
         self.key: list[float] | None = None  # the pose the kinematics stage holds
-        self.have_M = False  # M is current for that pose
-        self.have_J = False  # jac is current for that pose
+        self.have_M: bool = False  # M is current for that pose
+        self.have_J: bool = False  # jac is current for that pose
         # qvel (and so cvel) may be nonzero: jacobian_derivatives was interrupted mid-loop.
-        self.moving = False
+        self.moving: bool = False
 
 
 def _stop(model: mujoco.MjModel, w: _Work) -> None:
@@ -122,13 +124,13 @@ class MujocoEngine:
         self, model: mujoco.MjModel, site: str, armature: Array, damping: Array | None = None
     ) -> None:
         self.model = model
-        self.site_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
-        self.site_body = int(model.site_bodyid[self.site_id])
-        self.nv = model.nv
+        self.site_id: int = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        self.site_body: int = int(model.site_bodyid[self.site_id])
+        self.nv: int = model.nv
         self._armature = np.array(armature, dtype=float)
         self._damping = np.array(model.dof_damping if damping is None else damping, dtype=float)
         self._limits = joint_limits(model)
-        self.joint_names = tuple(object_names(model, mujoco.mjtObj.mjOBJ_JOINT))
+        self.joint_names: tuple[str, ...] = tuple(object_names(model, mujoco.mjtObj.mjOBJ_JOINT))
         self._shape = (self.nv,)
         # This thread's data: get() builds it on the thread's first call.
         threads = PerThread(lambda: _Work(model))

@@ -72,8 +72,8 @@ class _Work:
     __slots__ = ("J", "data", "key", "pools", "q")
 
     def __init__(self, model: pin.Model) -> None:
-        self.data = model.createData()
-        self.q = np.zeros(model.nq)
+        self.data: pin.Data = model.createData()
+        self.q: Array = np.zeros(model.nq)
         self.J = np.zeros((6, model.nv))  # the site Jacobian at that pose
         self.key: list[float] | None = None  # pose of the kinematics, J and site frame held
         self.pools: dict[int, pin.ModelPool] = {}  # rneaInParallel's data, per thread count
@@ -102,16 +102,16 @@ class PinocchioEngine:
         # An MJCF site is an OP_FRAME, an MJCF body or a URDF link a BODY frame; a joint or
         # another kind of frame may share the name.
         kind = pin.FrameType.BODY if frame_type == "body" else pin.FrameType.OP_FRAME
-        self.frame_id = (
+        self.frame_id: int = (
             model.getFrameId(site, kind) if model.existFrame(site, kind) else model.getFrameId(site)
         )
-        self.nv = model.nv
+        self.nv: int = model.nv
         # perm[i] is Pinocchio's index of the library's joint i (nq == nv: 1-dof joints only).
-        self.perm = np.array(
+        self.perm: NDArray[np.intp] = np.array(
             [model.joints[model.getJointId(n)].idx_v for n in joint_names], dtype=int
         )
-        self.identity = bool(np.array_equal(self.perm, np.arange(len(self.perm))))
-        self.joint_names = tuple(joint_names)
+        self.identity: bool = bool(np.array_equal(self.perm, np.arange(len(self.perm))))
+        self.joint_names: tuple[str, ...] = tuple(joint_names)
         self._joint_ids = [model.getJointId(n) for n in joint_names]
         # This thread's data; a bound method, so a query pays one call to reach it.
         self._work = PerThread(lambda: _Work(model)).get

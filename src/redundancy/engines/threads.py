@@ -116,7 +116,7 @@ class PerThread(Generic[T]):
         self._factory = factory
         #: The ``threading.local`` whose ``value`` is this thread's value once ``get`` built
         #: it; a hot path reads ``local.value`` itself and calls ``get`` on AttributeError.
-        self.local = threading.local()
+        self.local: threading.local = threading.local()
 
     def get(self) -> T:
         """This thread's value."""

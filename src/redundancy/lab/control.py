@@ -26,6 +26,9 @@ class JointPD:
         model: The model it will step (only its actuator layout is read here).
     """
 
+    actuators: tuple[tuple[int, int, float], ...]
+    unactuated: NDArray[np.int_]
+
     def __init__(self, model: mujoco.MjModel) -> None:
         actuators: list[tuple[int, int, float]] = []
         seen: set[int] = set()

@@ -315,6 +315,11 @@ class LabPage:
         tab_title: Title of the browser tab.
     """
 
+    arm: Arm
+    reach: float
+    base: Array
+    sliders: list[Any]
+
     def __init__(
         self,
         server: viser.ViserServer,
@@ -1121,6 +1126,11 @@ class LabServer:
         >>> with LabServer(arm, port=0) as lab:  # doctest: +SKIP
         ...     print(lab.url)
     """
+
+    sim: LabSim
+    server: Any
+    runner: RealTimeRunner
+    page: LabPage
 
     def __init__(
         self,

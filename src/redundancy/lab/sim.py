@@ -240,6 +240,26 @@ class LabSim:
         UnknownNameError: ``watch`` is not a joint of the arm.
     """
 
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    kp: float
+    kd: float
+    timestep: float
+    joint_names: tuple[str, ...]
+    watch_joint: str
+    watch_index: int
+    lower: Array
+    upper: Array
+    keyframe_name: str | None
+    home: Array
+    modelled_armature: Array
+    effort_limit: Array
+    defaults: dict[str, float | bool]
+    elbow_index: int
+    resets: int
+    targets: Array
+    contact_forces: bool
+
     def __init__(
         self,
         arm: Arm,
@@ -643,6 +663,13 @@ class RealTimeRunner:
         real_time_factor: Simulated time over clock time across the last ~2 s of frames
             (``nan`` until two frames have run).
     """
+
+    period: float
+    max_steps: int
+    frames: int
+    paused: bool
+    rate: float
+    real_time_factor: float
 
     def __init__(
         self,

@@ -63,13 +63,17 @@ def check_transmissions(model: mujoco.MjModel) -> None:
             # body_weldid 0: the body is welded to the world, no joint moves it.
             if all(model.body_weldid[model.site_bodyid[i]] == 0 for i in ids):
                 continue
-        name = names[a] or f"#{a}"
-        raise UnsupportedFeatureError(
-            f"{_TRANSMISSION_NAMES.get(kind, str(kind))} transmission",
-            f"actuator {name!r}",
-            "it drives the arm's joints through pose-dependent moment arms; the library "
-            "reads actuators with a joint transmission only (joint, jointinparent)",
-        )
+        raise transmission_refusal(kind, names[a] or f"#{a}")
+
+
+def transmission_refusal(kind: int, name: str) -> UnsupportedFeatureError:
+    """The refusal of an actuator whose transmission reaches the arm other than by a joint."""
+    return UnsupportedFeatureError(
+        f"{_TRANSMISSION_NAMES.get(kind, str(kind))} transmission",
+        f"actuator {name!r}",
+        "it drives the arm's joints through pose-dependent moment arms; the library "
+        "reads actuators with a joint transmission only (joint, jointinparent)",
+    )
 
 
 def _joint_actuators(model: mujoco.MjModel) -> list[tuple[int, int, int, float]]:

@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 
 from ..arm import Arm
+from ..display import Report, Table, plural, table
 from ..errors import RedundancyError
 from .actuators import simulation
 from .bridges import Bridge, effective_gravity
@@ -84,9 +85,11 @@ class SimulatedOnly:
         return f"{self.feature} ({self.item}: {self.value}): {self.effect}"
 
 
-@dataclass(frozen=True)
-class EquivalenceReport:
+@dataclass(frozen=True, repr=False)
+class EquivalenceReport(Report):
     """Result of :func:`compare_models`.
+
+    ``print(report)`` prints :meth:`lines`; a notebook shows the HTML tables.
 
     Attributes:
         differences: Every mismatch, with both values.
@@ -108,6 +111,47 @@ class EquivalenceReport:
     def equivalent(self) -> bool:
         """True when no quantity differs (bridged values are not differences)."""
         return not self.differences
+
+    def summary(self) -> str:
+        """``"equivalent, 12 quantities compared"`` or the number of differences."""
+        verdict = "equivalent" if self.equivalent else plural(len(self.differences), "difference")
+        n = plural(len(self.checked), "quantity", "quantities")
+        return f"{verdict}, {n} compared, {plural(len(self.bridges), 'bridged value')}"
+
+    def html_tables(self) -> list[Table]:
+        """Differences, the largest difference per quantity, the bridged values."""
+        return [
+            table(
+                plural(len(self.differences), "difference"),
+                ("quantity", "item", "MuJoCo", "Pinocchio", "|diff|"),
+                [
+                    (
+                        d.quantity,
+                        d.item,
+                        format_value(d.mujoco),
+                        format_value(d.pinocchio),
+                        f"{d.error:.3g}",
+                    )
+                    for d in self.differences
+                ],
+                (False, False, False, False, True),
+            ),
+            table(
+                f"largest difference per quantity (tolerance {self.tol:g})",
+                ("quantity", "largest"),
+                [(k, f"{v:.2e}") for k, v in self.largest.items()],
+                (False, True),
+            ),
+            table(
+                "bridged from MuJoCo (Pinocchio's parser does not read them as MuJoCo does)",
+                ("quantity", "joint", "value", "source"),
+                [(b.quantity, b.joint, b.value_text, b.source) for b in self.bridges],
+            ),
+        ]
+
+    def html_notes(self) -> list[str]:
+        """What MuJoCo simulates that neither engine's numbers include."""
+        return [f"SIMULATED  {s}" for s in self.simulated]
 
     def lines(self) -> list[str]:
         """Human-readable report lines."""

@@ -15,6 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from .. import models
 from ..arm import Arm
 from ..engines.mujoco import captured_warnings, joint_limits, object_names
 from ..errors import ModelError, ParameterError, UnknownNameError
@@ -148,7 +149,7 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
             f"load() takes a file path, and this looks like XML text ({text.strip()[:40]!r}...); "
             "use load_string() for model text"
         )
-    p = Path(text)
+    p = models.bundled(text) or Path(text)  # a bare "panda": the bundled model
     if isinstance(text, str) and not text.isascii():
         try:
             text.encode("utf-8")
@@ -161,7 +162,8 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
     try:
         return p, p.read_bytes()
     except FileNotFoundError as err:
-        raise ModelError(f"model file not found: {str(p)!r}") from err
+        hint = models.not_found_hint(text)
+        raise ModelError(f"model file not found: {str(p)!r}{hint}") from err
     except IsADirectoryError as err:
         raise ModelError(f"model path is a directory, not a file: {str(p)!r}") from err
     except OSError as err:

