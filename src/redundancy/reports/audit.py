@@ -89,6 +89,28 @@ class EngineAgreement:
     equivalence: EquivalenceReport
 
 
+@dataclass(frozen=True)
+class RobotPart:
+    """The robot around the arm, as the audit reports it.
+
+    Attributes:
+        held: Held joint -> its rest value [rad or m] (a tuple for a ball or free joint).
+        rest: Where the held values come from (``"qpos0"``, ``"keyframe 'name'"``, ``"given"``).
+        base: The body the arm's chain starts below, or None (the world).
+        set_aside: What in the file does not reach the arm, each with the reason.
+    """
+
+    held: dict[str, float | tuple[float, ...]]
+    rest: str
+    base: str | None
+    set_aside: tuple[str, ...]
+
+    @classmethod
+    def of(cls, arm: Arm) -> RobotPart:
+        """The arm's robot part."""
+        return cls(dict(arm.held), arm.rest, arm.base, tuple(str(a) for a in arm.set_aside))
+
+
 @dataclass(frozen=True, repr=False)
 class AuditReport(Report):
     """All sections of an audit, the engines' agreement, and the findings.
@@ -106,6 +128,7 @@ class AuditReport(Report):
         findings: What to act on.
         notes: What the file does not say, and what the audit assumed instead.
         model_format: ``"MJCF"`` or ``"URDF"``.
+        robot: The rest of the robot: the joints held off the arm and what was set aside.
     """
 
     model: str
@@ -116,6 +139,7 @@ class AuditReport(Report):
     findings: tuple[Finding, ...]
     notes: tuple[Note, ...] = ()
     model_format: str = "MJCF"
+    robot: RobotPart | None = None
 
     @property
     def exit_code(self) -> int:
@@ -191,6 +215,7 @@ class AuditReport(Report):
                 "differences": [str(d) for d in eq.differences],
                 "bridged": [asdict(b) for b in eq.bridges],
             },
+            "robot": None if self.robot is None else asdict(self.robot),
             "notes": [asdict(n) for n in self.notes],
             "findings": [asdict(f) for f in self.findings],
         }
@@ -296,6 +321,8 @@ def audit(
     _judge_keyframes(judged, arm, computed)
     _judge_gravity(judged, arm, computed.gravity, computed.joints, urdf)
     _judge_engines(judged, engines, computed.contacts)
+    for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
+        judged.finding("published inertia", defect)
     return AuditReport(
         str(arm.source),
         arm.site,
@@ -305,6 +332,7 @@ def audit(
         tuple(judged.findings),
         tuple(judged.notes),
         arm.model_format,
+        RobotPart.of(arm),
     )
 
 
@@ -531,6 +559,7 @@ def format_report(r: AuditReport) -> list[str]:
         + (f", gravcomp on {len(sim.gravcomp)} bodies" if sim.gravcomp else "")
         + defaults
     )
+    out += _robot_lines(r)
     out += ["", *_joint_lines(r)]
     out += ["", *_keyframe_lines(r)]
     out += ["", *_gravity_lines(r)]
@@ -542,6 +571,29 @@ def format_report(r: AuditReport) -> list[str]:
     out += ["", f"findings: {len(r.findings)}"]
     out += [f"  [{f.kind}] {f.message}" for f in r.findings] or ["  none"]
     return fit(out)
+
+
+def _robot_lines(r: AuditReport) -> list[str]:
+    """The rest of the robot: which joints are held, at what, and what was set aside."""
+    rp = r.robot
+    if rp is None or not (rp.held or rp.set_aside):
+        return []
+    out = [""]
+    if rp.held:
+        rest = "the reference pose (qpos0)" if rp.rest == "qpos0" else rp.rest
+        base = f"; the arm starts below {rp.base!r}" if rp.base else ""
+        out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
+
+        def value(v: float | tuple[float, ...]) -> str:
+            if isinstance(v, tuple):
+                return "(" + " ".join(f"{x:.4g}" for x in v) + ")"
+            return f"{v:.4g}"
+
+        out.append("  held: " + ", ".join(f"{k} {value(v)}" for k, v in rp.held.items()))
+    if rp.set_aside:
+        out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
+        out += [f"  {a}" for a in rp.set_aside]
+    return out
 
 
 def _h(h: float) -> str:
