@@ -418,8 +418,8 @@ def test_sensors_and_actuators_of_held_joints_leave_with_them() -> None:
 def _audit_exit(file: str, tool: str, base: str | None, tmp: Path) -> int:
     from redundancy.cli import main
 
-    args = ["audit", str(erd_robots() / file), "--site", tool, "--poses", "200"]
-    args += ["--json", str(tmp / "report.json")]
+    args = ["audit", str(erd_robots() / file), "--frame", tool, "--poses", "200"]
+    args += ["--json", str(tmp / "report.json")] + (["--base", base] if base else [])
     code = main(args)
     assert (tmp / "report.json").is_file()
     return code
