@@ -384,7 +384,13 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
         "equivalence",
         "notes",
         "findings",
+        "contact_mass",
     }
+    cm = data["contact_mass"]
+    assert cm["n_poses"] == 500 and cm["payload"] == 0.0
+    assert cm["with_armature"][0] <= cm["with_armature"][1] <= cm["with_armature"][2]
+    assert all(a >= b for a, b in zip(cm["with_armature"], cm["without_armature"], strict=True))
+    assert "effective mass at the tool (ISO/TS 15066 transient contact)" in text
     integrator = {"arm7": "Euler", "panda": "implicitfast"}[model]
     assert data["mode"] == "strict" and data["simulation"]["integrator"] == integrator
     assert data["crosscheck"]["ok"] and data["equivalence"]["equivalent"]

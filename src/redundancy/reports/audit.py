@@ -129,6 +129,7 @@ class AuditReport(Report):
         notes: What the file does not say, and what the audit assumed instead.
         model_format: ``"MJCF"`` or ``"URDF"``.
         robot: The rest of the robot: the joints held off the arm and what was set aside.
+        contact_mass: The effective mass at the tool beside ISO/TS 15066's estimate.
     """
 
     model: str
@@ -140,6 +141,7 @@ class AuditReport(Report):
     notes: tuple[Note, ...] = ()
     model_format: str = "MJCF"
     robot: RobotPart | None = None
+    contact_mass: sections.ContactMass | None = None
 
     @property
     def exit_code(self) -> int:
@@ -218,6 +220,7 @@ class AuditReport(Report):
             "robot": None if self.robot is None else asdict(self.robot),
             "notes": [asdict(n) for n in self.notes],
             "findings": [asdict(f) for f in self.findings],
+            "contact_mass": None if self.contact_mass is None else asdict(self.contact_mass),
         }
         return _clean(doc)
 
@@ -333,6 +336,7 @@ def audit(
         tuple(judged.notes),
         arm.model_format,
         RobotPart.of(arm),
+        sections.contact_mass(arm, n_poses, seed),
     )
 
 
@@ -565,6 +569,7 @@ def format_report(r: AuditReport) -> list[str]:
     out += ["", *_gravity_lines(r)]
     out += ["", *_collision_lines(r)]
     out += ["", *_engine_lines(r)]
+    out += ["", *r.contact_mass.lines()] if r.contact_mass is not None else []
     if r.notes:
         out += ["", f"notes (what the file does not say): {len(r.notes)}"]
         out += [f"  [{n.kind}] {n.message}" for n in r.notes]
