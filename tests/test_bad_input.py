@@ -566,6 +566,28 @@ def test_site_and_body_transmissions_on_the_arm_are_refused(actuator: str, expec
         rd.load_string(chain(extra=f"<actuator>{named}</actuator>"), site="tip")
 
 
+@pytest.mark.parametrize("kind", ["site", "body"])
+def test_check_transmissions_refuses_site_and_body_transmissions(kind: str) -> None:
+    import mujoco
+
+    from redundancy.model.actuators import check_transmissions
+
+    actuator = (
+        '<motor name="push" site="tip" gear="1 0 0 0 0 0"/>'
+        if kind == "site"
+        else '<adhesion name="push" body="l2" ctrlrange="0 1"/>'
+    )
+    model = mujoco.MjModel.from_xml_string(chain(extra=f"<actuator>{actuator}</actuator>"))
+    what = "site transmission" if kind == "site" else "body (adhesion) transmission"
+    message = (
+        UF + f"{what} (actuator 'push'): it drives the arm's joints through pose-dependent "
+        "moment arms; the library reads actuators with a joint transmission only (joint, "
+        "jointinparent)"
+    )
+    with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(message) + "$"):
+        check_transmissions(model)
+
+
 def test_site_transmission_off_the_arm_is_allowed() -> None:
     world_site = chain(extra='<actuator><motor site="w" gear="1 0 0 0 0 0"/></actuator>')
     xml = world_site.replace("<worldbody>", '<worldbody><site name="w" pos="1 0 0"/>')

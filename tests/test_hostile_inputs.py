@@ -146,3 +146,294 @@ def test_self_motion_blames_an_objective_that_returns_nan_or_text(arm7: rd.Arm) 
     # A plain objective still drives the motion.
     path = sm.self_motion(arm7, q, 0.05, 0.01, objective=sm.joint_limit_objective(arm7))
     assert len(path.objective) == len(path.q) and np.all(np.isfinite(path.objective))
+
+
+# ==========================================================================================
+# Every public function, every argument: only the library's errors come out
+# ==========================================================================================
+
+from collections.abc import Callable  # noqa: E402
+from typing import Any  # noqa: E402
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from hypothesis.extra import numpy as hnp  # noqa: E402
+
+from redundancy import batch, collision, inertia  # noqa: E402
+
+#: The arm every call is made on: three hinges, small and quick (tests.test_core).
+from .test_core import SHORT_ARMS  # noqa: E402
+
+ARM = SHORT_ARMS[3]
+NQ = ARM.nq
+Q0 = np.array([0.3, 0.4, 0.5])
+QS = np.array([Q0, Q0 + 0.1])
+J0 = ARM.jacobian(Q0)
+M0 = ARM.mass_matrix(Q0)
+P0, R0 = ARM.site_pose(Q0)
+SVD = linalg.jacobian_svd(J0)
+ARM7_PATH = str(rd.model_path("arm7"))
+
+
+def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
+    """Public function -> (callable, valid keyword arguments): each runs as given."""
+    a = ARM
+    return {
+        # the package's own functions (rd.__all__)
+        "rd.check_path": (
+            rd.check_path,
+            {"arm": a, "waypoints": QS, "tol": 1e-3, "engine": "coal"},
+        ),
+        "rd.collision_pairs": (rd.collision_pairs, {"model": a}),
+        "rd.collision_statistics": (
+            rd.collision_statistics,
+            {
+                "arm": a,
+                "n_poses": 5,
+                "seed": 1,
+                "distances": "coal",
+                "poses": None,
+                "prune": True,
+                "keyframes": True,
+            },
+        ),
+        "rd.compare": (
+            rd.compare,
+            {
+                "a": a,
+                "b": a,
+                "frame_a": None,
+                "frame_b": None,
+                "joint_map": None,
+                "n_poses": 2,
+                "seed": 0,
+                "tol": 1e-9,
+            },
+        ),
+        "rd.compare_models": (rd.compare_models, {"arm": a, "q": Q0, "tol": 1e-9}),
+        "rd.crosscheck": (
+            rd.crosscheck,
+            {"arm": a, "poses": QS, "quantities": None, "tolerances": None},
+        ),
+        "rd.crosscheck_batch": (
+            rd.crosscheck_batch,
+            {
+                "arm": a,
+                "Q": QS,
+                "quantities": ["gravity"],
+                "tolerances": None,
+                "threads": 1,
+                "chunk": 2048,
+            },
+        ),
+        "rd.load": (
+            rd.load,
+            {
+                "path": ARM7_PATH,
+                "site": "ee",
+                "strict": True,
+                "frame": None,
+                "disabled_collisions": None,
+            },
+        ),
+        "rd.load_string": (
+            rd.load_string,
+            {"xml": "<mujoco/>", "site": "ee", "strict": True, "frame": None},
+        ),
+        "rd.max_stable_kd": (rd.max_stable_kd, {"inertia": 1.0, "timestep": 0.002, "damping": 0.5}),
+        "rd.max_stable_timestep": (
+            rd.max_stable_timestep,
+            {"inertia": 1.0, "kd": 5.0, "damping": 0.5},
+        ),
+        "rd.model_path": (rd.model_path, {"name": "arm7"}),
+        "rd.reflected_inertia": (
+            rd.reflected_inertia,
+            {"rotor_inertia": 1e-5, "gear_ratio": 100.0},
+        ),
+        "rd.rotor_inertia": (rd.rotor_inertia, {"armature": 0.1, "gear_ratio": 100.0}),
+        # Arm methods
+        "Arm.armature": (a.armature, {"engine": "mujoco"}),
+        "Arm.damping": (a.damping, {"engine": "mujoco"}),
+        "Arm.engine": (a.engine, {"name": "mujoco"}),
+        "Arm.gravity": (a.gravity, {"q": Q0, "engine": "pinocchio"}),
+        "Arm.jacobian": (a.jacobian, {"q": Q0, "engine": "mujoco"}),
+        "Arm.joint_index": (a.joint_index, {"name": "j1"}),
+        "Arm.keyframe": (a.keyframe, {"name": "x"}),
+        "Arm.manipulability": (a.manipulability, {"q": Q0, "length": 1.0, "engine": "mujoco"}),
+        "Arm.manipulability_gradient": (a.manipulability_gradient, {"q": Q0, "engine": "mujoco"}),
+        "Arm.mass_matrix": (a.mass_matrix, {"q": Q0, "armature": True, "engine": "mujoco"}),
+        "Arm.nullspace_basis": (a.nullspace_basis, {"q": Q0, "engine": "mujoco"}),
+        "Arm.nullspace_projector": (a.nullspace_projector, {"q": Q0, "engine": "mujoco"}),
+        "Arm.pose": (a.pose, {"q": Q0, "check_range": True, "tol": 1e-9}),
+        "Arm.site_pose": (a.site_pose, {"q": Q0, "engine": "pinocchio"}),
+        "Arm.svd": (a.svd, {"q": Q0, "engine": "mujoco", "rtol": 1e-9}),
+        # batch
+        "batch.distances": (batch.distances, {"arm": a, "Q": QS, "engine": "coal", "threads": 1}),
+        "batch.gravities": (
+            batch.gravities,
+            {"arm": a, "Q": QS, "engine": "pinocchio", "threads": 1},
+        ),
+        "batch.jacobians": (batch.jacobians, {"arm": a, "Q": QS, "engine": "mujoco", "threads": 1}),
+        "batch.manipulabilities": (
+            batch.manipulabilities,
+            {"arm": a, "Q": QS, "engine": "mujoco", "kind": "scaled", "length": 1.0, "threads": 1},
+        ),
+        "batch.mass_matrices": (
+            batch.mass_matrices,
+            {"arm": a, "Q": QS, "armature": True, "engine": "mujoco", "threads": 1},
+        ),
+        "batch.singular_values": (
+            batch.singular_values,
+            {"arm": a, "Q": QS, "engine": "mujoco", "threads": 1},
+        ),
+        # linalg
+        "linalg.damped_pinv": (linalg.damped_pinv, {"J": J0, "damping": 0.1}),
+        "linalg.dynamic_nullspace_projector": (
+            linalg.dynamic_nullspace_projector,
+            {"J": J0[:3], "M": M0},
+        ),
+        "linalg.jacobian_svd": (linalg.jacobian_svd, {"J": J0, "rtol": 1e-9}),
+        "linalg.manipulability": (linalg.manipulability, {"J": J0, "length": 1.0}),
+        "linalg.manipulability_gradient": (
+            linalg.manipulability_gradient,
+            {"J": J0, "dJ": ARM.mujoco.jacobian_derivatives(Q0)},
+        ),
+        "linalg.nullspace_basis": (linalg.nullspace_basis, {"J": J0, "rtol": 1e-9}),
+        "linalg.nullspace_projector": (linalg.nullspace_projector, {"J": J0, "rtol": 1e-9}),
+        "linalg.yoshikawa": (linalg.yoshikawa, {"J": J0}),
+        "JacobianSVD.lost_direction_names": (SVD.lost_direction_names, {"atol": 1e-6}),
+        # inertia
+        "inertia.rotor_inertia": (inertia.rotor_inertia, {"armature": 0.1, "gear_ratio": 10.0}),
+        # selfmotion
+        "selfmotion.self_motion": (
+            sm.self_motion,
+            {
+                "arm": a,
+                "q0": Q0,
+                "total": 0.02,
+                "step": 0.01,
+                "direction": 1,
+                "objective": None,
+                "elbow": None,
+                "engine": "mujoco",
+                "stop": None,
+                "integrator": "euler",
+                "tol": 1e-12,
+                "max_corrections": 5,
+                "fd_step": 1e-4,
+            },
+        ),
+        "selfmotion.pose_error": (
+            sm.pose_error,
+            {"arm": a, "q": Q0, "p0": P0, "R0": R0, "engine": "mujoco"},
+        ),
+        "selfmotion.rotation_log": (sm.rotation_log, {"R": R0}),
+        "selfmotion.manipulability_objective": (
+            sm.manipulability_objective,
+            {"arm": a, "engine": "mujoco"},
+        ),
+        "selfmotion.joint_limit_objective": (sm.joint_limit_objective, {"arm": a}),
+        "selfmotion.collision_objective": (sm.collision_objective, {"arm": a, "engine": "mujoco"}),
+        "selfmotion.no_contact": (sm.no_contact, {"arm": a, "pair": None}),
+        # collision
+        "collision.checker": (collision.checker, {"arm": a}),
+        "collision.contacts": (collision.contacts, {"arm": a, "q": Q0}),
+        "collision.distances": (collision.distances, {"arm": a, "q": Q0, "engine": "coal"}),
+        "collision.keyframe_clearance": (
+            collision.keyframe_clearance,
+            {"arm": a, "engine": "coal"},
+        ),
+        "collision.random_poses": (collision.random_poses, {"arm": a, "n": 3, "seed": 1}),
+        "collision.sampling_ranges": (
+            collision.sampling_ranges,
+            {"arm": a, "unlimited": np.pi, "unlimited_slide": None},
+        ),
+    }
+
+
+CASES = _signature_cases()
+ARGUMENTS = [(name, arg) for name, (_, kwargs) in CASES.items() for arg in kwargs]
+
+#: What a new user passes by mistake: NaN, infinities, empty and wrong-shape arrays, text,
+#: None, other types.
+HOSTILE: list[Any] = [
+    float("nan"),
+    float("inf"),
+    -float("inf"),
+    -1,
+    0,
+    1e308,
+    True,
+    None,
+    "x",
+    "1e-3",
+    b"<mujoco/>",
+    [],
+    {},
+    np.zeros(0),
+    np.zeros((0, NQ)),
+    np.zeros((2, 3, 4)),
+    np.full(NQ, np.nan),
+    np.full((2, NQ), np.inf),
+    np.ones(NQ + 1),
+    np.ones(NQ) * 1j,
+    np.array(["a"] * NQ),
+    [[1.0, 2.0], [3.0]],
+    object(),
+    lambda q: "not a number",
+]
+
+
+def call_hostile(name: str, arg: str, value: Any) -> None:
+    """Call ``name`` with ``arg`` replaced by ``value``: a result or a RedundancyError."""
+    fn, kwargs = CASES[name]
+    try:
+        fn(**{**kwargs, arg: value})
+    except rd.RedundancyError:
+        pass
+
+
+def test_every_case_runs_as_given() -> None:
+    """The valid arguments are valid: each case's call returns (or raises only the library's
+    error where the case is a lookup of a missing name)."""
+    for name, (fn, kwargs) in CASES.items():
+        if name in ("rd.load_string", "Arm.keyframe"):
+            with pytest.raises(rd.RedundancyError):
+                fn(**kwargs)
+        else:
+            fn(**kwargs)
+
+
+@pytest.mark.parametrize(("name", "arg"), ARGUMENTS, ids=[f"{n}:{a}" for n, a in ARGUMENTS])
+def test_each_argument_refuses_nonsense_with_the_librarys_error(name: str, arg: str) -> None:
+    for value in HOSTILE:
+        try:
+            call_hostile(name, arg, value)
+        except Exception as err:  # what is asserted: nothing but a RedundancyError
+            pytest.fail(f"{name}({arg}={value!r}): {type(err).__name__}: {err}")
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    case=st.sampled_from(ARGUMENTS),
+    value=st.one_of(
+        hnp.arrays(
+            dtype=st.sampled_from([np.float64, np.float32, np.int64, np.complex128, np.bool_]),
+            shape=hnp.array_shapes(min_dims=0, max_dims=4, min_side=0, max_side=7),
+        ),
+        hnp.arrays(np.float64, st.sampled_from([(NQ,), (2, NQ), (6, NQ), (NQ, NQ), (3, 3)])),
+        st.floats(),
+        # Small integers: a huge count is a valid request for a huge amount of work.
+        st.integers(-10, 50),
+        st.text(max_size=5),
+        st.none(),
+        st.lists(st.floats(), max_size=5),
+    ),
+)
+def test_random_nonsense_gets_only_the_librarys_errors(case: tuple[str, str], value: Any) -> None:
+    """Hypothesis draws the argument and the value (derandomized in CI: the default profile)."""
+    name, arg = case
+    try:
+        call_hostile(name, arg, value)
+    except Exception as err:
+        pytest.fail(f"{name}({arg}={value!r}): {type(err).__name__}: {err}")

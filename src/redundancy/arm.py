@@ -18,10 +18,12 @@ from . import ik, linalg
 from .checks import (
     check_count,
     check_direction,
+    check_flag,
     check_joint_subset,
     check_number,
     check_pose,
     check_tool_pose,
+    describe,
 )
 from .engines import ENGINES, EngineName
 from .engines.contract import Engine
@@ -31,7 +33,22 @@ from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
 
-__all__ = ["ENGINES", "Arm", "EngineName", "random_poses", "sampling_ranges"]
+__all__ = ["ENGINES", "Arm", "EngineName", "check_arm", "random_poses", "sampling_ranges"]
+
+
+def check_arm(value: object, name: str = "arm") -> Arm:
+    """An :class:`Arm`, as every function taking one checks it first.
+
+    Raises:
+        ParameterError: Anything else (a path, a MuJoCo model...): the message says how an
+            Arm is made.
+    """
+    if not isinstance(value, Arm):
+        raise ParameterError(
+            name, value, "an Arm (from redundancy.load or load_string)", describe(value)
+        )
+    return value
+
 
 #: solve_ik's default tolerances [m, rad] and restarts, which :data:`ik.DEFAULT_SETTINGS` holds.
 _IK_DEFAULTS = (1e-6, 1e-6, 100)
@@ -156,13 +173,13 @@ class Arm:
     def keyframe(self, name: str) -> Array:
         """Joint configuration of a named keyframe [rad or m]."""
         keys = self.keyframes
-        if name not in keys:
+        if not isinstance(name, str) or name not in keys:
             raise UnknownNameError("keyframe", name, list(keys))
         return keys[name]
 
     def joint_index(self, name: str) -> int:
         """Index of a joint in the library's order."""
-        if name not in self.joint_names:
+        if not isinstance(name, str) or name not in self.joint_names:
             raise UnknownNameError("joint", name, self.joint_names)
         return self.joint_names.index(name)
 
@@ -186,7 +203,7 @@ class Arm:
             OutOfRangeError: A value outside its range (only with ``check_range``).
         """
         arr = check_pose(q, self.joint_names)
-        if check_range:
+        if check_flag("check_range", check_range):
             tol = check_number("tol", tol, 0.0, unit="rad or m")
             for i in range(self.nq):
                 if not (self.lower[i] - tol <= arr[i] <= self.upper[i] + tol):
@@ -257,7 +274,7 @@ class Arm:
         self, q: ArrayLike, armature: bool = True, engine: EngineName = "mujoco"
     ) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature."""
-        return self.engine(engine).mass_matrix(q, armature)
+        return self.engine(engine).mass_matrix(q, check_flag("armature", armature))
 
     def gravity(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gravity torque the motors must supply to hold ``q`` [N m or N]."""
@@ -501,7 +518,14 @@ def sampling_ranges(
 
     Raises:
         PoseError: An unlimited slide joint and no ``unlimited_slide`` (no range to draw from).
+        ParameterError: Not an Arm, or a half-width not a finite number > 0.
     """
+    arm = check_arm(arm)
+    unlimited = check_number("unlimited", unlimited, 0.0, low_open=True, unit="rad")
+    if unlimited_slide is not None:
+        unlimited_slide = check_number(
+            "unlimited_slide", unlimited_slide, 0.0, low_open=True, unit="m"
+        )
     lo, hi = arm.lower.copy(), arm.upper.copy()
     for i, kind in enumerate(arm.joint_types):
         if not (np.isfinite(lo[i]) and np.isfinite(hi[i])):
@@ -525,6 +549,7 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
     Raises:
         ParameterError: ``n`` not an integer >= 0, or ``seed`` not None or an integer >= 0.
     """
+    arm = check_arm(arm)
     n = check_count("n", n, 0)
     if seed is not None:
         seed = check_count("seed", seed, 0)

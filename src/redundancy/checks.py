@@ -338,6 +338,18 @@ def check_threads(threads: object) -> int:
     return min(check_count("threads", threads, 1), max_threads())
 
 
+def check_flag(name: str, value: object) -> bool:
+    """A yes/no argument: a bool (numpy's too).
+
+    Raises:
+        ParameterError: Anything else (an array's truth value is ambiguous, a string is
+            always true).
+    """
+    if not isinstance(value, bool | np.bool_):
+        raise ParameterError(name, value, "True or False", describe(value))
+    return bool(value)
+
+
 def check_choice(kind: str, value: object, choices: Sequence[str]) -> str:
     """One of ``choices``.
 

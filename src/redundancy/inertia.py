@@ -70,7 +70,7 @@ def max_stable_timestep(inertia: ArrayLike, kd: ArrayLike, damping: ArrayLike) -
         damping=check_values("damping", damping, 0.0, unit="N m s/rad"),
     )
     excess = kd - damping
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # beyond 1e308: inf, the bound's limit
         return np.where(excess > 0, 2.0 * inertia / np.where(excess > 0, excess, 1.0), np.inf)
 
 
@@ -91,4 +91,5 @@ def max_stable_kd(inertia: ArrayLike, timestep: float, damping: ArrayLike) -> Ar
         damping=check_values("damping", damping, 0.0, unit="N m s/rad"),
     )
     h = check_number("timestep", timestep, 0.0, low_open=True, unit="s")
-    return damping_ + 2.0 * inertia_ / h
+    with np.errstate(over="ignore"):  # beyond 1e308: inf, the bound's limit
+        return damping_ + 2.0 * inertia_ / h

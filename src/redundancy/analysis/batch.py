@@ -46,11 +46,12 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arm import ENGINES, Arm, EngineName
+from ..arm import ENGINES, Arm, EngineName, check_arm
 from ..checks import (
     check_choice,
     check_count,
     check_directions,
+    check_flag,
     check_joint_subset,
     check_number,
     check_poses,
@@ -87,8 +88,9 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
 
     Raises:
         PoseError: Not numeric, complex, not of shape (n, nq), or with NaN or infinite values.
+        ParameterError: ``arm`` is not an Arm.
     """
-    return check_poses(Q, arm.joint_names)
+    return check_poses(Q, check_arm(arm).joint_names)
 
 
 class _Shipped:
@@ -380,6 +382,7 @@ def mass_matrices(
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
     """
+    armature = check_flag("armature", armature)
     if executor is not None:
         return scatter(
             executor, mass_matrices, arm, Q, armature=armature, engine=engine, threads=threads

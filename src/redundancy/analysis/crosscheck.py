@@ -10,18 +10,19 @@ computation, over stacks of poses taken in chunks so memory stays flat in their 
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arm import Arm
+from ..arm import Arm, check_arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
 from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
+from ..errors import ParameterError
 from ..linalg import manipulability_gradient, mobility
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
@@ -169,6 +170,10 @@ def quantity_names(quantities: Iterable[str] | None) -> tuple[str, ...]:
     """
     if isinstance(quantities, str):
         quantities = (quantities,)
+    if quantities is not None and not isinstance(quantities, Iterable):
+        raise ParameterError(
+            "quantities", quantities, f"None, a name or names of {list(TOLERANCES)}"
+        )
     names = tuple(TOLERANCES) if quantities is None else tuple(quantities)
     for name in names:
         check_choice("quantity", name, tuple(TOLERANCES))
@@ -183,6 +188,8 @@ def tolerances_for(names: Iterable[str], overrides: dict[str, float] | None) -> 
         ParameterError: A tolerance that is NaN, infinite or negative.
     """
     tols = dict(TOLERANCES)
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise ParameterError("tolerances", overrides, "None or a dict: quantity -> tolerance")
     for name, tol in (overrides or {}).items():
         check_choice("quantity", name, tuple(TOLERANCES))
         tols[name] = check_number(f"tolerance for {name!r}", tol, 0.0)
@@ -403,6 +410,7 @@ def crosscheck_batch(
         ParameterError: A bad tolerance, thread count or chunk size.
         PoseError: Bad poses.
     """
+    arm = check_arm(arm)
     names = quantity_names(quantities)
     tols = tolerances_for(names, tolerances)
     threads = check_threads(threads)

@@ -32,11 +32,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import linalg
-from ..arm import ENGINES, Arm, EngineName
+from ..arm import ENGINES, Arm, EngineName, check_arm
 from ..checks import (
     check_callable,
     check_choice,
     check_count,
+    check_flag,
     check_matrix,
     check_number,
     check_pose,
@@ -67,7 +68,11 @@ def rotation_log(R: Array) -> Array:
 
     Accurate at every angle: near 0 from the skew part, near pi from the symmetric part
     (whose largest diagonal entry gives the axis without cancellation).
+
+    Raises:
+        ParameterError: ``R`` not a finite real 3 x 3 matrix.
     """
+    R = check_matrix("R", R, (3, 3))
     cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
     angle = float(np.arccos(cos))
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
@@ -89,7 +94,14 @@ def pose_error(arm: Arm, q: Array, p0: Array, R0: Array, engine: EngineName = "m
 
     ``J^+`` of this error is the joint step that takes the tool back to ``(p0, R0)`` to
     first order (J's angular rows are world-frame angular velocities).
+
+    Raises:
+        ParameterError: Not an Arm, ``p0`` not a finite 3-vector, ``R0`` not a finite 3 x 3
+            matrix.
+        PoseError: Bad ``q``.
     """
+    arm = check_arm(arm)
+    p0, R0 = check_matrix("p0", p0, (3,)), check_matrix("R0", R0, (3, 3))
     p, R = arm.site_pose(q, engine)
     return np.concatenate([p0 - p, rotation_log(R0 @ R.T)])
 
@@ -124,6 +136,8 @@ class Objective:
 
 def manipulability_objective(arm: Arm, engine: EngineName = "mujoco") -> Objective:
     """Yoshikawa's manipulability sqrt(det(J J^T)), with its analytic gradient [mixed units]."""
+    arm = check_arm(arm)
+    check_choice("engine", engine, ENGINES)
     return Objective(
         "manipulability sqrt(det(J J^T))",
         lambda q: linalg.yoshikawa(arm.jacobian(q, engine)),
@@ -137,6 +151,7 @@ def joint_limit_objective(arm: Arm) -> Objective:
     Its gradient is the (sub)gradient of the minimum: +1 on the joint that is nearest its
     lower limit, -1 if it is nearest its upper limit; unlimited joints never count.
     """
+    arm = check_arm(arm)
 
     def margins(q: Array) -> Array:
         return np.minimum(q - arm.lower, arm.upper - q)
@@ -347,14 +362,17 @@ def self_motion(
         UnknownNameError: Unknown ``elbow`` joint, ``integrator`` or ``engine``.
         PoseError: Bad ``q0``.
     """
+    arm = check_arm(arm)
     total = check_number("total", total, 0.0, low_open=True, unit="rad")
     step = check_number("step", step, total / MAX_STEPS, total, unit="rad")
-    if direction not in (1, -1) or isinstance(direction, bool):
+    if isinstance(direction, bool) or not isinstance(direction, int) or direction not in (1, -1):
         raise ParameterError("direction", direction, "+1 or -1")
     check_choice("integrator", integrator, INTEGRATORS)
     check_choice("engine", engine, ENGINES)
     tol = check_number("tol", tol, 0.0, low_open=True, unit="m and rad")
     max_corrections = check_count("max_corrections", max_corrections, 0)
+    correct = check_flag("correct", correct)
+    respect_limits = check_flag("respect_limits", respect_limits)
     fd_step = check_number("fd_step", fd_step, 0.0, low_open=True, unit="rad")
     q = check_pose(q0, arm.joint_names)
     if objective is not None:

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arm import check_arm
 from ..caching import PerObject
 from ..checks import check_choice
 from ..engines.threads import PerThread
@@ -279,8 +280,11 @@ def checker(arm: Arm) -> CollisionChecker:
     """The :class:`CollisionChecker` of an arm with its full pair set, built once and cached.
 
     The cache never keeps an arm alive and is safe to fill from several threads at once.
+
+    Raises:
+        ParameterError: ``arm`` is not an Arm.
     """
-    return _CHECKERS.get(arm)
+    return _CHECKERS.get(check_arm(arm))
 
 
 def distances(arm: Arm, q: ArrayLike, engine: DistanceEngine = "coal") -> Distances:

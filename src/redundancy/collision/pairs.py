@@ -185,6 +185,10 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             (``mujoco.set_mjcb_contactfilter``): it replaces the bitmask test with user code
             this function cannot reproduce.
     """
+    if not isinstance(model, mujoco.MjModel):
+        from ..arm import check_arm
+
+        model = check_arm(model, "model")
     m: mujoco.MjModel = model if isinstance(model, mujoco.MjModel) else model.mj_model
     # An arm inside a robot: its model welds the held joints, which would make a body whose
     # parent is held (the first arm link on a torso) a world-welded parent's child, and the

@@ -42,6 +42,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arm import check_arm
 from ..caching import PerObject
 from ..checks import check_choice, check_count, check_in_range, check_number, check_poses
 from ..errors import PoseError, UnsupportedFeatureError
@@ -389,4 +390,4 @@ def path_checker(arm: Arm) -> PathChecker:
 
     The cache never keeps an arm alive (the cached checker holds its arm weakly).
     """
-    return _PATH_CHECKERS.get(arm)
+    return _PATH_CHECKERS.get(check_arm(arm))

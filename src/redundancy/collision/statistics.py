@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import sampling_ranges
-from ..checks import check_choice, check_count, check_poses
+from ..checks import check_choice, check_count, check_flag, check_poses
 from ..display import Report, Table, plural, table
 from .checker import CollisionChecker, PairDistance, checker
 from .coal_scene import CoalScene
@@ -214,6 +214,7 @@ def collision_statistics(
     if distances is not None:
         check_choice("distance engine", distances, DISTANCE_ENGINES)
     ch = checker(arm)
+    prune, keyframes = check_flag("prune", prune), check_flag("keyframes", keyframes)
     if poses is None:
         n = check_count("n_poses", n_poses, 0)
         if seed is not None:

@@ -11,6 +11,7 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
+from ..checks import check_flag
 from ..engines.mujoco import JOINT_TYPES as _JOINT_TYPES
 from ..engines.mujoco import object_names as _names
 from ..errors import ModelError, UnsupportedFeatureError
@@ -60,6 +61,7 @@ def check_supported(
         ModelError: Values no arm can have (NaN or infinite numbers, negative armature or
             damping, a range whose lower limit is above its upper limit).
     """
+    strict = check_flag("strict", strict)
     if xml_root is not None:
         _check_xml_values(xml_root)
     if model.njnt == 0:
