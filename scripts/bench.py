@@ -584,6 +584,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--n", type=int, default=10000, help="poses per batch")
     p.add_argument("--repeats", type=int, default=7, help="rounds; medians are reported")
     p.add_argument("--calls", type=int, default=2000, help="single-pose calls per round")
+    p.add_argument("--ik", type=int, default=1000, help="IK targets per arm (CLIK: a fifth)")
     args = p.parse_args(argv)
     arm = rd.load(rd.model_path(args.model), site="ee")
     Q = random_poses(arm, args.n, seed=0)
@@ -600,6 +601,11 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(controller_section(arm, args.calls, args.repeats)) + "\n", flush=True)
     print("\n".join(rtb_section(args.calls, args.repeats)) + "\n", flush=True)
     print("\n".join(robot_section(args.repeats)), flush=True)
+    # Inverse kinematics against its peers and the effective mass (scripts/bench_ik.py).
+    import bench_ik
+
+    print("\n".join(bench_ik.ik_section(list(bench_ik.ARMS), args.ik, args.ik // 5)), flush=True)
+    print("\n".join(bench_ik.effective_mass_section(args.n, args.repeats)), flush=True)
     print(f"\n(total {time.perf_counter() - t0:.0f} s)")
     return 0
 

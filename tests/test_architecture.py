@@ -175,7 +175,7 @@ def test_the_scanner_sees_calls(tmp_path: Path) -> None:
 LAYERS = [
     {"errors", "checks", "caching", "display"},
     {"engines"},
-    {"linalg", "inertia"},
+    {"linalg", "inertia", "ik"},
     {"arm"},
     {"model", "models"},
     {"collision"},

@@ -9,6 +9,7 @@ shows.
 from __future__ import annotations
 
 import json
+import warnings
 
 import mujoco
 import numpy as np
@@ -96,18 +97,30 @@ def test_a_sound_model_has_no_findings():
     assert not moves(arm)
 
 
-def test_zero_and_placeholder_armature():
-    assert kinds(arm_xml(armature="0 0.01")) == ["armature"]
+def test_zero_and_placeholder_armature_are_notes_not_findings():
+    # Armature is a value the file gives or not: the model's numbers show no problem by it.
+    report = audit(rd.load_string(arm_xml(armature="0 0.01"), site="tip"), n_poses=50)
+    assert report.findings == ()
+    assert [(n.kind, n.message.split(":")[0]) for n in report.notes] == [
+        ("armature", "zero armature on 'a'")
+    ]
     report = audit(rd.load_string(arm_xml(armature="0.02 0.02"), site="tip"), n_poses=50)
-    assert [f.message.split(":")[0] for f in report.findings] == [
+    assert report.findings == ()
+    assert [n.message.split(":")[0] for n in report.notes] == [
         "every joint has the same armature 0.02 kg m^2"
     ]
 
 
-def test_timestep_above_h_max():
-    # Joint c: M_cc ~ 0.0004 + 0.01 kg m^2, kd - b = 4.9: h_max ~ 4 ms < 20 ms.
-    _, _, msgs = run(arm_xml(timestep="0.02"), n_poses=50)
-    assert any(m.startswith("timestep 20 ms is above joint 'c''s h_max") for m in msgs)
+def test_timestep_above_h_max_is_asked_with_kd_only():
+    # Motors and implicit joint damping: no controller in the file, no explicit damping, so
+    # the question is not asked. With kd = 5 written to ctrl, joint c (M_cc ~ 0.0004 +
+    # 0.01 kg m^2, kd - b = 4.9) allows h_max ~ 4 ms < 20 ms.
+    _, found, _ = run(arm_xml(timestep="0.02"), n_poses=50)
+    assert found == []
+    _, found, msgs = run(arm_xml(timestep="0.02"), n_poses=50, kd=5.0)
+    assert found == ["timestep"]
+    assert msgs[0].startswith("timestep 20 ms is above the h_max 4.24 ms of joint 'c' (M_ii")
+    assert "kd 5 N m s/rad written to ctrl" in msgs[0]
 
 
 @pytest.mark.parametrize("timestep", ["0", "-0.001"])
@@ -194,7 +207,10 @@ def test_gravity_flag_the_budget_follows_mujoco():
     weak = arm_xml(ctrl_a="-2 2", flags='<flag gravity="disable"/>')
     arm, found, msgs = run(weak)
     assert found == ["simulation"]  # both engines see no gravity (Pinocchio's is bridged)
-    assert msgs[0].startswith('gravity is disabled (<flag gravity="disable"/>)')
+    assert msgs[0].startswith(
+        'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm weightless, '
+        "ignoring gravity [0, 0, -9.81] m/s^2"
+    )
     assert not moves(arm, compensate=False)
     arm, found, _ = run(arm_xml(ctrl_a="-2 2"))
     assert "gravity" in found and moves(arm, compensate=False)
@@ -221,7 +237,7 @@ def test_servo_damping_is_read_from_the_actuators(integrator, stable):
     assert moves(arm, kp=0.0, kd=0.0, compensate=False) != stable
 
 
-def test_kd_asks_the_lessons_question_under_implicitfast():
+def test_kd_asks_the_explicit_damping_question_under_implicitfast():
     # A kd written to ctrl stays explicit under implicitfast (lesson 5.2, output (5)).
     xml = arm_xml(timestep="0.01", option='integrator="implicitfast"')
     _, found, _ = run(xml, kd=1.0)
@@ -305,26 +321,42 @@ def test_a_one_joint_arm_is_audited():
     assert [r.name for r in report.sections.joints.rows] == ["a"]
     assert report.engines.crosscheck.ok
     assert report.sections.gravity.n_over == 0
-    assert format_report(report)[0] == "audit of <string> (site 'tip')"
+    assert format_report(report)[:2] == [
+        "audit of <string>",
+        "  MJCF, tool frame 'tip', strict mode",
+    ]
 
 
-def test_long_names_and_any_magnitudes_stay_aligned():
-    name = "shoulder_pan_joint_of_a_long_a"  # 30 characters
-    assert len(name) == 30
+@pytest.mark.parametrize("length", [30, 250])
+def test_every_line_fits_100_characters_at_any_name_length(length):
+    name = ("shoulder_pan_joint_of_a_long_arm_" * 10)[:length]
     xml = arm_xml(ctrl_a="-20 20", armature="0.0001398 0.0001398").replace(
         'joint name="a"', f'joint name="{name}"'
     )
-    xml = xml.replace('motor joint="a"', f'motor joint="{name}"')
+    # No motor on the long-named joint: a finding names it.
+    xml = xml.replace('<motor joint="a" ctrlrange="-20 20"/>', "").replace(
+        'body name="l3"', f'body name="{name[:-1]}X"'
+    )
     lines = format_report(audit(rd.load_string(xml, site="tip"), n_poses=20))
-    start = lines.index(next(x for x in lines if x.startswith("joints ")))
-    header, *rows = lines[start + 1 : start + 5]
-    cells = [c for c in header.split("  ") if c.strip()]
-    for row in rows:
-        # Columns are two spaces apart at least: every row splits into as many cells.
-        assert len([c for c in row.split("  ") if c.strip()]) == len(cells), row
-        assert len(row) <= len(header) or row.rstrip() == row
-    assert rows[0].split()[0] == name
+    assert max(len(line) for line in lines) <= 100
     assert "200.0001398" not in "\n".join(lines)
+    # The joint table: the first column holds the whole name, folded within the column when
+    # it is wider than the table allows; the other cells of its row stay whole.
+    start = lines.index(next(x for x in lines if x.startswith("  joint ")))
+    header = lines[start]
+    width = header.index("type") - 2
+    folded = []
+    for row in lines[start + 1 :]:
+        folded.append(row[2:width].strip())
+        if "hinge" in row:
+            assert row[width:].split()[:2] == ["hinge", "[-2,"]
+        if not row[width:].strip() and len("".join(folded)) >= length:
+            break
+        if len("".join(folded)) >= length:
+            break
+    assert "".join(folded) == name
+    text = " ".join(line.strip() for line in lines)
+    assert f"joint '{name[:40]}" in text
 
 
 @pytest.mark.parametrize(("model", "status"), [("arm7", 1), ("panda", 0)])
@@ -333,11 +365,12 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
     path = str(rd.model_path(model))
     assert main(["audit", path, "--poses", "500", "--json", str(out)]) == status
     text = capsys.readouterr().out
-    assert text.splitlines()[0] == f"audit of {path} (site 'ee')"
+    assert text.splitlines()[1] == "  MJCF, tool frame 'ee', strict mode"
     data = json.loads(out.read_text())
     assert set(data) == {
         "model",
-        "site",
+        "format",
+        "frame",
         "mode",
         "simulation",
         "kd",
@@ -349,8 +382,17 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
         "collision",
         "crosscheck",
         "equivalence",
+        "notes",
         "findings",
+        "contact_mass",
+        "robot",
     }
+    assert data["robot"] == {"held": {}, "rest": "qpos0", "base": None, "set_aside": []}
+    cm = data["contact_mass"]
+    assert cm["n_poses"] == 500 and cm["payload"] == 0.0
+    assert cm["with_armature"][0] <= cm["with_armature"][1] <= cm["with_armature"][2]
+    assert all(a >= b for a, b in zip(cm["with_armature"], cm["without_armature"], strict=True))
+    assert "effective mass at the tool (ISO/TS 15066 transient contact)" in text
     integrator = {"arm7": "Euler", "panda": "implicitfast"}[model]
     assert data["mode"] == "strict" and data["simulation"]["integrator"] == integrator
     assert data["crosscheck"]["ok"] and data["equivalence"]["equivalent"]
@@ -362,18 +404,25 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
 def test_arm7_audit_findings(capsys):
     assert main(["audit", str(rd.model_path("arm7")), "--poses", "300"]) == 1
     text = capsys.readouterr().out
-    findings = text.split("findings: ")[1].splitlines()[1:]
-    # The zero keyframe is the lesson's singular pose; 0.05 on every joint is its
-    # illustrative (not datasheet) armature.
-    assert [line.split(":")[0] for line in findings] == [
-        "  [armature] every joint has the same armature 0.05 kg m^2",
-        "  [keyframe] keyframe 'zero' is singular",
+    findings = text.split("findings: ")[1].splitlines()
+    # The zero keyframe is arm7's singular pose by design (the arm stretched straight up);
+    # 0.05 on every joint is its illustrative (not datasheet) armature: a note.
+    assert findings == [
+        "1",
+        "  [keyframe] keyframe 'zero' is singular: sigma_min 0.00e+00 < 0.001, rank 3 (lost: "
+        "translation y,",
+        "    translation z, rotation x)",
     ]
+    notes = text.split("notes (what the file does not say): ")[1].split("findings:")[0]
+    assert notes.splitlines()[1].startswith(
+        "  [armature] every joint has the same armature 0.05 kg m^2"
+    )
 
 
 def test_report_lines_are_printable():
     lines = format_report(audit(rd.load(rd.model_path("arm7")), n_poses=100))
-    assert lines[-1].startswith("  [keyframe] keyframe 'zero' is singular")
+    assert all(line.isprintable() and len(line) <= 100 for line in lines)
+    assert lines[-2].startswith("  [keyframe] keyframe 'zero' is singular")
 
 
 @pytest.mark.parametrize(
@@ -498,15 +547,18 @@ def test_a_joint_without_actuator_that_gravity_loads_is_a_finding():
     assert msgs[0].startswith("joint 'b' has no actuator, and gravity loads it with up to")
 
 
-def test_a_servo_without_kv_gets_no_assumed_controller_damping():
-    # A position servo with kp only (kv 0): no controller writes a kd to ctrl, so the
-    # lesson's kd = 5 is not assumed; a torque motor on the other joints keeps it.
+def test_no_controller_damping_is_assumed_without_kd():
+    # No kd given: no controller is assumed on any joint, motor- or servo-driven; the damping
+    # that bounds the timestep is the model's own (the joints', the servos' kv).
     actuators = (
-        '<position joint="a" kp="300" ctrlrange="-2 2"/><motor joint="b" ctrlrange="-50 50"/>'
-        '<motor joint="c" ctrlrange="-50 50"/>'
+        '<position joint="a" kp="300" kv="4" ctrlrange="-2 2"/>'
+        '<motor joint="b" ctrlrange="-50 50"/><motor joint="c" ctrlrange="-50 50"/>'
     )
     arm = rd.load_string(arm_xml(actuators=actuators), site="tip")
-    assert [r.kd for r in sections.joints(arm).rows] == [0.0, 5.0, 5.0]
+    rows = sections.joints(arm).rows
+    assert [r.kd for r in rows] == [0.0, 0.0, 0.0]
+    assert [r.servo_kv for r in rows] == [4.0, 0.0, 0.0]
+    assert [r.h_max < np.inf for r in rows] == [True, False, False]
     assert [r.kd for r in sections.joints(arm, kd=2.0).rows] == [2.0, 2.0, 2.0]
 
 
@@ -525,3 +577,29 @@ def test_a_stiff_servo_needs_a_small_step_even_under_implicitfast(kp, stable):
     if not stable:
         assert "explicit stiffness 2000 N m/rad" in next(m for m in msgs if "timestep" in m)
     assert moves(arm, kp=0.0, kd=0.0, compensate=False) != stable
+
+
+def test_an_unlimited_servo_has_effort_none_and_nothing_overflows():
+    # Servos without a forcerange (as the Menagerie iiwa14's): MuJoCo applies no limit. The
+    # effort was +-1.8e308 (numpy's largest float for infinity) and its ratios overflowed.
+    servos = "".join(
+        f'<general joint="{j}" gaintype="fixed" biastype="affine" gainprm="2000" '
+        f'biasprm="0 -2000 -200" ctrlrange="-2 2"/>'
+        for j in "abc"
+    )
+    xml = arm_xml(key="0.3 0.5", actuators=servos, option='integrator="implicitfast"')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        report = audit(rd.load_string(xml, site="tip"), n_poses=50)
+        lines = format_report(report)
+        data = json.loads(report.to_json())
+    rows = report.sections.joints.rows
+    assert [(r.effort_lower, r.effort_upper) for r in rows] == [(-np.inf, np.inf)] * 3
+    assert [j["effort_upper"] for j in data["joints"]] == [None] * 3
+    text = "\n".join(lines)
+    assert "e+308" not in text and "np.float64" not in text
+    joint_a = next(x for x in lines if x.startswith("  a "))
+    assert joint_a.split()[4] == "none"  # joint, type, range (two words), effort
+    gravity_a = [x for x in lines if x.startswith("  a ")][1]
+    assert gravity_a.split()[3:6] == ["none", "none", "none"]  # limits, limit/need
+    assert report.findings == ()

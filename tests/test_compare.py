@@ -4,6 +4,7 @@ the same robot in different clothes reported equivalent."""
 from __future__ import annotations
 
 import json
+import math
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -16,6 +17,7 @@ from hypothesis import strategies as st
 import redundancy as rd
 from redundancy.analysis.compare import compare, read_joint_map
 from redundancy.cli import main
+from redundancy.model.ends import chain_ends, single_chain_end
 from redundancy.model.scales import FLOOR, arm_scales
 
 from .test_urdf import (
@@ -147,19 +149,73 @@ def test_gravity_switched_off_is_a_different_gravity_vector(tmp_path: Path) -> N
     assert vector.a[2] == pytest.approx(-9.81)
 
 
-def test_offset_tool_frame_is_caught_named_and_located(tmp_path: Path) -> None:
+def test_offset_tool_frame_is_a_tool_mount_said_once(tmp_path: Path) -> None:
     root = urdf_root("arm7")
     element(root, "joint", "link7_ee").find("origin").set("xyz", "0 0 0.135")  # type: ignore[union-attr]
-    tool_urdf = write(root, tmp_path / "tool.urdf")
-    result = compare(tool_urdf, ARM7_XML)
-    found = quantities(result)
-    assert found["tool frame position (world)"] == ["tool frame 'ee'"]
-    assert result.chains_part == "tool frame (after the last joint)"
-    assert "joint axis (world)" not in found and "centre of mass (world)" not in found
-    assert {"tool position", "jacobian"} <= set(found)
-    tool = next(d for d in result.differences if d.quantity == "tool frame position (world)")
-    scale = max(np.max(np.abs(tool.a)), FLOOR * arm_scales(rd.load(tool_urdf, frame="ee")).length)
-    assert result.largest["tool frame position (world)"] == pytest.approx(0.005 / scale, abs=1e-12)
+    result = compare(write(root, tmp_path / "tool.urdf"), ARM7_XML)
+    # B's tool sits 5 mm short of A's along the flange axis: one offset, and the rest
+    # (tool poses and Jacobians at the mount) compared relative to it agree.
+    assert [o.kind for o in result.offsets] == ["tool mount"]
+    mount = result.offsets[0]
+    np.testing.assert_allclose(mount.translation, [0, 0, -0.005], atol=1e-12)
+    assert mount.angle == 0.0
+    assert result.differences == () and result.chains_part is None
+    assert result.verdict == "same robot, placed differently" and not result.equivalent
+    assert max(result.largest.values()) < 1e-12
+    assert "OFFSET  tool mount: B is A moved by [0 0 -0.005] m in A's tool frame" in (
+        result.lines()
+    )
+
+
+def _moved_base(path: Path, tmp_path: Path, body: str, pos: str, extra: str = "") -> Path:
+    text = path.read_text()
+    moved = text.replace(f'<body name="{body}"', f'<body name="{body}" pos="{pos}" {extra}', 1)
+    assert moved != text
+    out = tmp_path / f"moved_{path.name}"
+    out.write_text(moved)
+    return out
+
+
+def test_a_base_moved_up_is_one_offset_and_the_rest_is_the_same(tmp_path: Path) -> None:
+    moved = _moved_base(PANDA_XML, tmp_path, "link0", "0 0 0.12")
+    result = compare(PANDA_XML, moved)
+    assert [str(o) for o in result.offsets] == [
+        "base placement: B is A moved by [0 0 0.12] m in the world frame"
+    ]
+    np.testing.assert_allclose(result.offsets[0].translation, [0, 0, 0.12], atol=1e-12)
+    np.testing.assert_allclose(result.offsets[0].rotation, np.eye(3), atol=1e-12)
+    # Relative to the offset: axes, centres of mass, tool poses, Jacobians, mass matrices
+    # and gravity torques all agree.
+    assert result.differences == (), result.lines()
+    assert result.verdict == "same robot, placed differently"
+    assert max(result.largest.values()) < 1e-12
+    # URDF against MJCF, as with a published robot's two files: the same single offset.
+    urdf_vs_mjcf = compare(PANDA_URDF, moved)
+    assert [o.kind for o in urdf_vs_mjcf.offsets] == ["base placement"]
+    assert urdf_vs_mjcf.differences == ()
+
+
+def test_a_turned_base_leaves_the_gravity_difference(tmp_path: Path) -> None:
+    # Turned 90 deg about x: the arm hangs sideways, so gravity loads it differently: that
+    # difference is physical and remains, after the offset; the kinematics agree.
+    moved = _moved_base(
+        ARM7_XML, tmp_path, "link1", "0 0.3 0", 'quat="0.7071067811865476 0.7071067811865476 0 0"'
+    )
+    result = compare(ARM7_XML, moved)
+    assert [o.kind for o in result.offsets] == ["base placement"]
+    base = result.offsets[0]
+    assert math.degrees(base.angle) == pytest.approx(90, abs=1e-9)
+    np.testing.assert_allclose(base.axis, [1, 0, 0], atol=1e-12)
+    assert {d.quantity for d in result.differences} == {"gravity torque"}
+    assert result.chains_part is None
+
+
+def test_a_real_kinematic_difference_is_no_offset(tmp_path: Path) -> None:
+    root = urdf_root("arm7")
+    element(root, "joint", "j4").find("axis").set("xyz", "0 -1 0")  # type: ignore[union-attr]
+    result = compare(write(root, tmp_path / "flipped.urdf"), ARM7_XML)
+    assert result.offsets == ()
+    assert result.chains_part == "joint 'j4'"
 
 
 def test_an_extra_joint_is_named_and_the_rest_still_compared(tmp_path: Path) -> None:
@@ -238,7 +294,12 @@ def test_fused_fixed_link_is_equivalent(tmp_path: Path) -> None:
     root = urdf_root("arm7")
     split_link(root, "link4")
     split_link(root, "link7")
-    result = compare(write(root, tmp_path / "split.urdf"), ARM7_XML)
+    split = write(root, tmp_path / "split.urdf")
+    # Three chain ends: without a frame, compare takes the one named "ee" (the command line
+    # asks for --frame).
+    assert chain_ends(split) == ("ee", "link4_extra", "link7_extra")
+    assert single_chain_end(split) is None
+    result = compare(split, ARM7_XML)
     assert result.equivalent, result.lines()
 
 
@@ -381,3 +442,26 @@ def test_panda_in_any_clothes_is_the_same_robot(seed: int, links: set[str]) -> N
     arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
     result = compare(arm, PANDA_XML, n_poses=20)
     assert result.equivalent, result.lines()
+
+
+def test_cli_one_frame_for_both_and_the_default(capsys: pytest.CaptureFixture[str]) -> None:
+    base = ["compare", str(PANDA_URDF), str(PANDA_XML), "--poses", "5"]
+    assert main(base) == 0  # one chain end each: 'ee'
+    assert main([*base, "--frame", "ee"]) == 0
+    assert main([*base, "--frame", "nowhere", "--frame-a", "ee", "--frame-b", "ee"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("A: ") == 3 and "tool frame 'ee'" in out
+    assert main([*base, "--frame", "nowhere"]) == 2
+    assert "unknown link 'nowhere'" in capsys.readouterr().err
+
+
+def test_cli_base_offset_exits_1_and_says_it_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    moved = _moved_base(PANDA_XML, tmp_path, "link0", "0 0 0.12")
+    assert main(["compare", str(PANDA_URDF), str(moved), "--poses", "5"]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert [x for x in lines if x.startswith(("OFFSET", "DIFFERS"))] == [
+        "OFFSET  base placement: B is A moved by [0 0 0.12] m in the world frame"
+    ]
+    assert lines[-1] == "verdict: same robot, placed differently"

@@ -273,7 +273,7 @@ def test_ik_reaches_the_target_and_keeps_the_posture_in_the_null_space(arm7: rd.
     # A different rest posture changes the elbow, not the tool.
     rest = home.copy()
     rest[2] = 0.8
-    q2, err2 = solve_ik(arm7, home, target, rest=rest, iterations=400)
+    q2, err2 = solve_ik(arm7, home, target, rest=rest)
     assert err2 < 1e-6
     assert abs(q2[2] - q[2]) > 0.05
     # In simulation the PD brings the tool there.
@@ -950,3 +950,18 @@ def test_plot_data_never_shows_samples_after_now(
     assert stepped == [False]
     for name, (x, _) in data.items():
         assert x[-1] <= 0.0, f"{name}: a sample {x[-1]:.3f} s after now"
+
+
+def test_the_effective_mass_readout_follows_the_tools_motion(arm7: rd.Arm) -> None:
+    sim = LabSim(arm7)
+    assert np.isnan(sim.readouts().contact_mass)  # at rest: no direction of motion
+    sim.nudge(0.2)
+    r = sim.readouts()
+    v = arm7.jacobian(r.q)[:3] @ r.qdot
+    # The lab's armature is the model's: the readout is the Arm's effective mass along v.
+    assert r.contact_mass == pytest.approx(arm7.effective_mass(r.q, v), rel=1e-12)
+    sim.set_armature(0.0)
+    bare = sim.readouts()
+    assert bare.contact_mass == pytest.approx(
+        arm7.effective_mass(bare.q, v, armature=False), rel=1e-12
+    )

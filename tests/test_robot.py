@@ -418,8 +418,8 @@ def test_sensors_and_actuators_of_held_joints_leave_with_them() -> None:
 def _audit_exit(file: str, tool: str, base: str | None, tmp: Path) -> int:
     from redundancy.cli import main
 
-    args = ["audit", str(erd_robots() / file), "--site", tool, "--poses", "200"]
-    args += ["--json", str(tmp / "report.json")]
+    args = ["audit", str(erd_robots() / file), "--frame", tool, "--poses", "200"]
+    args += ["--json", str(tmp / "report.json")] + (["--base", base] if base else [])
     code = main(args)
     assert (tmp / "report.json").is_file()
     return code
@@ -436,3 +436,60 @@ def test_audit_of_every_published_arm(
     file: str, tool: str, base: str | None, tmp_path: Path
 ) -> None:
     assert _audit_exit(file, tool, base, tmp_path) in (0, 1)
+
+
+# -- published values MuJoCo rejects ----------------------------------------------------------
+
+
+def _two_branch_urdf(arm_inertia: str, held_inertia: str) -> str:
+    """A base with an arm link (j1) and a held finger link (j2, not on the way to the tool)."""
+
+    def link(name: str, inertia: str) -> str:
+        return (
+            f'<link name="{name}"><inertial><origin xyz="0 0 0.1"/><mass value="1"/>'
+            f"<inertia {inertia} ixy='0' ixz='0' iyz='0'/></inertial></link>"
+        )
+
+    good = 'ixx="0.01" iyy="0.01" izz="0.002"'
+    return f"""<robot name="r"><link name="base"/>
+      {link("l1", arm_inertia)}{link("l2", good)}{link("finger", held_inertia)}
+      <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+        <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="5" velocity="1"/></joint>
+      <joint name="j3" type="revolute"><parent link="l1"/><child link="l2"/>
+        <origin xyz="0 0 0.3"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="5" velocity="1"/></joint>
+      <joint name="j2" type="prismatic"><parent link="base"/><child link="finger"/>
+        <origin xyz="0.2 0 0"/><axis xyz="1 0 0"/><limit lower="0" upper="0.04" effort="5" velocity="1"/></joint>
+    </robot>"""
+
+
+BAD = 'ixx="0.001" iyy="0.001" izz="0.01"'  # A + B < C: PR2's sensor_mount_link
+POINT = 'ixx="0" iyy="0" izz="0"'  # a point mass: valid physics MuJoCo cannot take
+
+
+def test_invalid_inertia_on_the_arm_is_mended_in_both_engines_and_a_finding() -> None:
+    from redundancy.reports.audit import audit
+
+    arm = rd.load_string(_two_branch_urdf(BAD, BAD), frame="l2")
+    assert arm.joint_names == ("j1", "j3") and set(arm.held) == {"j2"}
+    assert arm.defects == (
+        "link 'l1': published inertia invalid, A + B < C (0.001 + 0.001 < 0.01) [kg m^2]; "
+        "replaced by 0.004 about each axis (balanceinertia)",
+    )
+    held = [a for a in arm.set_aside if a.name == "finger"]
+    assert held and held[0].reason.startswith("the arm does not move it: A + B < C")
+    # One replacement in both engines: the engines agree and equal MuJoCo's whole robot.
+    Q = random_poses(arm, 3, seed=0)
+    assert rd.crosscheck(arm, Q).ok
+    assert max(largest_difference_to_full_model(arm, q) for q in Q) < 1e-9
+    report = audit(arm, n_poses=20)
+    assert [f.message for f in report.findings if f.kind == "published inertia"] == list(
+        arm.defects
+    )
+    assert report.robot is not None and report.robot.held == {"j2": 0.0}
+
+
+def test_point_mass_is_no_defect() -> None:
+    arm = rd.load_string(_two_branch_urdf(POINT, POINT), frame="l2")
+    assert arm.defects == ()
+    assert {a.name for a in arm.set_aside if a.what == "degenerate inertia"} == {"l1", "finger"}
+    assert rd.crosscheck(arm, random_poses(arm, 3, seed=0)).ok

@@ -41,6 +41,11 @@ def quantities(arm: rd.Arm, q: np.ndarray) -> list[np.ndarray]:
         out += [arm.mass_matrix(q, False, engine), arm.gravity(q, engine)]
         out += [arm.svd(q, engine).sigma, arm.nullspace_projector(q, engine)]
         out += [np.array([arm.manipulability(q, 0.5, engine).scaled])]
+        mr = arm.effective_mass_range(q, engine=engine)
+        out += [np.array([arm.effective_mass(q, [0.3, -0.2, 1.0], engine=engine), mr.min])]
+        out += [np.array([arm.dynamic_manipulability(q, armature=False, engine=engine)])]
+        out += [np.array([arm.effective_mass(q, [1.0, 0, 0], joints=arm.joint_names[:5])])]
+    out.append(arm.solve_ik(arm.site_pose(q), restarts=5).q)  # its kernel runs in this thread
     out.append(arm.manipulability_gradient(q))
     ch = rd.collision.checker(arm)
     for engine in rd.collision.DISTANCE_ENGINES:

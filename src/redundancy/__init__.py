@@ -37,11 +37,13 @@ from .errors import (
     ParameterError,
     PoseError,
     RedundancyError,
+    SingularPoseError,
     UnknownNameError,
     UnsupportedFeatureError,
 )
+from .ik import IKResult
 from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, rotor_inertia
-from .linalg import JacobianSVD, Manipulability
+from .linalg import EffectiveMassRange, JacobianSVD, Manipulability
 from .model.bridges import Bridge
 from .model.equivalence import Difference, EquivalenceReport, compare_models
 from .model.loading import load, load_string
@@ -61,7 +63,9 @@ __all__ = [
     "Comparison",
     "CrossCheckReport",
     "Difference",
+    "EffectiveMassRange",
     "EquivalenceReport",
+    "IKResult",
     "JacobianSVD",
     "Manipulability",
     "MissingDependencyError",
@@ -70,6 +74,7 @@ __all__ = [
     "ParameterError",
     "PoseError",
     "RedundancyError",
+    "SingularPoseError",
     "UnknownNameError",
     "UnsupportedFeatureError",
     "__version__",

@@ -14,8 +14,17 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import linalg
-from .checks import check_count, check_flag, check_number, check_pose, describe
+from . import ik, linalg
+from .checks import (
+    check_count,
+    check_direction,
+    check_flag,
+    check_joint_subset,
+    check_number,
+    check_pose,
+    check_tool_pose,
+    describe,
+)
 from .engines import ENGINES, EngineName
 from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
@@ -39,6 +48,10 @@ def check_arm(value: object, name: str = "arm") -> Arm:
             name, value, "an Arm (from redundancy.load or load_string)", describe(value)
         )
     return value
+
+
+#: solve_ik's default tolerances [m, rad] and restarts, which :data:`ik.DEFAULT_SETTINGS` holds.
+_IK_DEFAULTS = (1e-6, 1e-6, 100)
 
 
 class Arm:
@@ -274,6 +287,216 @@ class Arm:
     def damping(self, engine: EngineName = "mujoco") -> Array:
         """Damping b per joint: dof damping plus gear^2 x actuator damping [N m s/rad]."""
         return self.engine(engine).damping
+
+    # -- the mass a contact at the tool feels ------------------------------------------------
+    def _mobility(
+        self, q: ArrayLike, armature: bool, joints: object, engine: EngineName
+    ) -> tuple[Array, Array]:
+        """J of the free joints and M_ff^-1 J_f^T from one engine (the inputs checked)."""
+        eng = self.engine(engine)
+        free = check_joint_subset("joints", joints, self.joint_names)
+        return eng.tool_mobility(q, bool(armature), free)
+
+    def operational_inertia(
+        self,
+        q: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> Array:
+        """Operational-space inertia Lambda = (J M^-1 J^T)^-1 at the tool, shape (6, 6).
+
+        Rows and axes as :meth:`jacobian`: linear block [kg], angular block [kg m^2].
+
+        Args:
+            q: Pose [rad or m].
+            armature: Include the armature (the motors' rotor inertia) in M.
+            joints: Names of the joints free to move; the others are held rigid (their
+                column leaves J, their row and column leave M). None: every joint.
+            engine: ``"mujoco"`` (sparse ``mj_solveM``) or ``"pinocchio"``
+                (``computeMinverse``).
+
+        Raises:
+            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6);
+                names the lost tool directions.
+            UnknownNameError: A joint or engine name the arm does not have.
+            ParameterError: ``joints`` empty, repeated or not names.
+        """
+        return linalg.operational_inertia(*self._mobility(q, armature, joints, engine))
+
+    def effective_mass(
+        self,
+        q: ArrayLike,
+        direction: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> float:
+        """Mass a point contact at the tool feels pushing along ``direction`` [kg].
+
+        1 / (u^T J_v M^-1 J_v^T u), u the unit direction in world axes; ``inf`` along a
+        direction the tool cannot move. Defined at singular poses too.
+
+        Args:
+            q: Pose [rad or m].
+            direction: Direction, world axes, any nonzero length (3,).
+            armature: As :meth:`operational_inertia`.
+            joints: As :meth:`operational_inertia`.
+            engine: As :meth:`operational_inertia`.
+
+        Raises:
+            ParameterError: ``direction`` zero, non-finite or not a 3-vector.
+        """
+        u = check_direction("direction", direction)
+        return linalg.effective_mass(*self._mobility(q, armature, joints, engine), u)
+
+    def effective_mass_range(
+        self,
+        q: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> linalg.EffectiveMassRange:
+        """Least and greatest effective mass over all directions at ``q``, with directions.
+
+        The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
+        :meth:`operational_inertia`); the greatest is ``inf`` where the tool cannot move
+        along some direction.
+        """
+        return linalg.effective_mass_range(*self._mobility(q, armature, joints, engine))
+
+    def dynamic_manipulability(
+        self,
+        q: ArrayLike,
+        *,
+        armature: bool = True,
+        joints: object = None,
+        engine: EngineName = "mujoco",
+    ) -> float:
+        """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) at ``q``.
+
+        Arguments as :meth:`operational_inertia`; zero where fewer than six joints are free
+        or at a singular pose [mixed units].
+        """
+        return float(linalg.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
+
+    # -- inverse kinematics -----------------------------------------------------------------
+    def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
+        """The cost function behind an ``objective`` argument of :meth:`solve_ik`.
+
+        ``"joint_limits"`` is :func:`redundancy.ik.joint_limit_objective` over the joint
+        ranges; ``"manipulability"`` is minus Yoshikawa's sqrt(det(J J^T)) with its analytic
+        gradient (:meth:`manipulability_gradient`); a callable is taken as the cost itself.
+
+        Raises:
+            UnknownNameError: A name that is not one of :data:`redundancy.ik.OBJECTIVES`.
+            ParameterError: Neither None, a name nor a callable.
+        """
+        if objective is None:
+            return None
+        if isinstance(objective, str):
+            if objective not in ik.OBJECTIVES:
+                raise UnknownNameError("objective", objective, ik.OBJECTIVES)
+            if objective == "joint_limits":
+                return ik.joint_limit_objective(self.lower, self.upper)
+            eng = self.engine(engine)
+
+            def manipulability(q: Array) -> tuple[float, Array]:
+                J = eng.site_jacobian(q)
+                return (
+                    -linalg.yoshikawa(J),
+                    -linalg.manipulability_gradient(J, eng.jacobian_derivatives(q)),
+                )
+
+            return manipulability
+        if callable(objective):
+            return objective  # type: ignore[no-any-return]
+        raise ParameterError(
+            "objective", objective, f"None, one of {list(ik.OBJECTIVES)} or a callable"
+        )
+
+    def solve_ik(
+        self,
+        target: object,
+        q0: ArrayLike | None = None,
+        *,
+        objective: object = None,
+        position_only: bool = False,
+        position_tol: float = 1e-6,
+        orientation_tol: float = 1e-6,
+        restarts: int = 100,
+        seed: int | None = 0,
+        engine: EngineName = "mujoco",
+    ) -> ik.IKResult:
+        """Joint values that put the tool at ``target``, inside the joint ranges.
+
+        Damped Levenberg-Marquardt with the joints clamped to their ranges and random
+        restarts inside them; the answer is recomputed by the other engine, whose errors
+        decide ``success`` (see :mod:`redundancy.ik`).
+
+        Args:
+            target: A 4 x 4 homogeneous pose, or a (position [m], rotation) pair as
+                :meth:`site_pose` returns, world frame.
+            q0: First start [rad or m]; None: the middle of the joint ranges.
+            objective: Pursued in the task's null space once the task is met, never at its
+                expense: ``"joint_limits"`` (away from the limits), ``"manipulability"``
+                (Yoshikawa's measure up), or a callable q -> (cost, gradient (nq,)) to lower.
+            position_only: Reach the position alone; the orientation is free.
+            position_tol: Position tolerance [m], > 0.
+            orientation_tol: Orientation tolerance [rad], > 0.
+            restarts: Random restarts at most, >= 0.
+            seed: Seed of the restarts' random starts (None: fresh entropy).
+            engine: The engine that iterates; the other checks.
+
+        Returns:
+            The :class:`~redundancy.ik.IKResult`: ``q`` (inside the ranges in every case),
+            ``success``, ``position_error`` [m], ``orientation_error`` [rad],
+            ``iterations``.
+
+        Raises:
+            ParameterError: A bad target, tolerance, count, seed or objective.
+            PoseError: A bad ``q0``.
+        """
+        p_t, R_t = check_tool_pose("target", target)
+        eng = self.engine(engine)
+        other = self.engine("pinocchio" if engine == "mujoco" else "mujoco")
+        if (position_tol, orientation_tol, restarts) == _IK_DEFAULTS and type(restarts) is int:
+            settings = ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
+        else:
+            settings = ik.Settings(
+                position_tol=check_number(
+                    "position_tol", position_tol, 0.0, low_open=True, unit="m"
+                ),
+                orientation_tol=check_number(
+                    "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
+                ),
+                restarts=check_count("restarts", restarts, 0),
+            )
+        if seed is not None:
+            seed = check_count("seed", seed, 0)
+        try:
+            lo, hi = self._ik_ranges
+        except AttributeError:  # drawn from where the sampling draws (an unlimited slide: +-1 m)
+            lo, hi = self._ik_ranges = sampling_ranges(self, unlimited_slide=1.0)
+        start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
+        return ik.solve(
+            eng,
+            other,
+            self.lower,
+            self.upper,
+            lo,
+            hi,
+            p_t,
+            R_t,
+            start,
+            lambda: np.random.default_rng(seed),
+            self.ik_objective(objective, engine),
+            bool(position_only),
+            settings,
+        )
 
     def __repr__(self) -> str:
         held = f", held={len(self.held)}" if self.held else ""

@@ -359,3 +359,163 @@ def check_choice(kind: str, value: object, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise UnknownNameError(kind, str(value), choices)
     return value
+
+
+def check_direction(name: str, u: object, size: int = 3) -> Array:
+    """A direction as a unit float64 vector of shape (size,).
+
+    Raises:
+        ParameterError: Not a real vector of that shape, non-finite, or of zero length.
+    """
+    valid = f"a finite nonzero real vector of shape ({size},)"
+    if type(u) is np.ndarray and u.dtype is _F64 and u.shape == (size,):
+        norm = math.sqrt(sum(x * x for x in u.tolist()))  # NaN or inf if any value is
+        if 0.0 < norm < math.inf:
+            return u / norm
+    try:
+        arr = np.asarray(u)
+        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
+            raise ParameterError(name, u, valid)
+        arr = np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, u, valid) from None
+    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+        raise ParameterError(name, u, valid)
+    top = float(np.max(np.abs(arr)))
+    if not top > 0.0:
+        raise ParameterError(name, u, valid)
+    arr = arr / top  # scaled first: the norm of a vector of huge values would overflow
+    return arr / float(np.linalg.norm(arr))
+
+
+#: How far from orthonormal (max |R^T R - I|) a target rotation may be.
+ROTATION_ATOL = 1e-6
+
+
+def check_tool_pose(name: str, target: object) -> tuple[Array, Array]:
+    """A tool pose as (position (3,) [m], rotation (3, 3)): a 4 x 4 homogeneous matrix or a pair.
+
+    The pair is what :meth:`Arm.site_pose <redundancy.Arm.site_pose>` returns. The rotation
+    must be orthonormal with determinant +1 (to :data:`ROTATION_ATOL`).
+
+    Raises:
+        ParameterError: Anything else (the message says what a target is).
+    """
+    valid = (
+        "a 4 x 4 homogeneous pose or a (position [m], 3 x 3 rotation matrix) pair, "
+        "finite, with an orthonormal rotation of determinant +1"
+    )
+    fast = _tool_pose_pair(target)
+    if fast is not None:
+        return fast
+    try:
+        if isinstance(target, tuple | list) and len(target) == 2:
+            p, R = (np.asarray(x) for x in target)
+        else:
+            T = np.asarray(target)
+            if T.shape != (4, 4) or np.iscomplexobj(T) or T.dtype.kind not in "biuf":
+                raise ParameterError(name, target, valid)
+            T = T.astype(np.float64)
+            if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=ROTATION_ATOL):
+                raise ParameterError(name, target, valid)
+            p, R = T[:3, 3], T[:3, :3]
+        if np.iscomplexobj(p) or np.iscomplexobj(R) or p.dtype.kind not in "biuf":
+            raise ParameterError(name, target, valid)
+        if R.dtype.kind not in "biuf":
+            raise ParameterError(name, target, valid)
+        p = np.array(p, dtype=np.float64)
+        R = np.array(R, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, target, valid) from None
+    if p.shape != (3,) or R.shape != (3, 3):
+        raise ParameterError(name, target, valid)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(R))):
+        raise ParameterError(name, target, valid)
+    if np.abs(R.T @ R - np.eye(3)).max() > ROTATION_ATOL or np.linalg.det(R) <= 0.0:
+        raise ParameterError(name, target, valid)
+    return p, R
+
+
+def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArray[np.intp] | None:
+    """Indices (ascending) of the joints named in ``joints``; None for None or every joint.
+
+    Raises:
+        UnknownNameError: A name that is not one of ``names`` (lists them).
+        ParameterError: Not an iterable of names, empty, or with a name twice.
+    """
+    if joints is None:
+        return None
+    valid = f"None or a nonempty collection of distinct joint names from {list(names)}"
+    if isinstance(joints, str | bytes) or not hasattr(joints, "__iter__"):
+        raise ParameterError(name, joints, valid)
+    given = list(joints)  # type: ignore[call-overload]
+    for j in given:
+        if not isinstance(j, str):
+            raise ParameterError(name, joints, valid)
+        if j not in names:
+            raise UnknownNameError("joint", j, names)
+    if not given or len(set(given)) != len(given):
+        raise ParameterError(name, joints, valid)
+    if len(given) == len(names):
+        return None
+    return np.array(sorted(names.index(j) for j in given), dtype=np.intp)
+
+
+def check_directions(name: str, U: object, n: int) -> Array:
+    """One direction (3,) for every pose, or one per pose (n, 3), as unit rows (n, 3).
+
+    Raises:
+        ParameterError: Not a real (3,) or (n, 3) array, non-finite, or a zero row.
+    """
+    valid = f"a finite nonzero real vector of shape (3,) or ({n}, 3)"
+    try:
+        arr = np.asarray(U)
+        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
+            raise ParameterError(name, U, valid)
+        arr = np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, U, valid) from None
+    if arr.shape == (3,):
+        arr = np.broadcast_to(arr, (n, 3))
+    if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
+        raise ParameterError(name, U, valid)
+    norms = np.linalg.norm(arr, axis=1)
+    if not np.all((norms > 0) & np.isfinite(norms)):
+        raise ParameterError(name, U, valid)
+    return arr / norms[:, None]
+
+
+def _tool_pose_pair(target: object) -> tuple[Array, Array] | None:
+    """The common target, a (position, rotation) pair of float64 arrays, checked in floats.
+
+    :func:`check_tool_pose`'s fast path (an inverse-kinematics solve takes ~0.3 ms, of which
+    the NumPy checks of the slow path took a tenth); None sends anything else, and any
+    failure, to the slow path, which names the error.
+    """
+    if not (isinstance(target, tuple | list) and len(target) == 2):
+        return None
+    p, R = target
+    if not (
+        type(p) is np.ndarray
+        and type(R) is np.ndarray
+        and p.dtype is _F64
+        and R.dtype is _F64
+        and p.shape == (3,)
+        and R.shape == (3, 3)
+    ):
+        return None
+    a, b, c, d, e, f, g, h, i = R.ravel().tolist()
+    if not math.isfinite(sum(p.tolist()) + a + b + c + d + e + f + g + h + i):
+        return None
+    worst = max(
+        abs(a * a + b * b + c * c - 1.0),
+        abs(d * d + e * e + f * f - 1.0),
+        abs(g * g + h * h + i * i - 1.0),
+        abs(a * d + b * e + c * f),
+        abs(a * g + b * h + c * i),
+        abs(d * g + e * h + f * i),
+    )
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if worst > ROTATION_ATOL or not det > 0.0:
+        return None
+    return p, R

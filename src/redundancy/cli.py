@@ -1,4 +1,4 @@
-"""Command line: ``redundancy audit [MODEL]``, ``lesson``, ``lab`` and ``compare A B``.
+"""Command line: ``redundancy audit [MODEL]``, ``lab``, ``compare A B`` and ``example arm7``.
 
 Every argument is checked before any work; heavy imports (the engines) happen inside the
 subcommands, so ``--help`` is instant.
@@ -87,20 +87,87 @@ def _gain(text: str) -> float:
     return value
 
 
+def _rest(text: str) -> str | dict[str, float]:
+    """``--rest``: a keyframe name, or ``JOINT=VALUE,...`` [rad or m]."""
+    if "=" not in text:
+        if not text.strip():
+            raise argparse.ArgumentTypeError("expected a keyframe name or JOINT=VALUE,...")
+        return text.strip()
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise argparse.ArgumentTypeError(f"expected JOINT=VALUE, got {item.strip()!r}")
+        try:
+            number = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected a number for joint {name!r}, got {value.strip()!r}"
+            ) from None
+        if not math.isfinite(number):
+            raise argparse.ArgumentTypeError(f"joint {name!r}: must be finite, got {value.strip()}")
+        out[name] = number
+    return out
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("redundancy")
+    except PackageNotFoundError:  # a source tree on sys.path, not installed
+        return "unknown (not installed)"
+
+
+_EXIT = "exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error"
+
+
+def _model_arguments(p: argparse.ArgumentParser) -> None:
+    """The model file and how to load it: shared by ``audit`` and ``lab``."""
+    p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
+    p.add_argument(
+        "--frame",
+        "--site",
+        dest="frame",
+        metavar="NAME",
+        help="tool frame: an MJCF site or body, a URDF link or fixed joint (default: the "
+        "model's one chain end; with several, the error lists them)",
+    )
+    p.add_argument(
+        "--srdf",
+        metavar="FILE",
+        help="URDF only: SRDF file whose <disable_collisions> pairs never collide",
+    )
+    p.add_argument(
+        "--base", metavar="BODY", help="body or link the arm starts from (default: the root)"
+    )
+    p.add_argument(
+        "--rest",
+        type=_rest,
+        metavar="KEY|JOINT=VALUE,...",
+        help="rest configuration of the joints off the arm's chain: a keyframe name, or "
+        "joint=value pairs [rad or m]",
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="redundancy",
-        description="Audit a redundant arm with MuJoCo and Pinocchio, cross-checked.",
-        epilog="exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error",
+        description="Audit a robot arm with MuJoCo and Pinocchio, cross-checked.",
+        epilog=_EXIT,
     )
+    p.add_argument("--version", action="version", version=f"redundancy {_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     a = sub.add_parser(
         "audit",
-        help="audit an MJCF arm (default: the bundled arm7, with lesson 5.2's tables)",
-        epilog="exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error",
+        help="audit an MJCF or URDF arm: findings where its own numbers show a problem",
+        description="Audit an MJCF or URDF arm: joints, keyframes, gravity against the "
+        "effort limits, self-collision, the engines' agreement; findings where the model's "
+        "own numbers show a problem, notes for what its format cannot express.",
+        epilog=_EXIT,
     )
-    a.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
-    a.add_argument("--site", default="ee", help="tool site name (default: ee)")
+    _model_arguments(a)
     a.add_argument(
         "--poses",
         type=_count(1),
@@ -114,9 +181,8 @@ def _parser() -> argparse.ArgumentParser:
         "--kd",
         type=_gain,
         default=None,
-        help="explicit controller damping written to ctrl at which to judge the timestep "
-        "[N m s/rad] (default: 5 on motor-driven joints, the servo's own kv on servo-driven "
-        "ones)",
+        help="judge the timestep for a controller writing damping kd to ctrl [N m s/rad] "
+        "(default: no controller; only the model's own damping, its servos' kv included)",
     )
     a.add_argument(
         "--lenient",
@@ -130,17 +196,25 @@ def _parser() -> argparse.ArgumentParser:
         help="also write the report as JSON to a regular file (a symbolic link is followed "
         "to the file it names); '-' prints only the JSON on stdout, tables on stderr",
     )
-    a.add_argument("--no-lesson", action="store_true", help="skip lesson 5.2's tables for arm7")
-    les = sub.add_parser("lesson", help="print lesson 5.2's six tables for arm7")
-    les.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
-    les.add_argument(
+    a.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="no progress bar and no tables: print the findings only",
+    )
+    ex = sub.add_parser(
+        "example",
+        help="run a worked example: 'arm7' prints the tables of the bundled arm7's lesson",
+    )
+    ex.add_argument("name", choices=["arm7"], help="the example")
+    ex.add_argument("model", nargs="?", help="MJCF file shaped like arm7 (default: bundled)")
+    ex.add_argument(
         "--poses", type=_count(1), default=10_000, help="random poses for tables (3) and (4)"
     )
     lab = sub.add_parser(
-        "lab", help="serve lesson 5.2's interactive arm as a local web page (redundancy[lab])"
+        "lab", help="serve an arm as an interactive local web page (needs redundancy[lab])"
     )
-    lab.add_argument("model", nargs="?", help="MJCF file (default: bundled arm7)")
-    lab.add_argument("--site", default="ee", help="tool site name (default: ee)")
+    _model_arguments(lab)
     lab.add_argument(
         "--host",
         default="127.0.0.1",
@@ -161,8 +235,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     cmp.add_argument("a", help="first model file (MJCF or URDF)")
     cmp.add_argument("b", help="second model file (MJCF or URDF)")
-    cmp.add_argument("--frame-a", default="ee", help="A's tool site or link (default: ee)")
-    cmp.add_argument("--frame-b", default="ee", help="B's tool site or link (default: ee)")
+    cmp.add_argument(
+        "--frame",
+        metavar="NAME",
+        help="tool frame of both (default: each model's one chain end)",
+    )
+    cmp.add_argument("--frame-a", metavar="NAME", help="A's tool frame (overrides --frame)")
+    cmp.add_argument("--frame-b", metavar="NAME", help="B's tool frame (overrides --frame)")
     cmp.add_argument(
         "--joint-map", metavar="FILE", help="A's joint names -> B's (JSON object, or lines 'a b')"
     )
@@ -225,38 +304,67 @@ def main(argv: Sequence[str] | None = None) -> int:
         return INTERNAL_ERROR
 
 
-def _run(args: argparse.Namespace) -> int:
+def _frame(model: str | None, given: str | None) -> str:
+    """The tool frame: the one given, else "ee" for the bundled arm7, else the chain end."""
+    if given is not None:
+        return given
+    if model is None:
+        return "ee"
+    from .model.ends import default_tool_frame
+
+    return default_tool_frame(model)
+
+
+def _load(args: argparse.Namespace, strict: bool = True) -> object:
+    """The arm of ``audit`` or ``lab``: the file, its tool frame, and how to load it."""
     from .model.loading import load
     from .models import model_path
 
-    if args.command == "lesson":
+    extra: dict[str, object] = {}
+    if args.srdf is not None:
+        extra["disabled_collisions"] = args.srdf
+    # base= and rest= are passed only when given: rd.load grew them for robots whose arm is
+    # one chain of a larger tree.
+    if args.base is not None:
+        extra["base"] = args.base
+    if args.rest is not None:
+        extra["rest"] = args.rest
+    path = args.model or model_path("arm7")
+    return load(path, frame=_frame(args.model, args.frame), strict=strict, **extra)
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.command == "example":
+        from .model.loading import load
+        from .models import model_path
         from .reports import lesson
 
-        arm = load(args.model or model_path("arm7"), site="ee")
+        arm = load(args.model or model_path("arm7"), frame="ee")
         lesson.print_tables(arm, n_poses=args.poses)
         return OK
     if args.command == "lab":
         from .lab import page  # MissingDependencyError without the `lab` extra
 
         page.check_address(args.host, args.port)  # before any work
-        arm = load(args.model or model_path("arm7"), site=args.site)
-        page.serve(arm, host=args.host, port=args.port)
+        page.serve(_load(args), host=args.host, port=args.port)
         return OK
     if args.command == "compare":
         from .analysis.compare import run_compare
         from .reports.files import write_atomic
 
+        if args.frame_a is None:
+            args.frame_a = _frame(args.a, args.frame)
+        if args.frame_b is None:
+            args.frame_b = _frame(args.b, args.frame)
         return run_compare(args, write_atomic)
     return _audit(args)
 
 
 def _audit(args: argparse.Namespace) -> int:
     """The ``audit`` subcommand; 1 when there are findings."""
-    from .model.loading import load
-    from .models import model_path
-    from .reports import sections
     from .reports.audit import audit, format_report
     from .reports.files import write_atomic
+    from .reports.progress import terminal_progress
 
     to_stdout = args.json == "-"
     # With --json - stdout carries the JSON document alone; every table goes to stderr.
@@ -266,24 +374,14 @@ def _audit(args: argparse.Namespace) -> int:
         if stream is not None:  # None: started with that stream closed
             print(line, file=stream, flush=True)
 
-    def progress(label: str) -> None:  # on a terminal only: a log or a pipe stays clean
-        if sys.stderr is not None and sys.stderr.isatty():
-            print(f"  ... {label}", file=sys.stderr, flush=True)
-
-    arm = load(args.model or model_path("arm7"), site=args.site, strict=not args.lenient)
-    computed = sections.compute(arm, args.poses, args.seed, args.kd, progress=progress)
-    if args.model is None and not args.no_lesson:
-        from .reports.lesson import print_tables
-
-        say("lesson 5.2's tables for arm7")
-        # Tables (1) to (4) format the audit's own sections (computed once, seed 0 and 1
-        # being the lesson's samples when --seed is 0); (5) and (6) simulate.
-        shared = computed if args.seed == 0 and args.kd in (None, 5.0) else None
-        print_tables(arm, n_poses=args.poses, out=say, computed=shared)
-        say()
+    arm = _load(args, strict=not args.lenient)
     mode = "lenient" if args.lenient else "strict"
-    report = audit(arm, args.poses, args.seed, args.kd, computed, mode, progress)
-    for line in format_report(report):
+    with terminal_progress(sys.stderr, quiet=args.quiet) as progress:
+        report = audit(arm, args.poses, args.seed, args.kd, None, mode, progress)  # type: ignore[arg-type]
+    lines = format_report(report)
+    if args.quiet:  # the findings alone
+        lines = lines[next(i for i, x in enumerate(lines) if x.startswith("findings: ")) :]
+    for line in lines:
         say(line)
     if to_stdout:
         print(report.to_json(), flush=True)

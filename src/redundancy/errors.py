@@ -107,3 +107,21 @@ class MissingDependencyError(RedundancyError, ImportError):
             f"{module} is required for this feature; install it with "
             f"`pip install 'redundancy[{extra}]'`"
         )
+
+
+class SingularPoseError(PoseError):
+    """A quantity that does not exist at a singular pose (the tool has lost directions).
+
+    Attributes:
+        quantity: What was asked for, e.g. ``"operational inertia"``.
+        lost: The tool directions lost, by name (``"translation x"``...) where they are
+            coordinate axes, otherwise as unit 6-vectors written out.
+    """
+
+    def __init__(self, quantity: str, lost: Sequence[str], why: str = "") -> None:
+        self.quantity = quantity
+        self.lost = tuple(lost)
+        super().__init__(
+            f"{quantity} is undefined at a singular pose: the tool cannot move along "
+            f"{', '.join(self.lost)}{why}"
+        )

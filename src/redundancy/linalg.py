@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from .checks import check_matrix, check_number, describe, one_line
 from .display import Report, Table, table
-from .errors import ParameterError
+from .errors import ParameterError, SingularPoseError
 
 Array = NDArray[np.float64]
 
@@ -403,3 +403,140 @@ def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
     Lambda = np.linalg.inv(J @ Minv_Jt)
     J_bar = Minv_Jt @ Lambda
     return np.eye(J.shape[1]) - J_bar @ J
+
+
+# ------------------------------------------------------------------------------------------
+# The mass a contact at the tool feels: the operational-space inertia and its inverse
+# ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class EffectiveMassRange:
+    """The least and greatest effective mass at the tool over all directions, at one pose.
+
+    They are the reciprocals of the extreme eigenvalues of the 3 x 3 linear block of
+    Lambda^-1 = J M^-1 J^T, and the directions are its eigenvectors.
+
+    Attributes:
+        min: Least effective mass [kg].
+        max: Greatest effective mass [kg] (``inf`` where the tool cannot move along some
+            direction).
+        min_direction: Unit direction of the least, world axes.
+        max_direction: Unit direction of the greatest, world axes.
+    """
+
+    min: float
+    max: float
+    min_direction: Array
+    max_direction: Array
+
+
+def mobility(J: Array, X: Array) -> Array:
+    """Lambda^-1 = J M^-1 J^T from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetrised.
+
+    Its linear block is [1/kg], its angular block [1/(kg m^2)].
+    """
+    A = J @ X
+    return 0.5 * (A + np.swapaxes(A, -1, -2))
+
+
+def _lost_names(J: Array, rtol: float) -> list[str]:
+    """The tool directions J cannot produce: axis names, or the unit 6-vectors written out."""
+    svd = jacobian_svd(J, rtol)  # U is 6 x 6 whatever the number of joints
+    names = svd.lost_direction_names()
+    if len(names) == svd.lost_directions.shape[1]:
+        return names
+    return [np.array2string(u, precision=3, suppress_small=True) for u in svd.lost_directions.T]
+
+
+def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+    """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
+
+    Not by inverting J M^-1 J^T, whose condition number is J's squared (near a singular pose
+    the inverse would be noise), but through J's SVD J = U S V^T: J M^-1 J^T = U S C S U^T
+    with C = V^T M^-1 V, as well conditioned as M, so Lambda = U S^-1 C^-1 S^-1 U^T loses
+    only J's condition number of accuracy. C is formed as V^T (X U S^-1) = V^T M^-1 V.
+
+    Raises:
+        SingularPoseError: J has rank below 6 (by :func:`jacobian_svd`'s rule) at some pose:
+            names the tool directions lost (and the pose, for a stack).
+    """
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    bad = (s.shape[-1] < J.shape[-2]) | ~(s[..., 0] > 0) | (s[..., -1] <= rtol * s[..., 0])
+    if np.any(bad):
+        if J.ndim == 2:
+            raise SingularPoseError("operational inertia", _lost_names(J, rtol))
+        i = int(np.flatnonzero(bad)[0])
+        raise SingularPoseError("operational inertia", _lost_names(J[i], rtol), f" (pose {i})")
+    inv_s = 1.0 / s
+    C = Vt @ ((X @ U) * inv_s[..., None, :])
+    C = 0.5 * (C + np.swapaxes(C, -1, -2))
+    W = U * inv_s[..., None, :]
+    L = W @ np.linalg.inv(C) @ np.swapaxes(W, -1, -2)
+    return 0.5 * (L + np.swapaxes(L, -1, -2))
+
+
+def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:
+    """Effective mass 1 / (u^T J_v M^-1 J_v^T u) [kg] along the unit direction ``u``.
+
+    Written as 1 / (g^T M^-1 g) with g = J_v^T u: a product of g with M^-1 g, which stays
+    accurate relative to |g|^2 near a singular pose (a product J M^-1 J^T formed first
+    carries an absolute rounding error of eps times its largest entry).
+
+    Args:
+        J: Site Jacobian (6, k) (linear rows first).
+        X: M^-1 J^T, shape (k, 6).
+        u: Unit direction, world axes (3,).
+        rtol: Below ``rtol`` times the Frobenius norm of J_v, |J_v^T u| counts as zero: the
+            tool cannot move along ``u`` and the mass is ``inf``.
+    """
+    # ndarray.dot: on arrays this small, @ costs several times more (numpy's matmul setup).
+    Jv = J[:3]
+    g = u.dot(Jv)
+    if not g.dot(g) > rtol * rtol * np.vdot(Jv, Jv):
+        return float("inf")
+    return float(1.0 / g.dot(X[:, :3].dot(u)))
+
+
+def effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> Array:
+    """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,)."""
+    U = np.broadcast_to(U, (len(J), 3))
+    g = np.einsum("ni,nik->nk", U, J[:, :3])
+    a = np.einsum("nk,nki,ni->n", g, X[:, :, :3], U)
+    moving = np.linalg.norm(g, axis=1) > rtol * np.linalg.norm(J[:, :3], axis=(1, 2))
+    out = np.full(len(J), np.inf)
+    np.divide(1.0, a, out=out, where=moving)
+    return out
+
+
+def effective_mass_range(J: Array, X: Array, rtol: float = RANK_RTOL) -> EffectiveMassRange:
+    """The extremes of the effective mass over directions at one pose (see the class)."""
+    w, V = np.linalg.eigh(mobility(J[:3], X[:, :3]))
+    s = np.linalg.svd(J[:3], compute_uv=False)
+    stuck = not s[0] > 0 or s[-1] <= rtol * s[0]
+    top = float("inf") if stuck or w[0] <= 0 else float(1.0 / w[0])
+    return EffectiveMassRange(float(1.0 / w[-1]), top, V[:, -1].copy(), V[:, 0].copy())
+
+
+def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+    """Least and greatest effective mass over a stack, shape (n, 2) [kg]."""
+    w = np.linalg.eigvalsh(mobility(J[:, :3], X[:, :, :3]))
+    s = np.linalg.svd(J[:, :3], compute_uv=False)
+    stuck = ~(s[:, 0] > 0) | (s[:, -1] <= rtol * s[:, 0]) | (w[:, 0] <= 0)
+    out = np.empty((len(J), 2))
+    out[:, 0] = 1.0 / w[:, -1]
+    out[:, 1] = np.inf
+    np.divide(1.0, w[:, 0], out=out[:, 1], where=~stuck)
+    return out
+
+
+def dynamic_manipulability(X: Array) -> Array | float:
+    """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) from X = M^-1 J^T.
+
+    J M^-1 = X^T, so the measure is the product of X's singular values (zero when fewer
+    than six joints are free). Takes one X (k, 6) or a stack (n, k, 6).
+    """
+    if X.shape[-2] < X.shape[-1]:
+        return np.zeros(X.shape[:-2]) if X.ndim > 2 else 0.0
+    s = np.linalg.svd(X, compute_uv=False)
+    return np.prod(s, axis=-1) if X.ndim > 2 else float(np.prod(s))

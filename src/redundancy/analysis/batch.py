@@ -36,6 +36,7 @@ measures both).
 from __future__ import annotations
 
 import functools
+import itertools
 import pickle
 import queue
 from collections.abc import Callable
@@ -49,16 +50,28 @@ from ..arm import ENGINES, Arm, EngineName, check_arm
 from ..checks import (
     check_choice,
     check_count,
+    check_directions,
     check_flag,
+    check_joint_subset,
     check_number,
     check_poses,
     check_threads,
+    check_tool_pose,
 )
 from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
-from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind, manipulability_rows
+from ..ik import IKResult
+from ..linalg import (
+    MANIPULABILITY_KINDS,
+    ManipulabilityKind,
+    dynamic_manipulability,
+    manipulability_rows,
+    operational_inertia,
+)
+from ..linalg import effective_mass_ranges as linalg_effective_mass_ranges
+from ..linalg import effective_masses as linalg_effective_masses
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -433,3 +446,198 @@ def distances(
     check_choice("distance engine", engine, DISTANCE_ENGINES)
     threads = check_threads(threads)
     return distance_stack(checker(arm), poses(arm, Q), engine, threads)
+
+
+# ------------------------------------------------------------------------------------------
+# The mass a contact at the tool feels, and inverse kinematics, over many poses or targets
+# ------------------------------------------------------------------------------------------
+
+
+def _mobilities(
+    arm: Arm, Q: ArrayLike, armature: bool, joints: object, engine: str, threads: int
+) -> tuple[Array, Array]:
+    """J of the free joints and M_ff^-1 J_f^T over a stack (inputs validated here)."""
+    check_choice("engine", engine, ENGINES)
+    threads = check_threads(threads)
+    free = check_joint_subset("joints", joints, arm.joint_names)
+    return arm.engine(engine).tool_mobilities(poses(arm, Q), bool(armature), free, threads)
+
+
+def operational_inertias(
+    arm: Arm,
+    Q: ArrayLike,
+    *,
+    armature: bool = True,
+    joints: object = None,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+) -> Array:
+    """Lambda at each pose, as :meth:`redundancy.Arm.operational_inertia`.
+
+    Args:
+        arm: The arm.
+        Q: Poses, shape (n, nq) [rad or m].
+        armature: Include armature in M.
+        joints: Names of the joints free to move (the others held); None: all.
+        engine: ``"mujoco"`` or ``"pinocchio"``.
+        threads: Worker threads (MuJoCo only).
+
+    Returns:
+        Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
+
+    Raises:
+        SingularPoseError: At the first singular pose (the message names it and the lost
+            tool directions).
+    """
+    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
+    return operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
+
+
+def effective_masses(
+    arm: Arm,
+    Q: ArrayLike,
+    direction: ArrayLike,
+    *,
+    armature: bool = True,
+    joints: object = None,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+) -> Array:
+    """Effective mass at the tool at each pose, as :meth:`redundancy.Arm.effective_mass`.
+
+    Args:
+        arm: The arm.
+        Q: Poses, shape (n, nq) [rad or m].
+        direction: One direction for every pose (3,) or one per pose (n, 3), world axes.
+        armature: Include armature in M.
+        joints: Names of the joints free to move (the others held); None: all.
+        engine: ``"mujoco"`` or ``"pinocchio"``.
+        threads: Worker threads (MuJoCo only).
+
+    Returns:
+        Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
+    """
+    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
+    U = check_directions("direction", direction, len(J))
+    return linalg_effective_masses(J, X, U)
+
+
+def effective_mass_ranges(
+    arm: Arm,
+    Q: ArrayLike,
+    *,
+    armature: bool = True,
+    joints: object = None,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+) -> Array:
+    """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
+
+    As :meth:`Arm.effective_mass_range <redundancy.Arm.effective_mass_range>`'s ``min`` and
+    ``max`` (arguments as :func:`effective_masses`).
+    """
+    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
+    return linalg_effective_mass_ranges(J, X) if len(J) else np.empty((0, 2))
+
+
+def dynamic_manipulabilities(
+    arm: Arm,
+    Q: ArrayLike,
+    *,
+    armature: bool = True,
+    joints: object = None,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+) -> Array:
+    """Yoshikawa's dynamic manipulability at each pose, shape (n,).
+
+    As :meth:`Arm.dynamic_manipulability <redundancy.Arm.dynamic_manipulability>`
+    (arguments as :func:`effective_masses`).
+    """
+    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
+    if not len(J):
+        return np.zeros(0)
+    return np.asarray(dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
+
+
+def solve_ik(
+    arm: Arm,
+    targets: object,
+    Q0: ArrayLike | None = None,
+    *,
+    objective: object = None,
+    position_only: bool = False,
+    position_tol: float = 1e-6,
+    orientation_tol: float = 1e-6,
+    restarts: int = 100,
+    seed: int | None = 0,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+) -> tuple[IKResult, ...]:
+    """:meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` for many targets, on ``threads`` threads.
+
+    Result ``i`` is ``arm.solve_ik(targets[i], Q0[i], seed=seed + i, ...)`` whatever the
+    thread count (each target is solved by one thread, start to end).
+
+    Args:
+        arm: The arm.
+        targets: A sequence of targets (each a 4 x 4 pose or a (position, rotation) pair),
+            or an array of poses (n, 4, 4).
+        Q0: Starts, shape (n, nq) [rad or m]; None: each from the middle of the ranges.
+        objective: As :meth:`Arm.solve_ik`.
+        position_only: As :meth:`Arm.solve_ik`.
+        position_tol: As :meth:`Arm.solve_ik` [m].
+        orientation_tol: As :meth:`Arm.solve_ik` [rad].
+        restarts: As :meth:`Arm.solve_ik`.
+        seed: Target ``i`` uses ``seed + i`` (None: fresh entropy for each).
+        engine: As :meth:`Arm.solve_ik`.
+        threads: Worker threads. The solver is mostly Python, which holds the GIL, so
+            threads gain little beyond MuJoCo's own calls.
+
+    Returns:
+        One :class:`~redundancy.ik.IKResult` per target.
+
+    Raises:
+        ParameterError: A bad target (named by its index), a bad count of starts.
+    """
+    threads = check_threads(threads)
+    check_choice("engine", engine, ENGINES)
+    if isinstance(targets, np.ndarray) and targets.ndim == 3:
+        items = list(targets)
+    elif isinstance(targets, list | tuple):
+        items = list(targets)
+    else:
+        raise ParameterError(
+            "targets", targets, "a sequence of targets or an array of poses of shape (n, 4, 4)"
+        )
+    goals = [check_tool_pose(f"targets[{i}]", t) for i, t in enumerate(items)]
+    n = len(goals)
+    starts = None if Q0 is None else poses(arm, Q0)
+    if starts is not None and len(starts) != n:
+        raise ParameterError("Q0", f"{len(starts)} poses", f"None or one start per target ({n})")
+    if seed is not None:
+        seed = check_count("seed", seed, 0)
+    arm.ik_objective(objective, engine)  # a bad objective fails here, not in a worker
+    out: list[IKResult | None] = [None] * n
+
+    def span(lo: int, hi: int) -> None:
+        for i in range(lo, hi):
+            out[i] = arm.solve_ik(
+                goals[i],
+                None if starts is None else starts[i],
+                objective=objective,
+                position_only=position_only,
+                position_tol=position_tol,
+                orientation_tol=orientation_tol,
+                restarts=restarts,
+                seed=None if seed is None else seed + i,
+                engine=engine,
+            )
+
+    if n:
+        # A solve takes ~1 ms: spans of any length are worth a thread.
+        edges = np.linspace(0, n, min(threads, n) + 1).round().astype(int)
+        jobs = [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+        (lo, hi), *rest = jobs
+        run_beside(lambda: span(lo, hi), *(lambda a=a, b=b: span(a, b) for a, b in rest))
+    return tuple(r for r in out if r is not None)

@@ -12,6 +12,11 @@ the two arms with each other. Joints are matched by name or by a joint map.
 * **Poses**: tool pose, Jacobian, mass matrix and gravity torques over random poses drawn
   in the ranges both share, and every keyframe of either file.
 
+First, a **rigid offset**: when B is A placed elsewhere (its base moved or turned) or with
+its tool mounted elsewhere on the last link, the transform is found from the joint axes (and
+the tool frame at the reference pose), said once, and everything else is compared relative
+to it; what still differs comes after.
+
 Each difference names the quantity, the joint or body, both values, and the first joint
 where the two kinematic chains part. What a format cannot express (armature, keyframes and
 gravity in URDF; velocity limits in MJCF) is listed as such, not as a difference.
@@ -37,13 +42,83 @@ from ..display import Report, Table, plural, table
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
-from ..model.equivalence import format_value, parent_joint
+from ..model.equivalence import fit_rigid, format_value, parent_joint
 from ..model.names import display_names
 from ..model.scales import arm_scales, scaled_error, scaled_errors
 
 Array = NDArray[np.float64]
 
-__all__ = ["Comparison", "Finding", "compare", "read_joint_map", "run_compare"]
+__all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map", "run_compare"]
+
+#: A rigid offset is taken as found when, after it, every joint axis of A lies on B's within
+#: this (or the comparison's tolerance, if larger), relative to the arm's length for
+#: positions [-]; what remains is compared.
+FIT_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class RigidOffset:
+    """A constant placement by which B differs from A.
+
+    Attributes:
+        kind: ``"base placement"`` (B's world = ``rotation`` A's world + ``translation``) or
+            ``"tool mount"`` (B's tool frame = A's tool frame moved by ``translation`` and
+            turned by ``rotation``, in A's tool frame).
+        translation: [m], shape (3,).
+        rotation: Rotation matrix, shape (3, 3).
+    """
+
+    kind: str
+    translation: Array
+    rotation: Array
+
+    @property
+    def angle(self) -> float:
+        """Angle of the rotation [rad]."""
+        R = self.rotation
+        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        # atan2 keeps small angles exact where acos of the trace would lose them.
+        return math.atan2(float(np.linalg.norm(w)) / 2.0, (float(np.trace(R)) - 1.0) / 2.0)
+
+    @property
+    def axis(self) -> Array:
+        """Unit axis of the rotation (z when there is none)."""
+        R = self.rotation
+        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        norm = float(np.linalg.norm(w))
+        if norm > 1e-12:
+            return w / norm
+        if self.angle < 1e-12:
+            return np.array([0.0, 0.0, 1.0])
+        # Half a turn: the axis is the column of R + I of largest norm.
+        B = R + np.eye(3)
+        v = B[:, int(np.argmax(np.linalg.norm(B, axis=0)))]
+        return v / np.linalg.norm(v)
+
+    def __str__(self) -> str:
+        where = "in the world frame" if self.kind == "base placement" else "in A's tool frame"
+        text = f"{self.kind}: B is A moved by {_vector(self.translation)} m {where}"
+        if self.angle > 0:
+            text += f", turned {math.degrees(self.angle):.6g} deg about {_vector(self.axis)}"
+        return text
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {
+            "kind": self.kind,
+            "translation": _jsonable(self.translation),
+            "rotation": _jsonable(self.rotation),
+            "angle_deg": math.degrees(self.angle),
+            "axis": _jsonable(self.axis),
+        }
+
+
+def _vector(v: Array) -> str:
+    return "[" + " ".join(f"{0.0 if abs(x) < 1e-12 else x:.6g}" for x in v) + "]"
+
+
+def _skew(v: Array) -> Array:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 @dataclass(frozen=True)
@@ -95,7 +170,8 @@ class Comparison(Report):
         a: Description of A (file and format); b likewise.
         frame_a: A's tool frame; frame_b likewise.
         joint_map: Pairs (A's joint, B's joint), in A's order.
-        differences: Every difference, structural first, then pose by pose.
+        differences: Every difference, structural first, then pose by pose (after the
+            rigid offsets).
         not_expressible: What one format cannot express, with the other's values.
         chains_part: Where the kinematic chains first part (a joint, ``"tool frame"``), or
             None when they do not.
@@ -103,6 +179,8 @@ class Comparison(Report):
             the quantity's scale on A (:mod:`redundancy.model.scales`) [-].
         n_poses: Poses compared (random ones and keyframes).
         tol: Relative tolerance [-].
+        offsets: The rigid offsets found (base placement, tool mount), relative to which the
+            rest was compared.
     """
 
     a: str
@@ -116,16 +194,25 @@ class Comparison(Report):
     largest: dict[str, float] = field(default_factory=dict)
     n_poses: int = 0
     tol: float = 1e-9
+    offsets: tuple[RigidOffset, ...] = ()
 
     @property
     def equivalent(self) -> bool:
-        """True when nothing differs (what a format cannot express is not a difference)."""
-        return not self.differences
+        """True when nothing differs, placement included.
+
+        What a format cannot express is not a difference.
+        """
+        return not self.differences and not self.offsets
 
     @property
     def verdict(self) -> str:
-        """``"same robot"`` or ``"different"``."""
-        return "same robot" if self.equivalent else "different"
+        """``"same robot"``, ``"different"``, or ``"same robot, placed differently"``.
+
+        The last when only rigid offsets differ.
+        """
+        if self.differences:
+            return "different"
+        return "same robot, placed differently" if self.offsets else "same robot"
 
     def lines(self) -> list[str]:
         """Human-readable report lines."""
@@ -138,6 +225,9 @@ class Comparison(Report):
             f"compared: structure at the reference pose, and {self.n_poses} poses "
             f"(tolerance {self.tol:g})",
         ]
+        out += [f"OFFSET  {o}" for o in self.offsets]
+        if self.offsets:
+            out.append("compared relative to the offset" + ("s" if len(self.offsets) > 1 else ""))
         if self.chains_part:
             out.append(f"the chains part at: {self.chains_part}")
         out += [f"DIFFERS  {d}" for d in self.differences]
@@ -159,6 +249,7 @@ class Comparison(Report):
             "verdict": self.verdict,
             "equivalent": self.equivalent,
             "chains_part": self.chains_part,
+            "offsets": [o.to_dict() for o in self.offsets],
             "differences": [d.to_dict() for d in self.differences],
             "not_expressible": [n.to_dict() for n in self.not_expressible],
             "largest": {k: _jsonable(v) for k, v in self.largest.items()},
@@ -286,8 +377,10 @@ def compare(
     Args:
         a: An Arm, or a model file (MJCF or URDF) loaded with ``frame_a``.
         b: Likewise, with ``frame_b``.
-        frame_a: A's tool frame (site for MJCF, link for URDF); default ``"ee"``.
-        frame_b: B's tool frame; default ``"ee"``.
+        frame_a: A's tool frame (an MJCF site or body, a URDF link or fixed joint); default:
+            the file's one chain end (:func:`redundancy.model.ends.single_chain_end`), else
+            ``"ee"``.
+        frame_b: B's tool frame, likewise.
         joint_map: A's joint name -> B's, for joints whose names differ (others match by
             name), or the path of a joint map file (see :func:`read_joint_map`).
         n_poses: Random poses compared, besides the keyframes (>= 0).
@@ -301,6 +394,7 @@ def compare(
         ModelError: A file that does not load, a bad joint map, bad arguments.
         UnknownNameError: A tool frame or mapped joint the model does not have.
     """
+    from ..model.ends import single_chain_end
     from ..model.loading import load, model_format
 
     if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
@@ -319,8 +413,9 @@ def compare(
         )
     if isinstance(joint_map, str | os.PathLike):
         joint_map = read_joint_map(joint_map)
-    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or "ee")
-    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or "ee")
+    # No frame: the file's one chain end, else load's own default (a frame named "ee").
+    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or single_chain_end(a))
+    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or single_chain_end(b))
     fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
     pairs = _match(arm_a, arm_b, joint_map)
     return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)
@@ -364,6 +459,72 @@ class _Comparer:
         self.matched = bool(self.ia)
         # Per joint, the display name of the body it moves.
         self.bodies_a, self.bodies_b = (_joint_bodies(arm) for arm in (a, b))
+        # Rigid offsets: B's world = R A's world + t; B's tool = A's tool moved by s, turned S.
+        self.R, self.t = np.eye(3), np.zeros(3)
+        self.S, self.s = np.eye(3), np.zeros(3)
+        self.offsets: list[RigidOffset] = []
+
+    # -- rigid offsets -----------------------------------------------------------------------
+    def find_base(self) -> None:
+        """B's base placement relative to A's, from the joint axes at the reference pose."""
+        if not self.ia:
+            return
+        qa, qb = self.reference_poses()
+        ax_a, an_a = self.a.mujoco.joint_axes(qa)
+        ax_b, an_b = self.b.mujoco.joint_axes(qb)
+        ia, ib = np.asarray(self.ia), np.asarray(self.ib)
+        hinge = np.array([self.a.joint_types[i] == "hinge" for i in self.ia])
+        fit = fit_rigid(ax_a[ia], an_a[ia], ax_b[ib], an_b[ib], hinge)
+        if fit is None:
+            return
+        R, t = fit
+        # Directions are compared as they are, positions relative to the arm's length.
+        tol, L = max(self.tol, FIT_TOL), self.scales.length
+        for k in range(len(ia)):  # every joint on B's after the offset, or no offset
+            axis = R @ ax_a[ia[k]]
+            r = an_b[ib[k]] - (R @ an_a[ia[k]] + t)
+            across = r - (r @ axis) * axis if hinge[k] else r
+            if np.max(np.abs(axis - ax_b[ib[k]])) > tol or np.max(np.abs(across)) > tol * L:
+                return
+        # Parts within the tolerance are none: a pure shift is said without a turn.
+        R = np.eye(3) if np.max(np.abs(R - np.eye(3))) <= self.tol else R
+        t = np.where(np.abs(t) <= self.tol * L, 0.0, t)
+        if not np.any(t) and np.array_equal(R, np.eye(3)):
+            return
+        self.R, self.t = R, t
+        self.offsets.append(RigidOffset("base placement", t, R))
+
+    def find_tool(self) -> None:
+        """B's tool mount relative to A's, when the joints agree and the tool frames do not."""
+        if self.kinematic:  # a joint differs: the tool frame's difference is not a mount
+            return
+        qa, qb = self.reference_poses()
+        pos_a, rot_a = self.a.mujoco.site_pose(qa)
+        pos_b, rot_b = self.b.mujoco.site_pose(qb)
+        rot_a, pos_a = self.R @ rot_a, self.R @ pos_a + self.t
+        S = rot_a.T @ rot_b
+        s = rot_a.T @ (pos_b - pos_a)
+        S = np.eye(3) if np.max(np.abs(S - np.eye(3))) <= self.tol else S
+        s = np.where(np.abs(s) <= self.tol * self.scales.length, 0.0, s)
+        if not np.any(s) and np.array_equal(S, np.eye(3)):
+            return
+        self.S, self.s = S, s
+        self.offsets.append(RigidOffset("tool mount", s, S))
+
+    def placed(self, x: Array) -> Array:
+        """A's world points, shape (..., 3), where B's world has them."""
+        return x @ self.R.T + self.t
+
+    def tool_a(self, pos: Array, rot: Array) -> tuple[Array, Array]:
+        """A's tool frame(s) with B's mount, in B's world: positions (..., 3), rotations."""
+        mounted = pos + rot @ self.s
+        return self.placed(mounted), self.R @ rot @ self.S
+
+    def jacobian_a(self, J: Array, rot: Array) -> Array:
+        """A's tool Jacobians (n, 6, nv) at B's mount, in B's world axes."""
+        r = rot @ self.s  # (n, 3): from A's tool point to the mounted one, world axes
+        lin = J[:, :3] - np.einsum("nij,njk->nik", np.array([_skew(v) for v in r]), J[:, 3:])
+        return np.concatenate([self.R @ lin, self.R @ J[:, 3:]], axis=1)
 
     def where(self, i: int) -> str:
         name_a, name_b = self.pairs[i]
@@ -419,6 +580,9 @@ class _Comparer:
         ax_b, an_b = b.mujoco.joint_axes(qb)
         m_a, c_a, I_a = a.mujoco.link_inertias(qa)
         m_b, c_b, I_b = b.mujoco.link_inertias(qb)
+        # A's world quantities where B's world has them (the base offset, if found).
+        ax_a, an_a, c_a = ax_a @ self.R.T, self.placed(an_a), self.placed(c_a)
+        I_a = self.R @ I_a @ self.R.T
         inverse = {nb: na for na, nb in self.pairs}
         for i, j in zip(self.ia, self.ib, strict=True):
             w = self.where(i)
@@ -464,7 +628,8 @@ class _Comparer:
             self.check("inertia about the centre of mass (world)", bw, I_a[i], I_b[j])
         self.armature()
         self.format_only()
-        pos_a, rot_a = a.mujoco.site_pose(qa)
+        self.find_tool()
+        pos_a, rot_a = self.tool_a(*a.mujoco.site_pose(qa))
         pos_b, rot_b = b.mujoco.site_pose(qb)
         tool = f"tool frame {a.site!r}" + (f" [{b.site!r}]" if b.site != a.site else "")
         moved = self.check("tool frame position (world)", tool, pos_a, pos_b)
@@ -556,6 +721,9 @@ class _Comparer:
         # One stacked pass per arm (the engine's evaluate, equal to its single-pose methods).
         Xa, Ra, Ja, Ma, Ga = _mujoco_stacks(self.a, qs, full_m, gravity_ok)
         Xb, Rb, Jb, Mb, Gb = _mujoco_stacks(self.b, self.to_b(qs), full_m, gravity_ok)
+        # A's tool where B's base and mount put it (gravity stays: a turned base changes it).
+        Ja = self.jacobian_a(Ja, Ra)
+        Xa, Ra = self.tool_a(Xa, Ra)
         # Per quantity: A's stack, B's stack, and the axis of one pose's value that runs over
         # joints (None for the tool pose), to name the joint with the largest difference.
         values: dict[str, tuple[Array, Array, int | None]] = {
@@ -602,6 +770,7 @@ class _Comparer:
         return len(qs)
 
     def run(self, n: int, seed: int) -> Comparison:
+        self.find_base()
         self.structure()
         n_checked = self.pose_by_pose(n, seed) if self.matched else 0
         part = None
@@ -620,6 +789,7 @@ class _Comparer:
             largest=dict(self.largest),
             n_poses=n_checked,
             tol=self.tol,
+            offsets=tuple(self.offsets),
         )
 
 

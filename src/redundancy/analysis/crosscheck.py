@@ -23,7 +23,7 @@ from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
-from ..linalg import manipulability_gradient
+from ..linalg import manipulability_gradient, mobility
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
 from .batch import map_chunks
@@ -43,6 +43,15 @@ TOLERANCES: dict[str, float] = {
     "mass matrix (bare)": 1e-9,
     "gravity": 1e-9,
     "manipulability gradient": 1e-8,
+    # J M^-1 J^T (the inverse of the operational-space inertia, defined at singular poses
+    # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse) and Yoshikawa's
+    # dynamic manipulability, the product of the singular values of M^-1 J^T (compared through
+    # those factors, see quantity_errors). M^-1 multiplies
+    # the engines' rounding of M by M's condition number: the bundled arms agree to 1e-13,
+    # but a generated arm with a 4 g tip body on a 1 kg chain (cond(M) ~ 1e7) differed by
+    # 1.3e-9, hence 1e-8.
+    "operational inertia^-1": 1e-8,
+    "dynamic manipulability": 1e-8,
 }
 
 
@@ -195,7 +204,8 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
     the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
     matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and
     its derivatives are measured per block of rows, linear (size L) and angular (size 1),
-    since their units differ.
+    since their units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and
+    the dynamic manipulability through its factors, the singular values of M^-1 J^T.
 
     Args:
         name: A key of :data:`TOLERANCES`.
@@ -211,6 +221,15 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
         lin = scaled_errors(a[..., :3, :], b[..., :3, :], L)
         ang = scaled_errors(a[..., 3:, :], b[..., 3:, :], 1.0)
         return np.maximum(lin, ang)  # a NaN in either block stays NaN
+    if name == "operational inertia^-1":
+        # J M^-1 J^T per block: [1/kg] linear, [1/(kg m^2)] angular, [1/(kg m)] between.
+        m = scales.mass
+        blocks = (
+            (a[..., :3, :3], b[..., :3, :3], 1.0 / m),
+            (a[..., 3:, 3:], b[..., 3:, 3:], 1.0 / (m * L * L)),
+            (a[..., :3, 3:], b[..., :3, 3:], 1.0 / (m * L)),
+        )
+        return np.maximum.reduce([scaled_errors(x, y, size) for x, y, size in blocks])
     size = {
         "site position": L,
         "site rotation": 1.0,
@@ -218,6 +237,9 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
         "mass matrix (bare)": scales.inertia,
         "gravity": scales.torque,
         "manipulability gradient": L**3,
+        # Its factors, the singular values of M^-1 J^T, against the largest; a linear
+        # column of M^-1 J^T is [1/(kg m)].
+        "dynamic manipulability": 1.0 / (scales.mass * L),
     }[name]
     return scaled_errors(a, b, size)
 
@@ -295,6 +317,16 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
         bare = stacks.M.copy()  # type: ignore[union-attr]
         remove_armature(bare, engine.armature)
         out["mass matrix (bare)"] = bare
+    # The tool's mobility: one stacked J and M^-1 J^T serve both quantities.
+    if want & {"operational inertia^-1", "dynamic manipulability"}:
+        J, X = engine.tool_mobilities(Q, True, None, threads)
+        if "operational inertia^-1" in want:
+            out["operational inertia^-1"] = mobility(J, X)
+        if "dynamic manipulability" in want:
+            # Compared through its factors, the singular values of M^-1 J^T, each against the
+            # largest: the product itself near a singular pose is the tiny factor times
+            # others, and carries that factor's rounding (eps sigma_max) as a relative error.
+            out["dynamic manipulability"] = np.linalg.svd(X, compute_uv=False)
     # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
     if "jacobian derivative" in want:
         out["jacobian derivative"] = np.empty((n, nv, 6, nv))

@@ -16,6 +16,7 @@ each thread computes with its own engine data.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -124,4 +125,25 @@ class Engine(Protocol):
             out: The stacks to fill (None where not wanted).
             threads: Worker threads (at most; validated by the caller).
         """
+        ...
+
+    def tool_mobility(
+        self, q: ArrayLike, armature: bool = True, free: Array | None = None
+    ) -> tuple[Array, Array]:
+        """Site Jacobian of the free joints J_f (6, k) and M_ff^-1 J_f^T (k, 6).
+
+        J_f M_ff^-1 J_f^T is the inverse of the operational-space inertia; held joints
+        (those not in ``free``, indices ascending, validated by the caller; None: all free)
+        lose their column of J and their row and column of M.
+        """
+        ...
+
+    def tool_mobilities(
+        self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
+    ) -> tuple[Array, Array]:
+        """:meth:`tool_mobility` over a validated stack: (n, 6, k) and (n, k, 6)."""
+        ...
+
+    def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
+        """An unchecked q -> (tool error [p* - p; log(R* R^T)], J) for this thread (IK loops)."""
         ...

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from math import isfinite
 
 import mujoco
@@ -399,6 +399,168 @@ class MujocoEngine:
         run_split(n, threads, one_stack if single else any_stacks)
         if M is not None and not out.armature:
             remove_armature(M, self._armature)
+
+    # -- the tool's mobility J M^-1 J^T, and a kernel for inverse kinematics ---------------
+    def _factor(self, w: _Work, armature: bool) -> None:
+        """Fill and factor this thread's sparse M (``d.M`` then ``qLD``) at the pose held."""
+        m, d = self.model, w.data
+        # mj_crb fills the sparse d.M (armature included); without armature its diagonal
+        # (the last entry of each CSR row) loses it before mj_factorM's L^T D L.
+        mujoco.mj_crb(m, d)
+        if not armature:
+            d.M[self._m_diagonal] -= self._armature
+        mujoco.mj_factorM(m, d)
+
+    @property
+    def _m_diagonal(self) -> Array:
+        m = self.model
+        return m.M_rowadr + m.M_rownnz - 1
+
+    def tool_mobility(
+        self, q: ArrayLike, armature: bool = True, free: Array | None = None
+    ) -> tuple[Array, Array]:
+        """The site Jacobian of the free joints and M_ff^-1 J_f^T, the tool's mobility factors.
+
+        With every joint free, ``mj_solveM`` solves with MuJoCo's sparse L^T D L factor of M
+        (``mj_factorM`` after ``mj_crb``); with joints held, the free joints' block of the
+        dense M (``mj_fullM``) is solved by Cholesky: a held joint's row and column leave M.
+
+        Args:
+            q: Pose [rad or m].
+            armature: Include armature in M.
+            free: Indices of the free joints, ascending (validated by the caller); None for all.
+
+        Returns:
+            J_f, shape (6, k) [m/rad; rad/rad], and M_ff^-1 J_f^T, shape (k, 6) [1/kg...].
+        """
+        w = self.update(q)
+        m, d = self.model, w.data
+        _jac_site(m, d, w.jacp, w.jacr, self.site_id)
+        w.have_J = True
+        J = w.jac.copy()
+        if free is None:
+            self._factor(w, armature)
+            X = np.empty((6, self.nv))
+            mujoco.mj_solveM(m, d, X, J)  # rows of X: M^-1 times the rows of J
+            return J, X.T.copy()
+        M = self.mass_matrix(q, armature)[np.ix_(free, free)]
+        Jf = J[:, free]
+        return Jf, _cholesky_solve(M, Jf.T)
+
+    def tool_mobilities(
+        self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
+    ) -> tuple[Array, Array]:
+        """:meth:`tool_mobility` over a stack of poses: (n, 6, k) and (n, k, 6) stacks.
+
+        One kinematics pass, ``mj_jacSite``, ``mj_crb``, ``mj_factorM`` and ``mj_solveM`` per
+        pose, writing into the stacks' rows, on ``threads`` threads (MuJoCo releases the GIL).
+        """
+        m, sid, n, nv = self.model, self.site_id, len(Q), self.nv
+        J = np.empty((n, 6, nv))
+        if free is not None:
+            M = np.empty((n, nv, nv))
+            self.evaluate(Q, Stacks(J=J, M=M, armature=armature), threads)
+            ix = np.asarray(free)
+            Jf = np.ascontiguousarray(J[:, :, ix])
+            return Jf, _cholesky_solve(M[:, ix][:, :, ix], Jf.transpose(0, 2, 1))
+        X = np.empty((n, 6, nv))
+        kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
+        crb, factor, solve = mujoco.mj_crb, mujoco.mj_factorM, mujoco.mj_solveM
+        diag, arm_ = self._m_diagonal, self._armature
+
+        def span(lo: int, hi: int) -> None:
+            w = self._work()
+            w.key = None  # this thread's data is about to hold other poses
+            d, qpos = w.data, w.qpos
+            Md = d.M
+            for q, Ji, Xi in zip(Q[lo:hi], J[lo:hi], X[lo:hi], strict=True):
+                qpos[:] = q
+                kin(m, d)
+                com(m, d)
+                jac(m, d, Ji[:3], Ji[3:], sid)
+                crb(m, d)
+                if not armature:
+                    Md[diag] -= arm_
+                factor(m, d)
+                solve(m, d, Xi, Ji)
+
+        run_split(n, threads, span)
+        return J, X.transpose(0, 2, 1)
+
+    def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
+        """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
+
+        e = [p* - p; log(R* R^T)] in world axes [m; rad], for the target (``position``,
+        ``rotation``). The inverse-kinematics inner loop (:mod:`redundancy.ik`) calls it
+        tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs
+        as much as the kinematics: the caller passes only finite float64 (nv,) poses. The
+        arrays returned are this thread's buffers, valid until the next call; the kernel
+        must stay in the thread that made it.
+        """
+        w = self._work()
+        m, d, sid = self.model, w.data, self.site_id
+        qpos, jacp, jacr, jac = w.qpos, w.jacp, w.jacr, w.jac
+        x, xmat = d.site_xpos[sid], d.site_xmat[sid]
+        p_t = np.array(position, dtype=np.float64)
+        quat_t = np.empty(4)
+        mujoco.mju_mat2Quat(quat_t, np.ascontiguousarray(rotation, dtype=np.float64).ravel())
+        quat, local = np.empty(4), np.empty(3)
+        e = np.empty(6)
+        ep, er = e[:3], e[3:]
+        kin, com, jsite, sub = _kinematics, _com_pos, _jac_site, np.subtract
+        to_quat, sub_quat, rotate = mujoco.mju_mat2Quat, mujoco.mju_subQuat, mujoco.mju_mulMatVec3
+
+        def kernel(q: Array) -> tuple[Array, Array]:
+            w.key = None  # the data no longer holds the pose cached for the checked methods
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)  # cdof, which mj_jacSite reads
+            jsite(m, d, jacp, jacr, sid)
+            sub(p_t, x, out=ep)
+            # quat * quat(local) = quat_t: the rotation still to go, in the site's axes;
+            # R local is the same vector in world axes, log(R* R^T).
+            to_quat(quat, xmat)
+            sub_quat(local, quat_t, quat)
+            rotate(er, xmat, local)
+            return e, jac
+
+        return kernel
+
+
+def damped_step(J: Array, e: Array, lam: float) -> Array:
+    """The damped least-squares step J^T (J J^T + lam I)^-1 e, by MuJoCo's dense routines.
+
+    ``mju_mulMatMatT``, ``mju_addToScl``, ``mju_cholFactor``/``mju_cholSolve`` and
+    ``mju_mulMatTVec``: for the 6 x 7 systems of the inverse-kinematics loop about a third of
+    the time of the NumPy calls (``np.linalg.solve``'s wrapper alone costs more than the
+    arithmetic at this size). J (r, n) and e (r,) C-contiguous float64, lam > 0.
+    """
+    r = len(e)
+    A = np.empty((r, r))
+    _mul_mat_mat_t(A, J, J)
+    _add_to_scl(A.reshape(-1), _EYES[r], lam)
+    _chol_factor(A, 0.0)
+    x = np.empty(r)
+    _chol_solve(x, A, e)
+    dq = np.empty(J.shape[1])
+    _mul_mat_t_vec(dq, J, x)
+    return dq
+
+
+_chol_factor, _chol_solve = mujoco.mju_cholFactor, mujoco.mju_cholSolve
+_mul_mat_mat_t, _add_to_scl, _mul_mat_t_vec = (
+    mujoco.mju_mulMatMatT,
+    mujoco.mju_addToScl,
+    mujoco.mju_mulMatTVec,
+)
+#: Flattened identities for damped_step, by size (read only).
+_EYES = {r: np.eye(r).reshape(-1) for r in range(1, 7)}
+
+
+def _cholesky_solve(M: Array, B: Array) -> Array:
+    """M^-1 B for symmetric positive definite M (one matrix or a stack), by Cholesky."""
+    L = np.linalg.cholesky(M)
+    return np.linalg.solve(L.swapaxes(-1, -2), np.linalg.solve(L, B))
 
 
 @contextlib.contextmanager

@@ -8,7 +8,7 @@ every array it returns is in the same order as :mod:`redundancy.engines.mujoco`'
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -324,3 +324,96 @@ class PinocchioEngine:
             pin.rneaInParallel(threads, pool, Qp.T, zeros, zeros, tau)
             if not direct:
                 G[:] = tau.T[:, self.perm]
+
+    # -- the tool's mobility J M^-1 J^T, and a kernel for inverse kinematics ---------------
+    def _inverse_mass(self, w: _Work, q_pin: Array) -> Array:
+        """M^-1 with armature, in the library's joint order, from ``computeMinverse``."""
+        # computeMinverse: the articulated-body extension of ABA (armature included), which
+        # fills the upper triangle of data.Minv; its forward pass recomputes the joint
+        # placements at the same q (the caller's), so the site frame and J the work holds
+        # stay valid.
+        Minv = np.array(pin.computeMinverse(self.model, w.data, q_pin))
+        _mirror_upper(Minv)
+        return Minv if self.identity else Minv[np.ix_(self.perm, self.perm)]
+
+    def tool_mobility(
+        self, q: ArrayLike, armature: bool = True, free: Array | None = None
+    ) -> tuple[Array, Array]:
+        """The site Jacobian of the free joints and M_ff^-1 J_f^T (see the MuJoCo engine's).
+
+        With every joint free and armature, M^-1 comes from ``computeMinverse``; otherwise
+        the free joints' block of ``crba``'s M (armature removed if asked) is solved by
+        Cholesky.
+
+        Returns:
+            J_f, shape (6, k) [m/rad; rad/rad], and M_ff^-1 J_f^T, shape (k, 6).
+        """
+        q = check_pose(q, self.joint_names)
+        J = self.site_jacobian(q)
+        if free is None and armature:
+            w = self._work()
+            qp = np.empty(self.nv)
+            qp[self.perm] = q  # not w.q: integrate() writes it without moving the key
+            return J, self._inverse_mass(w, qp) @ J.T
+        M = self.mass_matrix(q, armature)
+        ix = np.arange(self.nv) if free is None else np.asarray(free)
+        Jf = J[:, ix]
+        L = np.linalg.cholesky(M[np.ix_(ix, ix)])
+        return Jf, np.linalg.solve(L.T, np.linalg.solve(L, Jf.T))
+
+    def tool_mobilities(
+        self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
+    ) -> tuple[Array, Array]:
+        """:meth:`tool_mobility` over a stack: (n, 6, k) and (n, k, 6) stacks.
+
+        Pinocchio's bindings hold the GIL: the loop runs in the caller's thread
+        (``threads`` is accepted for the contract's sake).
+        """
+        n, nv = len(Q), self.nv
+        J = np.empty((n, 6, nv))
+        if free is None and armature:
+            w = self._work()
+            w.key = None
+            Minv = np.empty((n, nv, nv))
+            cfj, minv = pin.computeFrameJacobian, pin.computeMinverse
+            model, data, fid = self.model, w.data, self.frame_id
+            for i, q in enumerate(self._order(Q)):
+                J[i] = np.reshape(cfj(model, data, q, fid, _LWA), (6, nv))
+                Minv[i] = minv(model, data, q)
+            _mirror_upper(Minv)
+            if not self.identity:
+                J[:] = J[:, :, self.perm]
+                Minv[:] = Minv[:, self.perm][:, :, self.perm]
+            return J, Minv @ J.transpose(0, 2, 1)
+        M = np.empty((n, nv, nv))
+        self.evaluate(Q, Stacks(J=J, M=M, armature=armature), 1)
+        ix = np.arange(nv) if free is None else np.asarray(free)
+        Jf = np.ascontiguousarray(J[:, :, ix])
+        L = np.linalg.cholesky(M[:, ix][:, :, ix])
+        X = np.linalg.solve(L.transpose(0, 2, 1), np.linalg.solve(L, Jf.transpose(0, 2, 1)))
+        return Jf, X
+
+    def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
+        """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
+
+        As the MuJoCo engine's: e = [p* - p; log(R* R^T)] in world axes [m; rad], finite
+        float64 (nv,) poses only, arrays valid until the next call, used in the thread that
+        made it.
+        """
+        w = self._work()
+        model, data, fid, nv = self.model, w.data, self.frame_id, self.nv
+        cfj, place, log3 = pin.computeFrameJacobian, pin.updateFramePlacement, pin.log3
+        perm, identity = self.perm, self.identity
+        p_t = np.array(position, dtype=np.float64)
+        R_t = np.array(rotation, dtype=np.float64)
+        e = np.empty(6)
+
+        def kernel(q: Array) -> tuple[Array, Array]:
+            w.key = None
+            J = np.reshape(cfj(model, data, self._pin_q(w, q), fid, _LWA), (6, nv))
+            oMf = place(model, data, fid)
+            e[:3] = p_t - oMf.translation
+            e[3:] = log3(R_t @ oMf.rotation.T)
+            return e, (J if identity else J[:, perm])
+
+        return kernel

@@ -22,8 +22,8 @@ the links collide and stop each other.
 Redundancy is something to touch here: :meth:`LabSim.self_motion_targets` moves the targets
 along the Jacobian's null space with the tool held (the library's
 :func:`redundancy.analysis.selfmotion.self_motion` with drift correction), and
-:func:`solve_ik` takes the targets to a dragged tool pose by damped least squares with a
-null-space term that pulls toward a rest posture.
+:func:`solve_ik` takes the targets to a dragged tool pose with the library's inverse
+kinematics (:meth:`redundancy.Arm.solve_ik`), pulling toward a rest posture in the null space.
 """
 
 from __future__ import annotations
@@ -107,6 +107,9 @@ class LabReadouts:
         watch_peak: Its largest |speed| over the last :data:`PEAK_WINDOW` [rad/s].
         watch_torque: The torque its motor applies, after clamping [N m].
         watch_limit: Its motor's torque limit [N m].
+        contact_mass: Effective mass at the tool along its direction of motion, with the
+            simulated armature: what a contact in the tool's path would feel
+            (:meth:`redundancy.Arm.effective_mass`) [kg]; NaN while the tool is at rest.
     """
 
     time: float
@@ -133,6 +136,7 @@ class LabReadouts:
     watch_peak: float
     watch_torque: float
     watch_limit: float
+    contact_mass: float = float("nan")
 
     @property
     def contacts_text(self) -> str:
@@ -177,51 +181,33 @@ def solve_ik(
     position: ArrayLike,
     rotation: ArrayLike | None = None,
     rest: ArrayLike | None = None,
-    damping: float = 0.05,
-    posture_gain: float = 0.2,
-    tol: float = 1e-6,
-    iterations: int = 200,
 ) -> tuple[Array, float]:
-    """Joint targets that put the tool at a pose: damped least squares with a posture term.
+    """The lab's drag: :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` from the current targets.
 
-    Each iteration takes ``dq = J^# e + N k (rest - q)``: ``J^#`` is the damped inverse
-    (:func:`redundancy.linalg.damped_pinv`, bounded near singular poses), ``e`` the tool's
-    error (:func:`redundancy.analysis.selfmotion.pose_error`), and ``N`` the null-space
-    projector, so the posture term moves the elbow toward ``rest`` without moving the tool.
-    Joints are clipped to their ranges.
+    No random restarts (a drag must not make the arm jump to another branch), and the
+    posture pulled toward ``rest`` in the task's null space (the objective
+    |q - rest|^2 / 2), so the elbow stays where the user left it while the tool follows.
 
     Args:
         arm: The arm.
-        q0: Start pose [rad or m].
+        q0: Start pose, the current targets [rad or m].
         position: Tool target position [m].
         rotation: Tool target orientation (3 x 3), or None to keep the orientation at ``q0``.
         rest: Rest posture for the null-space term (default ``q0``).
-        damping: lambda of the damped inverse [m/rad].
-        posture_gain: k, the share of the posture error taken per iteration.
-        tol: Stop when the tool's position error is below this [m] (and the orientation
-            error below 1e3 * tol [rad]).
-        iterations: Iterations at most.
 
     Returns:
-        The pose and the tool's remaining position error [m].
+        The pose (inside the joint ranges) and the tool's remaining position error [m].
     """
     q = arm.pose(q0)
-    p_t = np.asarray(position, dtype=float).reshape(3)
-    R_t = arm.site_pose(q)[1] if rotation is None else np.asarray(rotation, float).reshape(3, 3)
+    R_t = arm.site_pose(q)[1] if rotation is None else rotation
     q_rest = q.copy() if rest is None else arm.pose(rest)
-    err = np.inf
-    for _ in range(iterations):
-        e = selfmotion.pose_error(arm, q, p_t, R_t)
-        err = float(np.linalg.norm(e[:3]))
-        if err < tol and np.linalg.norm(e[3:]) < 1e3 * tol:
-            break
-        J = arm.jacobian(q)
-        dq = linalg.damped_pinv(J, damping) @ e
-        dq += linalg.nullspace_projector(J) @ (posture_gain * (q_rest - q))
-        q = np.clip(q + dq, arm.lower, arm.upper)  # -inf/inf where unlimited
-    else:
-        err = float(np.linalg.norm(selfmotion.pose_error(arm, q, p_t, R_t)[:3]))
-    return q, err
+
+    def toward_rest(x: Array) -> tuple[float, Array]:
+        d = x - q_rest
+        return 0.5 * float(d @ d), d
+
+    result = arm.solve_ik((position, R_t), q, objective=toward_rest, restarts=0)
+    return result.q, result.position_error
 
 
 class LabSim:
@@ -543,7 +529,16 @@ class LabSim:
                 watch_peak=float(np.max(np.abs(recent))) if recent else 0.0,
                 watch_torque=self._controller.applied(d, self.watch_index),
                 watch_limit=float(self.effort_limit[self.watch_index]),
+                contact_mass=self._contact_mass(q, J, d.qvel),
             )
+
+    def _contact_mass(self, q: Array, J: Array, qdot: Array) -> float:
+        """Effective mass along the tool's velocity J_v qdot, the armature as simulated [kg]."""
+        v = J[:3] @ qdot
+        if not np.linalg.norm(v) > 1e-6:  # at rest: no direction of motion
+            return float("nan")
+        M = self.arm.mass_matrix(q, armature=False) + np.diag(self.model.dof_armature)
+        return linalg.effective_mass(J, np.linalg.solve(M, J.T), v / np.linalg.norm(v))
 
     def _window(
         self, t: collections.deque[float], v: collections.deque[float], span: float

@@ -181,8 +181,10 @@ def effort_range(
         with np.errstate(invalid="ignore"):  # 0 x inf: a zero gain gives the bias alone
             f0 = np.where(gain == 0, bias, bias + gain * u0)
             f1 = np.where(gain == 0, bias, bias + gain * u1)
-        f_lo = np.nan_to_num(np.fmin(f0, f1), nan=-np.inf)
-        f_hi = np.nan_to_num(np.fmax(f0, f1), nan=np.inf)
+        # NaN (inf - inf) is unbounded; infinities stay infinite (nan_to_num's default
+        # would turn them into +-1.8e308, a "limit" that overflows every ratio).
+        f_lo = np.nan_to_num(np.fmin(f0, f1), nan=-np.inf, posinf=np.inf, neginf=-np.inf)
+        f_hi = np.nan_to_num(np.fmax(f0, f1), nan=np.inf, posinf=np.inf, neginf=-np.inf)
         if model.actuator_forcelimited[a]:
             r0, r1 = model.actuator_forcerange[a]
             f_lo, f_hi = np.clip(f_lo, r0, r1), np.clip(f_hi, r0, r1)

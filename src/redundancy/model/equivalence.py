@@ -55,6 +55,11 @@ def format_value(x: object) -> str:
     """A value as a report shows it: arrays on one line to 6 digits, floats to 9."""
     if isinstance(x, np.ndarray):
         return np.array2string(x, precision=6, suppress_small=True, max_line_width=200)
+    if isinstance(x, list | tuple):  # their items' text, never numpy's repr of a scalar
+        inner = ", ".join(repr(v) if isinstance(v, str) else format_value(v) for v in x)
+        return f"[{inner}]" if isinstance(x, list) else f"({inner})"
+    if isinstance(x, np.generic):
+        x = x.item()
     if isinstance(x, float):
         return f"{x:.9g}"
     return str(x)
@@ -184,6 +189,66 @@ def abs_error(a: object, b: object) -> float:
         same_inf, 0.0, np.abs(np.nan_to_num(diff, nan=np.inf, posinf=np.inf, neginf=np.inf))
     )
     return float(np.max(err)) if err.size else 0.0
+
+
+def fit_rigid(
+    dirs_a: np.ndarray,
+    points_a: np.ndarray,
+    dirs_b: np.ndarray,
+    points_b: np.ndarray,
+    lines: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The rigid transform ``x -> R x + t`` that best maps A's joint axes onto B's.
+
+    Each joint gives a direction (unit axis) and a point; a hinge's point may sit anywhere on
+    its axis line (only the offset across the line counts), a slide's point is its anchor.
+    ``R`` comes from the directions (Kabsch; when they are all parallel, the smallest rotation
+    taking one onto the other), ``t`` from the points by least squares.
+
+    Args:
+        dirs_a: A's unit axes, shape (n, 3) (world).
+        points_a: A's points on them [m], shape (n, 3).
+        dirs_b: B's unit axes, shape (n, 3).
+        points_b: B's points [m], shape (n, 3).
+        lines: Per joint, True where the point may slide along the axis (hinge).
+
+    Returns:
+        ``(R, t)``, or None when the joints do not fix the transform (no joint; all axes
+        parallel lines leave the shift along them free).
+    """
+    n = len(dirs_a)
+    if n == 0:
+        return None
+    H = dirs_a.T @ dirs_b
+    if np.linalg.matrix_rank(H, tol=1e-9) >= 2:
+        U, _, Vt = np.linalg.svd(H)
+        D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+        R = Vt.T @ D @ U.T
+    else:  # parallel axes: the smallest rotation taking A's direction onto B's
+        R = _align(dirs_a[0], dirs_b[0])
+    A = np.zeros((3, 3))
+    rhs = np.zeros(3)
+    for i in range(n):
+        u = dirs_b[i]
+        P = np.eye(3) - np.outer(u, u) if lines[i] else np.eye(3)
+        A += P
+        rhs += P @ (points_b[i] - R @ points_a[i])
+    if np.linalg.matrix_rank(A, tol=1e-9) < 3:
+        return None
+    return R, np.linalg.solve(A, rhs)
+
+
+def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking unit vector ``a`` onto unit vector ``b``."""
+    v, c = np.cross(a, b), float(a @ b)
+    if c < -1 + 1e-12:  # opposite: half a turn about any axis across a
+        axis = np.cross(a, [1.0, 0.0, 0.0])
+        if np.linalg.norm(axis) < 1e-6:
+            axis = np.cross(a, [0.0, 1.0, 0.0])
+        axis /= np.linalg.norm(axis)
+        return 2 * np.outer(axis, axis) - np.eye(3)
+    K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + K + K @ K / (1 + c)
 
 
 def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> EquivalenceReport:

@@ -305,13 +305,22 @@ def _link_masses(root: ET.Element) -> dict[str, float]:
     return out
 
 
-def _valid_inertia(m: Sequence[Sequence[float]]) -> bool:
-    """MuJoCo's test of a body's inertia: positive principal moments, A + B >= C."""
+def _inertia_state(m: Sequence[Sequence[float]]) -> str:
+    """``"valid"``, ``"degenerate"`` or ``"invalid"``: a link inertia as MuJoCo will judge it.
+
+    MuJoCo wants positive principal moments with A + B >= C. A point mass (all moments 0) or
+    a rod (one moment 0), up to rounding, is physics MuJoCo merely cannot take:
+    ``"degenerate"``. A moment below zero or A + B < C beyond rounding is a defect:
+    ``"invalid"``.
+    """
     eig = np.linalg.eigvalsh(np.asarray(m, dtype=float))
-    if eig.min() <= 0:
-        return False
-    a, b, c = eig
-    return bool(a + b >= c * (1 - 1e-12))  # the sorted moments: c is the largest
+    a, b, c = eig  # ascending
+    noise = 1e-9 * abs(c) + 1e-15  # rounding, and MuJoCo's mjMINVAL
+    if a < -noise or a + b < c - noise:
+        return "invalid"
+    if a <= 0 or a + b < c:
+        return "degenerate"
+    return "valid"
 
 
 def prepare_urdf(
@@ -322,10 +331,11 @@ def prepare_urdf(
     * A joint off the arm's chain that moves links without mass (MuJoCo refuses a moving
       body without mass; it is held anyway) becomes fixed at 0, the URDF's reference. On the
       chain it is refused, naming the link.
-    * A published inertia MuJoCo rejects (a principal moment <= 0, or A + B < C) is replaced
-      by MuJoCo's ``balanceinertia`` rule (all three moments their mean, about the same
-      centre of mass), in the text both engines read. On a body the arm moves it is also a
-      defect of the file, returned for the audit.
+    * A published inertia MuJoCo rejects: a point mass or a rod (moments 0 up to rounding)
+      gets a tiny isotropic moment added; an invalid one (a moment below 0, A + B < C) is
+      replaced by MuJoCo's ``balanceinertia`` rule (all three moments their mean, about the
+      same centre of mass). Both in the text both engines read; an invalid one on a body
+      the arm moves is also a defect of the file, returned for the audit.
 
     Returns:
         The (possibly) mended URDF, what was set aside, and the defects on the arm's bodies.
@@ -378,18 +388,34 @@ def prepare_urdf(
             [v["ixy"], v["iyy"], v["iyz"]],
             [v["ixz"], v["iyz"], v["izz"]],
         ]
-        if _valid_inertia(m):
+        state = _inertia_state(m)
+        if state == "valid":
             continue
+        name = link.get("name", "")
         eig = np.linalg.eigvalsh(np.asarray(m))
+        if state == "degenerate":
+            # A point mass or a rod: MuJoCo needs positive moments; a tiny isotropic one is
+            # added (it keeps A + B >= C), in the text both engines read.
+            eps = max(1e-12, 1e-9 * float(np.trace(np.asarray(m))))
+            for k in ("ixx", "iyy", "izz"):
+                inertia.set(k, repr(v[k] + eps))
+            notes.append(
+                SetAside(
+                    "degenerate inertia",
+                    name,
+                    f"principal moments {eig[0]:.3g}, {eig[1]:.3g}, {eig[2]:.3g} [kg m^2] "
+                    f"(a point mass or a rod): {eps:.3g} added about each axis for MuJoCo",
+                )
+            )
+            continue
         mean = float(max(np.trace(np.asarray(m)) / 3.0, 1e-12))
         for k in ("ixx", "iyy", "izz"):
             inertia.set(k, repr(mean))
         for k in ("ixy", "ixz", "iyz"):
             inertia.set(k, "0")
-        name = link.get("name", "")
         violated = (
-            f"principal moment {eig.min():.3g} <= 0"
-            if eig.min() <= 0
+            f"principal moment {eig.min():.3g} < 0"
+            if eig.min() < 0 and eig[0] + eig[1] >= eig[2]
             else f"A + B < C ({eig[0]:.3g} + {eig[1]:.3g} < {eig[2]:.3g})"
         )
         what = f"{violated} [kg m^2]; replaced by {mean:.3g} about each axis (balanceinertia)"

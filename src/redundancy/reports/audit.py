@@ -2,16 +2,20 @@
 
 The audit takes the shared :mod:`~redundancy.reports.sections` (joints and timesteps,
 keyframes, gravity against the actuators, self-collision), adds the engines' agreement and
-the model comparison, and *judges* them: each problem a user should fix is a
-:class:`Finding`. Numbers follow what MuJoCo simulates: the integrator and its flags, gravity
-compensation, actuator ranges per direction, servo damping.
+the model comparison, and *judges* what the file says: a :class:`Finding` only where the
+model's own numbers show a problem (a keyframe the actuators cannot hold, a timestep above
+the stable bound of the damping the model has, engines that disagree); what the file's
+format cannot express (a URDF's armature, actuators, timestep and integrator) is a
+:class:`Note`, never a finding. Numbers follow what MuJoCo simulates: the integrator and
+its flags, gravity compensation, actuator ranges per direction, servo damping. The
+explicit-damping question (which timestep a controller's kd allows) is asked only with
+``kd`` or of a model whose servos have damping of their own.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -32,8 +36,8 @@ from ..display import Report, Table, plural
 from ..display import table as html_table
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
-from .sections import GravityBudget, JointSection, KeyframeRow, Sections
-from .tables import fmt, ms, table
+from .sections import GravityBudget, JointSection, KeyframeRow, Progress, Sections
+from .tables import fit, fmt, limit, ms, table
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
@@ -57,6 +61,20 @@ class Finding:
 
 
 @dataclass(frozen=True)
+class Note:
+    """What the audit cannot judge from the file, and what it assumed instead.
+
+    Attributes:
+        kind: Category: ``format`` (the file's format cannot express it), ``armature``,
+            ``timestep``.
+        message: What is missing and what the numbers use in its place.
+    """
+
+    kind: str
+    message: str
+
+
+@dataclass(frozen=True)
 class EngineAgreement:
     """The two engines, pose by pose and model against model.
 
@@ -71,6 +89,28 @@ class EngineAgreement:
     equivalence: EquivalenceReport
 
 
+@dataclass(frozen=True)
+class RobotPart:
+    """The robot around the arm, as the audit reports it.
+
+    Attributes:
+        held: Held joint -> its rest value [rad or m] (a tuple for a ball or free joint).
+        rest: Where the held values come from (``"qpos0"``, ``"keyframe 'name'"``, ``"given"``).
+        base: The body the arm's chain starts below, or None (the world).
+        set_aside: What in the file does not reach the arm, each with the reason.
+    """
+
+    held: dict[str, float | tuple[float, ...]]
+    rest: str
+    base: str | None
+    set_aside: tuple[str, ...]
+
+    @classmethod
+    def of(cls, arm: Arm) -> RobotPart:
+        """The arm's robot part."""
+        return cls(dict(arm.held), arm.rest, arm.base, tuple(str(a) for a in arm.set_aside))
+
+
 @dataclass(frozen=True, repr=False)
 class AuditReport(Report):
     """All sections of an audit, the engines' agreement, and the findings.
@@ -80,12 +120,16 @@ class AuditReport(Report):
 
     Attributes:
         model: The model file (or ``"<string>"``).
-        site: The tool site.
+        site: The tool frame (a site of MuJoCo's model: an MJCF site, a URDF link).
         mode: ``"strict"`` or ``"lenient"`` (loaded with ``strict=False``: what Pinocchio reads
             differently is a finding, not a refusal).
         sections: Joints, keyframes, gravity, self-collision.
         engines: Cross-check and model equivalence.
         findings: What to act on.
+        notes: What the file does not say, and what the audit assumed instead.
+        model_format: ``"MJCF"`` or ``"URDF"``.
+        robot: The rest of the robot: the joints held off the arm and what was set aside.
+        contact_mass: The effective mass at the tool beside ISO/TS 15066's estimate.
     """
 
     model: str
@@ -94,6 +138,10 @@ class AuditReport(Report):
     sections: Sections
     engines: EngineAgreement
     findings: tuple[Finding, ...]
+    notes: tuple[Note, ...] = ()
+    model_format: str = "MJCF"
+    robot: RobotPart | None = None
+    contact_mass: sections.ContactMass | None = None
 
     @property
     def exit_code(self) -> int:
@@ -108,7 +156,8 @@ class AuditReport(Report):
         gravity = {k: v for k, v in asdict(g).items() if k != "agreement"}  # in "crosscheck"
         doc = {
             "model": self.model,
-            "site": self.site,
+            "format": self.model_format,
+            "frame": self.site,
             "mode": self.mode,
             "simulation": asdict(j.simulation),
             "kd": j.kd,
@@ -168,7 +217,10 @@ class AuditReport(Report):
                 "differences": [str(d) for d in eq.differences],
                 "bridged": [asdict(b) for b in eq.bridges],
             },
+            "robot": None if self.robot is None else asdict(self.robot),
+            "notes": [asdict(n) for n in self.notes],
             "findings": [asdict(f) for f in self.findings],
+            "contact_mass": None if self.contact_mass is None else asdict(self.contact_mass),
         }
         return _clean(doc)
 
@@ -239,21 +291,21 @@ def audit(
     kd: float | None = None,
     computed: Sections | None = None,
     mode: str = "strict",
-    progress: Callable[[str], object] | None = None,
+    progress: Progress | None = None,
 ) -> AuditReport:
-    """Audit an arm: every section of the report, and the findings.
+    """Audit an arm: every section of the report, the findings and the notes.
 
     Args:
         arm: The loaded arm.
         n_poses: Random poses for the gravity and self-collision sweeps (>= 1).
-        seed: Seed of the gravity sweep (>= 0); the collision sweep uses ``seed + 1``.
+        seed: Seed of the random poses (>= 0); both sweeps and the cross-check use them.
         kd: Controller damping written to ``ctrl`` at which timesteps are judged
-            [N m s/rad]; ``None``: the lesson's 5 on motor-driven joints, the servo's own
-            ``kv`` on servo-driven ones (see :func:`~redundancy.reports.sections.joints`).
-        computed: Sections already computed with these arguments (the CLI shares them with
-            the lesson's tables).
+            [N m s/rad]; ``None``: none assumed, only the damping the model has (the
+            joints' own, a servo's ``kv``) bounds the timestep.
+        computed: Sections already computed with these arguments.
         mode: ``"strict"`` or ``"lenient"``: how the arm was loaded (recorded in the report).
-        progress: Called with a short label as each part starts.
+        progress: Called as each sweep advances (see :data:`~redundancy.reports.sections.
+            Progress`).
 
     Raises:
         ParameterError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
@@ -261,22 +313,36 @@ def audit(
     n_poses = check_count("n_poses", n_poses, 1)
     seed = check_count("seed", seed, 0)
     kd = None if kd is None else check_number("kd", kd, 0.0, unit="N m s/rad")
-    say = progress or (lambda label: None)
+    say = progress or sections._quiet
     if computed is None:
         computed = sections.compute(arm, n_poses, seed, kd, progress=say)
-    say("engine cross-check")
-    engines = _engines(arm, n_poses, seed, computed.gravity.agreement)
-    findings = (
-        _joint_findings(computed.joints)
-        + _simulation_findings(computed)
-        + _keyframe_findings(arm, computed)
-        + _gravity_findings(arm, computed.gravity, computed.joints)
-        + _engine_findings(engines, computed.contacts)
+    engines = _engines(arm, n_poses, seed, computed.gravity.agreement, say)
+    urdf = arm.model_format == "URDF"
+    judged = _Judged()
+    _judge_joints(judged, computed.joints, urdf)
+    _judge_simulation(judged, computed)
+    _judge_keyframes(judged, arm, computed)
+    _judge_gravity(judged, arm, computed.gravity, computed.joints, urdf)
+    _judge_engines(judged, engines, computed.contacts)
+    for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
+        judged.finding("published inertia", defect)
+    return AuditReport(
+        str(arm.source),
+        arm.site,
+        mode,
+        computed,
+        engines,
+        tuple(judged.findings),
+        tuple(judged.notes),
+        arm.model_format,
+        RobotPart.of(arm),
+        sections.contact_mass(arm, n_poses, seed),
     )
-    return AuditReport(str(arm.source), arm.site, mode, computed, engines, tuple(findings))
 
 
-def _engines(arm: Arm, n_poses: int, seed: int, gravity: Agreement) -> EngineAgreement:
+def _engines(
+    arm: Arm, n_poses: int, seed: int, gravity: Agreement, say: Progress
+) -> EngineAgreement:
     """Cross-check over the gravity sweep's poses, chunk by chunk, and compare the models.
 
     ``gravity`` is the sweep's own row (it computed both engines' gravity on these poses).
@@ -285,6 +351,7 @@ def _engines(arm: Arm, n_poses: int, seed: int, gravity: Agreement) -> EngineAgr
     rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES)
     merged: dict[str, Agreement] = {gravity.quantity: gravity}
     offset, second = 0, 0
+    say("engine cross-check", 0, n_poses)
     for Q in sections.pose_chunks(arm, n_poses, seed):
         parts = crosscheck_batch(arm, Q, quantities=batched).agreements
         if offset < CROSSCHECK_POSES:
@@ -294,6 +361,7 @@ def _engines(arm: Arm, n_poses: int, seed: int, gravity: Agreement) -> EngineAgr
         for a in parts:
             merged[a.quantity] = _worse(merged.get(a.quantity), a, offset)
         offset += len(Q)
+        say("engine cross-check", offset, n_poses)
     agreements = tuple(merged[q] for q in (*BATCH_QUANTITIES, *rest) if q in merged)
     cc = CrossCheckReport(agreements, arm.bridges, n_poses)
     return EngineAgreement(cc, second, compare_models(arm))
@@ -310,123 +378,145 @@ def _worse(kept: Agreement | None, new: Agreement, offset: int) -> Agreement:
 
 
 # -- judging --------------------------------------------------------------------------------------
-def _joint_findings(j: JointSection) -> list[Finding]:
-    out = []
+class _Judged:
+    """Findings and notes, in the order the report gives them."""
+
+    def __init__(self) -> None:
+        self.findings: list[Finding] = []
+        self.notes: list[Note] = []
+
+    def finding(self, kind: str, message: str) -> None:
+        self.findings.append(Finding(kind, message))
+
+    def note(self, kind: str, message: str) -> None:
+        self.notes.append(Note(kind, message))
+
+
+def _names(names: list[str]) -> str:
+    return ", ".join(repr(n) for n in names)
+
+
+def _judge_joints(out: _Judged, j: JointSection, urdf: bool) -> None:
     h = j.simulation.timestep
-    arma = np.array([r.armature for r in j.rows])
-    for r in j.rows:
-        if r.armature == 0.0:
-            out.append(
-                Finding(
-                    "armature",
-                    f"joint {r.name!r} has zero armature: a geared joint's rotor inertia N^2 "
-                    "J_rotor is missing",
-                )
-            )
-        if h > 0 and h >= r.h_max:
-            out.append(
-                Finding(
-                    "timestep",
-                    f"timestep {h * 1e3:.3g} ms is above joint {r.name!r}'s h_max "
-                    f"{r.h_max * 1e3:.3g} ms (M_ii {r.m_ii:.4g} kg m^2, explicit damping "
-                    f"{r.explicit:g}, implicit {r.implicit:g} N m s/rad"
-                    + (f", explicit stiffness {r.stiffness:g} N m/rad" if r.stiffness else "")
-                    + f"; {j.note}): the joint's speed will grow step by step",
-                )
-            )
-    if h <= 0:
-        out.append(
-            Finding("timestep", f"timestep {h:g} s is not positive: MuJoCo cannot step the model")
+    rows = j.rows
+    arma = np.array([r.armature for r in rows])
+    if urdf:
+        out.note(
+            "format",
+            "URDF cannot express armature (a geared joint's rotor inertia N^2 J_rotor): the "
+            "mass matrix has none",
         )
-    if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and len(arma) > 1:
-        out.append(
-            Finding(
+        out.note(
+            "format",
+            "URDF cannot express actuators: each joint's <limit effort> is the limit MuJoCo "
+            "applies (actuatorfrcrange), the gravity budget's limit",
+        )
+        out.note(
+            "format",
+            f"URDF cannot express the timestep or the integrator: MuJoCo's defaults "
+            f"({_h(h)}, {j.simulation.integrator}) are used",
+        )
+    else:
+        zero = [r.name for r in rows if r.armature == 0.0]
+        if zero:
+            out.note(
                 "armature",
-                f"every joint has the same armature {arma[0]:g} kg m^2: a placeholder? "
-                "reflected inertia is N^2 J_rotor and differs between a shoulder and a wrist "
-                "motor",
+                f"zero armature on {_names(zero)}: a geared joint's rotor inertia N^2 J_rotor "
+                "is missing unless the joint is direct-drive",
             )
-        )
-    return out
+        if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and len(arma) > 1:
+            out.note(
+                "armature",
+                f"every joint has the same armature {arma[0]:g} kg m^2: reflected inertia is "
+                "N^2 J_rotor and differs between a shoulder and a wrist motor",
+            )
+    for r in rows:
+        if h > 0 and h >= r.h_max:
+            kd = f"kd {r.kd:g} N m s/rad written to ctrl" if j.kd is not None else ""
+            damping = f"explicit damping {r.explicit:g}, implicit {r.implicit:g} N m s/rad" + (
+                f", explicit stiffness {r.stiffness:g} N m/rad" if r.stiffness else ""
+            )
+            text = (
+                f"timestep {_h(h)} is above the h_max {r.h_max * 1e3:.3g} ms of joint "
+                f"{r.name!r} (M_ii {r.m_ii:.4g} kg m^2, {damping}"
+                + (f", {kd}" if kd else "")
+                + f"; {j.note}): the joint's speed will grow step by step"
+            )
+            if urdf:  # the file sets no timestep: the bound tells the user which to choose
+                out.note("timestep", f"MuJoCo's default {text}")
+            else:
+                out.finding("timestep", text)
+    if h <= 0:
+        out.finding("timestep", f"timestep {h:g} s is not positive: MuJoCo cannot step the model")
 
 
-def _simulation_findings(s: Sections) -> list[Finding]:
+def _judge_simulation(out: _Judged, s: Sections) -> None:
     sim = s.joints.simulation
-    out = []
     if not sim.gravity_enabled and any(sim.gravity):
-        out.append(
-            Finding(
-                "simulation",
-                'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm '
-                f"weightless, ignoring gravity {list(sim.gravity)} m/s^2, so the gravity "
-                "budget is 0: the motors are never checked against the arm's weight",
-            )
+        out.finding(
+            "simulation",
+            'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm '
+            f"weightless, ignoring gravity [{', '.join(f'{g:g}' for g in sim.gravity)}] "
+            "m/s^2, so the gravity budget is 0: the motors are never checked against the "
+            "arm's weight",
         )
-    return out
 
 
-def _keyframe_findings(arm: Arm, s: Sections) -> list[Finding]:
-    out = []
+def _judge_keyframes(out: _Judged, arm: Arm, s: Sections) -> None:
     for k in s.keyframes:
         if k.svd.sigma[-1] < SINGULAR_SIGMA:
             lost = ", ".join(k.svd.lost_direction_names()) or "see U"
-            out.append(
-                Finding(
-                    "keyframe",
-                    f"keyframe {k.name!r} is singular: sigma_min {k.svd.sigma[-1]:.2e} < "
-                    f"{SINGULAR_SIGMA:g}, rank {k.svd.rank} (lost: {lost})",
-                )
+            out.finding(
+                "keyframe",
+                f"keyframe {k.name!r} is singular: sigma_min {k.svd.sigma[-1]:.2e} < "
+                f"{SINGULAR_SIGMA:g}, rank {k.svd.rank} (lost: {lost})",
             )
-        out += _unheld(arm, k)
+        _unheld(out, arm, k)
     for c in s.contacts.keyframes:
         if c.contacts:
-            out.append(
-                Finding(
-                    "keyframe",
-                    f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)",
-                )
+            out.finding(
+                "keyframe", f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)"
             )
-    return out
 
 
-def _unheld(arm: Arm, k: KeyframeRow) -> list[Finding]:
-    return [
-        Finding(
+def _unheld(out: _Judged, arm: Arm, k: KeyframeRow) -> None:
+    for i in k.unheld:
+        out.finding(
             "keyframe",
             f"keyframe {k.name!r} cannot be held: joint {arm.joint_names[i]!r} needs "
-            f"{k.hold[i]:.4g} N m, its actuators give [{k.effort_lower[i]:.4g}, "
-            f"{k.effort_upper[i]:.4g}] N m there",
+            f"{k.hold[i]:.4g} N m, its actuators give "
+            f"{limit(float(k.effort_lower[i]), float(k.effort_upper[i]))} N m there",
         )
-        for i in k.unheld
-    ]
 
 
-def _gravity_findings(arm: Arm, g: GravityBudget, j: JointSection) -> list[Finding]:
-    out = []
+def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, urdf: bool) -> None:
     comp = " after gravity compensation" if g.gravcomp else ""
     for i, name in enumerate(arm.joint_names):
-        if not j.rows[i].actuated and g.peak[i] > 1e-9:
-            out.append(
-                Finding(
-                    "gravity",
-                    f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
-                    f"{g.peak[i]:.3g} N m: nothing in the model holds it",
-                )
+        # A URDF has no actuators at all (a note says so); its effort limits are judged below.
+        if not urdf and not j.rows[i].actuated and g.peak[i] > 1e-9:
+            out.finding(
+                "gravity",
+                f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
+                f"{g.peak[i]:.3g} N m: nothing in the model holds it",
             )
-        for count, (need, limit), side in (
+        for count, (need, lim), side in (
             (g.over_low[i], g.worst_low[i], "negative"),
             (g.over_high[i], g.worst_high[i], "positive"),
         ):
-            if count:
-                out.append(
-                    Finding(
-                        "gravity",
-                        f"gravity{comp} at joint {name!r} needs more {side} torque than its "
-                        f"actuators give in {count} of {g.n_poses} poses; worst: needs "
-                        f"{need:.3g} N m where their most {side} is {limit:.3g} N m",
-                    )
+            if count and urdf:  # no actuators: the file's effort limit is what binds
+                out.finding(
+                    "gravity",
+                    f"gravity at joint {name!r} needs more {side} torque than its <limit "
+                    f"effort> allows in {count} of {g.n_poses} poses; worst: needs "
+                    f"{need:.3g} N m where the limit is {lim:.3g} N m",
                 )
-    return out
+            elif count:
+                out.finding(
+                    "gravity",
+                    f"gravity{comp} at joint {name!r} needs more {side} torque than its "
+                    f"actuators give in {count} of {g.n_poses} poses; worst: needs "
+                    f"{need:.3g} N m where their most {side} is {lim:.3g} N m",
+                )
 
 
 def _one_line(x: object) -> str:
@@ -434,102 +524,80 @@ def _one_line(x: object) -> str:
     return " ".join(str(x).split())
 
 
-def _engine_findings(e: EngineAgreement, c: CollisionStatistics) -> list[Finding]:
-    out = []
+def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics) -> None:
     if c.disagreements > 0:
-        out.append(
-            Finding(
-                "engines",
-                f"{c.distance_engine}'s touching pairs differ from MuJoCo's contacts in "
-                f"{c.disagreements} of {c.n_poses} poses",
-            )
+        out.finding(
+            "engines",
+            f"{c.distance_engine}'s touching pairs differ from MuJoCo's contacts in "
+            f"{c.disagreements} of {c.n_poses} poses",
         )
-    out += [
-        Finding("engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}")
-        for a in e.crosscheck.agreements
-        if not a.ok
-    ]
-    out += [Finding("engines", f"models differ: {_one_line(d)}") for d in e.equivalence.differences]
-    return out
+    for a in e.crosscheck.agreements:
+        if not a.ok:
+            out.finding(
+                "engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}"
+            )
+    for d in e.equivalence.differences:
+        out.finding("engines", f"models differ: {_one_line(d)}")
 
 
 # -- text -----------------------------------------------------------------------------------------
 def format_report(r: AuditReport) -> list[str]:
-    """The audit as text lines; every table's columns are sized to their content."""
+    """The audit as text lines of at most :data:`~redundancy.reports.tables.WIDTH` characters.
+
+    Tables are sized to their content (a long name folds within its column); a longer
+    sentence continues on the next line.
+    """
     s = r.sections
-    j, sim = s.joints, s.joints.simulation
-    mode = "" if r.mode == "strict" else f", {r.mode} mode: Pinocchio's differences are findings"
-    out = [f"audit of {r.model} (site {r.site!r}{mode})", ""]
+    sim = s.joints.simulation
+    lenient = ": Pinocchio's differences are findings" if r.mode == "lenient" else ""
+    out = [
+        f"audit of {r.model}",
+        f"  {r.model_format}, tool frame {r.site!r}, {r.mode} mode{lenient}",
+        "",
+    ]
+    defaults = " (MuJoCo's defaults: URDF cannot set them)" if r.model_format == "URDF" else ""
     out.append(
         f"simulation: timestep {_h(sim.timestep)}, integrator {sim.integrator}"
         + ("" if sim.eulerdamp else ", eulerdamp disabled")
         + ("" if sim.gravity_enabled else ", gravity disabled")
         + (f", gravcomp on {len(sim.gravcomp)} bodies" if sim.gravcomp else "")
+        + defaults
     )
-    kd = "kd per joint (column kd)" if j.kd is None else f"kd = {j.kd:g} N m s/rad"
-    out += [
-        "",
-        f"joints (at keyframe {j.keyframe!r}; h_max for {kd}; {j.note}):",
-        *table(
-            [
-                "joint",
-                "type",
-                "range",
-                "armature",
-                "share",
-                "b",
-                "kv",
-                "kp",
-                "kd",
-                "effort N m",
-                "M_ii",
-                "h_max ms",
-                "bare ms",
-            ],
-            [
-                [
-                    x.name,
-                    x.type,
-                    f"[{fmt(x.lower, 3)}, {fmt(x.upper, 3)}]",
-                    fmt(x.armature),
-                    f"{100 * x.armature_share:.1f}%",
-                    fmt(x.damping, 3),
-                    fmt(x.servo_kv, 3),
-                    fmt(x.stiffness, 3),
-                    fmt(x.kd, 3),
-                    f"[{fmt(x.effort_lower, 3)}, {fmt(x.effort_upper, 3)}]"
-                    if x.actuated
-                    else "no actuator",
-                    fmt(x.m_ii),
-                    ms(x.h_max),
-                    ms(x.h_max_bare),
-                ]
-                for x in j.rows
-            ],
-            "llrrrrrrrrrrr",
-        ),
-    ]
-    out += ["", "keyframes (site Jacobian; torque the actuators must give to hold it):"]
-    out += table(
-        ["keyframe", "sigma", "rank", "manipulability", "lost", "held"],
-        [
-            [
-                k.name,
-                " ".join(fmt(x, 4) for x in k.svd.sigma),
-                str(k.svd.rank),
-                fmt(k.svd.manipulability, 3),
-                ", ".join(k.svd.lost_direction_names()) or "-",
-                "yes" if not k.unheld else "no: " + ", ".join(j.rows[i].name for i in k.unheld),
-            ]
-            for k in s.keyframes
-        ],
-        "llrrll",
-    )
+    out += _robot_lines(r)
+    out += ["", *_joint_lines(r)]
+    out += ["", *_keyframe_lines(r)]
     out += ["", *_gravity_lines(r)]
     out += ["", *_collision_lines(r)]
     out += ["", *_engine_lines(r)]
+    out += ["", *r.contact_mass.lines()] if r.contact_mass is not None else []
+    if r.notes:
+        out += ["", f"notes (what the file does not say): {len(r.notes)}"]
+        out += [f"  [{n.kind}] {n.message}" for n in r.notes]
     out += ["", f"findings: {len(r.findings)}"]
     out += [f"  [{f.kind}] {f.message}" for f in r.findings] or ["  none"]
+    return fit(out)
+
+
+def _robot_lines(r: AuditReport) -> list[str]:
+    """The rest of the robot: which joints are held, at what, and what was set aside."""
+    rp = r.robot
+    if rp is None or not (rp.held or rp.set_aside):
+        return []
+    out = [""]
+    if rp.held:
+        rest = "the reference pose (qpos0)" if rp.rest == "qpos0" else rp.rest
+        base = f"; the arm starts below {rp.base!r}" if rp.base else ""
+        out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
+
+        def value(v: float | tuple[float, ...]) -> str:
+            if isinstance(v, tuple):
+                return "(" + " ".join(f"{x:.4g}" for x in v) + ")"
+            return f"{v:.4g}"
+
+        out.append("  held: " + ", ".join(f"{k} {value(v)}" for k, v in rp.held.items()))
+    if rp.set_aside:
+        out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
+        out += [f"  {a}" for a in rp.set_aside]
     return out
 
 
@@ -537,11 +605,95 @@ def _h(h: float) -> str:
     return f"{1e3 * h:g} ms"
 
 
+def _reference(name: str | None) -> str:
+    return "reference pose (qpos0)" if name is None else f"keyframe {name!r}"
+
+
+def _joint_lines(r: AuditReport) -> list[str]:
+    j = r.sections.joints
+    urdf = r.model_format == "URDF"
+    kd = "the model's own damping" if j.kd is None else f"kd = {j.kd:g} N m s/rad written to ctrl"
+    servos = any(x.servo_kv or x.stiffness for x in j.rows)
+    header = ["joint", "type", "range", "effort N m", "armature", "b"]
+    header += ["kv", "kp"] if servos else []
+    header += ["M_ii", "h_max ms", "bare ms"]
+
+    def effort(x: sections.JointRow) -> str:
+        if not x.actuated and not urdf:
+            return "no actuator"
+        return limit(x.effort_lower, x.effort_upper, 3)
+
+    rows = []
+    for x in j.rows:
+        row = [
+            x.name,
+            x.type,
+            f"[{fmt(x.lower, 3)}, {fmt(x.upper, 3)}]",
+            effort(x),
+            fmt(x.armature),
+            fmt(x.damping, 3),
+        ]
+        row += [fmt(x.servo_kv, 3), fmt(x.stiffness, 3)] if servos else []
+        row += [fmt(x.m_ii), ms(x.h_max), ms(x.h_max_bare)]
+        rows.append(row)
+    return [
+        f"joints at the {_reference(j.keyframe)}; h_max, the largest stable timestep, for "
+        f"{kd}; {j.note}:",
+        *table(header, rows, "ll" + "r" * (len(header) - 2)),
+    ]
+
+
+def _keyframe_lines(r: AuditReport) -> list[str]:
+    s = r.sections
+    if not s.keyframes:
+        return ["keyframes: none in the file"]
+    names = [x.name for x in s.joints.rows]
+    return [
+        "keyframes (tool frame Jacobian; torque the actuators must give to hold it):",
+        *table(
+            ["keyframe", "sigma", "rank", "manipulability", "lost", "held"],
+            [
+                [
+                    k.name,
+                    " ".join(fmt(x, 4) for x in k.svd.sigma),
+                    str(k.svd.rank),
+                    fmt(k.svd.manipulability, 3),
+                    ", ".join(k.svd.lost_direction_names()) or "-",
+                    "yes" if not k.unheld else "no: " + ", ".join(names[i] for i in k.unheld),
+                ]
+                for k in s.keyframes
+            ],
+            "llrrll",
+        ),
+    ]
+
+
 def _gravity_lines(r: AuditReport) -> list[str]:
     g = r.sections.gravity
     names = [x.name for x in r.sections.joints.rows]
     comp = ", gravity compensation subtracted" if g.gravcomp else ""
     off = "" if g.gravity_enabled else " (gravity disabled: nothing to hold)"
+
+    rows = r.sections.joints.rows
+    # An MJCF joint without an actuator: nothing applies a force there (a finding when
+    # gravity loads it); a URDF joint's limit is its <limit effort>.
+    unheld = [not x.actuated and r.model_format != "URDF" for x in rows]
+
+    def bound(i: int, x: float) -> str:
+        if g.varies[i]:
+            return "varies"
+        if unheld[i]:
+            return "-"
+        return "none" if math.isinf(x) else fmt(x, 4)
+
+    def ratio(i: int) -> str:
+        value = float(g.ratio[i])
+        if unheld[i]:
+            return "no actuator"
+        if math.isfinite(value):
+            return f"{value:.2f}"
+        return "-" if g.peak[i] <= 1e-9 else "none"
+
     return [
         f"gravity over {g.n_poses} random poses (seed {g.seed}){comp}{off}: torque the "
         "actuators must give, against what they can give (N m)",
@@ -552,9 +704,9 @@ def _gravity_lines(r: AuditReport) -> list[str]:
                     names[i],
                     fmt(g.low[i], 4),
                     fmt(g.high[i], 4),
-                    "varies" if g.varies[i] else fmt(g.limit_lower[i], 4),
-                    "varies" if g.varies[i] else fmt(g.limit_upper[i], 4),
-                    "-" if not math.isfinite(g.ratio[i]) else f"{g.ratio[i]:.2f}",
+                    bound(i, g.limit_lower[i]),
+                    bound(i, g.limit_upper[i]),
+                    ratio(i),
                     str(int(g.over_low[i] + g.over_high[i])),
                 ]
                 for i in range(len(names))
@@ -572,18 +724,19 @@ def _collision_lines(r: AuditReport) -> list[str]:
     out = [
         f"self-collision over {c.n_poses} random poses (seed {c.seed}), {len(c.pairs)} pairs "
         f"tested: {100 * c.share_with_contact:.1f}% of poses have a contact",
-        *table(
+    ]
+    if ranked:
+        out += table(
             ["pair", "poses", "contacts", "closest (m)"],
             [[p.pair.label, str(p.poses), str(p.contacts), fmt(p.closest, 4)] for p in ranked],
             "lrrr",
-        ),
-    ]
+        )
     for k in c.keyframes:
         near = (
             f", closest {k.closest.pair.label} at {k.closest.distance:.4f} m" if k.closest else ""
         )
-        out.append(f"  keyframe {k.keyframe}: {k.contacts} contacts{near}")
-    if c.distance_engine is not None:
+        out.append(f"  keyframe {k.keyframe!r}: {k.contacts} contacts{near}")
+    if c.distance_engine is not None and c.pairs:
         out.append(
             f"  distances by {c.distance_engine}; poses where its touching pairs differ from "
             f"MuJoCo's contacts: {c.disagreements}"
@@ -608,12 +761,12 @@ def _engine_lines(r: AuditReport) -> list[str]:
         "model equivalence (MuJoCo's compiled model vs Pinocchio's):",
     ]
     out += [f"  DIFFERS {_one_line(d)}" for d in eq.differences] or ["  no differences"]
-    kinds: dict[str, list[str]] = {}
+    kinds: dict[tuple[str, str], list[str]] = {}
     for b in eq.bridges:
-        kinds.setdefault(b.quantity, []).append(f"{b.joint}={b.value_text}")
-    for kind, vals in kinds.items():
+        kinds.setdefault((b.quantity, b.source), []).append(f"{b.joint}={b.value_text}")
+    for (kind, source), vals in kinds.items():
         out.append(
-            f"  BRIDGED {kind} from MuJoCo (Pinocchio's MJCF parser does not read it): "
-            f"{', '.join(vals)}"
+            f"  BRIDGED {kind} (from MuJoCo's {source}; Pinocchio's parser does not read it "
+            f"as MuJoCo does): {', '.join(vals)}"
         )
     return out

@@ -325,8 +325,9 @@ def print_tables(
         arm: The arm.
         n_poses: Random poses of tables (3) and (4).
         out: Where each line goes.
-        computed: Sections already computed for this arm (by the audit, with seed 0), so
-            tables (1) to (4) only format them; by default they are computed here.
+        computed: Sections already computed for this arm (joints at kd 5, gravity over
+            seed 0's poses, contacts over seed 1's), so tables (1) to (4) only format them;
+            by default they are computed here.
     """
     if computed is None:
         computed = sections.Sections(

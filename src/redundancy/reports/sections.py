@@ -1,6 +1,6 @@
 """The sections both reports are made of, each computed once: joints, keyframes, gravity, contacts.
 
-The lesson's tables and the audit format and judge these; neither computes them again. The
+The audit judges these and arm7's example tables format them; neither computes them again. The
 numbers come from the :class:`~redundancy.Arm`, :mod:`redundancy.analysis.batch` and
 :mod:`redundancy.collision`; what MuJoCo simulates beyond them (integrator, flags, actuator
 ranges, servo damping, gravity compensation) from :mod:`redundancy.model.actuators`.
@@ -39,9 +39,14 @@ Array = NDArray[np.float64]
 
 #: Poses per chunk of a sweep (a few KB of work arrays per pose).
 CHUNK = 10_000
-#: Explicit controller damping assumed on a joint driven by a torque motor (or none) when no
-#: ``kd`` is given: the lesson's kd [N m s/rad]. A servo-driven joint's damping is the servo's.
-LESSON_KD = 5.0
+
+#: Called as a sweep advances: ``(stage, done, total)``, a short label and the poses done of
+#: the stage's total (``done == 0`` when the stage starts).
+Progress = Callable[[str, int, int], object]
+
+
+def _quiet(label: str, done: int, total: int) -> None:
+    """The default :data:`Progress`: says nothing."""
 
 
 def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> Iterator[Array]:
@@ -56,11 +61,17 @@ def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> 
         yield rng.uniform(lo, hi, size=(min(size, n - start), arm.nq))
 
 
-def reference_keyframe(arm: Arm) -> tuple[str, Array]:
-    """The pose the joint table is taken at: ``home``, else the first keyframe, else qpos0."""
+def reference_keyframe(arm: Arm) -> tuple[str | None, Array]:
+    """The pose the joint table is taken at: ``home``, else the first keyframe, else qpos0.
+
+    Returns:
+        The keyframe's name (``None`` for the model's reference pose qpos0) and its pose.
+    """
     keys = arm.keyframes
-    name = "home" if "home" in keys else next(iter(keys), "qpos0")
-    return name, keys.get(name, arm.mj_model.qpos0.copy())
+    name = "home" if "home" in keys else next(iter(keys), None)
+    if name is None:
+        return None, arm.mj_model.qpos0.copy()
+    return name, keys[name]
 
 
 # -- joints ---------------------------------------------------------------------------------------
@@ -127,7 +138,8 @@ class JointSection:
 
     Attributes:
         rows: One per joint.
-        keyframe: Name of the reference pose.
+        keyframe: The keyframe the rows are taken at (``None``: the model's reference pose,
+            qpos0).
         simulation: The model's simulation settings.
         kd: The explicit kd asked about (``None``: the model's own, see :func:`joints`).
         note: How the integrator treats damping, in one sentence.
@@ -135,7 +147,7 @@ class JointSection:
     """
 
     rows: tuple[JointRow, ...]
-    keyframe: str
+    keyframe: str | None
     simulation: Simulation
     kd: float | None
     note: str
@@ -147,16 +159,16 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
 
     Args:
         arm: The arm.
-        kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: the
-            lesson's :data:`LESSON_KD` on joints driven by torque motors (or nothing), 0 on
-            servo-driven joints (their damping is the servo's ``kv`` and the joint's own,
-            read from the model).
+        kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: no
+            controller is assumed (0): the damping is what the model itself has, the joint's
+            own and a servo's ``kv``.
         key: Reference keyframe (default: :func:`reference_keyframe`).
     """
+    ref: str | None
     if key is None:
-        key, q = reference_keyframe(arm)
+        ref, q = reference_keyframe(arm)
     else:
-        q = arm.keyframe(key)
+        ref, q = key, arm.keyframe(key)
     m = arm.mj_model
     sim = actuators.simulation(m)
     M = np.diag(arm.mass_matrix(q))
@@ -167,8 +179,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
     )
     b = arm.damping()
     kv = actuators.servo_damping(m)
-    servo = actuators.servo_driven(m)
-    kd_each = np.where(servo, 0.0, LESSON_KD) if kd is None else np.full(arm.nq, float(kd))
+    kd_each = np.full(arm.nq, 0.0 if kd is None else float(kd))
     stiffness = actuators.servo_stiffness(m)
     split = actuators.damping_split(sim, b, kv, kd_each, stiffness)
     h = actuators.max_stable_timestep(M, split)
@@ -199,7 +210,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         )
         for i, name in enumerate(arm.joint_names)
     )
-    return JointSection(rows, key, sim, kd, split.note, diff)
+    return JointSection(rows, ref, sim, kd, split.note, diff)
 
 
 # -- keyframes ------------------------------------------------------------------------------------
@@ -372,8 +383,15 @@ class _Worst:
         self.at[better] = np.stack([need[rows, cols], limit[rows, cols]], axis=1)[better]
 
 
-def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudget:
-    """Holding torque over ``n_poses`` random poses against the actuators, in chunks."""
+def gravity_budget(
+    arm: Arm, n_poses: int, seed: int | None = 0, progress: Progress | None = None
+) -> GravityBudget:
+    """Holding torque over ``n_poses`` random poses against the actuators, in chunks.
+
+    ``progress`` is called with ``("gravity", done, n_poses)`` as the chunks go.
+    """
+    say = progress or _quiet
+    say("gravity", 0, n_poses)
     nv = arm.nq
     load = _Load(arm)
     low, high = np.zeros(nv), np.zeros(nv)
@@ -404,6 +422,7 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
         over_low += below.sum(axis=0)
         over_high += above.sum(axis=0)
         n_over += int(np.sum((below | above).any(axis=1)))
+        say("gravity", offset, n_poses)
     sim = actuators.simulation(arm.mj_model)
     return GravityBudget(
         n_poses,
@@ -427,7 +446,11 @@ def gravity_budget(arm: Arm, n_poses: int, seed: int | None = 0) -> GravityBudge
 
 # -- self-collision -------------------------------------------------------------------------------
 def contacts(
-    arm: Arm, n_poses: int, seed: int | None = 1, distances: str | None = "coal"
+    arm: Arm,
+    n_poses: int,
+    seed: int | None = 1,
+    distances: str | None = "coal",
+    progress: Progress | None = None,
 ) -> CollisionStatistics:
     """Self-collision over random poses (:func:`redundancy.collision_statistics`), in chunks.
 
@@ -435,8 +458,11 @@ def contacts(
     faster one) every pair's distance gives its closest approach, and the distance engine's
     touching pairs are checked against MuJoCo's contacts at every pose (``disagreements``).
     Chunk results are merged exactly: counts add, the closest approach is the minimum (its
-    pose index counted over the whole sample), the sweep time adds up.
+    pose index counted over the whole sample), the sweep time adds up. ``progress`` is called
+    with ``("self-collision", done, n_poses)`` as the chunks go.
     """
+    say = progress or _quiet
+    say("self-collision", 0, n_poses)
     engine: DistanceEngine | None = distances  # type: ignore[assignment]
     merged: CollisionStatistics | None = None
     offset = 0
@@ -445,6 +471,7 @@ def contacts(
         part = collision_statistics(arm, distances=engine, poses=Q, keyframes=False)
         merged = part if merged is None else _merge(merged, part, offset)
         offset += len(Q)
+        say("self-collision", offset, n_poses)
     if merged is None:  # no poses: the keyframes alone
         empty = np.zeros((0, arm.nq))
         merged = collision_statistics(arm, distances=engine, poses=empty, keyframes=False)
@@ -478,7 +505,7 @@ def _merge(a: CollisionStatistics, b: CollisionStatistics, offset: int) -> Colli
 # -- all four -------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Sections:
-    """The four sections, computed once for the lesson and the audit."""
+    """The four sections, computed once for a report (the audit, arm7's example tables)."""
 
     joints: JointSection
     keyframes: tuple[KeyframeRow, ...]
@@ -492,24 +519,109 @@ def compute(
     seed: int = 0,
     kd: float | None = None,
     distances: str | None = "coal",
-    progress: Callable[[str], object] | None = None,
+    progress: Progress | None = None,
 ) -> Sections:
-    """Every section: gravity over ``seed``'s poses, contacts over ``seed + 1``'s.
-
-    With ``seed=0`` these are the lesson's samples (its tables (3) and (4)).
+    """Every section: gravity and self-collision over the same ``n_poses`` poses of ``seed``.
 
     Args:
         arm: The arm.
         n_poses: Random poses of each sweep.
-        seed: Seed of the gravity sweep.
+        seed: Seed of the random poses (:func:`redundancy.random_poses`).
         kd: Controller damping written to ctrl (see :func:`joints`) [N m s/rad].
         distances: Distance engine of the collision sweep (``None``: contacts only).
-        progress: Called with a short label as each sweep starts.
+        progress: Called as each sweep advances (see :data:`Progress`).
     """
-    say = progress or (lambda label: None)
-    say("joints and keyframes")
+    say = progress or _quiet
     joint_section, keys = joints(arm, kd), keyframes(arm)
-    say(f"gravity over {n_poses} poses")
-    gravity = gravity_budget(arm, n_poses, seed)
-    say(f"self-collision over {n_poses} poses")
-    return Sections(joint_section, keys, gravity, contacts(arm, n_poses, seed + 1, distances))
+    gravity = gravity_budget(arm, n_poses, seed, say)
+    collisions = contacts(arm, n_poses, seed, distances, say)
+    return Sections(joint_section, keys, gravity, collisions)
+
+
+# -- the mass a contact at the tool feels ---------------------------------------------------------
+@dataclass(frozen=True)
+class ContactMass:
+    """The effective mass at the tool over random poses, beside ISO/TS 15066's simplified figure.
+
+    TS 15066 (transient contact) takes the robot's share of a collision as half the mass of
+    its moving parts plus the payload, because tools rarely give the exact one: the effective
+    mass 1 / (u^T J_v M^-1 J_v^T u) along the direction of contact u. Samples are every pose
+    along the three axes (the mass along -u equals that along u).
+
+    Attributes:
+        n_poses: Poses sampled.
+        seed: Their seed.
+        with_armature: Min, median, max over the samples, motors' rotor inertia included [kg].
+        without_armature: The same without it [kg].
+        moving_mass: Mass of the links that move [kg].
+        payload: Payload assumed [kg] (0).
+        below_estimate: Share of samples (with armature) whose exact mass exceeds the estimate:
+            where the simplified figure is too low.
+    """
+
+    n_poses: int
+    seed: int | None
+    with_armature: tuple[float, float, float]
+    without_armature: tuple[float, float, float]
+    moving_mass: float
+    payload: float
+    below_estimate: float
+
+    @property
+    def estimate(self) -> float:
+        """TS 15066's simplified effective mass: half the moving mass plus the payload [kg]."""
+        return 0.5 * self.moving_mass + self.payload
+
+    @property
+    def estimate_over_median(self) -> float:
+        """The estimate divided by the exact median with armature."""
+        return self.estimate / self.with_armature[1]
+
+    def lines(self) -> list[str]:
+        """The section as text lines."""
+
+        def row(label: str, v: tuple[float, float, float]) -> str:
+            return f"  {label:<18}{v[0]:>10.3g}{v[1]:>10.3g}{v[2]:>10.3g}"
+
+        return [
+            f"effective mass at the tool (ISO/TS 15066 transient contact) over {self.n_poses} "
+            f"random poses (seed {self.seed}), along the three axes:",
+            f"  {'':<18}{'min kg':>10}{'median kg':>10}{'max kg':>10}",
+            row("with armature", self.with_armature),
+            row("without armature", self.without_armature),
+            f"  TS 15066 simplified: half the moving mass ({self.moving_mass:.3g} kg) + payload "
+            f"{self.payload:g} kg = {self.estimate:.3g} kg, {self.estimate_over_median:.2f}x the "
+            f"exact median; too low on {100 * self.below_estimate:.1f}% of the samples",
+        ]
+
+
+def contact_mass(arm: Arm, n_poses: int, seed: int | None = 0) -> ContactMass:
+    """The effective mass at the tool over ``seed``'s poses, with and without armature.
+
+    Args:
+        arm: The arm.
+        n_poses: Random poses (the gravity sweep's, for the same seed).
+        seed: Their seed.
+    """
+    engine = arm.mujoco
+    masses: dict[bool, list[Array]] = {True: [], False: []}
+    for Q in pose_chunks(arm, n_poses, seed):
+        for armature in (True, False):
+            J, X = engine.tool_mobilities(Q, armature)
+            masses[armature] += [linalg.effective_masses(J, X, u) for u in np.eye(3)]
+    stats = {}
+    for armature, parts in masses.items():
+        m = np.concatenate(parts)
+        stats[armature] = (float(np.min(m)), float(np.median(m)), float(np.max(m)))
+    with_rotors = np.concatenate(masses[True])
+    moving = float(np.sum(engine.link_inertias(reference_keyframe(arm)[1])[0]))
+    estimate = 0.5 * moving
+    return ContactMass(
+        n_poses=n_poses,
+        seed=seed,
+        with_armature=stats[True],
+        without_armature=stats[False],
+        moving_mass=moving,
+        payload=0.0,
+        below_estimate=float(np.mean(with_rotors > estimate)),
+    )

@@ -1,0 +1,400 @@
+"""Inverse kinematics: put the tool at a pose, inside the joint ranges, and use the spare joints.
+
+The solver (:func:`solve`, behind :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>`):
+
+* **Damped Levenberg-Marquardt** on the tool error e = [p* - p; log(R* R^T)] (world axes,
+  [m] and [rad]), with Sugihara's damping lambda = E + w_N, E = e^T e / 2: the step is
+  dq = J^T (J J^T + lambda I)^-1 e (the same step as (J^T J + lambda I)^-1 J^T e, through a
+  6 x 6 system), clamped to the joint ranges after every step, so every iterate and every
+  answer lies inside them.
+* **Random restarts** inside the ranges when an attempt stalls, up to a budget.
+* **The answer checked in the other engine**: the iterations use one engine's kinematics
+  (MuJoCo's by default, the fastest); when they meet the tolerances, the other engine
+  recomputes the tool pose, and only its errors decide ``success`` and are reported. A
+  success is a success in both.
+* **Objectives in the null space**, after the task has converged: steps -N grad(f) with
+  N = I - J^+ J, each followed by a few Levenberg-Marquardt corrections that remove the
+  second-order drift, kept only when f decreases and the task still holds; the objective
+  never costs the task anything (the task-only answer is returned if the pursuit fails).
+
+Nothing here calls an engine library: the engines' ``kinematics_kernel`` (unchecked, per
+thread) gives position, rotation and Jacobian at a pose.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .engines.contract import Engine
+from .engines.mujoco import damped_step
+from .errors import ParameterError
+
+Array = NDArray[np.float64]
+
+#: A cost to lower in the task's null space: q -> (value, gradient (nq,)).
+Objective = Callable[[Array], tuple[float, Array]]
+
+#: Names of the built-in objectives.
+OBJECTIVES = ("joint_limits", "manipulability")
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """What :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` found.
+
+    Attributes:
+        q: The pose, inside the joint ranges [rad or m].
+        success: The tool errors, recomputed by the checking engine, are within tolerance
+            (the position error alone with ``position_only``).
+        position_error: |p* - p| at ``q`` by the checking engine [m].
+        orientation_error: Angle of R* R^T at ``q`` by the checking engine [rad].
+        iterations: Levenberg-Marquardt iterations, over every attempt and the objective's
+            corrections.
+        restarts: Random restarts taken (0: the first start converged).
+        objective: The objective's value at ``q`` (None without an objective).
+        engine: The engine whose kinematics the iterations used.
+        checked_by: The engine that recomputed the answer and decided ``success``.
+    """
+
+    q: Array
+    success: bool
+    position_error: float
+    orientation_error: float
+    iterations: int
+    restarts: int = 0
+    objective: float | None = None
+    engine: str = "mujoco"
+    checked_by: str = "pinocchio"
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The solver's knobs (the defaults are what the benchmark measures).
+
+    Attributes:
+        position_tol: Position tolerance [m].
+        orientation_tol: Orientation tolerance [rad].
+        iterations: Iterations per attempt before a restart.
+        restarts: Random restarts at most.
+        damping: w_N, the constant part of Sugihara's damping [m^2 or rad^2].
+        objective_steps: Null-space steps at most when pursuing an objective.
+        stall_window: An attempt whose E fell by less than ``stall_ratio`` over this many
+            iterations (while above 1e-8) is given up for a restart.
+        stall_ratio: See ``stall_window``.
+    """
+
+    position_tol: float = 1e-6
+    orientation_tol: float = 1e-6
+    iterations: int = 30
+    restarts: int = 100
+    damping: float = 1e-9
+    gain: float = 0.1
+    objective_steps: int = 40
+    stall_window: int = 5
+    stall_ratio: float = 0.5
+
+
+#: The settings of a call with every default.
+DEFAULT_SETTINGS = Settings()
+
+#: The iterating engine converges to this fraction of the tolerances before the other engine
+#: checks (the engines agree to ~1e-15 m; the margin keeps a check from failing on rounding).
+_MARGIN = 0.1
+
+#: Corrections allowed after each null-space step.
+_CORRECTIONS = 8
+
+
+def rotation_error(Rt: Array, R: Array) -> tuple[float, float, float]:
+    """Rotation vector of Rt R^T (world axes) [rad]: the axis times the angle in [0, pi].
+
+    Written out in floats: the solver calls it every iteration, where NumPy's per-call cost
+    on 3 x 3 arrays would dominate.
+    """
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = Rt.dot(R.T).ravel().tolist()
+    x, y, z = e21 - e12, e02 - e20, e10 - e01  # 2 sin(theta) times the axis
+    s2 = math.sqrt(x * x + y * y + z * z)
+    c = 0.5 * (e00 + e11 + e22 - 1.0)
+    theta = math.atan2(0.5 * s2, c)
+    if s2 > 1e-6:
+        k = theta / s2
+        return k * x, k * y, k * z
+    if c > 0.0:  # theta ~ 0: theta / (2 sin theta) -> 1/2
+        return 0.5 * x, 0.5 * y, 0.5 * z
+    # theta ~ pi: the axis from the symmetric part, (S - c I) / (1 - c) = a a^T.
+    S = ((e00, e01, e02), (e10, e11, e12), (e20, e21, e22))
+    i = max(range(3), key=lambda j: S[j][j])
+    col = [0.5 * (S[j][i] + S[i][j]) - (c if i == j else 0.0) for j in range(3)]
+    n = math.sqrt(sum(v * v for v in col)) or 1.0
+    a = [v / n for v in col]
+    if a[0] * x + a[1] * y + a[2] * z < 0.0:
+        a = [-v for v in a]
+    return theta * a[0], theta * a[1], theta * a[2]
+
+
+def tool_errors(p_t: Array, R_t: Array, p: Array, R: Array) -> tuple[float, float]:
+    """Position error [m] and orientation error (an angle) [rad] of the tool at (p, R)."""
+    x, y, z = rotation_error(R_t, R)
+    return math.hypot(*(p_t - p).tolist()), math.sqrt(x * x + y * y + z * z)
+
+
+def joint_limit_objective(lower: Array, upper: Array, margin: float = 1e-3) -> Objective:
+    """Chan and Dubey's joint-limit cost: the mean of r^2 / (4 (upper - q)(q - lower)).
+
+    1 with every limited joint at the middle of its range (r, the range's width), growing
+    without bound toward a limit, so lowering it moves first the joints nearest their limits
+    (a quadratic cost would trade one joint at its limit for several nearer their middles).
+    The distances carry ``margin`` times the range, so a joint clamped at its limit still
+    has a finite cost and gradient.
+    """
+    limited = np.isfinite(lower) & np.isfinite(upper) & (upper > lower)
+    lo = np.where(limited, lower, -1.0)
+    hi = np.where(limited, upper, 1.0)
+    r = hi - lo
+    w = np.where(limited, 0.25 * r * r, 0.0) / max(1, int(limited.sum()))
+    pad = margin * r
+
+    def cost(q: Array) -> tuple[float, Array]:
+        x = np.where(limited, q, 0.5 * (lo + hi))
+        a, b = hi - x + pad, x - lo + pad
+        f = a * b
+        return float(np.sum(w / f)), w * (b - a) / (f * f)
+
+    return cost
+
+
+def limit_clearance(q: Array, lower: Array, upper: Array) -> float:
+    """Smallest distance to a limit over the limited joints, as a share of the range (0-0.5)."""
+    limited = np.isfinite(lower) & np.isfinite(upper) & (upper > lower)
+    if not limited.any():
+        return 0.5
+    lo, hi, x = lower[limited], upper[limited], q[limited]
+    return float(np.min(np.minimum(x - lo, hi - x) / (hi - lo)))
+
+
+def _checked(value: object, gradient: object, nq: int) -> tuple[float, Array]:
+    """An objective's output as (finite float, finite (nq,) gradient)."""
+    valid = f"a callable returning (finite value, finite gradient of shape ({nq},))"
+    try:
+        v = float(value)  # type: ignore[arg-type]
+        g = np.asarray(gradient, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError("objective", (value, gradient), valid) from None
+    if not math.isfinite(v) or g.shape != (nq,) or not np.all(np.isfinite(g)):
+        raise ParameterError("objective", (value, gradient), valid)
+    return v, g
+
+
+class _Solver:
+    """One solve's state: the kernel, the target, the ranges and the counters."""
+
+    def __init__(
+        self,
+        engine: Engine,
+        lower: Array,
+        upper: Array,
+        p_t: Array,
+        R_t: Array,
+        position_only: bool,
+        settings: Settings,
+    ) -> None:
+        self.kin = engine.ik_kernel(p_t, R_t)
+        self.lower, self.upper = lower, upper
+        self.p_t, self.R_t = p_t, R_t
+        self.position_only = position_only
+        self.s = settings
+        self.tol_p = _MARGIN * settings.position_tol
+        self.tol_r = math.inf if position_only else _MARGIN * settings.orientation_tol
+        self.iterations = 0
+
+    def error(self, q: Array) -> tuple[Array, Array, float, float]:
+        """Task error (6 or 3,), task Jacobian, position and orientation errors at ``q``.
+
+        The arrays are the kernel's buffers: valid until the next call.
+        """
+        e, J = self.kin(q)
+        x, y, z, a, b, c = e.tolist()
+        npos, nrot = math.sqrt(x * x + y * y + z * z), math.sqrt(a * a + b * b + c * c)
+        if self.position_only:
+            return e[:3], J[:3], npos, nrot
+        return e, J, npos, nrot
+
+    def descend(self, q: Array, budget: int) -> tuple[Array, bool, float]:
+        """Levenberg-Marquardt from ``q`` for at most ``budget`` iterations.
+
+        The loop is written out (the kernel called directly, squared norms from one
+        ``tolist``, counters in locals): at ~25 us an iteration, each Python call shows.
+
+        Returns:
+            The last pose, whether it converged, and E = e^T e / 2 there.
+        """
+        lo, hi, k, wn = self.lower, self.upper, self.s.gain, self.s.damping
+        only, kin = self.position_only, self.kin
+        tp2 = self.tol_p * self.tol_p
+        tr2 = math.inf if only else self.tol_r * self.tol_r
+        window, ratio = self.s.stall_window, self.s.stall_ratio
+        step_of, maximum, minimum = damped_step, np.maximum, np.minimum
+        e, J = kin(q)
+        x, y, z, a, b, c = e.tolist()
+        pp, rr = x * x + y * y + z * z, a * a + b * b + c * c
+        E = 0.5 * (pp if only else pp + rr)
+        history = [E]
+        done = 0
+        for _ in range(budget):
+            if pp <= tp2 and rr <= tr2:
+                break
+            done += 1
+            lam = k * E + wn  # Sugihara's lambda = E + w_N (with the gain k of Chan's)
+            Jt, et = (J[:3], e[:3]) if only else (J, e)
+            step = q + step_of(Jt, et, lam)
+            clamped = maximum(step, lo)  # -inf / inf where a joint is unlimited
+            minimum(clamped, hi, out=clamped)
+            if clamped.tolist() != step.tolist():
+                # A joint the step pushes past its limit stops there; the step is solved
+                # again without it, so the other joints make up for it (the redundancy at
+                # work).
+                clamped = maximum(q + step_of(Jt * (clamped == step), et, lam), lo)
+                minimum(clamped, hi, out=clamped)
+            if not math.isfinite(lam) or not math.isfinite(sum(clamped.tolist())):
+                break  # a target so far away that the squared error overflowed: q stays
+            q = clamped
+            e, J = kin(q)
+            x, y, z, a, b, c = e.tolist()
+            pp, rr = x * x + y * y + z * z, a * a + b * b + c * c
+            E = 0.5 * (pp if only else pp + rr)
+            # A stalled attempt (E down by less than ``stall_ratio`` over ``stall_window``
+            # iterations, far from the tolerance) is given up for a restart rather than run
+            # to the budget.
+            history.append(E)
+            if len(history) > window and E > ratio * history[-window - 1] and E > 1e-8:
+                break
+        self.iterations += done
+        return q, pp <= tp2 and rr <= tr2, E
+
+    def pursue(self, q: Array, objective: Objective) -> Array:
+        """Lower ``objective`` along the task's null space from the converged ``q``."""
+        nq = len(q)
+        value, grad = _checked(*objective(q), nq)
+        scale = 0.25  # largest joint motion of the next trial step [rad or m]
+        for _ in range(self.s.objective_steps):
+            J = self.error(q)[1]
+            N = np.eye(nq) - np.linalg.pinv(J).dot(J)
+            d = -N.dot(grad)
+            top = float(np.abs(d).max())
+            if not top > 1e-12:
+                break
+            trial = np.clip(q + (scale / top) * d, self.lower, self.upper)
+            trial, ok, _ = self.descend(trial, _CORRECTIONS)
+            if ok:
+                v, g = _checked(*objective(trial), nq)
+                if v < value - 1e-12 * max(1.0, abs(value)):
+                    gain = value - v
+                    q, value, grad = trial, v, g
+                    scale = min(2.0 * scale, 0.5)
+                    if gain <= 1e-9 * max(1e-12, abs(value)):
+                        break
+                    continue
+            scale *= 0.25
+            if scale < 1e-6:
+                break
+        return q
+
+
+def solve(
+    engine: Engine,
+    check: Engine,
+    lower: Array,
+    upper: Array,
+    sample_lower: Array,
+    sample_upper: Array,
+    p_t: Array,
+    R_t: Array,
+    q0: Array,
+    rng: Callable[[], np.random.Generator],
+    objective: Objective | None = None,
+    position_only: bool = False,
+    settings: Settings | None = None,
+) -> IKResult:
+    """Solve one target (inputs validated by the caller; see the module's description).
+
+    Args:
+        engine: The engine whose kinematics the iterations use.
+        check: The engine that recomputes the answer and decides success.
+        lower: Lower joint limits (``-inf`` where unlimited) [rad or m].
+        upper: Upper joint limits (``inf`` where unlimited) [rad or m].
+        sample_lower: Lower bounds of the random restarts [rad or m].
+        sample_upper: Upper bounds of the random restarts [rad or m].
+        p_t: Target position [m].
+        R_t: Target rotation (orthonormal).
+        q0: First start [rad or m] (clamped into the ranges).
+        rng: Makes the restarts' random numbers (called on the first restart only: most
+            solves need none, and a generator costs tens of microseconds to seed).
+        objective: A cost lowered in the null space after convergence, or None.
+        position_only: Solve for the position alone (3 rows of J).
+        settings: The knobs (:class:`Settings` defaults if None).
+    """
+    s = settings or Settings()
+    solver = _Solver(engine, lower, upper, p_t, R_t, position_only, s)
+    q = np.minimum(np.maximum(q0, lower), upper)
+    best: tuple[float, Array] | None = None
+    restarts = 0
+    generator: np.random.Generator | None = None
+    while True:
+        q, ok, E = solver.descend(q, s.iterations)
+        if ok:
+            errors = _checked_errors(solver, check, q)
+            if errors[2]:
+                if objective is not None:
+                    better = solver.pursue(q, objective)
+                    if better is not q:
+                        better_errors = _checked_errors(solver, check, better)
+                        if better_errors[2]:
+                            q, errors = better, better_errors
+                return _result(solver, check, q, errors, restarts, objective, engine)
+        if best is None or E < best[0] or not math.isfinite(best[0]):
+            best = (E, q)
+        if restarts >= s.restarts:
+            break
+        restarts += 1
+        if generator is None:
+            generator = rng()
+        q = generator.uniform(sample_lower, sample_upper)
+    q = best[1]
+    return _result(solver, check, q, _checked_errors(solver, check, q), restarts, objective, engine)
+
+
+def _checked_errors(solver: _Solver, check: Engine, q: Array) -> tuple[float, float, bool]:
+    """Position and orientation errors by the checking engine, and whether they pass."""
+    p, R = check.site_pose(q)
+    npos, nrot = tool_errors(solver.p_t, solver.R_t, p, R)
+    s = solver.s
+    ok = npos <= s.position_tol and (solver.position_only or nrot <= s.orientation_tol)
+    return npos, nrot, ok
+
+
+def _result(
+    solver: _Solver,
+    check: Engine,
+    q: Array,
+    errors: tuple[float, float, bool],
+    restarts: int,
+    objective: Objective | None,
+    engine: Engine,
+) -> IKResult:
+    value = None if objective is None else _checked(*objective(q), len(q))[0]
+    return IKResult(
+        q=q.copy(),
+        success=bool(errors[2]),
+        position_error=errors[0],
+        orientation_error=errors[1],
+        iterations=solver.iterations,
+        restarts=restarts,
+        objective=value,
+        engine=engine.name,
+        checked_by=check.name,
+    )

@@ -1,0 +1,79 @@
+"""A progress bar for long runs, on a terminal only (``rich.progress``).
+
+:func:`terminal_progress` gives the :data:`~redundancy.reports.sections.Progress` callback
+of a command: a bar per stage on the stream (stderr) once the run has taken :data:`DELAY`
+seconds, cleared when the run ends; nothing at all when the stream is not a terminal (a
+log, a pipe, CI) or the user asked for quiet.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import TextIO
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from .sections import Progress as Callback
+
+#: A run shows its bar once it has taken this long [s]: a short one stays silent.
+DELAY = 1.0
+
+
+class _Bars:
+    """One bar per stage, started after :data:`DELAY` seconds (see :func:`terminal_progress`)."""
+
+    def __init__(self, stream: TextIO, delay: float) -> None:
+        self.start = time.monotonic()
+        self.delay = delay
+        console = Console(file=stream, force_terminal=True)
+        self.bars = Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("poses"),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+        )
+        self.tasks: dict[str, int] = {}
+        self.shown = False
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if stage not in self.tasks:
+            self.tasks[stage] = self.bars.add_task(stage, total=total)
+        self.bars.update(self.tasks[stage], completed=done, total=total)  # type: ignore[arg-type]
+        if not self.shown and time.monotonic() - self.start >= self.delay:
+            self.bars.start()
+            self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.bars.stop()
+
+
+@contextmanager
+def terminal_progress(
+    stream: TextIO, quiet: bool = False, delay: float | None = None
+) -> Iterator[Callback | None]:
+    """The progress callback for a run whose bar goes to ``stream``, or ``None``.
+
+    Args:
+        stream: Where the bar is drawn (a command's stderr).
+        quiet: No bar whatever the stream.
+        delay: Seconds before the bar appears (default :data:`DELAY`).
+
+    Yields:
+        The callback, or ``None`` when ``stream`` is not a terminal or ``quiet`` is set.
+    """
+    isatty = getattr(stream, "isatty", None)
+    if quiet or not (callable(isatty) and isatty()):
+        yield None
+        return
+    bars = _Bars(stream, DELAY if delay is None else delay)
+    try:
+        yield bars
+    finally:
+        bars.close()

@@ -1,0 +1,120 @@
+"""`redundancy audit` as a CI gate on published robots (example-robot-data's URDFs).
+
+Exit 0 for a sound published arm (what URDF cannot express is a note), 1 for findings, 2 for
+bad input; every line of the report at most 100 characters. The files are found through the
+installed package's file list (``rd.example_robot_data``), never by a path into an
+environment.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import pytest
+
+import redundancy as rd
+from redundancy.cli import main
+
+
+def published(relative: str) -> str:
+    """The path of ``robots/<relative>`` in the installed example-robot-data."""
+    return str(rd.example_robot_data(relative))
+
+
+def audit_cli(capsys, *args: str) -> tuple[int, list[str], dict]:
+    status = main(["audit", *args, "--poses", "300", "--json", "-"])
+    captured = capsys.readouterr()
+    return status, captured.err.splitlines(), json.loads(captured.out) if status < 2 else {}
+
+
+@pytest.mark.parametrize(
+    ("robot", "frame"),
+    [
+        ("ur_description/urdf/ur5_robot.urdf", "tool0"),
+        ("xarm_description/urdf/xarm7.urdf", None),  # one chain end: link_eef
+    ],
+)
+def test_a_sound_published_arm_exits_0(robot, frame, capsys):
+    args = [published(robot)] + (["--frame", frame] if frame else [])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow or other runtime warning
+        status, lines, data = audit_cli(capsys, *args)
+    assert status == 0, "\n".join(lines)
+    assert data["findings"] == [] and data["format"] == "URDF"
+    assert data["frame"] == (frame or "link_eef")
+    # What URDF cannot express is said once each, as a note.
+    assert [n["message"].split(":")[0] for n in data["notes"]] == [
+        "URDF cannot express armature (a geared joint's rotor inertia N^2 J_rotor)",
+        "URDF cannot express actuators",
+        "URDF cannot express the timestep or the integrator",
+    ]
+    assert max(len(line) for line in lines) <= 100
+    text = "\n".join(lines)
+    for absent in ("np.float64", "e+308", "keyframe 'qpos0'", "lesson", "no actuator"):
+        assert absent not in text
+    assert "keyframes: none in the file" in lines
+    assert any(line.startswith("joints at the reference pose (qpos0);") for line in lines)
+
+
+def test_the_effort_limits_of_a_urdf_are_what_the_gravity_budget_uses(capsys):
+    status, lines, data = audit_cli(capsys, published("xarm_description/urdf/xarm7.urdf"))
+    assert status == 0
+    effort = [(r["effort_lower"], r["effort_upper"]) for r in data["joints"]]
+    assert effort == [(-50, 50), (-50, 50), (-30, 30), (-30, 30), (-30, 30), (-20, 20), (-20, 20)]
+    assert data["gravity"]["limit_upper"] == [50, 50, 30, 30, 30, 20, 20]
+    row = next(line for line in lines if line.startswith("  joint2 "))
+    assert "[-50, 50]" in row
+
+
+def test_kd_on_a_urdf_is_a_note_the_file_sets_no_timestep(capsys):
+    status, _, data = audit_cli(capsys, published("xarm_description/urdf/xarm7.urdf"), "--kd", "5")
+    assert status == 0
+    timestep = [n["message"] for n in data["notes"] if n["kind"] == "timestep"]
+    assert len(timestep) == 1 and timestep[0].startswith(
+        "MuJoCo's default timestep 2 ms is above the h_max 0.0932 ms of joint 'joint7'"
+    )
+
+
+def test_srdf_on_the_command_line(capsys):
+    xarm = published("xarm_description/urdf/xarm7.urdf")
+    srdf = published("xarm_description/srdf/xarm7.srdf")
+    _, _, without = audit_cli(capsys, xarm)
+    _, _, with_srdf = audit_cli(capsys, xarm, "--srdf", srdf)
+    assert (without["collision"]["n_pairs"], with_srdf["collision"]["n_pairs"]) == (21, 11)
+
+
+def test_several_chain_ends_are_bad_input_listing_them(capsys):
+    ur5 = published("ur_description/urdf/ur5_robot.urdf")
+    assert main(["audit", ur5]) == 2
+    assert capsys.readouterr().err == (
+        f"redundancy: error: {ur5!r} has 2 chain ends: 'ee_link', 'tool0'; name the tool frame "
+        "(--frame NAME on the command line, frame=NAME in Python)\n"
+    )
+
+
+def test_kinova_arm_inside_the_robot_exits_0(capsys):
+    # Three chain ends (the arm's end effector and two finger tips): the frame is named. Its
+    # meshes are COLLADA (.dae), read through trimesh and pycollada.
+    kinova = published("kinova_description/robots/kinova.urdf")
+    status, lines, data = audit_cli(capsys, kinova, "--frame", "j2s6s200_end_effector")
+    assert status == 0, "\n".join(lines)
+    assert data["findings"] == [] and len(data["joints"]) == 6
+    assert max(len(line) for line in lines) <= 100
+
+
+def test_a_published_arm_whose_effort_limits_gravity_exceeds_exits_1(capsys):
+    # Baxter's shoulder (s1) is limited to 50 N m in its URDF; gravity needs up to 56 N m.
+    baxter = published("baxter_description/urdf/baxter.urdf")
+    status, lines, data = audit_cli(capsys, baxter, "--frame", "left_gripper")
+    assert status == 1
+    (finding,) = data["findings"]
+    i = [j["name"] for j in data["joints"]].index("left_s1")
+    g = data["gravity"]
+    assert g["limit_lower"][i] == -50 and g["low"][i] < -50 and g["over_low"][i] > 0
+    assert finding["message"] == (
+        "gravity at joint 'left_s1' needs more negative torque than its <limit effort> allows "
+        f"in {g['over_low'][i]} of 300 poses; worst: needs {g['worst_low'][i][0]:.3g} N m "
+        "where the limit is -50 N m"
+    )
+    assert max(len(line) for line in lines) <= 100
