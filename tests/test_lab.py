@@ -850,10 +850,12 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
             except TimeoutError:
                 if attempt == 2:
                     raise
-        target = np.array(g.position)
+        # The gizmo may still be moving when it has passed 5 cm (the drag's last events):
+        # wait for the tool at the gizmo where it is, the state asserted (issue 21: a target
+        # read mid-drag failed 1 of 11 runs).
         wait_for(
             "the tool within 1 mm of the gizmo",
-            lambda: np.linalg.norm(sim.readouts().tool_position - target) < 1e-3,
+            lambda: np.linalg.norm(sim.readouts().tool_position - np.array(g.position)) < 1e-3,
         )
         assert num(b.readout("ik")) < 1e-3
 

@@ -401,6 +401,11 @@ def compare(
         raise ModelError(f"tol must be a finite number > 0, got {tol!r}")
     if isinstance(n_poses, bool) or not isinstance(n_poses, int) or n_poses < 0:
         raise ModelError(f"n_poses must be an integer >= 0, got {n_poses!r}")
+    for name, model in (("a", a), ("b", b)):
+        if not isinstance(model, Arm | str | os.PathLike):
+            raise ModelError(
+                f"{name} must be an Arm or a model file path, got {type(model).__name__}"
+            )
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ModelError(f"seed must be an integer >= 0, got {seed!r}")
     for name, frame in (("frame_a", frame_a), ("frame_b", frame_b)):
