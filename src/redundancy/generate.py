@@ -399,6 +399,8 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         "joint coupling on the arm",
         "ball joint",
         "free joint",
+        "several joints in one body",
+        "unnamed joint",
     ):
         jointed[-1] = True  # the tool's body: its joint is on the arm
     if "fixed root body with a pose" in extras:
