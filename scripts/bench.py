@@ -34,6 +34,7 @@ import pinocchio as pin
 import redundancy as rd
 from redundancy import batch, linalg
 from redundancy.collision import checker, random_poses
+from redundancy.reports.audit import audit
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -547,6 +548,10 @@ def robot_section(repeats: int, calls: int = 2000, n: int = 2000) -> list[str]:
             cases[f"{what} {label}"] = single(arm, what)
             stack = {"J": batch.jacobians, "M": batch.mass_matrices, "G": batch.gravities}[what]
             cases[f"{what} batch {label}"] = lambda stack=stack, arm=arm: stack(arm, Q)
+    # The audit, collisions with the rest of the body included, against arm7's at as many poses.
+    arm7 = rd.load(rd.model_path("arm7"), frame="ee")
+    cases["audit inside"] = lambda: audit(inside, n_poses=n)
+    cases["audit arm7"] = lambda: audit(arm7, n_poses=n)
     times = rounds(cases, repeats)
     out = [
         f"G1 left arm: {inside.nq} joints inside the whole robot ({inside.robot_model.njnt} "
@@ -563,6 +568,12 @@ def robot_section(repeats: int, calls: int = 2000, n: int = 2000) -> list[str]:
                 f"  {label:<42}{alone_ms:>9.1f}{ms(times, f'{what} {key}inside'):>12.1f}"
                 f"{r:>8.2f}{2.0:>7.2f}  {'ok' if r <= 2 else 'OVER'}"
             )
+    r = ratio(times, "audit inside", "audit arm7")
+    label = f"audit ({n} poses; 'alone' is arm7's audit)"
+    out.append(
+        f"  {label:<42}{ms(times, 'audit arm7'):>9.1f}{ms(times, 'audit inside'):>12.1f}"
+        f"{r:>8.2f}{3.0:>7.2f}  {'ok' if r <= 3 else 'OVER'}"
+    )
     return out
 
 
