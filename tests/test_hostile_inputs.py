@@ -8,6 +8,7 @@ only :class:`redundancy.RedundancyError` out.
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -54,6 +55,16 @@ def test_inertia_helpers_refuse_negative_nan_and_inf() -> None:
     assert rd.max_stable_timestep(0.5, 11.0, 1.0) == pytest.approx(0.1)
     assert rd.max_stable_kd(0.5, 0.1, 1.0) == pytest.approx(11.0)
     np.testing.assert_allclose(rd.reflected_inertia(2e-5, [10, -100]), [2e-3, 0.2])
+
+
+def test_inertia_helpers_take_huge_finite_values_to_their_limits_quietly() -> None:
+    """Beyond 1e308 the bounds are inf and a rotor's share 0, without numpy's warnings."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow warning fails the test
+        assert rd.reflected_inertia(1e300, 1e200) == np.inf
+        assert rd.rotor_inertia(1.0, 1e200) == 0.0
+        assert rd.max_stable_timestep(1e308, 1e-300, 0.0) == np.inf
+        assert rd.max_stable_kd(1e308, 1e-300, 0.0) == np.inf
 
 
 # ==========================================================================================

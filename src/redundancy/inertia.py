@@ -31,7 +31,8 @@ def reflected_inertia(rotor_inertia: ArrayLike, gear_ratio: ArrayLike) -> Array:
     J = check_values("rotor_inertia", rotor_inertia, 0.0, unit="kg m^2")
     N = check_values("gear_ratio", gear_ratio)
     J, N = check_broadcast(rotor_inertia=J, gear_ratio=N)
-    return N**2 * J
+    with np.errstate(over="ignore"):  # beyond 1e308: inf, the product's limit
+        return N**2 * J
 
 
 def rotor_inertia(armature: ArrayLike, gear_ratio: ArrayLike) -> Array:
@@ -46,7 +47,8 @@ def rotor_inertia(armature: ArrayLike, gear_ratio: ArrayLike) -> Array:
     if np.any(N == 0):
         raise ParameterError("gear_ratio", gear_ratio, "a finite nonzero number (or array)")
     A, N = check_broadcast(armature=A, gear_ratio=N)
-    return A / N**2
+    with np.errstate(over="ignore", under="ignore"):  # |N| beyond 1e154: 0, the limit
+        return A / N**2
 
 
 def max_stable_timestep(inertia: ArrayLike, kd: ArrayLike, damping: ArrayLike) -> Array:
