@@ -45,6 +45,7 @@ from hypothesis import strategies as st
 import redundancy as rd
 from redundancy import collision as col
 from redundancy.collision import pathcheck as pc
+from redundancy.collision import statistics as colstats
 from redundancy.testing import poses
 
 from .corpus import write_binary_stl, write_obj
@@ -1430,6 +1431,59 @@ def test_pruning_skips_most_far_pairs(monkeypatch: pytest.MonkeyPatch) -> None:
     share = counted[0] / (n * len(ch.pairs))
     print(f"sphere chain: {len(ch.pairs)} pairs, {share:.1%} of the pair distances computed")
     assert share < 0.3
+
+
+def rod_chain(links: int = 7) -> str:
+    """A 7-joint arm of long thin boxes and capsules (a rod 0.3 m long, 2 cm thick per link):
+    bounding spheres as wide as the links are long, boxes as thin as the rods."""
+    body = '<site name="ee" pos="0 0 0.3"/>'
+    for i in reversed(range(links)):
+        axis = "0 0 1" if i % 2 == 0 else "0 1 0"
+        rod = (
+            f'<geom name="r{i}" type="box" size="0.02 0.015 0.13" pos="0 0 0.15" euler="0 0 0.3"/>'
+            if i % 2
+            else f'<geom name="r{i}" type="capsule" size="0.02" fromto="0 0 0.03 0 0 0.27"/>'
+        )
+        body = (
+            f'<body name="l{i}" pos="0 0 {0.0 if i == 0 else 0.3}">'
+            f'<joint name="j{i}" axis="{axis}" range="-2.9 2.9"/>{INERTIAL}{rod}{body}</body>'
+        )
+    return f'<mujoco><compiler angle="radian"/><worldbody>{body}</worldbody></mujoco>'
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_the_box_bound_skips_more_and_changes_nothing(
+    monkeypatch: pytest.MonkeyPatch, engine: str
+) -> None:
+    """Long thin links: the bounding boxes rule out poses the bounding spheres cannot, and
+    the statistics equal the unpruned sweep's and the sphere-only sweep's."""
+    arm = rd.load_string(rod_chain())
+    ch = col.checker(arm)
+    scene = ch.scene(engine)  # type: ignore[arg-type]
+    counted = [0]
+    placed = scene.placed_values
+
+    def counting(which: np.ndarray, apart: np.ndarray | None = None) -> np.ndarray:
+        counted[0] += len(which)
+        return placed(which, apart)
+
+    monkeypatch.setattr(scene, "placed_values", counting)
+    Q = col.random_poses(arm, 1500, seed=4)
+    boxes = col.collision_statistics(arm, poses=Q, distances=engine)
+    with_boxes = counted[0]
+    counted[0] = 0
+    with monkeypatch.context() as m:
+        m.setattr(
+            colstats._Sweep, "_box_bound", lambda self, X, R, rows, cols: np.full(len(rows), np.nan)
+        )
+        spheres = col.collision_statistics(arm, poses=Q, distances=engine)
+    with_spheres = counted[0]
+    slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)
+    same_statistics(boxes, slow)
+    same_statistics(spheres, slow)
+    assert boxes.poses_with_contact > 0
+    print(f"rod chain ({engine}): {with_boxes} distances with boxes, {with_spheres} without")
+    assert with_boxes < 0.7 * with_spheres
 
 
 def test_a_model_without_geoms_gives_empty_results() -> None:

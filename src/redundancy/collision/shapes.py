@@ -114,3 +114,27 @@ def bounding_radius(model: mujoco.MjModel, geom: int) -> float:
     if t == _G.mjGEOM_PLANE:
         return float("inf")
     return float(model.geom_rbound[geom])
+
+
+def bounding_box(model: mujoco.MjModel, geom: int) -> tuple[Array, Array]:
+    """A box in the geom's frame that contains the geom: its centre and half sizes [m].
+
+    Exact for every primitive and for a mesh's hull (the hull points' extent); infinite
+    half sizes for a plane and any other unbounded type.
+    """
+    t = int(model.geom_type[geom])
+    s = model.geom_size[geom].astype(float)
+    zero = np.zeros(3)
+    if t == _G.mjGEOM_SPHERE:
+        return zero, np.full(3, s[0])
+    if t == _G.mjGEOM_CAPSULE:
+        return zero, np.array([s[0], s[0], s[0] + s[1]])
+    if t == _G.mjGEOM_CYLINDER:
+        return zero, np.array([s[0], s[0], s[1]])
+    if t in (_G.mjGEOM_BOX, _G.mjGEOM_ELLIPSOID):
+        return zero, s[:3].copy()
+    if t == _G.mjGEOM_MESH:
+        pts = mesh_hull(model, geom).points
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return 0.5 * (lo + hi), 0.5 * (hi - lo)
+    return zero, np.full(3, np.inf)
