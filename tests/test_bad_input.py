@@ -269,10 +269,10 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             )
             + "$",
         ),
-        "site None": Case(
-            _load(chain(), site=None),
-            rd.UnknownNameError,  # type: ignore[arg-type]
-            r"^unknown site or body 'None'; valid site or body names: \['tip', 'l1', 'l2'\]$",
+        "site not a name": Case(
+            _load(chain(), site=3),  # type: ignore[arg-type]
+            rd.ModelError,
+            r"^site must be a name \(str\) or None, got int$",
         ),
         # -- features the engines read differently or not at all -----------------------------------
         "frame around the arm": Case(

@@ -157,3 +157,40 @@ def test_an_existing_file_whose_name_starts_with_a_bracket_loads(tmp_path: Path)
     assert rd.load(str(path), site="ee").nq == 7
     with pytest.raises(rd.ModelError, match="looks like XML text"):
         rd.load("<arm7>.xml")  # no such file here: still the hint to load_string()
+
+
+def _urdf(*leaves: str) -> str:
+    """A URDF whose base carries one revolute joint per leaf link named."""
+    inertial = (
+        '<inertial><mass value="1"/>'
+        '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+    )
+    links = "".join(f'<link name="{n}">{inertial}</link>' for n in leaves)
+    joints = "".join(
+        f'<joint name="j_{n}" type="revolute"><parent link="base"/><child link="{n}"/>'
+        f'<origin xyz="{0.2 * i} 0 0"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        for i, n in enumerate(leaves)
+    )
+    return f'<robot name="y"><link name="base"/>{links}{joints}</robot>'
+
+
+def test_no_frame_takes_the_one_chain_end() -> None:
+    """A model with one chain end needs no tool frame, in Python as on the command line."""
+    arm = rd.load_string(_urdf("a"))
+    assert (arm.frame, arm.joint_names) == ("a", ("j_a",))
+    xarm = rd.load(rd.example_robot_data("xarm_description/urdf/xarm7.urdf"))
+    assert (xarm.frame, xarm.nq) == ("link_eef", 7)
+
+
+def test_no_frame_and_several_chain_ends_lists_them() -> None:
+    with pytest.raises(
+        rd.ModelError,
+        match=r"^'<string>' has 2 chain ends: 'a', 'b'; name the tool frame \(--frame NAME on "
+        r"the command line, frame=NAME in Python\)$",
+    ):
+        rd.load_string(_urdf("a", "b"))
+    # A frame named "ee" among several ends is taken (the bundled models' tool site).
+    arm = rd.load_string(_urdf("a", "ee"))
+    assert (arm.frame, arm.joint_names) == ("ee", ("j_ee",))
+    assert rd.load(rd.model_path("panda")).frame == "ee"

@@ -305,7 +305,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _frame(model: str | None, given: str | None) -> str:
-    """The tool frame: the one given, else "ee" for the bundled arm7, else the chain end."""
+    """The tool frame: the one given, else "ee" for the bundled arm7, else load's default."""
     if given is not None:
         return given
     if model is None:

@@ -378,8 +378,8 @@ def compare(
         a: An Arm, or a model file (MJCF or URDF) loaded with ``frame_a``.
         b: Likewise, with ``frame_b``.
         frame_a: A's tool frame (an MJCF site or body, a URDF link or fixed joint); default:
-            the file's one chain end (:func:`redundancy.model.ends.single_chain_end`), else
-            ``"ee"``.
+            the file's one chain end, else its frame named ``"ee"``
+            (:func:`redundancy.model.ends.frame_for`).
         frame_b: B's tool frame, likewise.
         joint_map: A's joint name -> B's, for joints whose names differ (others match by
             name), or the path of a joint map file (see :func:`read_joint_map`).
@@ -394,7 +394,6 @@ def compare(
         ModelError: A file that does not load, a bad joint map, bad arguments.
         UnknownNameError: A tool frame or mapped joint the model does not have.
     """
-    from ..model.ends import single_chain_end
     from ..model.loading import load, model_format
 
     if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
@@ -418,9 +417,9 @@ def compare(
         )
     if isinstance(joint_map, str | os.PathLike):
         joint_map = read_joint_map(joint_map)
-    # No frame: the file's one chain end, else load's own default (a frame named "ee").
-    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a or single_chain_end(a))
-    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b or single_chain_end(b))
+    # No frame: load's default (the file's one chain end, else a frame named "ee").
+    arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a)
+    arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b)
     fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
     pairs = _match(arm_a, arm_b, joint_map)
     return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)

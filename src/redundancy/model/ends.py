@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 
-__all__ = ["chain_ends", "default_tool_frame", "single_chain_end"]
+__all__ = ["chain_ends", "default_tool_frame", "ends_of", "frame_for", "single_chain_end"]
 
 #: URDF joint types that move.
 _MOVING = {"revolute", "continuous", "prismatic", "floating", "planar"}
@@ -48,11 +48,49 @@ def chain_ends(path: str | os.PathLike[str]) -> tuple[str, ...]:
         ModelError: The file is missing, not XML, or neither MJCF nor URDF.
     """
     root = _root(path)
-    if root.tag == "robot":
-        return _urdf_ends(root)
-    if root.tag == "mujoco":
-        return _mjcf_ends(root)
-    raise ModelError(f"{str(path)!r} is neither MJCF (<mujoco>) nor URDF (<robot>): <{root.tag}>")
+    if root.tag not in ("robot", "mujoco"):
+        raise ModelError(
+            f"{str(path)!r} is neither MJCF (<mujoco>) nor URDF (<robot>): <{root.tag}>"
+        )
+    return ends_of(root)
+
+
+def ends_of(root: ET.Element) -> tuple[str, ...]:
+    """The chain ends of a parsed MJCF (``<mujoco>``) or URDF (``<robot>``) root element."""
+    return _urdf_ends(root) if root.tag == "robot" else _mjcf_ends(root)
+
+
+#: The tool frame a model with several chain ends defaults to when it has a frame so named
+#: (the bundled models' tool sites).
+CONVENTIONAL_FRAME = "ee"
+
+
+def frame_for(root: ET.Element, source: str) -> str:
+    """The tool frame of a model loaded without one: its one chain end, else ``"ee"``.
+
+    A model with several chain ends (a gripper's fingers, two arms) and a site, body, link
+    or joint named ``"ee"`` takes that frame (the bundled models' convention).
+
+    Args:
+        root: The parsed file (``<mujoco>`` or ``<robot>``).
+        source: The file's name as the user gave it, for the message.
+
+    Raises:
+        ModelError: No chain end, or several and no frame named ``"ee"`` (the message lists
+            the ends).
+    """
+    ends = ends_of(root)
+    if len(ends) == 1:
+        return ends[0]
+    tags = ("site", "body") if root.tag == "mujoco" else ("link", "joint")
+    if any(el.get("name") == CONVENTIONAL_FRAME for tag in tags for el in root.iter(tag)):
+        return CONVENTIONAL_FRAME
+    if not ends:
+        raise ModelError(f"{source!r} has no moving chain: no tool frame to default to")
+    raise ModelError(
+        f"{source!r} has {len(ends)} chain ends: {', '.join(repr(e) for e in ends)}; name "
+        "the tool frame (--frame NAME on the command line, frame=NAME in Python)"
+    )
 
 
 def single_chain_end(path: str | os.PathLike[str]) -> str | None:
@@ -62,20 +100,13 @@ def single_chain_end(path: str | os.PathLike[str]) -> str | None:
 
 
 def default_tool_frame(path: str | os.PathLike[str]) -> str:
-    """The tool frame of a model with one chain end (see :func:`chain_ends`).
+    """The tool frame of a file loaded without one: see :func:`frame_for`.
 
     Raises:
-        ModelError: No chain end, or several (the message lists them).
+        ModelError: The file is missing or not XML; no chain end, or several and no frame
+            named ``"ee"`` (the message lists them).
     """
-    ends = chain_ends(path)
-    if len(ends) == 1:
-        return ends[0]
-    if not ends:
-        raise ModelError(f"{str(path)!r} has no moving chain: no tool frame to default to")
-    raise ModelError(
-        f"{str(path)!r} has {len(ends)} chain ends: {', '.join(repr(e) for e in ends)}; name "
-        "the tool frame (--frame NAME on the command line, frame=NAME in Python)"
-    )
+    return frame_for(_root(path), str(path))
 
 
 def _urdf_ends(root: ET.Element) -> tuple[str, ...]:

@@ -21,6 +21,7 @@ from ..engines.mujoco import captured_warnings, joint_limits, object_names
 from ..errors import ModelError, ParameterError, UnknownNameError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
+from .ends import frame_for
 from .names import display_names
 from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
 from .support import check_supported
@@ -170,17 +171,21 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
 
 
-def _tool(site: str, frame: str | None) -> str:
-    if frame is None:
-        return site
-    if not isinstance(frame, str):
-        raise ModelError(f"frame must be a name (str), got {type(frame).__name__}")
-    return frame
+def _tool(site: str | None, frame: str | None, root: ET.Element, source: str) -> str:
+    """The tool frame asked for: ``frame``, else ``site``, else the model's default."""
+    for name, value in (("frame", frame), ("site", site)):
+        if value is None:
+            continue
+        if not isinstance(value, str):
+            raise ModelError(f"{name} must be a name (str) or None, got {type(value).__name__}")
+        return value
+    # Neither: the model's one chain end, else its frame named "ee" (ends.frame_for).
+    return frame_for(root, source)
 
 
 def load(
     path: str | os.PathLike[str],
-    site: str = "ee",
+    site: str | None = None,
     strict: bool = True,
     frame: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
@@ -204,7 +209,9 @@ def load(
         strict: Refuse features Pinocchio's MJCF parser reads differently (see
             :func:`check_supported`); MJCF only.
         frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
-            Overrides ``site``.
+            Overrides ``site``. Neither given: the model's one chain end (a leaf with a
+            moving joint above it; see :mod:`redundancy.model.ends`), else its frame named
+            ``"ee"``, else a ModelError listing the chain ends.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
             joined by a joint are always excluded.
@@ -224,9 +231,9 @@ def load(
             chain, ``rest`` not a keyframe or held joint (the message lists the valid names).
     """
     p, data = _read_file(path)
-    tool = _tool(site, frame)
     text, as_is = decode_xml(data, str(p))
     root = _xml_root(text)
+    tool = _tool(site, frame, root, str(p))
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
     rest = _frozen_rest(rest)
     recipe = (load, (str(p), site, strict, frame, pairs, base, rest))
@@ -245,7 +252,7 @@ def load(
 
 def load_string(
     xml: str | bytes,
-    site: str = "ee",
+    site: str | None = None,
     strict: bool = True,
     frame: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
@@ -264,8 +271,8 @@ def load_string(
         xml = strip_declaration(xml)
     else:
         raise ModelError(f"model text must be a str or bytes, got {type(xml).__name__}")
-    tool = _tool(site, frame)
     root = _xml_root(xml)
+    tool = _tool(site, frame, root, "<string>")
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
     rest = _frozen_rest(rest)
     recipe = (load_string, (xml, site, strict, frame, pairs, base, rest))
