@@ -448,3 +448,14 @@ def test_random_nonsense_gets_only_the_librarys_errors(case: tuple[str, str], va
         call_hostile(name, arg, value)
     except Exception as err:
         pytest.fail(f"{name}({arg}={value!r}): {type(err).__name__}: {err}")
+
+
+def test_more_random_poses_than_memory_holds_is_the_librarys_error(arm7: rd.Arm) -> None:
+    """numpy's MemoryError (497 PiB: more than any address space, whatever the overcommit
+    policy) and its ValueError (more bytes than an address can count) escaped."""
+    for n, size in ((10**16, "5.6e+17"), (10**18, "5.6e+19")):
+        with raises(
+            f"n must be a count of poses that fits in memory ({n} x 7 float64: {size} bytes), "
+            f"got {n}"
+        ):
+            rd.random_poses(arm7, n)

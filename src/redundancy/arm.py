@@ -547,11 +547,20 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
     ``rng.uniform(lo, hi)`` once per pose, so a seed reproduces the lesson's sample.
 
     Raises:
-        ParameterError: ``n`` not an integer >= 0, or ``seed`` not None or an integer >= 0.
+        ParameterError: ``n`` not an integer >= 0, or more poses than memory holds; ``seed``
+            not None or an integer >= 0.
     """
     arm = check_arm(arm)
     n = check_count("n", n, 0)
     if seed is not None:
         seed = check_count("seed", seed, 0)
     lo, hi = sampling_ranges(arm)
-    return np.random.default_rng(seed).uniform(lo, hi, size=(n, arm.nq))
+    try:
+        return np.random.default_rng(seed).uniform(lo, hi, size=(n, arm.nq))
+    except (MemoryError, ValueError):  # ValueError: more bytes than an address can count
+        size = n * arm.nq * 8
+        raise ParameterError(
+            "n",
+            n,
+            f"a count of poses that fits in memory ({n} x {arm.nq} float64: {size:.3g} bytes)",
+        ) from None
