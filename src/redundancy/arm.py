@@ -295,7 +295,7 @@ class Arm:
         """J of the free joints and M_ff^-1 J_f^T from one engine (the inputs checked)."""
         eng = self.engine(engine)
         free = check_joint_subset("joints", joints, self.joint_names)
-        return eng.tool_mobility(q, bool(armature), free)
+        return eng.tool_mobility(q, check_flag("armature", armature), free)
 
     def operational_inertia(
         self,
@@ -323,7 +323,7 @@ class Arm:
             UnknownNameError: A joint or engine name the arm does not have.
             ParameterError: ``joints`` empty, repeated or not names.
         """
-        return linalg.operational_inertia(*self._mobility(q, armature, joints, engine))
+        return linalg._operational_inertia(*self._mobility(q, armature, joints, engine))
 
     def effective_mass(
         self,
@@ -350,7 +350,7 @@ class Arm:
             ParameterError: ``direction`` zero, non-finite or not a 3-vector.
         """
         u = check_direction("direction", direction)
-        return linalg.effective_mass(*self._mobility(q, armature, joints, engine), u)
+        return linalg._effective_mass(*self._mobility(q, armature, joints, engine), u)
 
     def effective_mass_range(
         self,
@@ -366,7 +366,7 @@ class Arm:
         :meth:`operational_inertia`); the greatest is ``inf`` where the tool cannot move
         along some direction.
         """
-        return linalg.effective_mass_range(*self._mobility(q, armature, joints, engine))
+        return linalg._effective_mass_range(*self._mobility(q, armature, joints, engine))
 
     def dynamic_manipulability(
         self,
@@ -381,7 +381,7 @@ class Arm:
         Arguments as :meth:`operational_inertia`; zero where fewer than six joints are free
         or at a singular pose [mixed units].
         """
-        return float(linalg.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
+        return float(linalg._dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
 
     # -- inverse kinematics -----------------------------------------------------------------
     def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
@@ -463,7 +463,12 @@ class Arm:
         p_t, R_t = check_tool_pose("target", target)
         eng = self.engine(engine)
         other = self.engine("pinocchio" if engine == "mujoco" else "mujoco")
-        if (position_tol, orientation_tol, restarts) == _IK_DEFAULTS and type(restarts) is int:
+        if (
+            type(position_tol) is float
+            and type(orientation_tol) is float
+            and type(restarts) is int
+            and (position_tol, orientation_tol, restarts) == _IK_DEFAULTS
+        ):
             settings = ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
         else:
             settings = ik.Settings(
@@ -494,7 +499,7 @@ class Arm:
             start,
             lambda: np.random.default_rng(seed),
             self.ik_objective(objective, engine),
-            bool(position_only),
+            check_flag("position_only", position_only),
             settings,
         )
 

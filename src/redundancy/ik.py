@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import describe
 from .engines.contract import Engine
 from .engines.mujoco import damped_step
 from .errors import ParameterError
@@ -177,13 +178,16 @@ def limit_clearance(q: Array, lower: Array, upper: Array) -> float:
     return float(np.min(np.minimum(x - lo, hi - x) / (hi - lo)))
 
 
-def _checked(value: object, gradient: object, nq: int) -> tuple[float, Array]:
+def _checked(returned: object, nq: int) -> tuple[float, Array]:
     """An objective's output as (finite float, finite (nq,) gradient)."""
     valid = f"a callable returning (finite value, finite gradient of shape ({nq},))"
+    if not isinstance(returned, tuple | list) or len(returned) != 2:
+        raise ParameterError("objective", returned, valid, f"it returned {describe(returned)}")
+    value, gradient = returned
     try:
-        v = float(value)  # type: ignore[arg-type]
+        v = float(value)
         g = np.asarray(gradient, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParameterError("objective", (value, gradient), valid) from None
     if not math.isfinite(v) or g.shape != (nq,) or not np.all(np.isfinite(g)):
         raise ParameterError("objective", (value, gradient), valid)
@@ -279,7 +283,7 @@ class _Solver:
     def pursue(self, q: Array, objective: Objective) -> Array:
         """Lower ``objective`` along the task's null space from the converged ``q``."""
         nq = len(q)
-        value, grad = _checked(*objective(q), nq)
+        value, grad = _checked(objective(q), nq)
         scale = 0.25  # largest joint motion of the next trial step [rad or m]
         for _ in range(self.s.objective_steps):
             J = self.error(q)[1]
@@ -291,7 +295,7 @@ class _Solver:
             trial = np.clip(q + (scale / top) * d, self.lower, self.upper)
             trial, ok, _ = self.descend(trial, _CORRECTIONS)
             if ok:
-                v, g = _checked(*objective(trial), nq)
+                v, g = _checked(objective(trial), nq)
                 if v < value - 1e-12 * max(1.0, abs(value)):
                     gain = value - v
                     q, value, grad = trial, v, g
@@ -386,7 +390,7 @@ def _result(
     objective: Objective | None,
     engine: Engine,
 ) -> IKResult:
-    value = None if objective is None else _checked(*objective(q), len(q))[0]
+    value = None if objective is None else _checked(objective(q), len(q))[0]
     return IKResult(
         q=q.copy(),
         success=bool(errors[2]),

@@ -12,7 +12,15 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_matrix, check_number, describe, one_line
+from .checks import (
+    check_choice,
+    check_direction,
+    check_directions,
+    check_matrix,
+    check_number,
+    describe,
+    one_line,
+)
 from .display import Report, Table, table
 from .errors import ParameterError, SingularPoseError
 
@@ -173,7 +181,7 @@ class Manipulability(Report):
     def _get(self, kind: str) -> float:
         value = self._values.get(kind)
         if value is None:
-            value = self._values[kind] = yoshikawa(manipulability_rows(self._J, kind, self.length))
+            value = self._values[kind] = yoshikawa(_manipulability_rows(self._J, kind, self.length))
         return value
 
     @property
@@ -237,15 +245,8 @@ ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
 MANIPULABILITY_KINDS: tuple[ManipulabilityKind, ...] = ("full", "position", "orientation", "scaled")
 
 
-def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
-    """The rows of J one manipulability measure is taken of, for one J (6, n) or a stack.
-
-    Args:
-        J: Site Jacobian(s), shape (..., 6, n): linear rows first.
-        kind: One of :data:`MANIPULABILITY_KINDS`: all rows, the linear or the angular ones,
-            or all with the linear rows divided by ``length``.
-        length: Characteristic length for ``"scaled"`` [m].
-    """
+def _manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
+    """:func:`manipulability_rows` on checked input."""
     if kind == "position":
         return J[..., :3, :]
     if kind == "orientation":
@@ -253,6 +254,25 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
     if kind == "scaled":
         return np.concatenate([J[..., :3, :] / length, J[..., 3:, :]], axis=-2)
     return J
+
+
+def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
+    """The rows of J one manipulability measure is taken of, for one J (6, n) or a stack.
+
+    Args:
+        J: Site Jacobian(s), shape (6, n) or (m, 6, n): linear rows first.
+        kind: One of :data:`MANIPULABILITY_KINDS`: all rows, the linear or the angular ones,
+            or all with the linear rows divided by ``length``.
+        length: Characteristic length for ``"scaled"`` [m], > 0.
+
+    Raises:
+        ParameterError: ``J`` not a finite real (6, n) or (m, 6, n) array, ``kind`` not one of
+            the kinds, ``length`` not a finite number > 0.
+    """
+    J = _check_stackable("J", J, (6, None))
+    kind = check_choice("manipulability kind", kind, MANIPULABILITY_KINDS)
+    length = check_number("length", length, 0.0, low_open=True, unit="m")
+    return _manipulability_rows(J, kind, length)
 
 
 def yoshikawa(J: Array) -> float:
@@ -431,7 +451,7 @@ class EffectiveMassRange:
     max_direction: Array
 
 
-def mobility(J: Array, X: Array) -> Array:
+def _mobility(J: Array, X: Array) -> Array:
     """Lambda^-1 = J M^-1 J^T from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetrised.
 
     Its linear block is [1/kg], its angular block [1/(kg m^2)].
@@ -449,7 +469,7 @@ def _lost_names(J: Array, rtol: float) -> list[str]:
     return [np.array2string(u, precision=3, suppress_small=True) for u in svd.lost_directions.T]
 
 
-def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
     """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
 
     Not by inverting J M^-1 J^T, whose condition number is J's squared (near a singular pose
@@ -476,7 +496,7 @@ def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
     return 0.5 * (L + np.swapaxes(L, -1, -2))
 
 
-def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:
+def _effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:
     """Effective mass 1 / (u^T J_v M^-1 J_v^T u) [kg] along the unit direction ``u``.
 
     Written as 1 / (g^T M^-1 g) with g = J_v^T u: a product of g with M^-1 g, which stays
@@ -498,7 +518,7 @@ def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> flo
     return float(1.0 / g.dot(X[:, :3].dot(u)))
 
 
-def effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> Array:
+def _effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> Array:
     """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,)."""
     U = np.broadcast_to(U, (len(J), 3))
     g = np.einsum("ni,nik->nk", U, J[:, :3])
@@ -509,18 +529,18 @@ def effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> A
     return out
 
 
-def effective_mass_range(J: Array, X: Array, rtol: float = RANK_RTOL) -> EffectiveMassRange:
+def _effective_mass_range(J: Array, X: Array, rtol: float = RANK_RTOL) -> EffectiveMassRange:
     """The extremes of the effective mass over directions at one pose (see the class)."""
-    w, V = np.linalg.eigh(mobility(J[:3], X[:, :3]))
+    w, V = np.linalg.eigh(_mobility(J[:3], X[:, :3]))
     s = np.linalg.svd(J[:3], compute_uv=False)
     stuck = not s[0] > 0 or s[-1] <= rtol * s[0]
     top = float("inf") if stuck or w[0] <= 0 else float(1.0 / w[0])
     return EffectiveMassRange(float(1.0 / w[-1]), top, V[:, -1].copy(), V[:, 0].copy())
 
 
-def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+def _effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
     """Least and greatest effective mass over a stack, shape (n, 2) [kg]."""
-    w = np.linalg.eigvalsh(mobility(J[:, :3], X[:, :, :3]))
+    w = np.linalg.eigvalsh(_mobility(J[:, :3], X[:, :, :3]))
     s = np.linalg.svd(J[:, :3], compute_uv=False)
     stuck = ~(s[:, 0] > 0) | (s[:, -1] <= rtol * s[:, 0]) | (w[:, 0] <= 0)
     out = np.empty((len(J), 2))
@@ -530,7 +550,7 @@ def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
     return out
 
 
-def dynamic_manipulability(X: Array) -> Array | float:
+def _dynamic_manipulability(X: Array) -> Array | float:
     """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) from X = M^-1 J^T.
 
     J M^-1 = X^T, so the measure is the product of X's singular values (zero when fewer
@@ -540,3 +560,127 @@ def dynamic_manipulability(X: Array) -> Array | float:
         return np.zeros(X.shape[:-2]) if X.ndim > 2 else 0.0
     s = np.linalg.svd(X, compute_uv=False)
     return np.prod(s, axis=-1) if X.ndim > 2 else float(np.prod(s))
+
+
+# ------------------------------------------------------------------------------------------
+# The tool's mobility: checked entry points (the kernels above take checked input and are
+# what the engines and the batch functions call on their own, already checked, arrays)
+# ------------------------------------------------------------------------------------------
+
+
+def _ndim(value: object) -> int:
+    try:
+        return int(np.ndim(value))  # type: ignore[arg-type]
+    except (TypeError, ValueError):  # ragged nested lists: check_matrix names the problem
+        return 2
+
+
+def _check_stackable(name: str, value: object, shape: tuple[int | None, ...]) -> Array:
+    """One matrix of ``shape`` or a stack of them (one more leading dimension)."""
+    full = (None, *shape) if _ndim(value) == len(shape) + 1 else shape
+    return check_matrix(name, value, full)
+
+
+def _check_jx(J: object, X: object, stack: bool | None) -> tuple[Array, Array]:
+    """J (6, k) and X = M^-1 J^T (k, 6), or stacks (n, 6, k) and (n, k, 6).
+
+    ``stack``: True for stacks only, False for single matrices only, None for either.
+    """
+    if stack is None:
+        J = _check_stackable("J", J, (6, None))
+    else:
+        J = check_matrix("J", J, (None, 6, None) if stack else (6, None))
+    k = J.shape[-1]
+    X = check_matrix("X", X, (J.shape[0], k, 6) if J.ndim == 3 else (k, 6))
+    return J, X
+
+
+def _check_rtol(rtol: object) -> float:
+    return check_number("rtol", rtol, 0.0, 1.0, low_open=True, high_open=True)
+
+
+def mobility(J: Array, X: Array) -> Array:
+    """Lambda^-1 = J M^-1 J^T from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetrised.
+
+    Its linear block is [1/kg], its angular block [1/(kg m^2)].
+
+    Raises:
+        ParameterError: J or X not finite real arrays of matching shapes.
+    """
+    return _mobility(*_check_jx(J, X, None))
+
+
+def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+    """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
+
+    Through J's SVD, not by inverting J M^-1 J^T: it loses only J's condition number of
+    accuracy near a singular pose, not its square.
+
+    Raises:
+        SingularPoseError: J has rank below 6 at some pose (names the lost directions).
+        ParameterError: J or X not finite real arrays of matching shapes, ``rtol`` not in
+            (0, 1).
+    """
+    J, X = _check_jx(J, X, None)
+    return _operational_inertia(J, X, _check_rtol(rtol))
+
+
+def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:
+    """Effective mass 1 / (u^T J_v M^-1 J_v^T u) [kg] along the direction ``u``.
+
+    Args:
+        J: Site Jacobian (6, k) (linear rows first).
+        X: M^-1 J^T, shape (k, 6).
+        u: Direction, world axes (3,), any nonzero length.
+        rtol: Relative tolerance in (0, 1) below which the tool cannot move along ``u``
+            (the mass is then ``inf``).
+
+    Raises:
+        ParameterError: J or X not finite real arrays of matching shapes, ``u`` zero or not
+            a finite (3,) vector, ``rtol`` not in (0, 1).
+    """
+    J, X = _check_jx(J, X, False)
+    return _effective_mass(J, X, check_direction("u", u), _check_rtol(rtol))
+
+
+def effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> Array:
+    """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,).
+
+    Raises:
+        ParameterError: As :func:`effective_mass`, for stacks.
+    """
+    J, X = _check_jx(J, X, True)
+    return _effective_masses(J, X, check_directions("U", U, len(J)), _check_rtol(rtol))
+
+
+def effective_mass_range(J: Array, X: Array, rtol: float = RANK_RTOL) -> EffectiveMassRange:
+    """The extremes of the effective mass over directions at one pose (see the class).
+
+    Raises:
+        ParameterError: J (6, k) or X (k, 6) not finite real arrays, ``rtol`` not in (0, 1).
+    """
+    J, X = _check_jx(J, X, False)
+    return _effective_mass_range(J, X, _check_rtol(rtol))
+
+
+def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+    """Least and greatest effective mass over a stack, shape (n, 2) [kg].
+
+    Raises:
+        ParameterError: J (n, 6, k) or X (n, k, 6) not finite real arrays, ``rtol`` not in
+            (0, 1).
+    """
+    J, X = _check_jx(J, X, True)
+    return _effective_mass_ranges(J, X, _check_rtol(rtol))
+
+
+def dynamic_manipulability(X: Array) -> Array | float:
+    """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) from X = M^-1 J^T.
+
+    The product of X's singular values (zero when fewer than six joints are free). Takes
+    one X (k, 6) or a stack (n, k, 6).
+
+    Raises:
+        ParameterError: X not a finite real (k, 6) or (n, k, 6) array.
+    """
+    return _dynamic_manipulability(_check_stackable("X", X, (None, 6)))

@@ -111,7 +111,14 @@ def example_robot_data(path: str) -> Path:
     """
     import importlib.metadata
 
-    from .errors import MissingDependencyError
+    from .errors import MissingDependencyError, ParameterError
+
+    if not isinstance(path, str):
+        raise ParameterError(
+            "path",
+            path,
+            "a file's path below robots/ (str), e.g. 'ur_description/urdf/ur5_robot.urdf'",
+        )
 
     try:
         files = importlib.metadata.files("example-robot-data") or []

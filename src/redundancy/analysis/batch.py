@@ -36,6 +36,7 @@ measures both).
 from __future__ import annotations
 
 import functools
+import inspect
 import itertools
 import pickle
 import queue
@@ -48,6 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import ENGINES, Arm, EngineName, check_arm
 from ..checks import (
+    check_callable,
     check_choice,
     check_count,
     check_directions,
@@ -63,15 +65,14 @@ from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
 from ..ik import IKResult
-from ..linalg import (
-    MANIPULABILITY_KINDS,
-    ManipulabilityKind,
-    dynamic_manipulability,
-    manipulability_rows,
-    operational_inertia,
-)
-from ..linalg import effective_mass_ranges as linalg_effective_mass_ranges
-from ..linalg import effective_masses as linalg_effective_masses
+
+# The kernels: the batch functions check their input once, before the engines run.
+from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
+from ..linalg import _dynamic_manipulability as dynamic_manipulability
+from ..linalg import _effective_mass_ranges as linalg_effective_mass_ranges
+from ..linalg import _effective_masses as linalg_effective_masses
+from ..linalg import _manipulability_rows as manipulability_rows
+from ..linalg import _operational_inertia as operational_inertia
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -135,7 +136,7 @@ def map_chunks(
             ``Client(...).get_executor()`` included.
         fn: A module-level function (it is pickled by name for a process or a cluster).
         arm: The arm (it must pickle: built by :func:`redundancy.load` or ``load_string``).
-        Q: Validated poses, shape (n, nq).
+        Q: Poses, shape (n, nq).
         chunk: Poses per task; by default at least :data:`EXECUTOR_MIN_CHUNK` and at most
             :data:`EXECUTOR_MAX_TASKS` tasks.
         **kwargs: Passed to ``fn``.
@@ -144,15 +145,12 @@ def map_chunks(
         (first pose of the chunk, ``fn``'s result) per chunk, in order.
 
     Raises:
-        ParameterError: ``executor`` is not a :class:`concurrent.futures.Executor`.
+        ParameterError: ``executor`` is not a :class:`concurrent.futures.Executor`, ``fn`` not
+            callable, ``chunk`` not an integer >= 1.
+        PoseError: ``Q`` not finite poses of the arm.
     """
-    if not isinstance(executor, Executor):
-        raise ParameterError(
-            "executor",
-            executor,
-            "None or a concurrent.futures.Executor (e.g. a Dask "
-            "Client(...).get_executor(), a ProcessPoolExecutor)",
-        )
+    _check_executor(executor, fn, kwargs)
+    Q = poses(arm, Q)
     n = len(Q)
     if chunk is None:
         chunk = max(EXECUTOR_MIN_CHUNK, -(-n // EXECUTOR_MAX_TASKS))
@@ -167,6 +165,28 @@ def map_chunks(
     finally:  # an error or an interrupt: drop the tasks not yet started
         for _, f in futures:
             f.cancel()
+
+
+def _check_executor(executor: object, fn: object, kwargs: dict[str, Any]) -> None:
+    """The executor, and ``fn`` callable as ``fn(arm, Q, **kwargs)``.
+
+    What ``fn`` raises when it runs is its own, as with any executor.
+    """
+    if not isinstance(executor, Executor):
+        raise ParameterError(
+            "executor",
+            executor,
+            "None or a concurrent.futures.Executor (e.g. a Dask "
+            "Client(...).get_executor(), a ProcessPoolExecutor)",
+        )
+    valid = "a module-level function fn(arm, Q, **kwargs)"
+    check_callable("fn", fn, valid)
+    try:
+        inspect.signature(fn).bind(None, None, **kwargs)  # type: ignore[arg-type]
+    except TypeError:
+        raise ParameterError("fn", fn, valid) from None
+    except ValueError:  # no signature to read (some builtins): calling it will tell
+        pass
 
 
 def scatter(
@@ -184,6 +204,7 @@ def scatter(
         ...         return scatter(executor, jacobians, arm, Q, engine=engine, threads=threads)
         ...     ...
     """
+    _check_executor(executor, fn, kwargs)
     Q = poses(arm, Q)
     empty = fn(arm, Q[:0], **kwargs)
     parts = [r for _, r in map_chunks(executor, fn, arm, Q, **kwargs)]
@@ -457,10 +478,12 @@ def _mobilities(
     arm: Arm, Q: ArrayLike, armature: bool, joints: object, engine: str, threads: int
 ) -> tuple[Array, Array]:
     """J of the free joints and M_ff^-1 J_f^T over a stack (inputs validated here)."""
+    Q = poses(arm, Q)  # the arm checked first
     check_choice("engine", engine, ENGINES)
     threads = check_threads(threads)
     free = check_joint_subset("joints", joints, arm.joint_names)
-    return arm.engine(engine).tool_mobilities(poses(arm, Q), bool(armature), free, threads)
+    armature = check_flag("armature", armature)
+    return arm.engine(engine).tool_mobilities(Q, armature, free, threads)
 
 
 def operational_inertias(
@@ -657,8 +680,13 @@ def solve_ik(
     Raises:
         ParameterError: A bad target (named by its index), a bad count of starts.
     """
+    arm = check_arm(arm)
     threads = check_threads(threads)
     check_choice("engine", engine, ENGINES)
+    check_flag("position_only", position_only)
+    check_number("position_tol", position_tol, 0.0, low_open=True, unit="m")
+    check_number("orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad")
+    check_count("restarts", restarts, 0)
     if isinstance(targets, np.ndarray) and targets.ndim == 3:
         items = list(targets)
     elif isinstance(targets, list | tuple):

@@ -23,7 +23,8 @@ from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
-from ..linalg import manipulability_gradient, mobility
+from ..linalg import _mobility as mobility
+from ..linalg import manipulability_gradient
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
 from .batch import map_chunks

@@ -255,7 +255,18 @@ def find_pair(pairs: Sequence[GeomPair], name1: str, name2: str) -> GeomPair:
 
     Raises:
         UnknownNameError: No such pair in ``pairs`` (the message lists the pairs).
+        ParameterError: ``pairs`` not a sequence of GeomPair, a name not a string.
     """
+    from ..checks import describe
+    from ..errors import ParameterError
+
+    if not isinstance(pairs, Sequence) or not all(isinstance(p, GeomPair) for p in pairs):
+        raise ParameterError(
+            "pairs", pairs, "a sequence of GeomPair (collision_pairs(arm))", describe(pairs)
+        )
+    for name, value in (("name1", name1), ("name2", name2)):
+        if not isinstance(value, str):
+            raise ParameterError(name, value, "a geom name (str)", describe(value))
     for p in pairs:
         if p.matches(name1, name2):
             return p

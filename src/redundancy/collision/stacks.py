@@ -7,10 +7,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm
+from ..checks import check_choice, check_poses, check_threads, describe
 from ..engines.threads import run_split
+from ..errors import ParameterError
 from .checker import CollisionChecker
 from .coal_scene import epa_failed
-from .pairs import DistanceEngine
+from .pairs import DISTANCE_ENGINES, DistanceEngine
 from .pathcheck import _travel
 
 Array = NDArray[np.float64]
@@ -19,14 +21,29 @@ Array = NDArray[np.float64]
 def distance_stack(
     ch: CollisionChecker, Q: Array, engine: DistanceEngine = "coal", threads: int = 1
 ) -> Array:
-    """Signed distances of ``ch.pairs`` at each pose of a validated stack, shape (n, npairs) [m].
+    """Signed distances of ``ch.pairs`` at each pose of a stack, shape (n, npairs) [m].
 
     Args:
-        ch: The arm's collision checker.
-        Q: Validated poses, C-contiguous (n, nq) [rad or m].
+        ch: The arm's collision checker (:func:`~redundancy.collision.checker`).
+        Q: Poses, shape (n, nq) [rad or m].
         engine: ``"coal"`` or ``"mujoco"``.
-        threads: Worker threads (MuJoCo only), validated.
+        threads: Worker threads (MuJoCo only), >= 1.
+
+    Raises:
+        ParameterError: ``ch`` not a collision checker, a bad engine or thread count.
+        PoseError: ``Q`` not finite poses of shape (n, nq).
     """
+    if not isinstance(ch, CollisionChecker):
+        raise ParameterError(
+            "ch", ch, "a CollisionChecker (redundancy.collision.checker(arm))", describe(ch)
+        )
+    Q = check_poses(Q, ch.arm.joint_names)
+    check_choice("distance engine", engine, DISTANCE_ENGINES)
+    return _distance_stack(ch, Q, engine, check_threads(threads))
+
+
+def _distance_stack(ch: CollisionChecker, Q: Array, engine: DistanceEngine, threads: int) -> Array:
+    """:func:`distance_stack` on checked input: Q C-contiguous float64 (n, nq)."""
     out = np.empty((len(Q), len(ch.pairs)))
     if engine == "coal":
         _coal_distances(ch, Q, out)

@@ -538,7 +538,7 @@ class LabSim:
         if not np.linalg.norm(v) > 1e-6:  # at rest: no direction of motion
             return float("nan")
         M = self.arm.mass_matrix(q, armature=False) + np.diag(self.model.dof_armature)
-        return linalg.effective_mass(J, np.linalg.solve(M, J.T), v / np.linalg.norm(v))
+        return linalg._effective_mass(J, np.linalg.solve(M, J.T), v / np.linalg.norm(v))
 
     def _window(
         self, t: collections.deque[float], v: collections.deque[float], span: float
