@@ -540,6 +540,17 @@ def test_jointinparent_actuator_reads_as_joint() -> None:
     np.testing.assert_array_equal(effort.lower, [-80.0, -1.0])
     np.testing.assert_array_equal(effort.upper, [80.0, 1.0])
     assert effort.actuated.tolist() == [True, True]
+    # The audit: no "no actuator" finding, the JSON says actuated, the effort MuJoCo applies.
+    from redundancy.reports.audit import audit
+
+    report = audit(arm, n_poses=20)
+    assert not any("no actuator" in f["message"] for f in report.to_dict()["findings"])
+    joint_a = report.to_dict()["joints"][0]
+    assert (joint_a["actuated"], joint_a["effort_lower"], joint_a["effort_upper"]) == (
+        True,
+        -80.0,
+        80.0,
+    )
 
 
 @pytest.mark.parametrize(

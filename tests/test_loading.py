@@ -149,7 +149,9 @@ def test_mjcf_site_and_frame() -> None:
         rd.load(MODELS / "arm7.xml", frame="tool0")
 
 
-def test_an_existing_file_whose_name_starts_with_a_bracket_loads(tmp_path: Path) -> None:
+def test_an_existing_file_whose_name_starts_with_a_bracket_loads(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Issue 21: "<arm7>.xml" was refused as XML text; only a path to nothing can be text."""
     path = tmp_path / "<arm7>.xml"
     path.write_bytes(rd.model_path("arm7").read_bytes())
@@ -157,6 +159,8 @@ def test_an_existing_file_whose_name_starts_with_a_bracket_loads(tmp_path: Path)
     assert rd.load(str(path), site="ee").nq == 7
     with pytest.raises(rd.ModelError, match="looks like XML text"):
         rd.load("<arm7>.xml")  # no such file here: still the hint to load_string()
+    monkeypatch.chdir(tmp_path)  # the name as typed in the file's folder (the case reported)
+    assert rd.load("<arm7>.xml", site="ee").nq == 7
 
 
 def _urdf(*leaves: str) -> str:
