@@ -333,14 +333,6 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             rd.UnsupportedFeatureError,
             r"^unsupported feature: <default> after <worldbody> \(<default>\)",
         ),
-        "second worldbody": Case(
-            _load(
-                chain().replace("</mujoco>", '<worldbody><geom size="0.1"/></worldbody></mujoco>')
-            ),
-            rd.UnsupportedFeatureError,
-            r"^unsupported feature: several <worldbody> elements \(2 in the model\): Pinocchio's "
-            r"MJCF parser reads the first one again for each of them; merge them into one$",
-        ),
         "body placed at 1e308 m": Case(
             _load(
                 _l2('pos="0 0 1e308"').replace('<body name="l2" pos="0 0 0.3" ', '<body name="l2" ')

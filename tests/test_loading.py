@@ -198,3 +198,39 @@ def test_no_frame_and_several_chain_ends_lists_them() -> None:
     arm = rd.load_string(_urdf("a", "ee"))
     assert (arm.frame, arm.joint_names) == ("ee", ("j_ee",))
     assert rd.load(rd.model_path("panda")).frame == "ee"
+
+
+def test_a_scene_that_includes_its_robot_defaults_to_the_robots_chain_end(
+    tmp_path: Path,
+) -> None:
+    """Menagerie's pattern: scene.xml holds the floor and light and includes the robot file;
+    the chain end is in the included file."""
+    (tmp_path / "arm7.xml").write_bytes(rd.model_path("arm7").read_bytes())
+    (tmp_path / "scene.xml").write_text(
+        '<mujoco model="scene"><include file="arm7.xml"/>'
+        '<worldbody><light pos="0 0 3"/></worldbody></mujoco>',
+        encoding="utf-8",
+    )
+    arm = rd.load(tmp_path / "scene.xml")
+    assert (arm.frame, arm.nq) == ("ee", 7)
+
+
+def test_a_second_worldbody_is_merged_for_pinocchio() -> None:
+    """MuJoCo reads several <worldbody> sections as one world; Pinocchio's parser would read
+    the first again for each: it is given them merged, in order (same bodies, same ids)."""
+    xml = (
+        rd.model_path("arm7")
+        .read_text(encoding="utf-8")
+        .replace(
+            "</mujoco>",
+            '<worldbody><geom name="rug" type="plane" size="2 2 0.1"/>'
+            '<body name="table" pos="1 0 0.2"><geom type="box" size="0.3 0.3 0.2"/></body>'
+            "</worldbody></mujoco>",
+        )
+    )
+    arm = rd.load_string(xml, frame="ee")
+    assert arm.nq == 7 and arm.mj_model.body("table").id == arm.mj_model.nbody - 1
+    names = {(a.what, a.name) for a in arm.set_aside}
+    assert ("worldbody", "2 <worldbody> sections") in names
+    assert ("root body", "table") in names  # another tree: MuJoCo keeps it for collisions
+    assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=3)).ok

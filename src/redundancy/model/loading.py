@@ -171,8 +171,12 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
 
 
-def _tool(site: str | None, frame: str | None, root: ET.Element, source: str) -> str:
-    """The tool frame asked for: ``frame``, else ``site``, else the model's default."""
+def _tool(site: str | None, frame: str | None, root: ET.Element, source: str, folder: Path) -> str:
+    """The tool frame asked for: ``frame``, else ``site``, else the model's default.
+
+    ``folder``: where an MJCF's ``<include>`` files are (a scene that includes its robot
+    has its chain ends in the included file).
+    """
     for name, value in (("frame", frame), ("site", site)):
         if value is None:
             continue
@@ -180,6 +184,8 @@ def _tool(site: str | None, frame: str | None, root: ET.Element, source: str) ->
             raise ModelError(f"{name} must be a name (str) or None, got {type(value).__name__}")
         return value
     # Neither: the model's one chain end, else its frame named "ee" (ends.frame_for).
+    if root.tag == "mujoco" and root.find(".//include") is not None:
+        root = _expand_includes(root, folder, _Robot("", None, None, (load, ()), source))
     return frame_for(root, source)
 
 
@@ -233,7 +239,7 @@ def load(
     p, data = _read_file(path)
     text, as_is = decode_xml(data, str(p))
     root = _xml_root(text)
-    tool = _tool(site, frame, root, str(p))
+    tool = _tool(site, frame, root, str(p), p.resolve().parent)
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
     rest = _frozen_rest(rest)
     recipe = (load, (str(p), site, strict, frame, pairs, base, rest))
@@ -245,7 +251,7 @@ def load(
         spec, mj, kind = _read_mujoco(None, p, tool=tool)
     else:
         spec, mj, kind = _read_mujoco(text, None, p.resolve().parent, tool)
-    expanded = _expand_includes(root, p.resolve().parent, robot)
+    expanded = _merge_worldbodies(_expand_includes(root, p.resolve().parent, robot), robot)
     path_for_pin = None if robot.changed or not as_is else p
     return _load_mjcf(spec, mj, kind, expanded, strict, robot, path_for_pin)
 
@@ -272,7 +278,7 @@ def load_string(
     else:
         raise ModelError(f"model text must be a str or bytes, got {type(xml).__name__}")
     root = _xml_root(xml)
-    tool = _tool(site, frame, root, "<string>")
+    tool = _tool(site, frame, root, "<string>", Path.cwd())
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
     rest = _frozen_rest(rest)
     recipe = (load_string, (xml, site, strict, frame, pairs, base, rest))
@@ -281,7 +287,7 @@ def load_string(
         return _load_urdf(xml, root, Path.cwd(), pairs, robot)
     _check_mjcf(pairs)
     spec, mj, kind = _read_mujoco(xml, None, tool=tool)
-    expanded = _expand_includes(root, Path.cwd(), robot)
+    expanded = _merge_worldbodies(_expand_includes(root, Path.cwd(), robot), robot)
     return _load_mjcf(spec, mj, kind, expanded, strict, robot, None)
 
 
@@ -359,6 +365,35 @@ def _expand_includes(root: ET.Element, base: Path, robot: _Robot, depth: int = 0
             robot.set_aside.append(
                 SetAside("include", name, "expanded in place for Pinocchio's parser")
             )
+    robot.changed = True
+    return root
+
+
+def _merge_worldbodies(root: ET.Element, robot: _Robot) -> ET.Element:
+    """The MJCF with its ``<worldbody>`` sections merged into the first, in order.
+
+    MuJoCo reads several sections as one world, in the order they come (a Menagerie
+    ``scene.xml`` adds its floor and lights to the robot file it includes); Pinocchio's
+    parser would read the first section again for each. The merged copy is the same world
+    with the same body order, so the same body ids.
+    """
+    worlds = root.findall("worldbody")
+    if len(worlds) < 2:
+        return root
+    root = copy.deepcopy(root)
+    first, *later = root.findall("worldbody")
+    for world in later:
+        for el in list(world):
+            world.remove(el)
+            first.append(el)
+        root.remove(world)
+    robot.set_aside.append(
+        SetAside(
+            "worldbody",
+            f"{len(worlds)} <worldbody> sections",
+            "merged into one for Pinocchio's parser, in order (MuJoCo reads them as one)",
+        )
+    )
     robot.changed = True
     return root
 
