@@ -181,7 +181,9 @@ class Manipulability(Report):
     def _get(self, kind: str) -> float:
         value = self._values.get(kind)
         if value is None:
-            value = self._values[kind] = yoshikawa(_manipulability_rows(self._J, kind, self.length))
+            value = self._values[kind] = _yoshikawa(
+                _manipulability_rows(self._J, kind, self.length)
+            )
         return value
 
     @property
@@ -284,7 +286,11 @@ def yoshikawa(J: Array) -> float:
     losing one of the directions it can move along). The gradient
     (:func:`manipulability_gradient`) and the batch stacks are of this same value.
     """
-    J = check_matrix("J", J)
+    return _yoshikawa(check_matrix("J", J))
+
+
+def _yoshikawa(J: Array) -> float:
+    """:func:`yoshikawa` of a checked J (a Manipulability's rows: checked when it was made)."""
     return float(np.prod(np.linalg.svd(J, compute_uv=False)))
 
 
