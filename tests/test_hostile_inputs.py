@@ -594,3 +594,18 @@ def test_more_random_poses_than_memory_holds_is_the_librarys_error(arm7: rd.Arm)
             f"got {n}"
         ):
             rd.random_poses(arm7, n)
+
+
+def test_huge_finite_matrices_are_valid_and_quiet() -> None:
+    """The fast path of the matrix check must not mistake huge finite values for inf (nor
+    warn of an overflow): 1e308 is a finite number."""
+    from redundancy.checks import check_matrix
+
+    J = np.full((6, 3), 1e308)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_matrix("J", J, (6, None)) is J
+    with raises(f"J must be {MATRIX} with 2 dimensions, got nan at index (0, 1)"):
+        check_matrix("J", np.array([[1.0, np.nan]]))
+    with raises(f"J must be {MATRIX} of shape (6, n), got inf at index (2, 0)"):
+        check_matrix("J", np.where(np.arange(18).reshape(6, 3) == 6, np.inf, 1.0), (6, None))

@@ -278,6 +278,20 @@ def check_matrix(
             with NaN or infinite values; the message says which.
     """
     ndim = len(shape) if shape is not None else ndim
+    # The common call, a float64 array of the right shape (a Jacobian in a control loop),
+    # costs one pass of isfinite.
+    if (
+        type(value) is np.ndarray
+        and value.dtype is _F64
+        and value.ndim == ndim
+        and value.size
+        and (
+            shape is None
+            or all(k is None or k == a for k, a in zip(shape, value.shape, strict=True))
+        )
+        and np.isfinite(value).all()
+    ):
+        return value
     if shape is not None:
         sizes = ["n" if k is None else str(k) for k in shape]
         want = f"of shape ({', '.join(sizes)}{',' if len(sizes) == 1 else ''})"
