@@ -304,17 +304,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return INTERNAL_ERROR
 
 
-def _frame(model: str | None, given: str | None) -> str:
-    """The tool frame: the one given, else "ee" for the bundled arm7, else load's default."""
-    if given is not None:
-        return given
-    if model is None:
-        return "ee"
-    from .model.ends import default_tool_frame
-
-    return default_tool_frame(model)
-
-
 def _load(args: argparse.Namespace, strict: bool = True) -> object:
     """The arm of ``audit`` or ``lab``: the file, its tool frame, and how to load it."""
     from .model.loading import load
@@ -330,7 +319,8 @@ def _load(args: argparse.Namespace, strict: bool = True) -> object:
     if args.rest is not None:
         extra["rest"] = args.rest
     path = args.model or model_path("arm7")
-    return load(path, frame=_frame(args.model, args.frame), strict=strict, **extra)
+    # No --frame: load's default (the file's one chain end, else its frame "ee").
+    return load(path, frame=args.frame, strict=strict, **extra)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -352,10 +342,8 @@ def _run(args: argparse.Namespace) -> int:
         from .analysis.compare import run_compare
         from .reports.files import write_atomic
 
-        if args.frame_a is None:
-            args.frame_a = _frame(args.a, args.frame)
-        if args.frame_b is None:
-            args.frame_b = _frame(args.b, args.frame)
+        args.frame_a = args.frame_a or args.frame  # None: compare's (load's) default
+        args.frame_b = args.frame_b or args.frame
         return run_compare(args, write_atomic)
     return _audit(args)
 

@@ -100,13 +100,18 @@ def single_chain_end(path: str | os.PathLike[str]) -> str | None:
 
 
 def default_tool_frame(path: str | os.PathLike[str]) -> str:
-    """The tool frame of a file loaded without one: see :func:`frame_for`.
+    """The tool frame of a file loaded without one, as :func:`redundancy.load` takes it.
+
+    See :func:`frame_for`; an MJCF's ``<include>`` files are read too.
 
     Raises:
         ModelError: The file is missing or not XML; no chain end, or several and no frame
             named ``"ee"`` (the message lists them).
     """
-    return frame_for(_root(path), str(path))
+    from .loading import expanded
+
+    whole, _ = expanded(_root(path), Path(path).resolve().parent)
+    return frame_for(whole, str(path))
 
 
 def _urdf_ends(root: ET.Element) -> tuple[str, ...]:

@@ -171,22 +171,15 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
 
 
-def _tool(site: str | None, frame: str | None, root: ET.Element, source: str, folder: Path) -> str:
-    """The tool frame asked for: ``frame``, else ``site``, else the model's default.
-
-    ``folder``: where an MJCF's ``<include>`` files are (a scene that includes its robot
-    has its chain ends in the included file).
-    """
+def _tool(site: str | None, frame: str | None) -> str | None:
+    """The tool frame asked for: ``frame``, else ``site``; None: the model's default."""
     for name, value in (("frame", frame), ("site", site)):
         if value is None:
             continue
         if not isinstance(value, str):
             raise ModelError(f"{name} must be a name (str) or None, got {type(value).__name__}")
         return value
-    # Neither: the model's one chain end, else its frame named "ee" (ends.frame_for).
-    if root.tag == "mujoco" and root.find(".//include") is not None:
-        root = _expand_includes(root, folder, _Robot("", None, None, (load, ()), source))
-    return frame_for(root, source)
+    return None
 
 
 def load(
@@ -239,21 +232,26 @@ def load(
     p, data = _read_file(path)
     text, as_is = decode_xml(data, str(p))
     root = _xml_root(text)
-    tool = _tool(site, frame, root, str(p), p.resolve().parent)
+    folder = p.resolve().parent
+    tool, whole = _tool(site, frame), None
+    if tool is None:  # the model's default, from its chain ends, includes read
+        whole = expanded(root, folder)
+        tool = frame_for(whole[0], str(p))
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
     rest = _frozen_rest(rest)
     recipe = (load, (str(p), site, strict, frame, pairs, base, rest))
     robot = _Robot(tool, base, rest, recipe, str(p))
     if is_urdf(root):
-        return _load_urdf(text, root, p.resolve().parent, pairs, robot)
+        return _load_urdf(text, root, folder, pairs, robot)
     _check_mjcf(pairs)
     if as_is:
         spec, mj, kind = _read_mujoco(None, p, tool=tool)
     else:
-        spec, mj, kind = _read_mujoco(text, None, p.resolve().parent, tool)
-    expanded = _merge_worldbodies(_expand_includes(root, p.resolve().parent, robot), robot)
+        spec, mj, kind = _read_mujoco(text, None, folder, tool)
+    # After MuJoCo, whose errors name a missing include first.
+    mjcf = _edited(robot, whole or expanded(root, folder))
     path_for_pin = None if robot.changed or not as_is else p
-    return _load_mjcf(spec, mj, kind, expanded, strict, robot, path_for_pin)
+    return _load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)
 
 
 def load_string(
@@ -278,7 +276,10 @@ def load_string(
     else:
         raise ModelError(f"model text must be a str or bytes, got {type(xml).__name__}")
     root = _xml_root(xml)
-    tool = _tool(site, frame, root, "<string>", Path.cwd())
+    tool, whole = _tool(site, frame), None
+    if tool is None:
+        whole = expanded(root, Path.cwd())
+        tool = frame_for(whole[0], "<string>")
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
     rest = _frozen_rest(rest)
     recipe = (load_string, (xml, site, strict, frame, pairs, base, rest))
@@ -287,8 +288,8 @@ def load_string(
         return _load_urdf(xml, root, Path.cwd(), pairs, robot)
     _check_mjcf(pairs)
     spec, mj, kind = _read_mujoco(xml, None, tool=tool)
-    expanded = _merge_worldbodies(_expand_includes(root, Path.cwd(), robot), robot)
-    return _load_mjcf(spec, mj, kind, expanded, strict, robot, None)
+    mjcf = _edited(robot, whole or expanded(root, Path.cwd()))
+    return _load_mjcf(spec, mj, kind, mjcf, strict, robot, None)
 
 
 def model_format(arm: Arm) -> str:
@@ -337,7 +338,30 @@ def _check_mjcf(pairs: DisabledPairs | None) -> None:
         )
 
 
-def _expand_includes(root: ET.Element, base: Path, robot: _Robot, depth: int = 0) -> ET.Element:
+def expanded(root: ET.Element, folder: Path) -> tuple[ET.Element, list[SetAside]]:
+    """An MJCF as Pinocchio's parser must be given it, with what was done to it.
+
+    ``<include>`` files (counted from ``folder``) are expanded in place and several
+    ``<worldbody>`` sections merged into the first; a URDF (or an MJCF with neither) comes
+    back as it is. The list says what was done, for ``arm.set_aside``.
+    """
+    if root.tag != "mujoco":
+        return root, []
+    edits: list[SetAside] = []
+    return _merge_worldbodies(_expand_includes(root, folder, edits), edits), edits
+
+
+def _edited(robot: _Robot, whole: tuple[ET.Element, list[SetAside]]) -> ET.Element:
+    """The expanded MJCF, its edits recorded on ``robot`` (set aside; Pinocchio reads it)."""
+    mjcf, edits = whole
+    robot.set_aside += edits
+    robot.changed = robot.changed or bool(edits)
+    return mjcf
+
+
+def _expand_includes(
+    root: ET.Element, base: Path, edits: list[SetAside], depth: int = 0
+) -> ET.Element:
     """The MJCF with each ``<include file=...>`` replaced by the included file's elements.
 
     MuJoCo follows includes itself; Pinocchio's parser does not, so Pinocchio (and the
@@ -358,18 +382,15 @@ def _expand_includes(root: ET.Element, base: Path, robot: _Robot, depth: int = 0
                 inner = _xml_root((base / name).read_text(encoding="utf-8"))
             except OSError as err:
                 raise ModelError(f"cannot read the included file {name!r}: {err}") from err
-            inner = _expand_includes(inner, base, robot, depth + 1)
+            inner = _expand_includes(inner, base, edits, depth + 1)
             parent.remove(child)
             for k, el in enumerate(list(inner)):
                 parent.insert(i + k, el)
-            robot.set_aside.append(
-                SetAside("include", name, "expanded in place for Pinocchio's parser")
-            )
-    robot.changed = True
+            edits.append(SetAside("include", name, "expanded in place for Pinocchio's parser"))
     return root
 
 
-def _merge_worldbodies(root: ET.Element, robot: _Robot) -> ET.Element:
+def _merge_worldbodies(root: ET.Element, edits: list[SetAside]) -> ET.Element:
     """The MJCF with its ``<worldbody>`` sections merged into the first, in order.
 
     MuJoCo reads several sections as one world, in the order they come (a Menagerie
@@ -387,14 +408,13 @@ def _merge_worldbodies(root: ET.Element, robot: _Robot) -> ET.Element:
             world.remove(el)
             first.append(el)
         root.remove(world)
-    robot.set_aside.append(
+    edits.append(
         SetAside(
             "worldbody",
             f"{len(worlds)} <worldbody> sections",
             "merged into one for Pinocchio's parser, in order (MuJoCo reads them as one)",
         )
     )
-    robot.changed = True
     return root
 
 
