@@ -54,6 +54,28 @@ def check_arm(value: object, name: str = "arm") -> Arm:
 _IK_DEFAULTS = (1e-6, 1e-6, 100)
 
 
+def _ik_settings(position_tol: object, orientation_tol: object, restarts: object) -> ik.Settings:
+    """The solver's settings for :meth:`Arm.solve_ik`'s arguments, checked.
+
+    Raises:
+        ParameterError: A tolerance not a finite number > 0, ``restarts`` not an integer >= 0.
+    """
+    if (
+        type(position_tol) is float
+        and type(orientation_tol) is float
+        and type(restarts) is int
+        and (position_tol, orientation_tol, restarts) == _IK_DEFAULTS
+    ):
+        return ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
+    return ik.Settings(
+        position_tol=check_number("position_tol", position_tol, 0.0, low_open=True, unit="m"),
+        orientation_tol=check_number(
+            "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
+        ),
+        restarts=check_count("restarts", restarts, 0),
+    )
+
+
 class Arm:
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
 
@@ -466,23 +488,7 @@ class Arm:
         p_t, R_t = check_tool_pose("target", target)
         eng = self.engine(engine)
         other = self.engine("pinocchio" if engine == "mujoco" else "mujoco")
-        if (
-            type(position_tol) is float
-            and type(orientation_tol) is float
-            and type(restarts) is int
-            and (position_tol, orientation_tol, restarts) == _IK_DEFAULTS
-        ):
-            settings = ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
-        else:
-            settings = ik.Settings(
-                position_tol=check_number(
-                    "position_tol", position_tol, 0.0, low_open=True, unit="m"
-                ),
-                orientation_tol=check_number(
-                    "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
-                ),
-                restarts=check_count("restarts", restarts, 0),
-            )
+        settings = _ik_settings(position_tol, orientation_tol, restarts)
         if seed is not None:
             seed = check_count("seed", seed, 0)
         try:

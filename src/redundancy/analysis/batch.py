@@ -47,7 +47,8 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arm import ENGINES, Arm, EngineName, check_arm
+from .. import linalg  # its unchecked kernels: the batch functions check their input once
+from ..arm import ENGINES, Arm, EngineName, _ik_settings, check_arm
 from ..checks import (
     check_callable,
     check_choice,
@@ -60,19 +61,12 @@ from ..checks import (
     check_threads,
     check_tool_pose,
 )
-from ..collision import DISTANCE_ENGINES, DistanceEngine, checker, distance_stack
+from ..collision import DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
 from ..ik import IKResult
-
-# The kernels: the batch functions check their input once, before the engines run.
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
-from ..linalg import _dynamic_manipulability as dynamic_manipulability
-from ..linalg import _effective_mass_ranges as linalg_effective_mass_ranges
-from ..linalg import _effective_masses as linalg_effective_masses
-from ..linalg import _manipulability_rows as manipulability_rows
-from ..linalg import _operational_inertia as operational_inertia
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -150,7 +144,18 @@ def map_chunks(
         PoseError: ``Q`` not finite poses of the arm.
     """
     _check_executor(executor, fn, kwargs)
-    Q = poses(arm, Q)
+    return _map_chunks(executor, fn, arm, poses(arm, Q), chunk, kwargs)
+
+
+def _map_chunks(
+    executor: Executor,
+    fn: Callable[..., R],
+    arm: Arm,
+    Q: Array,
+    chunk: int | None,
+    kwargs: dict[str, Any],
+) -> list[tuple[int, R]]:
+    """:func:`map_chunks` with the executor, ``fn`` and ``Q`` checked."""
     n = len(Q)
     if chunk is None:
         chunk = max(EXECUTOR_MIN_CHUNK, -(-n // EXECUTOR_MAX_TASKS))
@@ -207,7 +212,7 @@ def scatter(
     _check_executor(executor, fn, kwargs)
     Q = poses(arm, Q)
     empty = fn(arm, Q[:0], **kwargs)
-    parts = [r for _, r in map_chunks(executor, fn, arm, Q, **kwargs)]
+    parts = [r for _, r in _map_chunks(executor, fn, arm, Q, None, kwargs)]
     return np.concatenate(parts, axis=0) if parts else empty
 
 
@@ -377,7 +382,7 @@ def manipulabilities(
         S = _jacobians_and_singular_values(arm, Q, engine, threads)[1]
         return np.prod(S, axis=1)
     J = _fill(arm, Q, engine, 1, "J")
-    return np.prod(_svd_values(manipulability_rows(J, kind, length)), axis=1)
+    return np.prod(_svd_values(linalg._manipulability_rows(J, kind, length)), axis=1)
 
 
 def mass_matrices(
@@ -464,9 +469,8 @@ def distances(
     """
     if executor is not None:
         return scatter(executor, distances, arm, Q, engine=engine, threads=threads)
-    check_choice("distance engine", engine, DISTANCE_ENGINES)
-    threads = check_threads(threads)
-    return distance_stack(checker(arm), poses(arm, Q), engine, threads)
+    # distance_stack checks the engine, the poses and the threads.
+    return distance_stack(checker(arm), Q, engine, threads)
 
 
 # ------------------------------------------------------------------------------------------
@@ -527,7 +531,7 @@ def operational_inertias(
             threads=threads,
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
+    return linalg._operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
 
 
 def effective_masses(
@@ -575,7 +579,7 @@ def effective_masses(
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     U = check_directions("direction", direction, len(J))
-    return linalg_effective_masses(J, X, U)
+    return linalg._effective_masses(J, X, U)
 
 
 def effective_mass_ranges(
@@ -605,7 +609,7 @@ def effective_mass_ranges(
             threads=threads,
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg_effective_mass_ranges(J, X) if len(J) else np.empty((0, 2))
+    return linalg._effective_mass_ranges(J, X) if len(J) else np.empty((0, 2))
 
 
 def dynamic_manipulabilities(
@@ -637,7 +641,7 @@ def dynamic_manipulabilities(
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     if not len(J):
         return np.zeros(0)
-    return np.asarray(dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
+    return np.asarray(linalg._dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
 
 
 def solve_ik(
@@ -684,9 +688,7 @@ def solve_ik(
     threads = check_threads(threads)
     check_choice("engine", engine, ENGINES)
     check_flag("position_only", position_only)
-    check_number("position_tol", position_tol, 0.0, low_open=True, unit="m")
-    check_number("orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad")
-    check_count("restarts", restarts, 0)
+    _ik_settings(position_tol, orientation_tol, restarts)  # bad ones fail here, not in a thread
     if isinstance(targets, np.ndarray) and targets.ndim == 3:
         items = list(targets)
     elif isinstance(targets, list | tuple):

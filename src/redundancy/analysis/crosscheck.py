@@ -23,8 +23,7 @@ from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks, remove_armature
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
-from ..linalg import _mobility as mobility
-from ..linalg import manipulability_gradient
+from ..linalg import _mobility, manipulability_gradient
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
 from .batch import map_chunks
@@ -322,7 +321,7 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
     if want & {"operational inertia^-1", "dynamic manipulability"}:
         J, X = engine.tool_mobilities(Q, True, None, threads)
         if "operational inertia^-1" in want:
-            out["operational inertia^-1"] = mobility(J, X)
+            out["operational inertia^-1"] = _mobility(J, X)
         if "dynamic manipulability" in want:
             # Compared through its factors, the singular values of M^-1 J^T, each against the
             # largest: the product itself near a singular pose is the tiny factor times
