@@ -272,10 +272,7 @@ class Arm:
         The measures are computed when read: ``arm.manipulability(q).full`` costs one J and
         one SVD.
         """
-        length = check_number("length", length, 0.0, low_open=True, unit="m")
-        # The engines' J is a new finite (6, nq) array: no check or copy (a third of the
-        # call on a 7-joint arm).
-        return linalg.Manipulability(self.jacobian(q, engine), length)
+        return linalg.manipulability(self.jacobian(q, engine), length)
 
     def manipulability_gradient(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Gradient of ``manipulability(q).full`` from second-order kinematics, shape (nq,).
