@@ -10,7 +10,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import UnknownNameError, UnsupportedFeatureError
+from ..checks import describe
+from ..errors import ParameterError, UnknownNameError, UnsupportedFeatureError
 from ..model.names import display_names
 from .shapes import geom_type_name
 
@@ -257,9 +258,6 @@ def find_pair(pairs: Sequence[GeomPair], name1: str, name2: str) -> GeomPair:
         UnknownNameError: No such pair in ``pairs`` (the message lists the pairs).
         ParameterError: ``pairs`` not a sequence of GeomPair, a name not a string.
     """
-    from ..checks import describe
-    from ..errors import ParameterError
-
     if not isinstance(pairs, Sequence) or not all(isinstance(p, GeomPair) for p in pairs):
         raise ParameterError(
             "pairs", pairs, "a sequence of GeomPair (collision_pairs(arm))", describe(pairs)

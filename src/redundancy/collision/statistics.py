@@ -301,12 +301,16 @@ class _Sweep:
         """Sweep one chunk of poses."""
         npair = len(self.thr)
         listed = np.zeros((len(Q), npair), dtype=bool)
-        X = np.zeros((3, len(Q), len(self.used)))  # geom origins, one coordinate per plane
-        R = np.zeros((9, len(Q), len(self.used)))  # geom rotations (row-major), likewise
+        # The pruning bounds' inputs, read only by a pruned sweep with distances: geom
+        # origins and rotations (row-major), one coordinate per plane.
+        pruned = self.prune and self.scene is not None and npair > 0
+        X = np.zeros((3, len(Q), len(self.used)))
+        R = np.zeros((9, len(Q), len(self.used)))
         for i, q in enumerate(Q):
             idx, _ = self.mj.collide(q)
-            X[:, i] = self.mj.data.geom_xpos[self.used].T
-            R[:, i] = self.mj.data.geom_xmat[self.used].T
+            if pruned:
+                X[:, i] = self.mj.data.geom_xpos[self.used].T
+                R[:, i] = self.mj.data.geom_xmat[self.used].T
             if len(idx):
                 self.with_contact += 1
                 np.add.at(self.contact_hits, idx, 1)
