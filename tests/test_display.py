@@ -155,50 +155,93 @@ def test_figure_helpers_check_their_input(arm7: rd.Arm) -> None:
 
 
 # -- hypothesis profiles --------------------------------------------------------------------------
+# Hypothesis loads its own "ci" profile (derandomized) at import when it sees a CI service's
+# variable ($CI, $GITHUB_ACTIONS, ...), so each case runs twice: with $CI set, and with every
+# variable Hypothesis looks for removed. The expectations are the same in both but for what
+# Hypothesis itself had in force before the library was imported.
+def _ci_env(in_ci: bool) -> dict[str, str | None]:
+    from hypothesis._settings import _CI_VARS  # the variables Hypothesis reads, by its own list
+
+    return {"CI": "true"} if in_ci else dict.fromkeys(_CI_VARS)
+
+
+def _run_env(code: str, env: dict[str, str | None]) -> str:
+    """:func:`_run` with variables removed (value None) as well as set."""
+    full = {k: v for k, v in {**os.environ, **env}.items() if v is not None}
+    out = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env=full,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
 PROFILE_PROBE = """
     import json, os
     from hypothesis import settings
+    before = settings.get_current_profile_name()       # Hypothesis's own choice: default or ci
     settings.register_profile("ci", max_examples=7)   # the user's own, as in their conftest
+    user_ci = settings.get_profile("ci")
     if os.environ["HYPOTHESIS_PROFILE"] == "ci":
         settings.load_profile("ci")
     default_before = settings.get_profile("default").max_examples
     from redundancy.testing import register_profiles
     name = register_profiles(default="redundancy-ci")
     print(json.dumps({
+        "before": before,
         "name": name,
         "max_examples": settings.default.max_examples,
         "derandomize": settings.default.derandomize,
+        "user_ci_derandomize": user_ci.derandomize,
         "default_untouched": settings.get_profile("default").max_examples == default_before,
         "ci_untouched": settings.get_profile("ci").max_examples == 7,
     }))
 """
 
 
+@pytest.mark.parametrize("in_ci", [False, True], ids=["no CI variables", "CI=true"])
 @pytest.mark.parametrize(
     ("env", "expected"),
     [
         ("", ("redundancy-ci", 60, True)),
         ("redundancy-thorough", ("redundancy-thorough", 1000, False)),
-        ("ci", ("ci", 7, False)),  # the user's own profile: neither refused nor replaced
+        # the user's own profile: neither refused nor replaced; it keeps what it inherited
+        # from the profile Hypothesis had in force when the user registered it
+        ("ci", ("ci", 7, "user's")),
     ],
 )
-def test_profiles_under_the_librarys_own_names(env: str, expected: tuple) -> None:
-    got = json.loads(_run(PROFILE_PROBE, HYPOTHESIS_PROFILE=env))
-    assert (got["name"], got["max_examples"], got["derandomize"]) == expected
+def test_profiles_under_the_librarys_own_names(env: str, expected: tuple, in_ci: bool) -> None:
+    got = json.loads(_run_env(PROFILE_PROBE, {**_ci_env(in_ci), "HYPOTHESIS_PROFILE": env}))
+    assert got["before"] == ("ci" if in_ci else "default")
+    name, max_examples, derandomize = expected
+    if derandomize == "user's":
+        derandomize = got["user_ci_derandomize"]
+        assert derandomize is in_ci  # Hypothesis's ci profile is derandomized, its default not
+    assert (got["name"], got["max_examples"], got["derandomize"]) == (
+        name,
+        max_examples,
+        derandomize,
+    )
     assert got["default_untouched"] and got["ci_untouched"]
 
 
-def test_profiles_without_a_default_load_nothing() -> None:
-    out = _run(
+@pytest.mark.parametrize("in_ci", [False, True], ids=["no CI variables", "CI=true"])
+def test_profiles_without_a_default_load_nothing(in_ci: bool) -> None:
+    out = _run_env(
         """
-        import os
-        os.environ.pop("HYPOTHESIS_PROFILE", None)
         from hypothesis import settings
+        before = settings.get_current_profile_name(), settings.default.max_examples
         from redundancy.testing import register_profiles
-        print(register_profiles(), settings.default.max_examples)
-        """
+        print(*before, register_profiles(), settings.default.max_examples)
+        """,
+        {**_ci_env(in_ci), "HYPOTHESIS_PROFILE": None},
     )
-    assert out.split() == ["default", "100"]
+    hypothesis_own = "ci" if in_ci else "default"
+    assert out.split() == [hypothesis_own, "100", hypothesis_own, "100"]
     with pytest.raises(rd.UnknownNameError, match="hypothesis profile 'default'"):
         from redundancy.testing import register_profiles
 
