@@ -1451,15 +1451,11 @@ def rod_chain(links: int = 7) -> str:
     return f'<mujoco><compiler angle="radian"/><worldbody>{body}</worldbody></mujoco>'
 
 
-@pytest.mark.parametrize("engine", ["coal", "mujoco"])
-def test_the_box_bound_skips_more_and_changes_nothing(
-    monkeypatch: pytest.MonkeyPatch, engine: str
-) -> None:
-    """Long thin links: the bounding boxes rule out poses the bounding spheres cannot, and
-    the statistics equal the unpruned sweep's and the sphere-only sweep's."""
-    arm = rd.load_string(rod_chain())
-    ch = col.checker(arm)
-    scene = ch.scene(engine)  # type: ignore[arg-type]
+def _counting_sweep(
+    monkeypatch: pytest.MonkeyPatch, arm: rd.Arm, engine: str, Q: np.ndarray
+) -> Callable[..., tuple[col.CollisionStatistics, int]]:
+    """A sweep of ``Q`` that also returns how many distances the engine computed."""
+    scene = col.checker(arm).scene(engine)  # type: ignore[arg-type]
     counted = [0]
     placed = scene.placed_values
 
@@ -1468,22 +1464,209 @@ def test_the_box_bound_skips_more_and_changes_nothing(
         return placed(which, apart)
 
     monkeypatch.setattr(scene, "placed_values", counting)
+
+    def sweep() -> tuple[col.CollisionStatistics, int]:
+        counted[0] = 0
+        stats = col.collision_statistics(arm, poses=Q, distances=engine)  # type: ignore[arg-type]
+        return stats, counted[0]
+
+    return sweep
+
+
+def _without_own_support(m: pytest.MonkeyPatch) -> None:
+    """The axis bound with the bounding boxes only: the geoms' own support gives NaN."""
+    axis_bound = colstats._Sweep._axis_bound
+
+    def boxes_only(self, X, R, rows, cols):  # type: ignore[no-untyped-def]
+        boxes, _ = axis_bound(self, X, R, rows, cols)
+        return boxes, lambda mask: np.full(int(mask.sum()), np.nan)
+
+    m.setattr(colstats._Sweep, "_axis_bound", boxes_only)
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_the_box_bound_skips_more_and_changes_nothing(
+    monkeypatch: pytest.MonkeyPatch, engine: str
+) -> None:
+    """Long thin links: the bounding boxes rule out poses the bounding spheres cannot, and
+    the statistics equal the unpruned sweep's and the sphere-only sweep's."""
+    arm = rd.load_string(rod_chain())
     Q = col.random_poses(arm, 1500, seed=4)
-    boxes = col.collision_statistics(arm, poses=Q, distances=engine)
-    with_boxes = counted[0]
-    counted[0] = 0
+    sweep = _counting_sweep(monkeypatch, arm, engine, Q)
+    with monkeypatch.context() as m:
+        _without_own_support(m)
+        boxes, with_boxes = sweep()
     with monkeypatch.context() as m:
         m.setattr(
-            colstats._Sweep, "_box_bound", lambda self, X, R, rows, cols: np.full(len(rows), np.nan)
+            colstats._Sweep,
+            "_axis_bound",
+            lambda self, X, R, rows, cols: (
+                np.full(len(rows), np.nan),
+                lambda mask: np.full(int(mask.sum()), np.nan),
+            ),
         )
-        spheres = col.collision_statistics(arm, poses=Q, distances=engine)
-    with_spheres = counted[0]
+        spheres, with_spheres = sweep()
     slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)
     same_statistics(boxes, slow)
     same_statistics(spheres, slow)
     assert boxes.poses_with_contact > 0
     print(f"rod chain ({engine}): {with_boxes} distances with boxes, {with_spheres} without")
     assert with_boxes < 0.7 * with_spheres
+
+
+def test_listed_hull_pairs_far_above_their_closest_are_only_sided(
+    monkeypatch: pytest.MonkeyPatch, meshes: rd.Arm
+) -> None:
+    """A pair of hulls MuJoCo lists at a pose, whose lower bound there exceeds its closest
+    approach, is only tested against its threshold by coal: the statistics equal the
+    unpruned sweep's, and the test is used."""
+    scene = col.checker(meshes).coal_scene()
+    within = scene.placed_within
+    sided = [0]
+
+    def counting(which: np.ndarray, limits: np.ndarray) -> np.ndarray:
+        sided[0] += len(which)
+        return within(which, limits)
+
+    monkeypatch.setattr(scene, "placed_within", counting)
+    Q = col.random_poses(meshes, 1500, seed=9)
+    Q[::3, 3] = 2.9  # a folded hand: the same pairs listed at many poses
+    fast = col.collision_statistics(meshes, poses=Q, distances="coal")
+    slow = col.collision_statistics(meshes, poses=Q, distances="coal", prune=False)
+    same_statistics(fast, slow)
+    assert fast.poses_with_contact > 0
+    print(f"{sided[0]} listed entries tested against their thresholds only")
+    assert sided[0] > 30
+
+
+#: Baxter's head sphere and forearm cylinder: the slide moves the forearm along its axis
+#: through the sphere's centre, the hinge tilts it.
+SWALLOW = f"""
+<mujoco><compiler angle="radian"/><worldbody>
+  <geom name="head" type="sphere" size="0.22" pos="0 0 0.6"/>
+  <body name="upper"><joint name="j1" type="slide" axis="0 0 1" range="0 0.3"/>{INERTIAL}
+    <body name="fore" pos="0 0 0.3"><joint name="j2" axis="0 1 0" range="-0.3 0.3"/>{INERTIAL}
+      <geom name="forearm" type="cylinder" size="0.06 0.136" pos="0 0 0.15"/>
+      <body name="hand" pos="0 0 0.3"><joint name="j3" axis="1 0 0" range="-3 3"/>{INERTIAL}
+        <geom name="palm" type="capsule" size="0.04 0.08"/><site name="ee"/>
+      </body>
+    </body>
+  </body>
+</worldbody></mujoco>
+"""
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_deep_overlaps_of_primitives_are_always_measured(engine: str) -> None:
+    """A sphere swallowing a cylinder (Baxter's head and forearm): coal's closed form for
+    the pair reports a deeper overlap than a separating axis allows, so a listed primitive
+    pair is measured at every pose, and the statistics equal the unpruned sweep's."""
+    arm = rd.load_string(SWALLOW)
+    Q = col.random_poses(arm, 2000, seed=11)
+    fast = col.collision_statistics(arm, poses=Q, distances=engine)  # type: ignore[arg-type]
+    slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)  # type: ignore[arg-type]
+    same_statistics(fast, slow)
+    swallowed = col.find_pair(col.checker(arm).pairs, "head", "forearm")
+    row = next(p for p in fast.pairs if p.pair == swallowed)
+    assert row.poses > 100 and row.closest < -0.1
+
+
+def test_within_a_limit_is_the_distance_below_it(meshes: rd.Arm) -> None:
+    """coal's test "nearer than the limit" agrees with its distance, for every pair near or
+    touching at 200 poses and limits on both sides of the distance."""
+    scene = col.checker(meshes).coal_scene()
+    checked = 0
+    for q in col.random_poses(meshes, 200, seed=10):
+        scene.place(q)
+        which = np.arange(len(scene.pairs))
+        d = scene.placed_values(which)
+        near = which[d < 0.02]
+        for shift in (-1e-4, 1e-4, 1e-2):
+            limits = d[near] + shift
+            assert np.all(scene.placed_within(near, limits) == (shift > 0))
+            checked += len(near)
+    assert checked > 500
+
+
+def octahedron_chain(links: int = 7) -> str:
+    """A 7-joint arm of long octahedra (mesh hulls), each turned 45 degrees about two axes:
+    their bounding boxes hold up to three times their support along a diagonal."""
+    body = '<site name="ee" pos="0 0 0.3"/>'
+    for i in reversed(range(links)):
+        axis = "0 0 1" if i % 2 == 0 else "0 1 0"
+        body = (
+            f'<body name="l{i}" pos="0 0 {0.0 if i == 0 else 0.3}">'
+            f'<joint name="j{i}" axis="{axis}" range="-2.9 2.9"/>{INERTIAL}'
+            f'<geom name="o{i}" type="mesh" mesh="oct" pos="0 0 0.15" euler="0.785 0.785 0"/>'
+            f"{body}</body>"
+        )
+    oct_ = "0.05 0 0  -0.05 0 0  0 0.05 0  0 -0.05 0  0 0 0.12  0 0 -0.12"
+    return (
+        f'<mujoco><compiler angle="radian"/><asset><mesh name="oct" vertex="{oct_}"/></asset>'
+        f"<worldbody>{body}</worldbody></mujoco>"
+    )
+
+
+@pytest.mark.parametrize("engine", ["coal", "mujoco"])
+def test_the_hulls_skip_more_than_their_boxes_and_change_nothing(
+    monkeypatch: pytest.MonkeyPatch, engine: str
+) -> None:
+    """Mesh hulls far from box-shaped: the hull's own support function rules out poses its
+    bounding box cannot, and the statistics equal the unpruned sweep's and the boxes'."""
+    arm = rd.load_string(octahedron_chain(), strict=False)  # every body has its <inertial>
+    Q = col.random_poses(arm, 1500, seed=5)
+    sweep = _counting_sweep(monkeypatch, arm, engine, Q)
+    hulls, with_hulls = sweep()
+    with monkeypatch.context() as m:
+        _without_own_support(m)
+        boxes, with_boxes = sweep()
+    slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)
+    same_statistics(hulls, slow)
+    same_statistics(boxes, slow)
+    assert hulls.poses_with_contact > 0
+    print(f"octahedra ({engine}): {with_hulls} distances with hulls, {with_boxes} with boxes")
+    assert with_hulls < 0.8 * with_boxes
+
+
+def test_support_functions_bound_every_point_and_reach_the_solid(meshes: rd.Arm) -> None:
+    """h(v) = max over the solid of v . p, for every geom type: no point of the solid (MuJoCo's
+    closed forms sampled densely, a mesh's hull points) lies beyond it along v, and the
+    samples reach it to within the sampling's resolution."""
+    m = meshes.mj_model
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(3, 400))
+    v /= np.linalg.norm(v, axis=0)
+    # Points of each primitive's surface (unit directions, scaled by the closed forms).
+    a = rng.normal(size=(3, 200_000))
+    a /= np.linalg.norm(a, axis=0)
+    t = rng.uniform(-1, 1, size=200_000)
+    seen = set()
+    for g in range(m.ngeom):
+        kind = col.shapes.geom_type_name(m, g)
+        s = m.geom_size[g]
+        h = col.shapes.Support(m, g)(v)
+        if kind == "plane":
+            assert np.all(h == np.inf)
+            seen.add(kind)
+            continue
+        if kind == "sphere":
+            pts = s[0] * a
+        elif kind == "capsule":
+            pts = s[0] * a + np.array([0, 0, s[1]])[:, None] * np.sign(a[2])
+        elif kind == "cylinder":
+            rim = a[:2] / np.linalg.norm(a[:2], axis=0)
+            pts = np.vstack([s[0] * rim, s[1] * np.sign(t)])
+        elif kind == "box":
+            pts = s[:3, None] * np.sign(a)  # the corners
+        elif kind == "ellipsoid":
+            pts = s[:3, None] * a
+        else:
+            pts = col.shapes.mesh_hull(m, g).points.T
+        reach = (v.T @ pts).max(axis=1)
+        assert np.all(reach <= h + 1e-12), kind
+        assert np.all(h - reach < (1e-12 if kind in ("box", "mesh") else 5e-3 * s[0])), kind
+        seen.add(kind)
+    assert seen == {"sphere", "capsule", "cylinder", "box", "ellipsoid", "plane", "mesh"}
 
 
 def test_a_model_without_geoms_gives_empty_results() -> None:

@@ -234,6 +234,16 @@ def _static_pose(m: mujoco.MjModel, body: int) -> pin.SE3:
     return pose
 
 
+def _no_warm_start(req: coal.QueryRequest) -> None:
+    """Turn off the GJK warm start from the previous call that Pinocchio turns on."""
+    # With it, a distance depends on the poses queried before it (by up to 1e-6 m for EPA
+    # depths); without, every result is a function of the pose alone, and faster.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        if hasattr(req, "enable_cached_gjk_guess"):
+            req.enable_cached_gjk_guess = False
+
+
 class CoalScene:
     """One thread's coal workspace for a pair set (see :class:`CoalPairs`)."""
 
@@ -247,6 +257,13 @@ class CoalScene:
         self._qp = np.zeros(shared.pin_model.nq)
         # GeometryData owns one request per pair; computeDistance(s) reads them.
         ref = distance_request()
+        # ... and one collision request per pair, for placed_within: GJK alone, as tight.
+        for req in self.geom_data.collisionRequests:
+            req.enable_contact = False
+            req.gjk_tolerance = ref.gjk_tolerance
+            req.gjk_max_iterations = ref.gjk_max_iterations
+            req.gjk_initial_guess = ref.gjk_initial_guess
+            _no_warm_start(req)
         for req in self.geom_data.distanceRequests:
             req.enable_signed_distance = ref.enable_signed_distance
             req.gjk_tolerance = ref.gjk_tolerance
@@ -254,13 +271,7 @@ class CoalScene:
             req.epa_tolerance = ref.epa_tolerance
             req.epa_max_iterations = ref.epa_max_iterations
             req.gjk_initial_guess = ref.gjk_initial_guess
-            # Pinocchio turns on GJK warm starts from the previous call, which makes a
-            # distance depend on the poses queried before it (by up to 1e-6 m for EPA
-            # depths); off, every distance is a function of the pose alone, and faster.
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", DeprecationWarning)
-                if hasattr(req, "enable_cached_gjk_guess"):
-                    req.enable_cached_gjk_guess = False
+            _no_warm_start(req)
         # References into GeometryData's result vector, listed once: building the Python
         # wrappers anew for every pose would cost more than the distances themselves.
         self._results = list(self.geom_data.distanceResults)
@@ -328,6 +339,24 @@ class CoalScene:
             dtype=float,
         )
         return self._redo_failures(out, which)
+
+    def placed_within(self, which: Index, limits: Array) -> NDArray[np.bool_]:
+        """Whether each pair in ``which`` is nearer than its limit at the pose last placed.
+
+        coal's collision test with the limit as its security margin [m]: GJK stops as soon as
+        it finds the geoms within the margin (or a separating plane), with no EPA depth, at
+        the distance requests' tolerance; a pair within about that tolerance of its limit
+        may come out either way.
+        """
+        import pinocchio as pin
+
+        s, reqs = self.shared, self.geom_data.collisionRequests
+        compute = pin.computeCollision
+        out = np.zeros(len(which), dtype=bool)
+        for n, (k, limit) in enumerate(zip(which.tolist(), limits.tolist(), strict=True)):
+            reqs[k].security_margin = limit
+            out[n] = compute(s.geom_model, self.geom_data, k)
+        return out
 
     def _redo_failures(self, out: Array, which: Index) -> Array:
         self._retried = {}

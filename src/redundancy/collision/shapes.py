@@ -138,3 +138,35 @@ def bounding_box(model: mujoco.MjModel, geom: int) -> tuple[Array, Array]:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         return 0.5 * (lo + hi), 0.5 * (hi - lo)
     return zero, np.full(3, np.inf)
+
+
+class Support:
+    """The support function of the solid MuJoCo collides for a geom, in the geom's frame.
+
+    ``h(v) = max over the solid's points p of v . p`` for directions ``v`` (unit vectors,
+    one coordinate per row, shape (3, k)) [m]: closed forms for the primitives, the largest
+    projection of the hull's points for a mesh, ``inf`` for a plane and any other unbounded
+    type.
+    """
+
+    def __init__(self, model: mujoco.MjModel, geom: int) -> None:
+        self.type = int(model.geom_type[geom])
+        self.size = model.geom_size[geom].astype(float)
+        self.points = mesh_hull(model, geom).points if self.type == _G.mjGEOM_MESH else None
+
+    def __call__(self, v: Array) -> Array:
+        """``h`` at each column of ``v`` [m]."""
+        t, s = self.type, self.size
+        if t == _G.mjGEOM_SPHERE:
+            return np.full(v.shape[1], s[0])
+        if t == _G.mjGEOM_CAPSULE:
+            return s[0] + s[1] * np.abs(v[2])
+        if t == _G.mjGEOM_CYLINDER:
+            return s[0] * np.sqrt(v[0] * v[0] + v[1] * v[1]) + s[1] * np.abs(v[2])
+        if t == _G.mjGEOM_BOX:
+            return s[0] * np.abs(v[0]) + s[1] * np.abs(v[1]) + s[2] * np.abs(v[2])
+        if t == _G.mjGEOM_ELLIPSOID:
+            return np.sqrt((s[0] * v[0]) ** 2 + (s[1] * v[1]) ** 2 + (s[2] * v[2]) ** 2)
+        if self.points is not None:
+            return (self.points @ v).max(axis=0)
+        return np.full(v.shape[1], np.inf)

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -17,7 +18,7 @@ from .checker import CollisionChecker, PairDistance, checker
 from .coal_scene import CoalScene
 from .mujoco_scene import MujocoScene
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
-from .shapes import bounding_box, bounding_radius
+from .shapes import Support, bounding_box, bounding_radius
 
 if TYPE_CHECKING:
     from ..arm import Arm
@@ -194,18 +195,24 @@ def collision_statistics(
 
     Far pairs are skipped (``prune``): a pair's distance is at least
     ``|c1 - c2| - r1 - r2`` (geom origins, bounding radii), and at least the gap between the
-    two geoms' bounding boxes projected on the line through the boxes' centres (the tighter
-    bound for long links, computed only where the first does not decide). A pair whose bound,
-    less :data:`PRUNE_SLACK`, exceeds its closest approach so far, its contact threshold (plus
-    the ambiguity band) and zero, and that MuJoCo does not list, can change neither its
-    closest approach, nor its pose index, nor the cross-check, so its distance is not
-    computed. Poses go in chunks of :data:`CHUNK`; in each, every pair is first measured at
-    the pose with its smallest bound, so that the closest approach is known early. The cost
-    then grows with the pairs that come near, and every count and pose index equals the
-    unpruned sweep's (``prune=False``). So does every distance, within coal's tolerances:
+    two geoms projected on the line through their bounding boxes' centres: first with the
+    boxes' extent along it (the tighter bound for long links), then with the geoms' own
+    (a mesh's hull points; closed forms for primitives), each computed only where the
+    previous one does not decide. A pair whose bound, less :data:`PRUNE_SLACK`, exceeds its
+    closest approach so far, its contact threshold (plus the ambiguity band) and zero, and
+    that MuJoCo does not list, can change neither its closest approach, nor its pose index,
+    nor the cross-check, so its distance is not computed. A pair of mesh hulls that MuJoCo
+    lists, whose bound exceeds its closest approach so far, can change only the cross-check:
+    coal's collision test (GJK, no penetration depth) against its threshold plus the band
+    stands in for its distance (with coal: its EPA never reports an overlap deeper than a
+    separating axis allows, which its closed forms for primitives can). Poses go in chunks
+    of :data:`CHUNK`; in each, every pair is first measured at the pose with its smallest
+    bound, so that the closest approach is known early. The cost then grows with the pairs
+    that come near, and every count and pose index equals the unpruned sweep's
+    (``prune=False``). So does every distance, within coal's tolerances:
     coal's result for a pair of mesh hulls at a pose can depend on the calls made on that
-    pair before (seen on the G1's interpenetrating hulls: up to 8.5e-8 m between the two
-    sweeps; coal's EPA tolerance is 1e-6 m).
+    pair before (seen on the G1's interpenetrating hulls: up to 1.9e-7 m between the two
+    sweeps over 2000 poses; coal's EPA tolerance is 1e-6 m).
 
     Args:
         arm: The arm.
@@ -285,7 +292,17 @@ class _Sweep:
         self.done = 0  # poses swept before this chunk
         # A pair below this can touch or sit in the ambiguity band: never skipped.
         self.floor = np.maximum(self.thr + AMBIGUITY_BAND, 0.0)
+        # Pairs whose overlap depth the engine finds by EPA, which grows a polytope inside
+        # the two solids' Minkowski difference: the depth it reports is never more than the
+        # true one, so its signed distance never falls below a separating-axis bound. coal
+        # does so for two hulls; its closed forms for primitives need not (a sphere of radius
+        # 0.22 m swallowing a cylinder on Baxter: coal -0.261 m, the bound -0.234 m, MuJoCo
+        # -0.228 m). Only these pairs, listed by MuJoCo, are ever judged by their side alone.
         model = ch.arm.mj_model
+        mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+        self.epa = np.array(
+            [engine == "coal" and bool(mesh[p.geom1] and mesh[p.geom2]) for p in pairs], dtype=bool
+        )
         used = sorted({p.geom1 for p in pairs} | {p.geom2 for p in pairs})
         col = {g: i for i, g in enumerate(used)}
         self.used = np.array(used, dtype=int)
@@ -296,6 +313,7 @@ class _Sweep:
         boxes = [bounding_box(model, g) for g in used]
         self.box_centre = np.array([b[0] for b in boxes]).reshape(-1, 3)
         self.box_half = np.array([b[1] for b in boxes]).reshape(-1, 3)
+        self.support = [Support(model, g) for g in used]
 
     def run(self, Q: Array) -> None:
         """Sweep one chunk of poses."""
@@ -348,60 +366,106 @@ class _Sweep:
         self._evaluate(Q, D, apart, seeds)
         # The chunk's smallest distance per pair is at most the seed's: a pair whose bound
         # exceeds that (and its threshold, and zero) at a pose cannot matter there.
-        ceiling = np.maximum(np.minimum(self.closest, D.min(axis=0)), self.floor)
+        best = np.minimum(self.closest, D.min(axis=0))
+        ceiling = np.maximum(best, self.floor)
         todo = bound <= ceiling
-        todo &= ~listed
-        todo &= ~seeds
-        # The boxes' bound, where the spheres' did not rule the pair out.
-        rows, cols = np.nonzero(todo)
-        far = self._box_bound(X, R, rows, cols) > ceiling[cols]
-        todo[rows[far], cols[far]] = False
         todo |= listed
         todo &= ~seeds
-        self._evaluate(Q, D, apart, todo)
+        # One separating axis, where the spheres did not rule the pair out: the boxes'
+        # bound, then the geoms' own where the boxes' did not. A pair MuJoCo lists is
+        # measured for the cross-check; where its bound exceeds the best distance so far (and
+        # the engine's depth respects the bound: `epa`), the distance cannot be the closest
+        # approach and only its side of the threshold counts.
+        rows, cols = np.nonzero(todo)
+        boxes, own = self._axis_bound(X, R, rows, cols)
+        lower = boxes
+        on_list = listed[rows, cols]
+        limit = np.where(on_list, np.where(self.epa[cols], best[cols], np.inf), ceiling[cols])
+        near = ~(boxes > limit)
+        lower[near] = np.fmax(boxes[near], own(near))
+        far = lower > limit
+        todo[rows[far], cols[far]] = False
+        side = np.zeros(listed.shape, dtype=bool)
+        side[rows[far], cols[far]] = on_list[far]
+        bounds = np.full(listed.shape, np.nan)
+        bounds[rows, cols] = lower
+        self._evaluate(Q, D, apart, todo, side, bounds)
         return D
 
-    def _box_bound(
+    def _axis_bound(
         self, X: Array, R: Array, rows: NDArray[np.int_], cols: NDArray[np.int_]
-    ) -> Array:
-        """Lower bounds of pairs ``cols`` at poses ``rows`` from the geoms' bounding boxes [m].
+    ) -> tuple[Array, Callable[[NDArray[np.bool_]], Array]]:
+        """Lower bounds of pairs ``cols`` at poses ``rows`` along one separating axis [m].
 
-        The boxes' centres c1, c2 and the unit vector u between them: the boxes' projections
-        on u are at most ``h . |R^T u|`` from their centres, so the geoms are at least
-        ``|c2 - c1|`` less both apart (less :data:`PRUNE_SLACK`). NaN (never a skip) where
-        the boxes' centres coincide or a box is unbounded.
+        The axis is the unit vector u from the first geom's bounding-box centre to the
+        second's. Every point of the first geom lies at most ``h1(R1^T u)`` beyond its origin
+        o1 along u, every point of the second at least ``h2(-R2^T u)`` short of o2 (``h``
+        the support function of the geom in its frame, R its rotation), so the geoms are at
+        least ``u . (o2 - o1) - h1 - h2`` apart, less :data:`PRUNE_SLACK`; for overlapping
+        geoms, that is a lower bound of the signed distance too. Returns the bound with the
+        bounding boxes' support functions (a few flops per entry) and a function that gives
+        the bound with the geoms' own (:class:`~redundancy.collision.shapes.Support`: exact
+        for every primitive and for a mesh's hull, the solid both engines collide; dearer)
+        at the entries a mask selects. NaN (never a skip) where the box centres coincide,
+        -inf where a geom is unbounded.
         """
         centre, half = self.box_centre, self.box_half
-
-        def placed(g: NDArray[np.int_]) -> tuple[Array, Array]:
-            x, r, c = X[:, rows, g], R[:, rows, g], centre[g].T
-            return np.array(
-                [
-                    x[a] + r[3 * a] * c[0] + r[3 * a + 1] * c[1] + r[3 * a + 2] * c[2]
-                    for a in range(3)
-                ]
-            ), r
-
         g1, g2 = self.c1[cols], self.c2[cols]
-        (p1, r1), (p2, r2) = placed(g1), placed(g2)
-        d = p2 - p1
-        n = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        o1, r1 = X[:, rows, g1], R[:, rows, g1]
+        o2, r2 = X[:, rows, g2], R[:, rows, g2]
+
+        def local(r: Array, w: Array) -> Array:  # R^T w, one coordinate per row
+            return np.array([w[0] * r[i] + w[1] * r[3 + i] + w[2] * r[6 + i] for i in range(3)])
+
+        def world(o: Array, r: Array, c: Array) -> Array:  # o + R c
+            return np.array([o[a] + sum(r[3 * a + i] * c[i] for i in range(3)) for a in range(3)])
+
+        d = world(o2, r2, centre[g2].T) - world(o1, r1, centre[g1].T)
         with np.errstate(divide="ignore", invalid="ignore"):
-            u = d / n
+            u = d / np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            gap = u[0] * (o2[0] - o1[0]) + u[1] * (o2[1] - o1[1]) + u[2] * (o2[2] - o1[2])
+            v1, v2 = local(r1, u), -local(r2, u)
 
-            def support(r: Array, h: Array) -> Array:
-                return sum(
-                    h[:, i] * np.abs(u[0] * r[i] + u[1] * r[3 + i] + u[2] * r[6 + i])
-                    for i in range(3)
-                )
+            def box(v: Array, g: NDArray[np.int_]) -> Array:
+                c, h = centre[g].T, half[g].T
+                return sum(v[i] * c[i] + h[i] * np.abs(v[i]) for i in range(3))
 
-            return n - support(r1, half[g1]) - support(r2, half[g2]) - PRUNE_SLACK
+            boxes = gap - box(v1, g1) - box(v2, g2) - PRUNE_SLACK
 
-    def _evaluate(self, Q: Array, D: Array, apart: Array, todo: NDArray[np.bool_]) -> None:
-        """Fill ``D`` where ``todo`` holds, pose by pose."""
+        def own(mask: NDArray[np.bool_]) -> Array:
+            h = np.zeros(int(mask.sum()))
+            for g, v in ((g1[mask], v1[:, mask]), (g2[mask], v2[:, mask])):
+                # The entries grouped by geom: one call of its support function per group.
+                order = np.argsort(g, kind="stable")
+                cut = np.flatnonzero(np.diff(g[order])) + 1
+                for at in np.split(order, cut):
+                    if len(at):
+                        h[at] += self.support[int(g[at[0]])](v[:, at])
+            with np.errstate(invalid="ignore"):
+                return gap[mask] - h - PRUNE_SLACK
+
+        return boxes, own
+
+    def _evaluate(
+        self,
+        Q: Array,
+        D: Array,
+        apart: Array,
+        todo: NDArray[np.bool_],
+        side: NDArray[np.bool_] | None = None,
+        bounds: Array | None = None,
+    ) -> None:
+        """Fill ``D`` pose by pose where ``todo`` or ``side`` holds.
+
+        ``todo``: the distance. ``side``: a listed pair whose lower bound (``bounds``)
+        exceeds its closest approach so far; the bound where the engine finds the pair within
+        its threshold plus the band (a stand-in that folds as the distance would: above the
+        closest approach, touching or in the band for the cross-check), else the distance.
+        """
         scene = self.scene
         assert scene is not None
-        rows, cols = np.nonzero(todo)
+        either = todo if side is None else todo | side
+        rows, cols = np.nonzero(either)
         if not len(rows):
             return
         # One slice of `cols` per pose: where each pose's entries start and end.
@@ -411,7 +475,16 @@ class _Sweep:
         for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
             i, which = int(rows[a]), cols[a:b]
             scene.place(Q[i])
-            D[i, which] = scene.placed_values(which, apart[i, which])
+            if side is not None and bounds is not None:
+                check = side[i, which]
+                if check.any():
+                    assert isinstance(scene, CoalScene)  # `epa` pairs are coal's only
+                    pick = which[check]
+                    inside = scene.placed_within(pick, self.thr[pick] + AMBIGUITY_BAND)
+                    D[i, pick[inside]] = bounds[i, pick[inside]]
+                    which = np.concatenate((which[~check], pick[~inside]))
+            if len(which):
+                D[i, which] = scene.placed_values(which, apart[i, which])
 
     def _fold(self, D: Array, listed: NDArray[np.bool_]) -> None:
         """Fold a chunk's distances (``inf`` where skipped) into the running results."""
