@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from .checks import describe
 from .engines.contract import Engine
-from .engines.mujoco import damped_step
+from .engines.mujoco import damped_stepper
 from .errors import ParameterError
 
 Array = NDArray[np.float64]
@@ -215,6 +215,8 @@ class _Solver:
         self.tol_p = _MARGIN * settings.position_tol
         self.tol_r = math.inf if position_only else _MARGIN * settings.orientation_tol
         self.iterations = 0
+        # The damped least-squares step with its work arrays made once per solve.
+        self.step = damped_stepper(3 if position_only else 6, len(lower))
 
     def error(self, q: Array) -> tuple[Array, Array, float, float]:
         """Task error (6 or 3,), task Jacobian, position and orientation errors at ``q``.
@@ -242,7 +244,7 @@ class _Solver:
         tp2 = self.tol_p * self.tol_p
         tr2 = math.inf if only else self.tol_r * self.tol_r
         window, ratio = self.s.stall_window, self.s.stall_ratio
-        step_of, maximum, minimum = damped_step, np.maximum, np.minimum
+        step_of, maximum, minimum = self.step, np.maximum, np.minimum
         e, J = kin(q)
         x, y, z, a, b, c = e.tolist()
         pp, rr = x * x + y * y + z * z, a * a + b * b + c * c
@@ -258,13 +260,15 @@ class _Solver:
             step = q + step_of(Jt, et, lam)
             clamped = maximum(step, lo)  # -inf / inf where a joint is unlimited
             minimum(clamped, hi, out=clamped)
-            if clamped.tolist() != step.tolist():
+            values = clamped.tolist()
+            if values != step.tolist():
                 # A joint the step pushes past its limit stops there; the step is solved
                 # again without it, so the other joints make up for it (the redundancy at
                 # work).
                 clamped = maximum(q + step_of(Jt * (clamped == step), et, lam), lo)
                 minimum(clamped, hi, out=clamped)
-            if not math.isfinite(lam) or not math.isfinite(sum(clamped.tolist())):
+                values = clamped.tolist()
+            if not math.isfinite(lam) or not math.isfinite(sum(values)):
                 break  # a target so far away that the squared error overflowed: q stays
             q = clamped
             e, J = kin(q)

@@ -527,24 +527,36 @@ class MujocoEngine:
         return kernel
 
 
-def damped_step(J: Array, e: Array, lam: float) -> Array:
-    """The damped least-squares step J^T (J J^T + lam I)^-1 e, by MuJoCo's dense routines.
+def damped_stepper(r: int, n: int) -> Callable[[Array, Array, float], Array]:
+    """The damped least-squares step J^T (J J^T + lam I)^-1 e for (r, n) Jacobians.
 
-    ``mju_mulMatMatT``, ``mju_addToScl``, ``mju_cholFactor``/``mju_cholSolve`` and
-    ``mju_mulMatTVec``: for the 6 x 7 systems of the inverse-kinematics loop about a third of
-    the time of the NumPy calls (``np.linalg.solve``'s wrapper alone costs more than the
-    arithmetic at this size). J (r, n) and e (r,) C-contiguous float64, lam > 0.
+    By MuJoCo's dense routines (``mju_mulMatMatT``, ``mju_addToScl``,
+    ``mju_cholFactor``/``mju_cholSolve``, ``mju_mulMatTVec``): for the 6 x 7 systems of the
+    inverse-kinematics loop about a third of the time of the NumPy calls
+    (``np.linalg.solve``'s wrapper alone costs more than the arithmetic at this size), with
+    the work arrays made once. The function returned takes J (r, n) and e (r,) C-contiguous
+    float64 and lam > 0; the step it returns is its buffer, valid until its next call (the
+    loop adds it to the pose at once). A stepper belongs to one thread.
     """
-    r = len(e)
-    A = np.empty((r, r))
-    _mul_mat_mat_t(A, J, J)
-    _add_to_scl(A.reshape(-1), _EYES[r], lam)
-    _chol_factor(A, 0.0)
-    x = np.empty(r)
-    _chol_solve(x, A, e)
-    dq = np.empty(J.shape[1])
-    _mul_mat_t_vec(dq, J, x)
-    return dq
+    A, x, dq, eye = np.empty((r, r)), np.empty(r), np.empty(n), _EYES[r]
+    flat = A.reshape(-1)
+    mul, add, factor, solve, mul_t = (
+        _mul_mat_mat_t,
+        _add_to_scl,
+        _chol_factor,
+        _chol_solve,
+        _mul_mat_t_vec,
+    )
+
+    def step(J: Array, e: Array, lam: float) -> Array:
+        mul(A, J, J)
+        add(flat, eye, lam)
+        factor(A, 0.0)
+        solve(x, A, e)
+        mul_t(dq, J, x)
+        return dq
+
+    return step
 
 
 _chol_factor, _chol_solve = mujoco.mju_cholFactor, mujoco.mju_cholSolve
@@ -553,7 +565,7 @@ _mul_mat_mat_t, _add_to_scl, _mul_mat_t_vec = (
     mujoco.mju_addToScl,
     mujoco.mju_mulMatTVec,
 )
-#: Flattened identities for damped_step, by size (read only).
+#: Flattened identities for damped_stepper, by size (read only).
 _EYES = {r: np.eye(r).reshape(-1) for r in range(1, 7)}
 
 
