@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import inspect
 import io
 import json
 import os
+import re
 import stat
 import sys
 
@@ -331,6 +331,7 @@ def test_progress_bar_on_a_terminal_only(monkeypatch, capsys):
     from redundancy.reports import progress
 
     monkeypatch.setattr(progress, "DELAY", 0.0)
+    monkeypatch.setenv("TERM", "xterm-256color")  # whatever terminal the tests run from
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
     assert main(["audit", PANDA, "--poses", "30"]) == 0
@@ -344,14 +345,26 @@ def test_progress_bar_on_a_terminal_only(monkeypatch, capsys):
     assert capsys.readouterr().err == ""
 
 
-#: rd.load(base=, rest=) come with the lead's change (issue 20): these run once it is merged.
-needs_robot_load = pytest.mark.skipif(
-    not {"base", "rest"} <= set(inspect.signature(rd.load).parameters),
-    reason="rd.load has no base= / rest= yet (issue 20)",
-)
+@pytest.mark.parametrize("term", ["dumb", "unknown"])
+def test_a_dumb_terminal_gets_a_line_per_stage(monkeypatch, term):
+    """No cursor motion, so no bar to redraw: plain lines, one when each stage completes
+    (and at most one per LINE_INTERVAL before that), no escape sequences."""
+    from redundancy.reports import progress
+
+    monkeypatch.setattr(progress, "DELAY", 0.0)
+    monkeypatch.setattr(progress, "LINE_INTERVAL", 1e9)
+    monkeypatch.setenv("TERM", term)
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(["audit", PANDA, "--poses", "30"]) == 0
+    lines = terminal.getvalue().splitlines()
+    assert "\x1b" not in terminal.getvalue()
+    for stage in ("gravity", "self-collision", "engine cross-check"):
+        assert any(re.fullmatch(rf"{stage}: 0/30 poses, \d+ s", line) for line in lines), lines
+        assert any(re.fullmatch(rf"{stage}: 30/30 poses, \d+ s", line) for line in lines), lines
+    assert len(lines) == len(set(lines))  # nothing repeated within the interval
 
 
-@needs_robot_load
 def test_base_and_rest_load_the_arm(capsys):
     assert main(["audit", PANDA, "--base", "link0", "--rest", "home", "--poses", "20"]) == 0
     assert main(["audit", PANDA, "--base", "nowhere", "--poses", "20"]) == 2

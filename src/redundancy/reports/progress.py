@@ -3,7 +3,10 @@
 :func:`terminal_progress` gives the :data:`~redundancy.reports.sections.Progress` callback
 of a command: a bar per stage on the stream (stderr) once the run has taken :data:`DELAY`
 seconds, cleared when the run ends; nothing at all when the stream is not a terminal (a
-log, a pipe, CI) or the user asked for quiet.
+log, a pipe, CI) or the user asked for quiet. A dumb terminal (``$TERM`` dumb or unknown,
+as rich reads it: an editor's shell, some CI consoles) cannot redraw a bar, so it gets a
+plain line per stage instead, at most every :data:`LINE_INTERVAL` seconds and when the
+stage completes.
 """
 
 from __future__ import annotations
@@ -20,6 +23,8 @@ from .sections import Progress as Callback
 
 #: A run shows its bar once it has taken this long [s]: a short one stays silent.
 DELAY = 1.0
+#: On a dumb terminal, a stage's line is repeated at most this often [s].
+LINE_INTERVAL = 10.0
 
 
 class _Bars:
@@ -54,6 +59,29 @@ class _Bars:
             self.bars.stop()
 
 
+class _Lines:
+    """A plain line per stage for a dumb terminal (see the module's description)."""
+
+    def __init__(self, stream: TextIO, delay: float) -> None:
+        self.stream = stream
+        self.start = time.monotonic()
+        self.delay = delay
+        self.last: dict[str, float] = {}
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        now = time.monotonic()
+        if now - self.start < self.delay:
+            return
+        if done < total and now - self.last.get(stage, -LINE_INTERVAL) < LINE_INTERVAL:
+            return
+        self.last[stage] = now
+        self.stream.write(f"{stage}: {done}/{total} poses, {now - self.start:.0f} s\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """Nothing to clear: the lines stay."""
+
+
 @contextmanager
 def terminal_progress(
     stream: TextIO, quiet: bool = False, delay: float | None = None
@@ -72,7 +100,9 @@ def terminal_progress(
     if quiet or not (callable(isatty) and isatty()):
         yield None
         return
-    bars = _Bars(stream, DELAY if delay is None else delay)
+    wait = DELAY if delay is None else delay
+    dumb = Console(file=stream, force_terminal=True).is_dumb_terminal
+    bars: _Bars | _Lines = _Lines(stream, wait) if dumb else _Bars(stream, wait)
     try:
         yield bars
     finally:
