@@ -343,10 +343,10 @@ class CoalScene:
     def placed_within(self, which: Index, limits: Array) -> NDArray[np.bool_]:
         """Whether each pair in ``which`` is nearer than its limit at the pose last placed.
 
-        coal's collision test with the limit as its security margin [m]: GJK stops as soon as
-        it finds the geoms within the margin (or a separating plane), with no EPA depth, at
-        the distance requests' tolerance; a pair within about that tolerance of its limit
-        may come out either way.
+        coal's collision test with the limit as its security margin [m]: GJK at the distance
+        requests' tolerance, stopping once it finds the geoms within the margin, with no EPA
+        depth (separated geoms run to convergence, as ``distance_upper_bound`` is left
+        unbounded); a pair within about that tolerance of its limit may come out either way.
         """
         import pinocchio as pin
 
