@@ -385,11 +385,13 @@ class _Sweep:
         lower[near] = np.fmax(boxes[near], own(near))
         far = lower > limit
         todo[rows[far], cols[far]] = False
+        # Those listed pairs start with their bound in D, kept if the engine finds them
+        # within their threshold plus the band (see _evaluate).
+        sided = far & on_list
         side = np.zeros(listed.shape, dtype=bool)
-        side[rows[far], cols[far]] = on_list[far]
-        bounds = np.full(listed.shape, np.nan)
-        bounds[rows, cols] = lower
-        self._evaluate(Q, D, apart, todo, side, bounds)
+        side[rows[sided], cols[sided]] = True
+        D[rows[sided], cols[sided]] = lower[sided]
+        self._evaluate(Q, D, apart, todo, side)
         return D
 
     def _axis_bound(
@@ -453,14 +455,14 @@ class _Sweep:
         apart: Array,
         todo: NDArray[np.bool_],
         side: NDArray[np.bool_] | None = None,
-        bounds: Array | None = None,
     ) -> None:
         """Fill ``D`` pose by pose where ``todo`` or ``side`` holds.
 
-        ``todo``: the distance. ``side``: a listed pair whose lower bound (``bounds``)
-        exceeds its closest approach so far; the bound where the engine finds the pair within
-        its threshold plus the band (a stand-in that folds as the distance would: above the
-        closest approach, touching or in the band for the cross-check), else the distance.
+        ``todo``: the distance. ``side``: a listed pair whose lower bound, already in ``D``,
+        exceeds its closest approach so far; the bound stays where the engine finds the pair
+        within its threshold plus the band (a stand-in that folds as the distance would:
+        above the closest approach, touching or in the band for the cross-check), else the
+        distance replaces it.
         """
         scene = self.scene
         assert scene is not None
@@ -475,13 +477,12 @@ class _Sweep:
         for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
             i, which = int(rows[a]), cols[a:b]
             scene.place(Q[i])
-            if side is not None and bounds is not None:
+            if side is not None:
                 check = side[i, which]
                 if check.any():
                     assert isinstance(scene, CoalScene)  # `epa` pairs are coal's only
                     pick = which[check]
                     inside = scene.placed_within(pick, self.thr[pick] + AMBIGUITY_BAND)
-                    D[i, pick[inside]] = bounds[i, pick[inside]]
                     which = np.concatenate((which[~check], pick[~inside]))
             if len(which):
                 D[i, which] = scene.placed_values(which, apart[i, which])
