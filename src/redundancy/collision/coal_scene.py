@@ -234,16 +234,6 @@ def _static_pose(m: mujoco.MjModel, body: int) -> pin.SE3:
     return pose
 
 
-def _no_warm_start(req: coal.QueryRequest) -> None:
-    """Turn off the GJK warm start from the previous call that Pinocchio turns on."""
-    # With it, a distance depends on the poses queried before it (by up to 1e-6 m for EPA
-    # depths); without, every result is a function of the pose alone, and faster.
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        if hasattr(req, "enable_cached_gjk_guess"):
-            req.enable_cached_gjk_guess = False
-
-
 class CoalScene:
     """One thread's coal workspace for a pair set (see :class:`CoalPairs`)."""
 
@@ -255,23 +245,27 @@ class CoalScene:
         self.pin_data: pin.Data = shared.pin_model.createData()  # private: never disturbs the Arm's
         self.geom_data: pin.GeometryData = pin.GeometryData(shared.geom_model)
         self._qp = np.zeros(shared.pin_model.nq)
-        # GeometryData owns one request per pair; computeDistance(s) reads them.
+        # GeometryData owns a distance request per pair, which computeDistance(s) reads, and a
+        # collision request per pair, which placed_within's computeCollision reads: GJK as
+        # tight in both, EPA for the distances only.
         ref = distance_request()
-        # ... and one collision request per pair, for placed_within: GJK alone, as tight.
-        for req in self.geom_data.collisionRequests:
-            req.enable_contact = False
+        for req in (*self.geom_data.distanceRequests, *self.geom_data.collisionRequests):
             req.gjk_tolerance = ref.gjk_tolerance
             req.gjk_max_iterations = ref.gjk_max_iterations
             req.gjk_initial_guess = ref.gjk_initial_guess
-            _no_warm_start(req)
+            # Pinocchio turns on GJK warm starts from the previous call, which makes a
+            # result depend on the poses queried before it (by up to 1e-6 m for EPA
+            # depths); off, every result is a function of the pose alone, and faster.
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)
+                if hasattr(req, "enable_cached_gjk_guess"):
+                    req.enable_cached_gjk_guess = False
         for req in self.geom_data.distanceRequests:
             req.enable_signed_distance = ref.enable_signed_distance
-            req.gjk_tolerance = ref.gjk_tolerance
-            req.gjk_max_iterations = ref.gjk_max_iterations
             req.epa_tolerance = ref.epa_tolerance
             req.epa_max_iterations = ref.epa_max_iterations
-            req.gjk_initial_guess = ref.gjk_initial_guess
-            _no_warm_start(req)
+        for req in self.geom_data.collisionRequests:
+            req.enable_contact = False
         # References into GeometryData's result vector, listed once: building the Python
         # wrappers anew for every pose would cost more than the distances themselves.
         self._results = list(self.geom_data.distanceResults)
