@@ -30,10 +30,9 @@ LINE_INTERVAL = 10.0
 class _Bars:
     """One bar per stage, started after :data:`DELAY` seconds (see :func:`terminal_progress`)."""
 
-    def __init__(self, stream: TextIO, delay: float) -> None:
+    def __init__(self, console: Console, delay: float) -> None:
         self.start = time.monotonic()
         self.delay = delay
-        console = Console(file=stream, force_terminal=True)
         self.bars = Progress(
             TextColumn("{task.description}"),
             BarColumn(),
@@ -101,8 +100,8 @@ def terminal_progress(
         yield None
         return
     wait = DELAY if delay is None else delay
-    dumb = Console(file=stream, force_terminal=True).is_dumb_terminal
-    bars: _Bars | _Lines = _Lines(stream, wait) if dumb else _Bars(stream, wait)
+    console = Console(file=stream, force_terminal=True)
+    bars = _Lines(stream, wait) if console.is_dumb_terminal else _Bars(console, wait)
     try:
         yield bars
     finally:
