@@ -1451,10 +1451,16 @@ def rod_chain(links: int = 7) -> str:
     return f'<mujoco><compiler angle="radian"/><worldbody>{body}</worldbody></mujoco>'
 
 
-def _counting_sweep(
-    monkeypatch: pytest.MonkeyPatch, arm: rd.Arm, engine: str, Q: np.ndarray
-) -> Callable[..., tuple[col.CollisionStatistics, int]]:
-    """A sweep of ``Q`` that also returns how many distances the engine computed."""
+def _bound_counts(
+    monkeypatch: pytest.MonkeyPatch,
+    arm: rd.Arm,
+    engine: str,
+    Q: np.ndarray,
+    tighter: Callable[[pytest.MonkeyPatch], None] | None,
+    looser: Callable[[pytest.MonkeyPatch], None],
+) -> tuple[int, int]:
+    """Sweeps of ``Q`` with two sets of bounds (a patch each; None: the library's own):
+    both equal the unpruned sweep, the first finds contacts; the distances each computed."""
     scene = col.checker(arm).scene(engine)  # type: ignore[arg-type]
     counted = [0]
     placed = scene.placed_values
@@ -1464,13 +1470,19 @@ def _counting_sweep(
         return placed(which, apart)
 
     monkeypatch.setattr(scene, "placed_values", counting)
-
-    def sweep() -> tuple[col.CollisionStatistics, int]:
+    slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)  # type: ignore[arg-type]
+    counts = []
+    for patch in (tighter, looser):
         counted[0] = 0
-        stats = col.collision_statistics(arm, poses=Q, distances=engine)  # type: ignore[arg-type]
-        return stats, counted[0]
-
-    return sweep
+        with monkeypatch.context() as m:
+            if patch is not None:
+                patch(m)
+            stats = col.collision_statistics(arm, poses=Q, distances=engine)  # type: ignore[arg-type]
+        same_statistics(stats, slow)
+        if patch is tighter:
+            assert stats.poses_with_contact > 0
+        counts.append(counted[0])
+    return counts[0], counts[1]
 
 
 def _without_own_support(m: pytest.MonkeyPatch) -> None:
@@ -1484,6 +1496,18 @@ def _without_own_support(m: pytest.MonkeyPatch) -> None:
     m.setattr(colstats._Sweep, "_axis_bound", boxes_only)
 
 
+def _spheres_only(m: pytest.MonkeyPatch) -> None:
+    """No axis bound at all: the bounding spheres alone."""
+    m.setattr(
+        colstats._Sweep,
+        "_axis_bound",
+        lambda self, X, R, rows, cols: (
+            np.full(len(rows), np.nan),
+            lambda mask: np.full(int(mask.sum()), np.nan),
+        ),
+    )
+
+
 @pytest.mark.parametrize("engine", ["coal", "mujoco"])
 def test_the_box_bound_skips_more_and_changes_nothing(
     monkeypatch: pytest.MonkeyPatch, engine: str
@@ -1492,24 +1516,9 @@ def test_the_box_bound_skips_more_and_changes_nothing(
     the statistics equal the unpruned sweep's and the sphere-only sweep's."""
     arm = rd.load_string(rod_chain())
     Q = col.random_poses(arm, 1500, seed=4)
-    sweep = _counting_sweep(monkeypatch, arm, engine, Q)
-    with monkeypatch.context() as m:
-        _without_own_support(m)
-        boxes, with_boxes = sweep()
-    with monkeypatch.context() as m:
-        m.setattr(
-            colstats._Sweep,
-            "_axis_bound",
-            lambda self, X, R, rows, cols: (
-                np.full(len(rows), np.nan),
-                lambda mask: np.full(int(mask.sum()), np.nan),
-            ),
-        )
-        spheres, with_spheres = sweep()
-    slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)
-    same_statistics(boxes, slow)
-    same_statistics(spheres, slow)
-    assert boxes.poses_with_contact > 0
+    with_boxes, with_spheres = _bound_counts(
+        monkeypatch, arm, engine, Q, _without_own_support, _spheres_only
+    )
     print(f"rod chain ({engine}): {with_boxes} distances with boxes, {with_spheres} without")
     assert with_boxes < 0.7 * with_spheres
 
@@ -1615,15 +1624,7 @@ def test_the_hulls_skip_more_than_their_boxes_and_change_nothing(
     bounding box cannot, and the statistics equal the unpruned sweep's and the boxes'."""
     arm = rd.load_string(octahedron_chain(), strict=False)  # every body has its <inertial>
     Q = col.random_poses(arm, 1500, seed=5)
-    sweep = _counting_sweep(monkeypatch, arm, engine, Q)
-    hulls, with_hulls = sweep()
-    with monkeypatch.context() as m:
-        _without_own_support(m)
-        boxes, with_boxes = sweep()
-    slow = col.collision_statistics(arm, poses=Q, distances=engine, prune=False)
-    same_statistics(hulls, slow)
-    same_statistics(boxes, slow)
-    assert hulls.poses_with_contact > 0
+    with_hulls, with_boxes = _bound_counts(monkeypatch, arm, engine, Q, None, _without_own_support)
     print(f"octahedra ({engine}): {with_hulls} distances with hulls, {with_boxes} with boxes")
     assert with_hulls < 0.8 * with_boxes
 
