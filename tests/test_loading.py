@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import codecs
+import copy
+import os
+import pickle
+import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -234,3 +239,194 @@ def test_a_second_worldbody_is_merged_for_pinocchio() -> None:
     assert ("worldbody", "2 <worldbody> sections") in names
     assert ("root body", "table") in names  # another tree: MuJoCo keeps it for collisions
     assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=3)).ok
+
+
+# -- an Arm is what was loaded: copies and pickles rebuild it from the bytes read -----------
+
+TWO_LINKS = """<mujoco model="two">
+  <compiler angle="radian" meshdir="{meshdir}"/>
+  <include file="defaults.xml"/>
+  <asset><mesh name="block" file="block.obj"/></asset>
+  <worldbody>
+    <body name="l1">
+      <joint name="j1" axis="0 1 0"/>
+      <inertial pos="0.25 0 0" mass="{mass}" diaginertia="0.01 0.05 0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.05"/>
+      <body name="l2" pos="0.5 0 0">
+        <joint name="j2" axis="0 1 0"/>
+        <inertial pos="0.2 0 0" mass="1" diaginertia="0.005 0.02 0.02"/>
+        <geom type="mesh" mesh="block" mass="0"/>
+        <site name="ee" pos="0.4 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+DEFAULTS = '<mujoco><default><joint armature="{armature}"/></default></mujoco>'
+#: A box 0.4 m long along x, as OBJ vertices and triangles.
+BLOCK = (
+    "".join(
+        f"v {x} {y} {z}\n"
+        for z in (-0.05, 0.05)
+        for x, y in ((0, -0.05), (0.4, -0.05), (0.4, 0.05), (0, 0.05))
+    )
+    + "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n"
+)
+
+COPIES = {
+    "copy": copy.copy,
+    "deepcopy": copy.deepcopy,
+    "pickle": lambda arm: pickle.loads(pickle.dumps(arm)),
+}
+
+
+def _two_links(folder: Path, meshdir: str = "meshes", mass: float = 2.0) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh_folder = folder / meshdir
+    mesh_folder.mkdir(parents=True, exist_ok=True)
+    (mesh_folder / "block.obj").write_text(BLOCK)
+    (folder / "defaults.xml").write_text(DEFAULTS.format(armature=0.1))
+    path = folder / "two.xml"
+    path.write_text(TWO_LINKS.format(meshdir=meshdir, mass=mass))
+    return path
+
+
+def _numbers(arm: rd.Arm) -> list[np.ndarray]:
+    q = np.array([0.3, -0.7])
+    return [arm.gravity(q), arm.mass_matrix(q), arm.mj_model.mesh_vert.copy()]
+
+
+def _same(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
+    return all(x.shape == y.shape and x.tobytes() == y.tobytes() for x, y in zip(a, b, strict=True))
+
+
+@pytest.mark.parametrize("how", list(COPIES))
+def test_a_copy_after_chdir_is_the_users_file_not_the_bundled_one_of_its_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, how: str
+) -> None:
+    heavier = re.sub(
+        r'mass="([0-9.]+)"',
+        lambda m: f'mass="{2 * float(m.group(1))!r}"',
+        rd.model_path("panda").read_text(encoding="utf-8"),
+    )
+    (tmp_path / "panda.xml").write_text(heavier, encoding="utf-8")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path)
+    arm = rd.load("panda.xml", frame="ee")
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    twin = COPIES[how](arm)
+    q = arm.keyframe("home")
+    assert twin.source == "panda.xml"
+    assert twin.gravity(q).tobytes() == arm.gravity(q).tobytes()
+    bundled = rd.load("panda", frame="ee").gravity(q)
+    assert np.abs(arm.gravity(q) - bundled).max() > 1.0  # the user's panda is another robot
+
+
+@pytest.mark.parametrize("how", list(COPIES))
+@pytest.mark.parametrize("edited", ["model", "include", "mesh", "removed"])
+def test_a_copy_is_the_robot_loaded_whatever_became_of_its_files(
+    tmp_path: Path, how: str, edited: str
+) -> None:
+    path = _two_links(tmp_path)
+    arm = rd.load(path)
+    before = _numbers(arm)
+    if edited == "model":
+        path.write_text(TWO_LINKS.format(meshdir="meshes", mass=7.0))
+    elif edited == "include":
+        (tmp_path / "defaults.xml").write_text(DEFAULTS.format(armature=0.9))
+    elif edited == "mesh":
+        (tmp_path / "meshes" / "block.obj").write_text(BLOCK.replace("0.4 ", "0.9 "))
+    else:
+        shutil.rmtree(tmp_path)
+    if edited != "removed":
+        assert not _same(_numbers(rd.load(path)), before)  # the edit changes the robot
+    twin = COPIES[how](arm)
+    assert _same(_numbers(twin), before)
+    assert _same(_numbers(COPIES[how](twin)), before)  # and so does a copy of the copy
+
+
+def test_the_recipe_names_every_file_read_absolutely(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _two_links(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    recipe = rd.load("two.xml")._recipe[1][0]
+    assert [p for p, _ in recipe.files] == [
+        str(tmp_path / "two.xml"),
+        str(tmp_path / "defaults.xml"),
+        str(tmp_path / "meshes" / "block.obj"),
+    ]
+    assert recipe.model == str(tmp_path / "two.xml")
+    # The identity covers the options: the same file with another tool is another arm.
+    assert rd.load("two.xml", frame="l2")._recipe[1][0].digest != recipe.digest
+    assert rd.load("two.xml")._recipe[1][0].digest == recipe.digest
+
+
+@pytest.mark.parametrize("how", list(COPIES))
+def test_a_copy_fails_naming_a_changed_file_it_cannot_rebuild_from_what_it_carries(
+    tmp_path: Path, how: str
+) -> None:
+    # A mesh folder given by absolute path is read where it is, even by a rebuild from the
+    # bytes the arm carries: if that mesh changed, the robot loaded cannot be rebuilt.
+    meshes = tmp_path / "shared" / "meshes"
+    path = _two_links(tmp_path / "robot", meshdir=str(meshes))
+    arm = rd.load(path)
+    (meshes / "block.obj").write_text(BLOCK.replace("0.4 ", "0.9 "))
+    mesh = str(meshes / "block.obj")
+    with pytest.raises(
+        rd.ModelError,
+        match=re.escape(
+            f"cannot rebuild the arm of {str(path)!r} as it was loaded: the file {mesh!r} "
+            "changed since the arm was loaded"
+        ),
+    ):
+        COPIES[how](arm)
+
+
+def test_a_urdf_copy_keeps_the_meshes_and_srdf_it_was_loaded_with(tmp_path: Path) -> None:
+    (tmp_path / "block.obj").write_text(BLOCK)
+    urdf = tmp_path / "two.urdf"
+    urdf.write_text(
+        """<robot name="two">
+  <link name="base"/>
+  <link name="l1">
+    <inertial><origin xyz="0.25 0 0"/><mass value="2"/>
+      <inertia ixx="0.01" iyy="0.05" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><mesh filename="block.obj"/></geometry></collision>
+  </link>
+  <link name="l2">
+    <inertial><origin xyz="0.2 0 0"/><mass value="1"/>
+      <inertia ixx="0.005" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><mesh filename="block.obj"/></geometry></collision>
+  </link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+</robot>"""
+    )
+    srdf = tmp_path / "two.srdf"
+    srdf.write_text('<robot name="two"><disable_collisions link1="base" link2="l2"/></robot>')
+    arm = rd.load(urdf, frame="l2", disabled_collisions=srdf)
+    files = [p for p, _ in arm._recipe[1][0].files]
+    assert files == [str(urdf), str(srdf), str(tmp_path / "block.obj")]
+    before = [*_numbers(arm), arm.mj_model.exclude_signature.copy()]
+    (tmp_path / "block.obj").write_text(BLOCK.replace("0.4 ", "0.9 "))
+    srdf.unlink()
+    twin = pickle.loads(pickle.dumps(arm))
+    assert _same([*_numbers(twin), twin.mj_model.exclude_signature.copy()], before)
+
+
+def test_a_reload_compiles_a_mesh_edited_within_the_same_second(tmp_path: Path) -> None:
+    # MuJoCo's asset cache knows a file by its name and modification time in whole
+    # seconds: read by MuJoCo, the edited mesh would compile as it was before the edit.
+    path = _two_links(tmp_path)
+    first = rd.load(path).mj_model.mesh_vert.copy()
+    mesh = tmp_path / "meshes" / "block.obj"
+    stamp = mesh.stat()
+    mesh.write_text(BLOCK.replace("0.4 ", "0.9 "))
+    os.utime(mesh, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))  # an edit within the second
+    again = rd.load(path).mj_model.mesh_vert
+    assert np.ptp(first, axis=0).max() == pytest.approx(0.4, rel=1e-6)
+    assert np.ptp(again, axis=0).max() == pytest.approx(0.9, rel=1e-6)

@@ -7,11 +7,36 @@ the original kept as ``__cause__``.
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Sequence
+from typing import Any
 
 
 class RedundancyError(Exception):
-    """Root of every exception raised by this library."""
+    """Root of every exception raised by this library.
+
+    Every one pickles with its message and attributes (an executor's worker sends it back
+    to the caller), whatever its constructor's arguments; an attribute that does not pickle
+    travels as its ``repr``.
+    """
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return _restored, (type(self), self.args, {k: _travels(v) for k, v in vars(self).items()})
+
+
+def _travels(value: object) -> object:
+    try:
+        pickle.dumps(value)
+    except Exception:  # any object may refuse to pickle, in any way
+        return repr(value)
+    return value
+
+
+def _restored(cls: type[RedundancyError], args: tuple[Any, ...], state: dict[str, Any]) -> Any:
+    err = cls.__new__(cls, *args)
+    err.args = args
+    err.__dict__.update(state)
+    return err
 
 
 class ModelError(RedundancyError):

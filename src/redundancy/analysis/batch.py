@@ -35,11 +35,11 @@ measures both).
 
 from __future__ import annotations
 
-import functools
+import collections
 import inspect
 import itertools
-import pickle
 import queue
+import threading
 from collections.abc import Callable
 from concurrent.futures import Executor, Future
 from typing import Any, TypeVar
@@ -64,9 +64,11 @@ from ..checks import (
 from ..collision import DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
-from ..errors import ParameterError
+from ..errors import ModelError, ParameterError, RedundancyError
 from ..ik import IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
+from ..model.content import ContentUnavailable, Recipe
+from ..model.loading import rebuild_arm
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -91,27 +93,59 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
 class _Shipped:
     """An arm on its way to an executor's worker.
 
-    In the caller's process (a thread pool) it is the arm itself; pickled (a process pool, a
-    Dask worker) it is the arm's loader call, and each worker process rebuilds the arm once
-    (:func:`_arrive`) and keeps it for the next chunks instead of loading it per task.
+    In the caller's process (a thread pool) it is the arm itself. Pickled (a process pool, a
+    Dask worker) it is the arm's recipe (:mod:`redundancy.model.content`): lean (the files'
+    paths and digests, not their bytes) unless ``content``. Each worker process rebuilds the
+    arm once per identity (:func:`_arrive`) and keeps it for the next chunks. A worker that
+    cannot rebuild it keeps the error, which the task raises: unpickling never fails.
     """
 
-    __slots__ = ("arm",)
+    __slots__ = ("arm", "content", "error")
 
-    def __init__(self, arm: Arm) -> None:
-        self.arm = arm
+    def __init__(self, arm: Arm | None, content: bool = False, error: Exception | None = None):
+        self.arm, self.content, self.error = arm, content, error
 
-    def __reduce__(self) -> tuple[Callable[[bytes], _Shipped], tuple[bytes]]:
-        return _arrive, (pickle.dumps(self.arm),)
+    def __reduce__(self) -> tuple[Callable[[Recipe], _Shipped], tuple[Recipe]]:
+        recipe = _recipe_of(self.arm)
+        return _arrive, (recipe if self.content else recipe.lean(),)
 
 
-@functools.lru_cache(maxsize=8)
-def _arrive(recipe: bytes) -> _Shipped:
-    return _Shipped(pickle.loads(recipe))
+def _recipe_of(arm: Arm | None) -> Recipe:
+    _, (recipe,) = arm.__reduce__()  # type: ignore[union-attr]
+    return recipe  # type: ignore[no-any-return]
+
+
+#: Arms rebuilt in this worker process, by identity (the digest of the files and options),
+#: the most recently used last.
+_ARRIVED: collections.OrderedDict[str, Arm] = collections.OrderedDict()
+_ARRIVED_LOCK = threading.Lock()
+
+
+def _arrive(recipe: Recipe) -> _Shipped:
+    with _ARRIVED_LOCK:
+        arm = _ARRIVED.get(recipe.digest)
+        if arm is not None:
+            _ARRIVED.move_to_end(recipe.digest)
+            return _Shipped(arm)
+    try:
+        arm = rebuild_arm(recipe)
+    except RedundancyError as err:
+        return _Shipped(None, error=err)
+    except Exception as err:  # an engine's own error: the task reports it, the worker lives on
+        return _Shipped(
+            None, error=ModelError(f"cannot rebuild the arm of {recipe.shown!r}: {err}")
+        )
+    with _ARRIVED_LOCK:
+        _ARRIVED[recipe.digest] = arm
+        while len(_ARRIVED) > 8:
+            _ARRIVED.popitem(last=False)
+    return _Shipped(arm)
 
 
 def _run_chunk(fn: Callable[..., R], shipped: _Shipped, Q: Array, kwargs: dict[str, Any]) -> R:
     """One task on a worker: ``fn`` on its chunk of poses, as in the caller's process."""
+    if shipped.arm is None:
+        raise shipped.error  # type: ignore[misc]
     return fn(shipped.arm, Q, **kwargs)
 
 
@@ -166,7 +200,19 @@ def _map_chunks(
         for lo in range(0, n, chunk):
             part = np.ascontiguousarray(Q[lo : lo + chunk])
             futures.append((lo, executor.submit(_run_chunk, fn, shipped, part, kwargs)))
-        return [(lo, f.result()) for lo, f in futures]
+        out = []
+        for k, (lo, f) in enumerate(futures):
+            try:
+                out.append((lo, f.result()))
+            except ContentUnavailable:
+                # The worker does not have the files as they were loaded: send their bytes.
+                part = np.ascontiguousarray(Q[lo : lo + chunk])
+                futures[k] = (
+                    lo,
+                    executor.submit(_run_chunk, fn, _Shipped(arm, True), part, kwargs),
+                )
+                out.append((lo, futures[k][1].result()))
+        return out
     finally:  # an error or an interrupt: drop the tasks not yet started
         for _, f in futures:
             f.cancel()
@@ -478,15 +524,30 @@ def distances(
 # ------------------------------------------------------------------------------------------
 
 
-def _mobilities(
-    arm: Arm, Q: ArrayLike, armature: bool, joints: object, engine: str, threads: int
-) -> tuple[Array, Array]:
-    """J of the free joints and M_ff^-1 J_f^T over a stack (inputs validated here)."""
+def _dynamics_inputs(
+    arm: Arm, Q: ArrayLike, armature: object, joints: object, engine: object, threads: object
+) -> tuple[Array, bool, tuple[str, ...] | None, str, int]:
+    """The inputs of the tool-mass functions checked, in this order, and made plain values.
+
+    ``joints`` (any iterable of names: a generator, a dict's keys, an array of names) is read
+    once, here, into a tuple: what crosses to an executor's worker is the same plain tuple
+    the serial path uses, so both give the same answer or the same error.
+    """
     Q = poses(arm, Q)  # the arm checked first
-    check_choice("engine", engine, ENGINES)
+    engine = check_choice("engine", engine, ENGINES)
     threads = check_threads(threads)
-    free = check_joint_subset("joints", joints, arm.joint_names)
+    if joints is not None and hasattr(joints, "__iter__") and not isinstance(joints, str | bytes):
+        joints = tuple(joints)  # type: ignore[call-overload]
+    check_joint_subset("joints", joints, arm.joint_names)
     armature = check_flag("armature", armature)
+    return Q, armature, joints, engine, threads  # type: ignore[return-value]
+
+
+def _mobilities(
+    arm: Arm, Q: Array, armature: bool, joints: tuple[str, ...] | None, engine: str, threads: int
+) -> tuple[Array, Array]:
+    """J of the free joints and M_ff^-1 J_f^T over a stack (inputs checked)."""
+    free = check_joint_subset("joints", joints, arm.joint_names)
     return arm.engine(engine).tool_mobilities(Q, armature, free, threads)
 
 
@@ -519,6 +580,9 @@ def operational_inertias(
         SingularPoseError: At the first singular pose (the message names it and the lost
             tool directions).
     """
+    Q, armature, joints, engine, threads = _dynamics_inputs(
+        arm, Q, armature, joints, engine, threads
+    )
     if executor is not None:
         return scatter(
             executor,
@@ -561,24 +625,27 @@ def effective_masses(
     Returns:
         Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
     """
-    if executor is not None and np.ndim(direction) != 1:
-        raise ParameterError(
-            "direction", direction, "one direction of shape (3,) when an executor is given"
-        )
+    Q, armature, joints, engine, threads = _dynamics_inputs(
+        arm, Q, armature, joints, engine, threads
+    )
+    U = check_directions("direction", direction, len(Q))
     if executor is not None:
-        return scatter(
-            executor,
-            effective_masses,
-            arm,
-            Q,
-            direction=direction,
-            armature=armature,
-            joints=joints,
-            engine=engine,
-            threads=threads,
-        )
+        # Each pose travels with its direction: one row of (n, nq + 3).
+        kwargs = {"armature": armature, "joints": joints, "engine": engine, "threads": threads}
+        _check_executor(executor, _effective_masses_of_rows, kwargs)
+        QU = np.concatenate([Q, U], axis=1)
+        parts = _map_chunks(executor, _effective_masses_of_rows, arm, QU, None, kwargs)
+        return np.concatenate([r for _, r in parts]) if parts else np.empty(0)
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    U = check_directions("direction", direction, len(J))
+    return linalg._effective_masses(J, X, U)
+
+
+def _effective_masses_of_rows(
+    arm: Arm, QU: Array, armature: bool, joints: tuple[str, ...] | None, engine: str, threads: int
+) -> Array:
+    """:func:`effective_masses` of a chunk of rows (pose, unit direction), on a worker."""
+    Q, U = np.ascontiguousarray(QU[:, : arm.nq]), np.ascontiguousarray(QU[:, arm.nq :])
+    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     return linalg._effective_masses(J, X, U)
 
 
@@ -597,6 +664,9 @@ def effective_mass_ranges(
     As :meth:`Arm.effective_mass_range <redundancy.Arm.effective_mass_range>`'s ``min`` and
     ``max`` (arguments as :func:`effective_masses`).
     """
+    Q, armature, joints, engine, threads = _dynamics_inputs(
+        arm, Q, armature, joints, engine, threads
+    )
     if executor is not None:
         return scatter(
             executor,
@@ -627,6 +697,9 @@ def dynamic_manipulabilities(
     As :meth:`Arm.dynamic_manipulability <redundancy.Arm.dynamic_manipulability>`
     (arguments as :func:`effective_masses`).
     """
+    Q, armature, joints, engine, threads = _dynamics_inputs(
+        arm, Q, armature, joints, engine, threads
+    )
     if executor is not None:
         return scatter(
             executor,

@@ -14,7 +14,6 @@ collide the same convex solid, which for a non-convex mesh is its hull, not the 
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -247,25 +246,24 @@ class CoalScene:
         self._qp = np.zeros(shared.pin_model.nq)
         # GeometryData owns a distance request per pair, which computeDistance(s) reads, and a
         # collision request per pair, which placed_within's computeCollision reads: GJK as
-        # tight in both, EPA for the distances only.
+        # tight in both, EPA for the distances only. Pinocchio's own requests turn on GJK warm
+        # starts from the previous call, which makes a result depend on the poses queried
+        # before it (by up to 1e-6 m for EPA depths); fresh coal requests have them off (so
+        # every result is a function of the pose alone, and faster) and replace them whole:
+        # the warm-start flag itself is deprecated, and silencing its warning would change the
+        # process-wide warning filters under the user's other threads.
+        import coal
+
         ref = distance_request()
-        for req in (*self.geom_data.distanceRequests, *self.geom_data.collisionRequests):
-            req.gjk_tolerance = ref.gjk_tolerance
-            req.gjk_max_iterations = ref.gjk_max_iterations
-            req.gjk_initial_guess = ref.gjk_initial_guess
-            # Pinocchio turns on GJK warm starts from the previous call, which makes a
-            # result depend on the poses queried before it (by up to 1e-6 m for EPA
-            # depths); off, every result is a function of the pose alone, and faster.
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", DeprecationWarning)
-                if hasattr(req, "enable_cached_gjk_guess"):
-                    req.enable_cached_gjk_guess = False
-        for req in self.geom_data.distanceRequests:
-            req.enable_signed_distance = ref.enable_signed_distance
-            req.epa_tolerance = ref.epa_tolerance
-            req.epa_max_iterations = ref.epa_max_iterations
-        for req in self.geom_data.collisionRequests:
-            req.enable_contact = False
+        collide = coal.CollisionRequest()
+        collide.enable_contact = False
+        collide.gjk_tolerance = ref.gjk_tolerance
+        collide.gjk_max_iterations = ref.gjk_max_iterations
+        collide.gjk_initial_guess = ref.gjk_initial_guess
+        for k in range(len(self.geom_data.distanceRequests)):
+            self.geom_data.distanceRequests[k] = ref
+        for k in range(len(self.geom_data.collisionRequests)):
+            self.geom_data.collisionRequests[k] = collide
         # References into GeometryData's result vector, listed once: building the Python
         # wrappers anew for every pose would cost more than the distances themselves.
         self._results = list(self.geom_data.distanceResults)

@@ -9,7 +9,7 @@ import os
 import re
 import tempfile
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import mujoco
@@ -21,6 +21,7 @@ from ..engines.mujoco import captured_warnings, joint_limits, object_names
 from ..errors import ModelError, ParameterError, UnknownNameError
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
+from .content import Recipe, feed_assets, mujoco_assets, rebuild, record, recording
 from .ends import frame_for
 from .names import display_names
 from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
@@ -59,6 +60,7 @@ def _read_mujoco(
                 if base is not None:
                     # Transcoded text of a file: relative asset paths count from its directory.
                     spec.modelfiledir = str(base)
+            feed_assets(spec, mujoco_assets(spec, base or Path.cwd()))
             pristine = spec.copy()
             model = spec.compile()  # MuJoCo's own errors first, then the tool's
     except (ValueError, TypeError) as err:
@@ -230,28 +232,77 @@ def load(
             chain, ``rest`` not a keyframe or held joint (the message lists the valid names).
     """
     p, data = _read_file(path)
-    text, as_is = decode_xml(data, str(p))
-    root = _xml_root(text)
-    folder = p.resolve().parent
-    tool, whole = _tool(site, frame), None
-    if tool is None:  # the model's default, from its chain ends, includes read
-        whole = expanded(root, folder)
-        tool = frame_for(whole[0], str(p))
+    options = _options(site, strict, frame, disabled_collisions, base, rest)
+    return _from_file(p, data, options, str(p))
+
+
+def _options(
+    site: str | None,
+    strict: bool,
+    frame: str | None,
+    disabled_collisions: DisabledPairs | None,
+    base: str | None,
+    rest: RestSpec,
+) -> tuple[object, ...]:
+    """The load's options as they pickle with the recipe (an SRDF path made absolute)."""
     pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
-    rest = _frozen_rest(rest)
-    recipe = (load, (str(p), site, strict, frame, pairs, base, rest))
-    robot = _Robot(tool, base, rest, recipe, str(p))
-    if is_urdf(root):
-        return _load_urdf(text, root, folder, pairs, robot)
-    _check_mjcf(pairs)
-    if as_is:
-        spec, mj, kind = _read_mujoco(None, p, tool=tool)
-    else:
-        spec, mj, kind = _read_mujoco(text, None, folder, tool)
-    # After MuJoCo, whose errors name a missing include first.
-    mjcf = _edited(robot, whole or expanded(root, folder))
-    path_for_pin = None if robot.changed or not as_is else p
-    return _load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)
+    if isinstance(pairs, str):
+        pairs = os.path.abspath(pairs)
+    return (site, strict, frame, pairs, base, _frozen_rest(rest))
+
+
+def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) -> Arm:
+    """:func:`load` of the file ``p`` (bytes ``data``), named ``shown`` in messages."""
+    site, strict, frame, pairs, base, rest = options
+    with recording() as reading:
+        record(p.resolve(), data)
+        text, as_is = decode_xml(data, shown)
+        root = _xml_root(text)
+        folder = p.resolve().parent
+        tool, whole = _tool(site, frame), None  # type: ignore[arg-type]
+        if tool is None:  # the model's default, from its chain ends, includes read
+            whole = expanded(root, folder)
+            tool = frame_for(whole[0], shown)
+        robot = _Robot(tool, base, rest, shown)  # type: ignore[arg-type]
+        if is_urdf(root):
+            arm = _load_urdf(text, root, folder, pairs, robot)  # type: ignore[arg-type]
+        else:
+            _check_mjcf(pairs)  # type: ignore[arg-type]
+            if as_is:
+                # By its absolute path: MuJoCo then looks its assets up by theirs.
+                spec, mj, kind = _read_mujoco(None, p.resolve(), folder, tool)
+            else:
+                spec, mj, kind = _read_mujoco(text, None, folder, tool)
+            # After MuJoCo, whose errors name a missing include first.
+            mjcf = _edited(robot, whole or expanded(root, folder))
+            path_for_pin = None if robot.changed or not as_is else p
+            arm = _load_mjcf(spec, mj, kind, mjcf, bool(strict), robot, path_for_pin)
+    recipe = Recipe.made("load", str(p.resolve()), str(folder), options, shown, reading.files)
+    arm._recipe = (rebuild_arm, (recipe,))
+    return arm
+
+
+def _again(recipe: Recipe, at: Callable[[str], str]) -> Arm:
+    """The load a recipe records, with its files where ``at`` says they now are."""
+    site, strict, frame, pairs, base, rest = recipe.options
+    options = (site, strict, frame, at(pairs) if isinstance(pairs, str) else pairs, base, rest)
+    if recipe.loader == "load_string":
+        return _from_text(recipe.model, Path(at(recipe.folder)), options)
+    p = Path(at(recipe.model))
+    try:
+        data = p.read_bytes()
+    except OSError as err:
+        raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
+    return _from_file(p, data, options, recipe.shown)
+
+
+def rebuild_arm(recipe: Recipe) -> Arm:
+    """An Arm again from its recipe (what a copy, a pickle and a worker call)."""
+    if not isinstance(recipe, Recipe):
+        raise ModelError(f"not an arm's recipe: {type(recipe).__name__}")
+    arm, full = rebuild(recipe, _again)
+    arm._recipe = (rebuild_arm, (full,))
+    return arm
 
 
 def load_string(
@@ -275,21 +326,30 @@ def load_string(
         xml = strip_declaration(xml)
     else:
         raise ModelError(f"model text must be a str or bytes, got {type(xml).__name__}")
-    root = _xml_root(xml)
-    tool, whole = _tool(site, frame), None
-    if tool is None:
-        whole = expanded(root, Path.cwd())
-        tool = frame_for(whole[0], "<string>")
-    pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
-    rest = _frozen_rest(rest)
-    recipe = (load_string, (xml, site, strict, frame, pairs, base, rest))
-    robot = _Robot(tool, base, rest, recipe, "<string>")
-    if is_urdf(root):
-        return _load_urdf(xml, root, Path.cwd(), pairs, robot)
-    _check_mjcf(pairs)
-    spec, mj, kind = _read_mujoco(xml, None, tool=tool)
-    mjcf = _edited(robot, whole or expanded(root, Path.cwd()))
-    return _load_mjcf(spec, mj, kind, mjcf, strict, robot, None)
+    options = _options(site, strict, frame, disabled_collisions, base, rest)
+    return _from_text(xml, Path.cwd(), options)
+
+
+def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
+    """:func:`load_string` of decoded text; relative paths in it count from ``folder``."""
+    site, strict, frame, pairs, base, rest = options
+    with recording() as reading:
+        root = _xml_root(xml)
+        tool, whole = _tool(site, frame), None  # type: ignore[arg-type]
+        if tool is None:
+            whole = expanded(root, folder)
+            tool = frame_for(whole[0], "<string>")
+        robot = _Robot(tool, base, rest, "<string>")  # type: ignore[arg-type]
+        if is_urdf(root):
+            arm = _load_urdf(xml, root, folder, pairs, robot)  # type: ignore[arg-type]
+        else:
+            _check_mjcf(pairs)  # type: ignore[arg-type]
+            spec, mj, kind = _read_mujoco(xml, None, folder, tool)
+            mjcf = _edited(robot, whole or expanded(root, folder))
+            arm = _load_mjcf(spec, mj, kind, mjcf, bool(strict), robot, None)
+    recipe = Recipe.made("load_string", xml, str(folder), options, "<string>", reading.files)
+    arm._recipe = (rebuild_arm, (recipe,))
+    return arm
 
 
 def model_format(arm: Arm) -> str:
@@ -300,16 +360,9 @@ def model_format(arm: Arm) -> str:
 class _Robot:
     """What a load asks for (tool, base, rest) and what it has set aside so far."""
 
-    def __init__(
-        self,
-        tool: str,
-        base: str | None,
-        rest: RestSpec,
-        recipe: tuple[object, tuple[object, ...]],
-        source: str,
-    ) -> None:
+    def __init__(self, tool: str, base: str | None, rest: RestSpec, source: str) -> None:
         self.tool, self.base, self.rest = tool, base, rest
-        self.recipe, self.source = recipe, source
+        self.source = source
         self.set_aside: list[SetAside] = []
         self.defects: list[str] = []  # defects of the file on bodies the arm moves
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
@@ -379,9 +432,11 @@ def _expand_includes(
                 continue
             name = child.get("file", "")
             try:
-                inner = _xml_root((base / name).read_text(encoding="utf-8"))
-            except OSError as err:
+                data = (base / name).read_bytes()
+                inner = _xml_root(data.decode("utf-8"))
+            except (OSError, UnicodeDecodeError) as err:
                 raise ModelError(f"cannot read the included file {name!r}: {err}") from err
+            record(base / name, data)
             inner = _expand_includes(inner, base, edits, depth + 1)
             parent.remove(child)
             for k, el in enumerate(list(inner)):
@@ -612,7 +667,6 @@ def _build(
         damping=damping,
         effort_limit=effort,
         bridges=bridges,
-        recipe=robot.recipe,  # type: ignore[arg-type]
         model_format=model_format,
         held=sel.held,
         set_aside=tuple(robot.set_aside),

@@ -48,6 +48,7 @@ import numpy as np
 
 from ..engines.mujoco import captured_warnings
 from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
+from .content import feed_assets, record
 from .robot import SetAside
 
 _XACRO_NS = "{http://www.ros.org/wiki/xacro}"
@@ -497,9 +498,11 @@ def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tup
     if isinstance(pairs, str | os.PathLike):
         p = Path(pairs)
         try:
-            srdf = ET.fromstring(p.read_bytes())
+            data = p.read_bytes()
+            srdf = ET.fromstring(data)
         except (OSError, ET.ParseError) as err:
             raise ModelError(f"cannot read the SRDF file {str(p)!r}: {err}") from err
+        record(p, data)
         for el in srdf.iter("disable_collisions"):
             out.append((el.get("link1", ""), el.get("link2", "")))
     else:
@@ -569,6 +572,7 @@ def build_mujoco(
             for mesh in spec.meshes:
                 path = resolve_mesh(mesh.file, base, source)
                 if path.suffix.lower() == ".dae":
+                    record(path)
                     _collada_mesh(mesh, path, source)
                     notes.append(
                         SetAside(
@@ -579,6 +583,7 @@ def build_mujoco(
                     )
                 else:
                     mesh.file = str(path)
+                    feed_assets(spec, [path])
             _name_geoms(spec)
             body = spec.body(tool_link)
             if body is None:
