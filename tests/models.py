@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 #: A 7-joint arm with offsets, rotated bodies, mixed axes, a slide joint and an actuator
 #: with its own armature: everything arm7 does not exercise.
 SKEW7 = """
@@ -74,3 +76,48 @@ def chain(
   {extra}
 </mujoco>
 """
+
+
+#: A two-link arm written as files (:func:`write_two_links`): a model that includes a file of
+#: defaults and names an OBJ mesh in its mesh folder; ``mass`` is the first link's.
+TWO_LINKS = """<mujoco model="two">
+  <compiler angle="radian" meshdir="{meshdir}"/>
+  <include file="defaults.xml"/>
+  <asset><mesh name="block" file="block.obj"/></asset>
+  <worldbody>
+    <body name="l1">
+      <joint name="j1" axis="0 1 0"/>
+      <inertial pos="0.25 0 0" mass="{mass}" diaginertia="0.01 0.05 0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.05"/>
+      <body name="l2" pos="0.5 0 0">
+        <joint name="j2" axis="0 1 0"/>
+        <inertial pos="0.2 0 0" mass="1" diaginertia="0.005 0.02 0.02"/>
+        <geom type="mesh" mesh="block" mass="0"/>
+        <site name="ee" pos="0.4 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+DEFAULTS = '<mujoco><default><joint armature="{armature}"/></default></mujoco>'
+#: A box 0.4 m long along x, as OBJ vertices and triangles.
+BLOCK = (
+    "".join(
+        f"v {x} {y} {z}\n"
+        for z in (-0.05, 0.05)
+        for x, y in ((0, -0.05), (0.4, -0.05), (0.4, 0.05), (0, 0.05))
+    )
+    + "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n"
+)
+
+
+def write_two_links(folder: Path, meshdir: str = "meshes", mass: float = 2.0) -> Path:
+    """The two-link arm as files: the model, an included file, a mesh (in ``meshdir``)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh_folder = folder / meshdir
+    mesh_folder.mkdir(parents=True, exist_ok=True)
+    (mesh_folder / "block.obj").write_text(BLOCK)
+    (folder / "defaults.xml").write_text(DEFAULTS.format(armature=0.1))
+    path = folder / "two.xml"
+    path.write_text(TWO_LINKS.format(meshdir=meshdir, mass=mass))
+    return path

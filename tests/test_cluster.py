@@ -1,16 +1,34 @@
 """``executor=`` on every batch function and on crosscheck_batch: a Dask cluster of two worker
-processes gives the serial results bit for bit."""
+processes, and a process pool, give the serial results bit for bit.
+
+An arm reaches a worker as its recipe (:mod:`redundancy.model.content`): the worker rebuilds
+the robot that was loaded, from the files if they still hold the same bytes, else from the
+bytes the caller sends; workers keep arms by that identity. A failure on a worker fails the
+call with the library's error and leaves the executor usable.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import concurrent.futures as cf
+import contextlib
+import copy
+import multiprocessing
+import pickle
+import threading
+from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, ThreadPoolExecutor
+from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import batch
+
+from .models import BLOCK, TWO_LINKS, write_two_links
 
 distributed = pytest.importorskip("distributed")
 
@@ -36,6 +54,18 @@ def dask_executor() -> Iterator[Executor]:
     finally:
         client.close()
         cluster.close()
+
+
+@pytest.fixture(scope="module")
+def process_pool() -> Iterator[Executor]:
+    with cf.ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
+        yield pool
+
+
+@pytest.fixture(scope="module", params=["process pool", "dask"])
+def executor(request: pytest.FixtureRequest) -> Executor:
+    name = "process_pool" if request.param == "process pool" else "dask_executor"
+    return request.getfixturevalue(name)
 
 
 @pytest.fixture(scope="module")
@@ -129,3 +159,256 @@ def test_bad_executor_and_bad_arguments_raise_here(arm7: rd.Arm, stack: np.ndarr
             batch.gravities(arm7, stack, engine="bullet", executor=pool)  # type: ignore[arg-type]
         with pytest.raises(rd.PoseError):
             batch.gravities(arm7, stack[:, :3], executor=pool)
+
+
+# -- the same arm everywhere ---------------------------------------------------------------
+
+
+def _within(call: Callable[[], object]) -> object:
+    """``call()``, failing the test if it never returns (a hung executor).
+
+    The bound is for a hang, not a measured time: the call takes well under a second.
+    """
+    out: list[object] = []
+    worker = threading.Thread(target=lambda: out.append(_outcome(call)), daemon=True)
+    worker.start()
+    worker.join(300)
+    assert out, "the executor hung"
+    if isinstance(out[0], BaseException):
+        raise out[0]
+    return out[0]
+
+
+def _outcome(call: Callable[[], object]) -> object:
+    try:
+        return call()
+    except BaseException as err:  # handed to the test's thread
+        return err
+
+
+def _small_chunks() -> mock._patch:
+    # Many chunks per call, so each worker of the executor computes some of every call.
+    return mock.patch.object(batch, "EXECUTOR_MIN_CHUNK", 16)
+
+
+def test_a_reloaded_file_is_computed_as_reloaded_by_workers_that_served_the_old_one(
+    tmp_path: Path, executor: Executor
+) -> None:
+    path = write_two_links(tmp_path)
+    old = rd.load(path)
+    Q = rd.random_poses(old, 300, seed=1)
+    with _small_chunks():
+        assert _within(lambda: batch.gravities(old, Q, executor=executor)).tobytes() == (
+            batch.gravities(old, Q).tobytes()
+        )
+        path.write_text(TWO_LINKS.format(meshdir="meshes", mass=7.0))
+        new = rd.load(path)
+        serial = batch.gravities(new, Q)
+        assert np.abs(serial - batch.gravities(old, Q)).max() > 1.0
+        assert _within(lambda: batch.gravities(new, Q, executor=executor)).tobytes() == (
+            serial.tobytes()
+        )
+
+
+@pytest.mark.parametrize("gone", ["removed", "relative path, elsewhere"])
+def test_a_worker_without_the_file_computes_the_robot_loaded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, executor: Executor, gone: str
+) -> None:
+    # A relative path means nothing in another directory (the workers' own); a temporary
+    # file may be gone before the call: the caller sends the bytes the arm was loaded from.
+    folder = tmp_path / "robot"
+    write_two_links(folder, mass=3.5)
+    monkeypatch.chdir(folder)
+    arm = rd.load("two.xml")
+    if gone == "removed":
+        for p in sorted(folder.rglob("*"), reverse=True):
+            p.rmdir() if p.is_dir() else p.unlink()
+    else:
+        (folder / "two.xml").rename(folder / "moved.xml")  # nor there for a worker in here
+    Q = rd.random_poses(arm, 100, seed=2)
+    with _small_chunks():
+        for fn in (batch.gravities, batch.distances):
+            got = _within(lambda fn=fn: fn(arm, Q, executor=executor))
+            assert got.tobytes() == fn(arm, Q).tobytes()
+
+
+def test_a_failure_on_a_worker_fails_the_call_with_the_librarys_error(
+    tmp_path: Path, executor: Executor
+) -> None:
+    # A mesh folder named by absolute path is read where it is: when that mesh changed, no
+    # worker can rebuild the robot loaded, and the call says so.
+    meshes = tmp_path / "shared"
+    path = write_two_links(tmp_path / "robot", meshdir=str(meshes))
+    arm = rd.load(path)
+    (meshes / "block.obj").write_text(BLOCK.replace("0.4 ", "0.9 "))
+    Q = rd.random_poses(arm, 40, seed=3)
+    mesh = str(meshes / "block.obj")
+    with pytest.raises(
+        rd.ModelError,
+        match=f"^cannot rebuild the arm of {str(path)!r} as it was loaded: the file {mesh!r} "
+        "changed since the arm was loaded$",
+    ):
+        _within(lambda: batch.gravities(arm, Q, executor=executor))
+    # An error raised by the computation itself, with attributes its constructor sets.
+    arm = rd.load(write_two_links(tmp_path / "intact"))
+    singular = np.zeros((3, arm.nq))  # both links along x: the tool cannot move along x
+    with pytest.raises(rd.SingularPoseError) as serial:
+        batch.operational_inertias(arm, singular)
+    with pytest.raises(rd.SingularPoseError) as remote:
+        _within(lambda: batch.operational_inertias(arm, singular, executor=executor))
+    assert str(remote.value) == str(serial.value)
+    assert remote.value.lost == serial.value.lost
+    # The executor is still usable.
+    arm7 = rd.load(rd.model_path("arm7"), site="ee")
+    Q7 = rd.random_poses(arm7, 50, seed=4)
+    assert _within(lambda: batch.gravities(arm7, Q7, executor=executor)).tobytes() == (
+        batch.gravities(arm7, Q7).tobytes()
+    )
+
+
+# -- what crosses to a worker is checked and made plain first -------------------------------
+
+
+def _joint_arguments(arm: rd.Arm) -> dict[str, Callable[[], object]]:
+    brakes = {name: 1.0 for name in arm.joint_names[2:6]}
+    return {
+        "dict keys": lambda: brakes.keys(),
+        "generator": lambda: (j for j in brakes),
+        "array of names": lambda: np.array(list(brakes)),
+        "set": lambda: set(brakes),
+        "unknown name in a generator": lambda: (j for j in ["j2", "wrist"]),
+        "empty generator": lambda: (j for j in []),
+        "name twice": lambda: iter(["j2", "j2"]),
+        "not names": lambda: iter([1, 2]),
+        "a name, not a collection": lambda: "j2",
+    }
+
+
+def _serial_and_executor(call: Callable[..., object], executor: Executor) -> list[object]:
+    return [_outcome(lambda: call(None)), _outcome(lambda: _within(lambda: call(executor)))]
+
+
+def _same_outcome(serial: object, remote: object) -> None:
+    if isinstance(serial, BaseException):
+        assert type(remote) is type(serial) and str(remote) == str(serial), (serial, remote)
+    else:
+        assert isinstance(remote, np.ndarray), remote
+        assert remote.tobytes() == serial.tobytes()  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(
+    "fn",
+    [
+        batch.operational_inertias,
+        batch.effective_mass_ranges,
+        batch.dynamic_manipulabilities,
+        lambda arm, Q, **kw: batch.effective_masses(arm, Q, [0.2, -0.3, 1.0], **kw),
+    ],
+    ids=["operational_inertias", "effective_mass_ranges", "dynamic_manipulabilities", "masses"],
+)
+def test_joints_given_as_any_collection_give_the_serial_answer_or_error(
+    fn: Callable[..., np.ndarray], arm7: rd.Arm, executor: Executor
+) -> None:
+    Q = rd.random_poses(arm7, 60, seed=5)
+    with _small_chunks():
+        for name, joints in _joint_arguments(arm7).items():
+            serial, remote = _serial_and_executor(
+                lambda ex, joints=joints: fn(arm7, Q, joints=joints(), executor=ex), executor
+            )
+            try:
+                _same_outcome(serial, remote)
+            except AssertionError as err:
+                raise AssertionError(f"joints as {name}: {err}") from None
+
+
+def test_plain_values_and_per_pose_directions_cross_as_they_are_used_here(
+    arm7: rd.Arm, executor: Executor
+) -> None:
+    Q = rd.random_poses(arm7, 60, seed=6)
+    U = np.random.default_rng(6).normal(size=(60, 3))
+    calls = {
+        "numpy scalars": lambda ex: batch.manipulabilities(
+            arm7,
+            Q,
+            kind=np.str_("scaled"),
+            length=np.float32(0.3),
+            threads=np.int64(2),
+            executor=ex,
+        ),
+        "numpy flag": lambda ex: batch.mass_matrices(
+            arm7, Q, armature=np.bool_(False), executor=ex
+        ),
+        "a direction per pose": lambda ex: batch.effective_masses(arm7, Q, U, executor=ex),
+        "directions as a list": lambda ex: batch.effective_masses(arm7, Q, U.tolist(), executor=ex),
+        "a direction per pose, too few": lambda ex: batch.effective_masses(
+            arm7, Q, U[:5], executor=ex
+        ),
+        "a zero direction": lambda ex: batch.effective_masses(arm7, Q, [0, 0, 0], executor=ex),
+        "poses as a generator": lambda ex: batch.gravities(arm7, (q for q in Q), executor=ex),
+        "a bad flag": lambda ex: batch.mass_matrices(arm7, Q, armature="no", executor=ex),
+    }
+    with _small_chunks():
+        for name, call in calls.items():
+            serial, remote = _serial_and_executor(call, executor)
+            try:
+                _same_outcome(serial, remote)
+            except AssertionError as err:
+                raise AssertionError(f"{name}: {err}") from None
+
+
+# -- serial and executor results are bit-equal, whichever way the arm came -----------------
+
+#: Examples of the property: 5 under "redundancy-ci" (60), 83 under "redundancy-thorough".
+TRAVEL_EXAMPLES = max(3, settings.default.max_examples // 12)
+EXECUTOR_FUNCTIONS = (
+    batch.jacobians,
+    batch.singular_values,
+    batch.manipulabilities,
+    batch.mass_matrices,
+    batch.gravities,
+    batch.distances,
+    batch.operational_inertias,
+    batch.effective_mass_ranges,
+    batch.dynamic_manipulabilities,
+)
+
+
+@settings(
+    max_examples=TRAVEL_EXAMPLES,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(
+    how=st.sampled_from(["relative path", "reloaded file", "copy", "pickled copy"]),
+    mass=st.floats(0.5, 20.0),
+    fn=st.sampled_from(EXECUTOR_FUNCTIONS),
+    n=st.integers(0, 70),
+    seed=st.integers(0, 2**16),
+)
+def test_executor_results_equal_serial_ones_bit_for_bit(
+    tmp_path_factory: pytest.TempPathFactory,
+    process_pool: Executor,
+    dask_executor: Executor,
+    how: str,
+    mass: float,
+    fn: Callable[..., np.ndarray],
+    n: int,
+    seed: int,
+) -> None:
+    folder = tmp_path_factory.mktemp("robot")
+    path = write_two_links(folder, mass=mass)
+    with contextlib.chdir(folder):
+        arm = rd.load("two.xml") if how == "relative path" else rd.load(path)
+    if how == "reloaded file":
+        _within(lambda: batch.gravities(arm, np.zeros((20, arm.nq)), executor=process_pool))
+        path.write_text(TWO_LINKS.format(meshdir="meshes", mass=mass + 1.0))
+        arm = rd.load(path)
+    elif how == "copy":
+        arm = copy.deepcopy(arm)
+    elif how == "pickled copy":
+        arm = pickle.loads(pickle.dumps(arm))
+    Q = rd.random_poses(arm, n, seed=seed)
+    serial = fn(arm, Q)
+    with _small_chunks():
+        for executor in (process_pool, dask_executor):
+            got = _within(lambda executor=executor: fn(arm, Q, executor=executor))
+            assert got.shape == serial.shape and got.tobytes() == serial.tobytes()

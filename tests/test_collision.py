@@ -1721,3 +1721,23 @@ def test_check_path_tol_must_be_a_number(arm7: rd.Arm) -> None:
         rd.ParameterError, match=re.escape("tol must be a finite number > 1e-06 [m], got '1e-3'")
     ):
         pc.check_path(arm7, [home, home], tol="1e-3")  # type: ignore[arg-type]
+
+
+def test_coal_scenes_leave_the_process_wide_warning_filters_alone(
+    arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # warnings.catch_warnings swaps the process-wide filter list: under another thread's
+    # own catch_warnings, or while that thread warns, the user's filters would change.
+    import warnings
+
+    touched: list[str] = []
+    for name in ("catch_warnings", "simplefilter", "filterwarnings", "resetwarnings"):
+        real = getattr(warnings, name)
+        monkeypatch.setattr(
+            warnings, name, lambda *a, _n=name, _f=real, **k: touched.append(_n) or _f(*a, **k)
+        )
+    arm = copy.deepcopy(arm7)  # scenes are per arm: a fresh one builds its own
+    q = arm.keyframe("home")
+    col.checker(arm).distance_values(q, "coal")
+    col.checker(arm).contact_pairs(q)
+    assert touched == []

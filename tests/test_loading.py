@@ -17,6 +17,8 @@ import redundancy as rd
 from redundancy.arm import random_poses
 from redundancy.model.loading import decode_xml, model_format
 
+from .models import BLOCK, DEFAULTS, TWO_LINKS, write_two_links
+
 MODELS = Path(rd.model_path("arm7")).parent
 # Names and comments outside ASCII: a file in another encoding must reach both engines intact.
 ACCENTED = ('<mujoco model="arm7">', '<mujoco model="arm7">\n  <!-- bras à sept axes -->')
@@ -243,52 +245,11 @@ def test_a_second_worldbody_is_merged_for_pinocchio() -> None:
 
 # -- an Arm is what was loaded: copies and pickles rebuild it from the bytes read -----------
 
-TWO_LINKS = """<mujoco model="two">
-  <compiler angle="radian" meshdir="{meshdir}"/>
-  <include file="defaults.xml"/>
-  <asset><mesh name="block" file="block.obj"/></asset>
-  <worldbody>
-    <body name="l1">
-      <joint name="j1" axis="0 1 0"/>
-      <inertial pos="0.25 0 0" mass="{mass}" diaginertia="0.01 0.05 0.05"/>
-      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.05"/>
-      <body name="l2" pos="0.5 0 0">
-        <joint name="j2" axis="0 1 0"/>
-        <inertial pos="0.2 0 0" mass="1" diaginertia="0.005 0.02 0.02"/>
-        <geom type="mesh" mesh="block" mass="0"/>
-        <site name="ee" pos="0.4 0 0"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-DEFAULTS = '<mujoco><default><joint armature="{armature}"/></default></mujoco>'
-#: A box 0.4 m long along x, as OBJ vertices and triangles.
-BLOCK = (
-    "".join(
-        f"v {x} {y} {z}\n"
-        for z in (-0.05, 0.05)
-        for x, y in ((0, -0.05), (0.4, -0.05), (0.4, 0.05), (0, 0.05))
-    )
-    + "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n"
-)
-
 COPIES = {
     "copy": copy.copy,
     "deepcopy": copy.deepcopy,
     "pickle": lambda arm: pickle.loads(pickle.dumps(arm)),
 }
-
-
-def _two_links(folder: Path, meshdir: str = "meshes", mass: float = 2.0) -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    mesh_folder = folder / meshdir
-    mesh_folder.mkdir(parents=True, exist_ok=True)
-    (mesh_folder / "block.obj").write_text(BLOCK)
-    (folder / "defaults.xml").write_text(DEFAULTS.format(armature=0.1))
-    path = folder / "two.xml"
-    path.write_text(TWO_LINKS.format(meshdir=meshdir, mass=mass))
-    return path
 
 
 def _numbers(arm: rd.Arm) -> list[np.ndarray]:
@@ -327,7 +288,7 @@ def test_a_copy_after_chdir_is_the_users_file_not_the_bundled_one_of_its_name(
 def test_a_copy_is_the_robot_loaded_whatever_became_of_its_files(
     tmp_path: Path, how: str, edited: str
 ) -> None:
-    path = _two_links(tmp_path)
+    path = write_two_links(tmp_path)
     arm = rd.load(path)
     before = _numbers(arm)
     if edited == "model":
@@ -348,7 +309,7 @@ def test_a_copy_is_the_robot_loaded_whatever_became_of_its_files(
 def test_the_recipe_names_every_file_read_absolutely(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    _two_links(tmp_path)
+    write_two_links(tmp_path)
     monkeypatch.chdir(tmp_path)
     recipe = rd.load("two.xml")._recipe[1][0]
     assert [p for p, _ in recipe.files] == [
@@ -369,7 +330,7 @@ def test_a_copy_fails_naming_a_changed_file_it_cannot_rebuild_from_what_it_carri
     # A mesh folder given by absolute path is read where it is, even by a rebuild from the
     # bytes the arm carries: if that mesh changed, the robot loaded cannot be rebuilt.
     meshes = tmp_path / "shared" / "meshes"
-    path = _two_links(tmp_path / "robot", meshdir=str(meshes))
+    path = write_two_links(tmp_path / "robot", meshdir=str(meshes))
     arm = rd.load(path)
     (meshes / "block.obj").write_text(BLOCK.replace("0.4 ", "0.9 "))
     mesh = str(meshes / "block.obj")
@@ -421,7 +382,7 @@ def test_a_urdf_copy_keeps_the_meshes_and_srdf_it_was_loaded_with(tmp_path: Path
 def test_a_reload_compiles_a_mesh_edited_within_the_same_second(tmp_path: Path) -> None:
     # MuJoCo's asset cache knows a file by its name and modification time in whole
     # seconds: read by MuJoCo, the edited mesh would compile as it was before the edit.
-    path = _two_links(tmp_path)
+    path = write_two_links(tmp_path)
     first = rd.load(path).mj_model.mesh_vert.copy()
     mesh = tmp_path / "meshes" / "block.obj"
     stamp = mesh.stat()

@@ -15,6 +15,7 @@ import pickle
 import threading
 import weakref
 
+import mujoco
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -231,6 +232,7 @@ THREADED_PATHS = {
 
 FORK_SCRIPT = """
 import multiprocessing, os, sys
+import mujoco
 import numpy as np
 import redundancy as rd
 from redundancy import batch
@@ -273,3 +275,79 @@ def test_a_fork_after_each_threaded_path_leaves_the_child_usable(path: str) -> N
         pytest.fail(f"{path}: the forked child hung")
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip().endswith("ok")
+
+
+# -- no process-wide state left behind -----------------------------------------------------
+
+UNSTABLE = '<mujoco><worldbody><body><joint/><geom size="0.1"/></body></worldbody></mujoco>'
+
+
+def _unstable_step() -> None:
+    """One mj_step with a NaN speed: MuJoCo warns "Nan, Inf or huge value in QVEL"."""
+    m = mujoco.MjModel.from_xml_string(UNSTABLE)
+    d = mujoco.MjData(m)
+    d.qvel[:] = np.nan
+    mujoco.mj_step(m, d)
+
+
+@pytest.fixture
+def users_warnings():
+    """A warning callback of the user's, installed for the test and removed after it."""
+    before = mujoco.get_mju_user_warning()
+    heard: list[str] = []
+    mujoco.set_mju_user_warning(heard.append)
+    try:
+        yield heard
+    finally:
+        mujoco.set_mju_user_warning(before)
+
+
+def test_captures_that_overlap_in_threads_leave_the_users_warning_callback(users_warnings):
+    from redundancy.engines.mujoco import captured_warnings
+
+    mine = mujoco.get_mju_user_warning()
+    entered = [threading.Event() for _ in range(2)]
+    leave = [threading.Event() for _ in range(2)]
+    caught: dict[int, list[str]] = {}
+
+    def capture(k: int) -> None:
+        with captured_warnings() as messages:
+            entered[k].set()
+            if k == 0:
+                _unstable_step()  # this thread's warning: its own capture's
+            leave[k].wait()
+        caught[k] = messages
+
+    threads = [threading.Thread(target=capture, args=(k,)) for k in range(2)]
+    threads[0].start()
+    entered[0].wait()
+    threads[1].start()
+    entered[1].wait()
+    _unstable_step()  # a warning of a thread that captures nothing: the user's callback's
+    leave[0].set()  # the first capture ends before the second
+    threads[0].join()
+    leave[1].set()
+    threads[1].join()
+    assert mujoco.get_mju_user_warning() is mine
+    assert [len(caught[0]), len(caught[1])] == [1, 0]
+    assert caught[0][0].startswith("Nan, Inf or huge value in QVEL")
+    assert len(users_warnings) == 1
+    _unstable_step()
+    assert len(users_warnings) == 2
+
+
+def test_loads_from_threads_leave_the_users_warning_callback(users_warnings):
+    mine = mujoco.get_mju_user_warning()
+    barrier = threading.Barrier(3)
+
+    def loads() -> None:
+        for _ in range(4):
+            barrier.wait()
+            rd.load(rd.model_path("arm7"), site="ee")
+
+    with cf.ThreadPoolExecutor(3) as pool:
+        for f in [pool.submit(loads) for _ in range(3)]:
+            f.result()
+    assert mujoco.get_mju_user_warning() is mine
+    _unstable_step()
+    assert len(users_warnings) == 1 and users_warnings[0].startswith("Nan, Inf or huge")

@@ -95,19 +95,21 @@ class _Shipped:
 
     In the caller's process (a thread pool) it is the arm itself. Pickled (a process pool, a
     Dask worker) it is the arm's recipe (:mod:`redundancy.model.content`): lean (the files'
-    paths and digests, not their bytes) unless ``content``. Each worker process rebuilds the
-    arm once per identity (:func:`_arrive`) and keeps it for the next chunks. A worker that
-    cannot rebuild it keeps the error, which the task raises: unpickling never fails.
+    paths and digests, not their bytes) unless ``recipe`` is given. Each worker process
+    rebuilds the arm once per identity (:func:`_arrive`) and keeps it for the next chunks. A
+    worker that cannot rebuild it keeps the error, which the task raises: unpickling never
+    fails, and the object pickles again as it came (Dask may move a task between workers).
     """
 
-    __slots__ = ("arm", "content", "error")
+    __slots__ = ("arm", "error", "recipe")
 
-    def __init__(self, arm: Arm | None, content: bool = False, error: Exception | None = None):
-        self.arm, self.content, self.error = arm, content, error
+    def __init__(
+        self, arm: Arm | None, recipe: Recipe | None = None, error: Exception | None = None
+    ) -> None:
+        self.arm, self.recipe, self.error = arm, recipe, error
 
     def __reduce__(self) -> tuple[Callable[[Recipe], _Shipped], tuple[Recipe]]:
-        recipe = _recipe_of(self.arm)
-        return _arrive, (recipe if self.content else recipe.lean(),)
+        return _arrive, (self.recipe or _recipe_of(self.arm).lean(),)
 
 
 def _recipe_of(arm: Arm | None) -> Recipe:
@@ -126,20 +128,19 @@ def _arrive(recipe: Recipe) -> _Shipped:
         arm = _ARRIVED.get(recipe.digest)
         if arm is not None:
             _ARRIVED.move_to_end(recipe.digest)
-            return _Shipped(arm)
+            return _Shipped(arm, recipe)
     try:
         arm = rebuild_arm(recipe)
     except RedundancyError as err:
-        return _Shipped(None, error=err)
+        return _Shipped(None, recipe, err)
     except Exception as err:  # an engine's own error: the task reports it, the worker lives on
-        return _Shipped(
-            None, error=ModelError(f"cannot rebuild the arm of {recipe.shown!r}: {err}")
-        )
+        why = ModelError(f"cannot rebuild the arm of {recipe.shown!r}: {err}")
+        return _Shipped(None, recipe, why)
     with _ARRIVED_LOCK:
         _ARRIVED[recipe.digest] = arm
         while len(_ARRIVED) > 8:
             _ARRIVED.popitem(last=False)
-    return _Shipped(arm)
+    return _Shipped(arm, recipe)
 
 
 def _run_chunk(fn: Callable[..., R], shipped: _Shipped, Q: Array, kwargs: dict[str, Any]) -> R:
@@ -209,7 +210,7 @@ def _map_chunks(
                 part = np.ascontiguousarray(Q[lo : lo + chunk])
                 futures[k] = (
                     lo,
-                    executor.submit(_run_chunk, fn, _Shipped(arm, True), part, kwargs),
+                    executor.submit(_run_chunk, fn, _Shipped(arm, _recipe_of(arm)), part, kwargs),
                 )
                 out.append((lo, futures[k][1].result()))
         return out
