@@ -391,3 +391,21 @@ def test_a_reload_compiles_a_mesh_edited_within_the_same_second(tmp_path: Path) 
     again = rd.load(path).mj_model.mesh_vert
     assert np.ptp(first, axis=0).max() == pytest.approx(0.4, rel=1e-6)
     assert np.ptp(again, axis=0).max() == pytest.approx(0.9, rel=1e-6)
+
+
+def test_a_copy_of_urdf_text_keeps_the_meshes_it_found_in_the_working_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    text = (MODELS / "arm7.urdf").read_text(encoding="utf-8")
+    link = '<link name="link3">'
+    assert link in text
+    collision = '<collision><geometry><mesh filename="block.obj"/></geometry></collision>'
+    text = text.replace(link, link + collision, 1)
+    (tmp_path / "block.obj").write_text(BLOCK)
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path)
+    arm = rd.load_string(text, frame="ee")
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    twin = copy.deepcopy(arm)
+    assert twin.mj_model.mesh_vert.tobytes() == arm.mj_model.mesh_vert.tobytes()
+    assert twin.mj_model.nmesh == 1
