@@ -270,7 +270,7 @@ def test_a_failure_on_a_worker_fails_the_call_with_the_librarys_error(
 
 
 def _joint_arguments(arm: rd.Arm) -> dict[str, Callable[[], object]]:
-    brakes = {name: 1.0 for name in arm.joint_names[2:6]}
+    brakes = {name: 1.0 for name in arm.joint_names[1:]}
     return {
         "dict keys": lambda: brakes.keys(),
         "generator": lambda: (j for j in brakes),

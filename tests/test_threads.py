@@ -2,7 +2,8 @@
 
 The contract (README, "Threads, copies and processes"): every public method of an Arm may be
 called from any number of threads and returns, bit for bit, what sequential calls return;
-an Arm pickles as its loader call and is rebuilt on arrival; caches never keep an Arm alive.
+an Arm pickles as its recipe and is rebuilt on arrival; caches never keep an Arm alive; MuJoCo's
+warning callback is the user's after any number of threads loaded.
 """
 
 from __future__ import annotations

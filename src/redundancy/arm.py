@@ -157,7 +157,8 @@ class Arm:
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
         # Engine models and data do not pickle (and views into MjData would become detached
-        # copies): an Arm travels as the loader call that built it and is rebuilt on arrival.
+        # copies): an Arm travels as its recipe, the load's options and the bytes of every
+        # file it read (redundancy.model.content), and is rebuilt on arrival.
         if self._recipe is None:
             raise TypeError("this Arm was not built by redundancy.load and cannot be pickled")
         return self._recipe

@@ -22,9 +22,11 @@ pose by pose (bit for bit; the tests hold them to it). What makes them fast:
 * **Other processes and machines with** ``executor=``. Any
   :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
   ``Client(...).get_executor()``) gets the stack in chunks of poses (:func:`scatter`); the
-  arm travels as the loader call that built it and is rebuilt once per worker process, and
-  the chunks' results are put back in order. Every pose is computed by the same code as in
-  the caller's process, so the results equal the serial ones bit for bit.
+  arm travels as its recipe (:mod:`redundancy.model.content`) and is rebuilt once per worker
+  process and identity, and the chunks' results are put back in order. The arguments are
+  checked and made plain values first, so what crosses is what the serial path uses. Every
+  pose is computed by the same code as in the caller's process, so the results equal the
+  serial ones bit for bit.
 
 The singular values are NumPy's SVD (LAPACK ``gesdd`` without vectors), not the square roots
 of the eigenvalues of the 6 x 6 Gram matrix J J^T: that closed form is faster but squares
@@ -165,6 +167,8 @@ def map_chunks(
             ``Client(...).get_executor()`` included.
         fn: A module-level function (it is pickled by name for a process or a cluster).
         arm: The arm (it must pickle: built by :func:`redundancy.load` or ``load_string``).
+            A worker rebuilds it from its files, or from their bytes, which the caller sends
+            again with a chunk whose worker lacks them.
         Q: Poses, shape (n, nq).
         chunk: Poses per task; by default at least :data:`EXECUTOR_MIN_CHUNK` and at most
             :data:`EXECUTOR_MAX_TASKS` tasks.
