@@ -14,6 +14,7 @@ import contextlib
 import copy
 import multiprocessing
 import pickle
+import re
 import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, ThreadPoolExecutor
@@ -360,17 +361,49 @@ def test_plain_values_and_per_pose_directions_cross_as_they_are_used_here(
 
 #: Examples of the property: 5 under "redundancy-ci" (60), 83 under "redundancy-thorough".
 TRAVEL_EXAMPLES = max(3, settings.default.max_examples // 12)
-EXECUTOR_FUNCTIONS = (
-    batch.jacobians,
-    batch.singular_values,
-    batch.manipulabilities,
-    batch.mass_matrices,
-    batch.gravities,
-    batch.distances,
-    batch.operational_inertias,
-    batch.effective_mass_ranges,
-    batch.dynamic_manipulabilities,
-)
+#: Every function with ``executor=``, as (arm, Q, executor) -> a result to compare.
+EXECUTOR_CALLS: dict[str, Callable[..., object]] = {
+    **{
+        fn.__name__: lambda arm, Q, executor, fn=fn: fn(arm, Q, executor=executor)
+        for fn in (
+            batch.jacobians,
+            batch.singular_values,
+            batch.manipulabilities,
+            batch.mass_matrices,
+            batch.gravities,
+            batch.distances,
+            batch.operational_inertias,
+            batch.effective_mass_ranges,
+            batch.dynamic_manipulabilities,
+        )
+    },
+    "effective_masses": lambda arm, Q, executor: batch.effective_masses(
+        arm, Q, np.cos(np.arange(3 * len(Q)) + 0.5).reshape(-1, 3), executor=executor
+    ),
+    "crosscheck_batch": lambda arm, Q, executor: rd.crosscheck_batch(
+        arm, Q, chunk=16, executor=executor
+    ),
+}
+
+
+def _write_model(folder: Path, which: str, mass: float) -> Path:
+    """The two-link arm (an include, a mesh) or arm7 as files, the first link of ``mass``."""
+    if which == "two links":
+        return write_two_links(folder, mass=mass)
+    text = rd.model_path("arm7").read_text(encoding="utf-8")
+    path = folder / "arm7.xml"
+    path.write_text(re.sub(r'mass="[0-9.]+"', f'mass="{mass!r}"', text, count=1))
+    return path
+
+
+def _same_result(serial: object, remote: object) -> None:
+    if isinstance(serial, np.ndarray):
+        assert isinstance(remote, np.ndarray), remote
+        assert remote.shape == serial.shape and remote.tobytes() == serial.tobytes()
+    elif isinstance(serial, BaseException):
+        assert type(remote) is type(serial) and str(remote) == str(serial), (serial, remote)
+    else:
+        assert remote == serial
 
 
 @settings(
@@ -378,9 +411,10 @@ EXECUTOR_FUNCTIONS = (
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(
+    which=st.sampled_from(["two links", "arm7"]),
     how=st.sampled_from(["relative path", "reloaded file", "copy", "pickled copy"]),
     mass=st.floats(0.5, 20.0),
-    fn=st.sampled_from(EXECUTOR_FUNCTIONS),
+    call=st.sampled_from(sorted(EXECUTOR_CALLS)),
     n=st.integers(0, 70),
     seed=st.integers(0, 2**16),
 )
@@ -388,27 +422,33 @@ def test_executor_results_equal_serial_ones_bit_for_bit(
     tmp_path_factory: pytest.TempPathFactory,
     process_pool: Executor,
     dask_executor: Executor,
+    which: str,
     how: str,
     mass: float,
-    fn: Callable[..., np.ndarray],
+    call: str,
     n: int,
     seed: int,
 ) -> None:
     folder = tmp_path_factory.mktemp("robot")
-    path = write_two_links(folder, mass=mass)
+    path = _write_model(folder, which, mass)
     with contextlib.chdir(folder):
-        arm = rd.load("two.xml") if how == "relative path" else rd.load(path)
+        arm = rd.load(path.name) if how == "relative path" else rd.load(path)
     if how == "reloaded file":
-        _within(lambda: batch.gravities(arm, np.zeros((20, arm.nq)), executor=process_pool))
-        path.write_text(TWO_LINKS.format(meshdir="meshes", mass=mass + 1.0))
+        # The workers compute the first version, then the file changes and is loaded again.
+        for executor in (process_pool, dask_executor):
+            with _small_chunks():
+                _within(
+                    lambda ex=executor: batch.gravities(arm, np.zeros((40, arm.nq)), executor=ex)
+                )
+        _write_model(folder, which, mass + 1.0)
         arm = rd.load(path)
     elif how == "copy":
         arm = copy.deepcopy(arm)
     elif how == "pickled copy":
         arm = pickle.loads(pickle.dumps(arm))
     Q = rd.random_poses(arm, n, seed=seed)
-    serial = fn(arm, Q)
+    fn = EXECUTOR_CALLS[call]
+    serial = _outcome(lambda: fn(arm, Q, None))
     with _small_chunks():
         for executor in (process_pool, dask_executor):
-            got = _within(lambda executor=executor: fn(arm, Q, executor=executor))
-            assert got.shape == serial.shape and got.tobytes() == serial.tobytes()
+            _same_result(serial, _outcome(lambda ex=executor: _within(lambda: fn(arm, Q, ex))))
