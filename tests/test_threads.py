@@ -12,6 +12,7 @@ import concurrent.futures as cf
 import copy
 import gc
 import multiprocessing
+import os
 import pickle
 import threading
 import weakref
@@ -352,3 +353,31 @@ def test_loads_from_threads_leave_the_users_warning_callback(users_warnings):
     assert mujoco.get_mju_user_warning() is mine
     _unstable_step()
     assert len(users_warnings) == 1 and users_warnings[0].startswith("Nan, Inf or huge")
+
+
+def test_a_child_forked_during_another_threads_capture_has_the_users_callback(users_warnings):
+    from redundancy.engines.mujoco import captured_warnings
+
+    mine = mujoco.get_mju_user_warning()
+    inside, leave = threading.Event(), threading.Event()
+
+    def capture() -> None:
+        with captured_warnings():
+            inside.set()
+            leave.wait()
+
+    other = threading.Thread(target=capture)
+    other.start()
+    inside.wait()
+    try:
+        pid = os.fork()
+        if pid == 0:  # the child: the capturing thread is gone
+            ok = mujoco.get_mju_user_warning() is mine
+            rd.load(rd.model_path("arm7"), site="ee")  # the capture works in the child too
+            os._exit(0 if ok and mujoco.get_mju_user_warning() is mine else 1)
+        _, status = os.waitpid(pid, 0)
+    finally:
+        leave.set()
+        other.join()
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert mujoco.get_mju_user_warning() is mine

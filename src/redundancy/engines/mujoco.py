@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import os
 import sys
 import threading
 from collections.abc import Callable, Iterator
@@ -628,8 +629,19 @@ class _WarningRelay:
                 if self.count == 0:
                     self.users = None
 
+    def after_fork(self) -> None:
+        """In a forked child: only the forking thread survives, with its own captures."""
+        self.lock = threading.Lock()  # another thread may have held it at the fork
+        mine = self.captures.get(threading.get_ident(), [])
+        self.captures = {threading.get_ident(): mine} if mine else {}
+        self.count = len(mine)
+        if self.count == 0 and mujoco.get_mju_user_warning() is self:
+            mujoco.set_mju_user_warning(self.users)
+            self.users = None
+
 
 _RELAY = _WarningRelay()
+os.register_at_fork(after_in_child=_RELAY.after_fork)
 
 
 def captured_warnings() -> contextlib.AbstractContextManager[list[str]]:

@@ -223,7 +223,7 @@ def rebuild(recipe: Recipe, loader: Loader) -> tuple[Any, Recipe]:
             return arm, dataclasses.replace(recipe, content=content)
     if recipe.content is None:
         raise ContentUnavailable(f"cannot rebuild the arm of {recipe.shown!r} here: {why}")
-    root = Path(tempfile.mkdtemp(prefix="redundancy-"))
+    root = Path(tempfile.mkdtemp(prefix="redundancy-")).resolve()  # paths are read resolved
     try:
         back: dict[str, str] = {}
         for (path, _), data in zip(recipe.files, recipe.content, strict=True):
