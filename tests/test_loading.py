@@ -324,22 +324,27 @@ def test_the_recipe_names_every_file_read_absolutely(
 
 
 @pytest.mark.parametrize("how", list(COPIES))
-def test_a_copy_fails_naming_a_changed_file_it_cannot_rebuild_from_what_it_carries(
-    tmp_path: Path, how: str
+@pytest.mark.parametrize("fate", ["changed", "removed"])
+def test_a_copy_fails_naming_a_file_it_cannot_rebuild_from_what_it_carries(
+    tmp_path: Path, how: str, fate: str
 ) -> None:
     # A mesh folder given by absolute path is read where it is, even by a rebuild from the
-    # bytes the arm carries: if that mesh changed, the robot loaded cannot be rebuilt.
+    # bytes the arm carries: if that mesh changed or went, the robot cannot be rebuilt.
     meshes = tmp_path / "shared" / "meshes"
     path = write_two_links(tmp_path / "robot", meshdir=str(meshes))
     arm = rd.load(path)
-    (meshes / "block.obj").write_text(BLOCK.replace("0.4 ", "0.9 "))
-    mesh = str(meshes / "block.obj")
+    mesh = meshes / "block.obj"
+    if fate == "changed":
+        mesh.write_text(BLOCK.replace("0.4 ", "0.9 "))
+        why = f"the file {str(mesh)!r} changed since the arm was loaded"
+    else:
+        mesh.unlink()
+        why = f"cannot read {str(mesh)!r} (No such file or directory)"
     with pytest.raises(
         rd.ModelError,
-        match=re.escape(
-            f"cannot rebuild the arm of {str(path)!r} as it was loaded: the file {mesh!r} "
-            "changed since the arm was loaded"
-        ),
+        match="^"
+        + re.escape(f"cannot rebuild the arm of {str(path)!r} as it was loaded: {why}")
+        + "$",
     ):
         COPIES[how](arm)
 

@@ -232,7 +232,18 @@ def rebuild(recipe: Recipe, loader: Loader) -> tuple[Any, Recipe]:
             place.write_bytes(data)
             back[str(place)] = path
         with recording(back, fresh=True) as reading:
-            arm = loader(recipe, lambda p: str(_mirrored(root, p)))
+            try:
+                arm = loader(recipe, lambda p: str(_mirrored(root, p)))
+            except ModelError as err:
+                # A file named by absolute path is read where it is: gone or changed there?
+                unread = tuple(f for f in recipe.files if f[0] not in reading.files)
+                why = _changed(unread)
+                if why is None:
+                    raise
+                shown = recipe.shown
+                raise ModelError(
+                    f"cannot rebuild the arm of {shown!r} as it was loaded: {why}"
+                ) from err
     finally:
         shutil.rmtree(root, ignore_errors=True)
     why = _differs(recipe, reading.files)
