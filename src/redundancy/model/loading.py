@@ -276,7 +276,7 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
             # After MuJoCo, whose errors name a missing include first.
             mjcf = _edited(robot, whole or expanded(root, folder))
             path_for_pin = None if robot.changed or not as_is else p
-            arm = _load_mjcf(spec, mj, kind, mjcf, bool(strict), robot, path_for_pin)
+            arm = _load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)  # type: ignore[arg-type]
     recipe = Recipe.made("load", str(p.resolve()), str(folder), options, shown, reading.files)
     arm._recipe = (rebuild_arm, (recipe,))
     return arm
@@ -346,7 +346,7 @@ def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
             _check_mjcf(pairs)  # type: ignore[arg-type]
             spec, mj, kind = _read_mujoco(xml, None, folder, tool)
             mjcf = _edited(robot, whole or expanded(root, folder))
-            arm = _load_mjcf(spec, mj, kind, mjcf, bool(strict), robot, None)
+            arm = _load_mjcf(spec, mj, kind, mjcf, strict, robot, None)  # type: ignore[arg-type]
     recipe = Recipe.made("load_string", xml, str(folder), options, "<string>", reading.files)
     arm._recipe = (rebuild_arm, (recipe,))
     return arm
