@@ -105,6 +105,9 @@ class Arm:
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
         rest: Where the held values come from: ``"qpos0"``, ``"keyframe 'name'"``, ``"given"``.
+        length: The arm's size: its moving bodies' offsets and the tool's, summed [m]. The
+            unit the inverse kinematics measures positions in, and the scale of the floor
+            below which the tool counts as not moving (:meth:`effective_mass`).
     """
 
     def __init__(
@@ -145,6 +148,8 @@ class Arm:
         self.lower: Array = limits[0]
         self.upper: Array = limits[1]
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
+        self.length: float = self.mujoco.length
+        self._slides: Array = np.array([t == "slide" for t in self.joint_types])
         self._recipe = recipe
         self.model_format = model_format
         self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
@@ -490,8 +495,8 @@ class Arm:
             seed = check_count("seed", seed, 0)
         try:
             lo, hi = self._ik_ranges
-        except AttributeError:  # drawn from where the sampling draws (an unlimited slide: +-1 m)
-            lo, hi = self._ik_ranges = sampling_ranges(self, unlimited_slide=1.0)
+        except AttributeError:  # drawn from where the sampling draws (an unlimited slide: +-L)
+            lo, hi = self._ik_ranges = sampling_ranges(self, unlimited_slide=self.length)
         start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
         return ik.solve(
             eng,
@@ -507,6 +512,8 @@ class Arm:
             self.ik_objective(objective, engine),
             check_flag("position_only", position_only),
             settings,
+            self.length,
+            self._slides,
         )
 
     def __repr__(self) -> str:
