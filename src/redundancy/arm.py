@@ -149,6 +149,7 @@ class Arm:
         self.upper: Array = limits[1]
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
         self.length: float = self.mujoco.length
+        self._floor = linalg.motion_floor(self.length)
         self._slides: Array = np.array([t == "slide" for t in self.joint_types])
         self._recipe = recipe
         self.model_format = model_format
@@ -345,12 +346,14 @@ class Arm:
                 (``computeMinverse``).
 
         Raises:
-            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6);
-                names the lost tool directions.
+            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6, or
+                moves the tool by no more than :func:`~redundancy.linalg.motion_floor` along
+                some direction); names the lost tool directions.
             UnknownNameError: A joint or engine name the arm does not have.
             ParameterError: ``joints`` empty, repeated or not names.
         """
-        return linalg._operational_inertia(*self._mobility(q, armature, joints, engine))
+        J, X = self._mobility(q, armature, joints, engine)
+        return linalg._operational_inertia(J, X, atol=self._floor)
 
     def effective_mass(
         self,
@@ -364,7 +367,9 @@ class Arm:
         """Mass a point contact at the tool feels pushing along ``direction`` [kg].
 
         1 / (u^T J_v M^-1 J_v^T u), u the unit direction in world axes; ``inf`` along a
-        direction the tool cannot move. Defined at singular poses too.
+        direction the tool cannot move: |J_v^T u| below 1e-9 of |J_v| or at most
+        :func:`~redundancy.linalg.motion_floor` of :attr:`length` (rounding noise, as at a
+        point on every free joint's axis). Defined at singular poses too.
 
         Args:
             q: Pose [rad or m].
@@ -377,7 +382,9 @@ class Arm:
             ParameterError: ``direction`` zero, non-finite or not a 3-vector.
         """
         u = check_direction("direction", direction)
-        return linalg._effective_mass(*self._mobility(q, armature, joints, engine), u)
+        return linalg._effective_mass(
+            *self._mobility(q, armature, joints, engine), u, atol=self._floor
+        )
 
     def effective_mass_range(
         self,
@@ -391,9 +398,11 @@ class Arm:
 
         The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
         :meth:`operational_inertia`); the greatest is ``inf`` where the tool cannot move
-        along some direction.
+        along some direction, the least too where it cannot move at all (the floor as
+        :meth:`effective_mass`'s).
         """
-        return linalg._effective_mass_range(*self._mobility(q, armature, joints, engine))
+        J, X = self._mobility(q, armature, joints, engine)
+        return linalg._effective_mass_range(J, X, atol=self._floor)
 
     def dynamic_manipulability(
         self,

@@ -531,7 +531,8 @@ def operational_inertias(
             threads=threads,
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
+    floor = linalg.motion_floor(arm.length)
+    return linalg._operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
 
 
 def effective_masses(
@@ -579,7 +580,7 @@ def effective_masses(
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     U = check_directions("direction", direction, len(J))
-    return linalg._effective_masses(J, X, U)
+    return linalg._effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
 
 def effective_mass_ranges(
@@ -609,7 +610,8 @@ def effective_mass_ranges(
             threads=threads,
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._effective_mass_ranges(J, X) if len(J) else np.empty((0, 2))
+    floor = linalg.motion_floor(arm.length)
+    return linalg._effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
 
 
 def dynamic_manipulabilities(
