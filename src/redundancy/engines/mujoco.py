@@ -334,6 +334,32 @@ class MujocoEngine:
             masses[k], coms[k], inertias[k] = mass, com, inertia
         return masses, coms, inertias
 
+    def passive_forces(self, Q: Array, V: Array) -> tuple[Array, Array]:
+        """MuJoCo's passive force and its gravity compensation at poses and velocities.
+
+        ``qfrc_passive`` (joint springs about ``springref``, damping, fluid forces, and the
+        gravity compensation unless it goes to the actuators) and ``qfrc_gravcomp`` (the
+        body ``gravcomp`` forces), by ``mj_fwdPosition`` and ``mj_fwdVelocity`` on a data of
+        their own: what the simulation adds that neither the gravity torque nor the mass
+        matrix shows.
+
+        Args:
+            Q: Poses, shape (n, nv) [rad or m] (validated by the caller).
+            V: Joint velocities, shape (n, nv) [rad/s or m/s].
+
+        Returns:
+            Passive forces and gravity compensation, shape (n, nv) each [N m or N].
+        """
+        m = self.model
+        d = mujoco.MjData(m)
+        P, C = np.empty((len(Q), self.nv)), np.empty((len(Q), self.nv))
+        for k, (q, v) in enumerate(zip(Q, V, strict=True)):
+            d.qpos[:], d.qvel[:] = q, v
+            mujoco.mj_fwdPosition(m, d)
+            mujoco.mj_fwdVelocity(m, d)
+            P[k], C[k] = d.qfrc_passive, d.qfrc_gravcomp
+        return P, C
+
     def joint_axes(self, q: ArrayLike) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
         d = self.update(q).data
