@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
-from ..display import Report, Table, plural, table
+from ..display import Report, Table, json_ready, plural, table, to_json
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
@@ -113,10 +113,10 @@ class RigidOffset:
         """JSON-ready form."""
         return {
             "kind": self.kind,
-            "translation": _jsonable(self.translation),
-            "rotation": _jsonable(self.rotation),
+            "translation": json_ready(self.translation),
+            "rotation": json_ready(self.rotation),
             "angle_deg": math.degrees(self.angle),
-            "axis": _jsonable(self.axis),
+            "axis": json_ready(self.axis),
         }
 
 
@@ -156,13 +156,13 @@ class Finding:
         return text + (f"; {self.note}" if self.note else "")
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (arrays as lists, infinities as strings)."""
+        """JSON-ready form (arrays as lists, infinities as null, as every document)."""
         return {
             "quantity": self.quantity,
             "where": self.where,
-            "a": _jsonable(self.a),
-            "b": _jsonable(self.b),
-            "error": _jsonable(self.error),
+            "a": json_ready(self.a),
+            "b": json_ready(self.b),
+            "error": json_ready(self.error),
             "note": self.note,
         }
 
@@ -259,7 +259,7 @@ class Comparison(Report):
             "offsets": [o.to_dict() for o in self.offsets],
             "differences": [d.to_dict() for d in self.differences],
             "not_expressible": [n.to_dict() for n in self.not_expressible],
-            "largest": {k: _jsonable(v) for k, v in self.largest.items()},
+            "largest": {k: json_ready(v) for k, v in self.largest.items()},
             "n_poses": self.n_poses,
             "tol": self.tol,
         }
@@ -301,19 +301,6 @@ class Comparison(Report):
 
 def _fmt(x: Any) -> str:
     return "(cannot express)" if x is None else format_value(x)
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, np.ndarray):
-        return [_jsonable(v) for v in x.tolist()]
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, float | np.floating):
-        v = float(x)
-        return v if math.isfinite(v) else str(v)
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
 
 
 def read_joint_map(path: str | os.PathLike[str]) -> dict[str, str]:
@@ -932,7 +919,7 @@ def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> 
         seed=args.seed,
         tol=args.tol,
     )
-    document = json.dumps(result.to_dict(), indent=2)
+    document = to_json(result.to_dict())
     if args.json == "-":
         print(document)
     else:
