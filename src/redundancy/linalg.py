@@ -43,8 +43,11 @@ def motion_floor(length: float) -> float:
     <redundancy.Arm.length>`): far below any lever arm a real joint has, far above the noise
     of a point the joints cannot move. The effective mass, its range and the operational
     inertia count a direction whose motion is below it as one the tool cannot move along.
+
+    Raises:
+        ParameterError: ``length`` not a finite number > 0 [m].
     """
-    return _MOTION_EPS * float(length)
+    return _MOTION_EPS * check_number("length", length, 0.0, low_open=True, unit="m")
 
 
 #: Names of the six rows of a site Jacobian (linear, then angular, world axes).
