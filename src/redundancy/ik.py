@@ -61,13 +61,13 @@ class IKResult:
         orientation_error: Angle of R* R^T at ``q`` by the checking engine [rad].
         iterations: Levenberg-Marquardt iterations, over every attempt and the objective's
             corrections.
-
-    ``success`` and the errors are those of this ``q``, the array returned (a copy of the
-    solver's own: changing it changes nothing else).
         restarts: Random restarts taken (0: the first start converged).
         objective: The objective's value at ``q`` (None without an objective).
         engine: The engine whose kinematics the iterations used.
         checked_by: The engine that recomputed the answer and decided ``success``.
+
+    ``success`` and the errors are those of this ``q``, the array returned (a copy of the
+    solver's own: changing it changes nothing else).
     """
 
     q: Array
@@ -331,7 +331,7 @@ class _Solver:
         """
         nq = len(q)
         value, grad = _checked(objective(q.copy()), nq)
-        scale = 0.25  # largest joint motion of the next trial step [rad, or arm lengths]
+        scale = 0.25  # largest joint motion of the next trial step [rad, or half-lengths]
         for _ in range(self.s.objective_steps):
             J = self.error(q)[1]
             N = np.eye(nq) - np.linalg.pinv(J).dot(J)

@@ -583,8 +583,8 @@ def _extremes_stuck(J: Array, w: Array, rtol: float, atol: float) -> tuple[Array
     From J (…, 6, k) and the eigenvalues w (…, 3) of J_v M^-1 J_v^T, ascending.
     The greatest is ``inf`` where the tool cannot move along some direction: fewer than three
     joints free, J_v's least singular value below ``rtol`` of its largest or at most ``atol``
-    (:func:`motion_floor`), or w's least not above its rounding (eps times the largest, times
-    the size). The least is ``inf`` where it cannot move at all: J_v's largest at most ``atol``.
+    (:func:`motion_floor`), or w's least at most 64 eps times its largest (inside eigh's
+    rounding). The least is ``inf`` where it cannot move at all: J_v's largest at most ``atol``.
     """
     s = np.linalg.svd(J[..., :3, :], compute_uv=False)
     if s.shape[-1] < 3:  # two joints or fewer: a direction is lost, whatever J is
