@@ -449,3 +449,99 @@ def test_json_with_a_long_legal_name_is_written_atomically(tmp_path, capsys) -> 
     assert main(["audit", "--poses", "10", "--json", str(target)]) == 1
     assert "findings" in json.loads(target.read_text())
     assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]  # no temporary left
+
+
+def two_links(j1: str = "j1", j2: str = "j2") -> str:
+    """Two pitch hinges of 0.5 m links with a tool site, joints named ``j1`` and ``j2``."""
+    return f"""<mujoco><compiler angle="radian"/><worldbody>
+  <body name="l1"><joint name="{j1}" axis="0 1 0" range="-2 2"/>
+    <geom type="capsule" fromto="0 0 0 0 0 0.5" size="0.05"/>
+    <body name="l2" pos="0 0 0.5"><joint name="{j2}" axis="0 1 0" range="-2 2"/>
+      <geom type="capsule" fromto="0 0 0 0 0 0.5" size="0.05"/>
+      <site name="tip" pos="0 0 0.5"/>
+    </body>
+  </body>
+</worldbody></mujoco>"""
+
+
+def _command(args: list[str], stdout, env: dict[str, str] | None = None, **kw):
+    """The command in its own process: (status, stdout text or None, stderr text)."""
+    import subprocess
+
+    done = subprocess.run(
+        [sys.executable, "-c", RUN, *args],
+        stdout=stdout,
+        stderr=subprocess.PIPE,
+        env={**os.environ, **(env or {})},
+        timeout=600,
+        **kw,
+    )
+    out = done.stdout.decode("latin-1") if done.stdout is not None else None
+    return done.returncode, out, done.stderr.decode("latin-1")
+
+
+@pytest.fixture
+def two(tmp_path):
+    path = tmp_path / "two.xml"
+    path.write_text(two_links())
+    return str(path)
+
+
+@pytest.mark.parametrize("command", ["audit", "compare"])
+def test_a_closed_stdout_ends_quietly(command: str, two: str) -> None:
+    """``redundancy compare a b >&-``: as for a reader gone, no AttributeError (exit 3)."""
+    args = ["audit", two, "--poses", "10"] if command == "audit" else ["compare", two, two]
+    status, _, err = _command(args, None, preexec_fn=lambda: os.close(1))
+    assert (status, err) == (cli.PIPE_CLOSED, "")
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux)")
+@pytest.mark.parametrize("command", ["audit", "compare", "compare-json"])
+def test_a_full_disk_is_exit_2_with_one_line_naming_the_output(command: str, two: str) -> None:
+    args = {
+        "audit": ["audit", two, "--poses", "10"],
+        "compare": ["compare", two, two],
+        "compare-json": ["compare", two, two, "--json", "-"],
+    }[command]
+    with open("/dev/full", "w") as full:
+        status, _, err = _command(args, full)
+    assert status == 2
+    assert err == (
+        "redundancy: error: cannot write to standard output (/dev/full): "
+        "[Errno 28] No space left on device\n"
+    )
+
+
+def test_names_the_terminal_cannot_encode_are_escaped(tmp_path) -> None:
+    """Cyrillic joint names on a Latin-1 terminal: printed escaped, not exit 3 at the end."""
+    import subprocess
+
+    path = tmp_path / "cyrillic.xml"
+    path.write_text(two_links("плечо", "локоть"), encoding="utf-8")
+    latin1 = {"PYTHONIOENCODING": "latin-1"}
+    status, out, err = _command(
+        ["audit", str(path), "--poses", "10", "-q"], subprocess.PIPE, latin1
+    )
+    assert status == 1 and err == ""
+    assert "joint '\\u043f\\u043b\\u0435\\u0447\\u043e' has no actuator" in out
+    status, out, err = _command(["compare", str(path), str(path)], subprocess.PIPE, latin1)
+    assert status == 0 and err == ""
+    assert "joints matched: 2 (\\u043f\\u043b\\u0435\\u0447\\u043e, " in out
+    # A name in an error message, on stderr, likewise.
+    status, _, err = _command(["audit", str(path), "--frame", "рука"], subprocess.PIPE, latin1)
+    assert status == 2 and err.startswith("redundancy: error: ") and "\\u0440\\u0443" in err
+
+
+def test_one_json_convention_for_infinities(tmp_path, capsys) -> None:
+    """compare wrote an infinite difference as the string "inf", the audit as null: null."""
+    a, b = tmp_path / "a.xml", tmp_path / "b.xml"
+    a.write_text(two_links())
+    b.write_text(two_links(j2="elbow"))  # one joint each side only: presence, infinite
+    streams = (sys.stdout, sys.stdout.errors, sys.stderr.errors)
+    assert main(["compare", str(a), str(b), "--json", "-"]) == 1
+    assert (sys.stdout, sys.stdout.errors, sys.stderr.errors) == streams  # put back
+    text = capsys.readouterr().out
+    document = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))
+    presence = [d for d in document["differences"] if d["quantity"] == "presence"]
+    assert presence and all(d["error"] is None for d in presence)
+    assert '"inf"' not in text and "Infinity" not in text

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import batch, linalg
+from redundancy.arm import random_poses
 from redundancy.testing import poses
 
 from .conftest import ARM_NAMES
@@ -178,6 +179,63 @@ def test_singular_pose_names_the_lost_directions(arm7: rd.Arm) -> None:
     # Three free joints cannot span six directions.
     with pytest.raises(rd.SingularPoseError, match=r"cannot move along \["):
         arm7.operational_inertia(arm7.keyframe("home"), joints=["j1", "j2", "j3"])
+
+
+WRIST = ["j5", "j6", "j7"]
+
+
+@pytest.fixture(scope="module")
+def wrist_centre() -> rd.Arm:
+    """arm7 with its tool where the wrist's three axes meet (on j6, 0.08 m below j7)."""
+    text = rd.model_path("arm7").read_text()
+    return rd.load_string(text.replace('name="ee" pos="0 0 0.13"', 'name="ee" pos="0 0 -0.08"'))
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("engine", ["mujoco", "pinocchio"])
+def test_a_point_the_free_joints_cannot_move_has_infinite_mass(
+    wrist_centre: rd.Arm, engine: str
+) -> None:
+    # J_v of the wrist joints is rounding noise there (~1e-17 m/rad): no direction moves.
+    Q = random_poses(wrist_centre, 12, seed=8)
+    kw = {"joints": WRIST, "engine": engine}
+    for q in Q:
+        for u in [*AXES, [0.3, -0.5, 0.8]]:
+            assert wrist_centre.effective_mass(q, u, **kw) == np.inf
+        r = wrist_centre.effective_mass_range(q, **kw)
+        assert (r.min, r.max) == (np.inf, np.inf)
+        with pytest.raises(rd.SingularPoseError, match=r"translation x, translation y, transl"):
+            wrist_centre.operational_inertia(q, **kw)
+    assert np.all(batch.effective_masses(wrist_centre, Q, [1.0, 0.0, 0.0], **kw) == np.inf)
+    assert np.all(batch.effective_mass_ranges(wrist_centre, Q, **kw) == np.inf)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("joints", [["j2"], ["j2", "j4"]])
+def test_fewer_than_three_free_joints_leave_the_greatest_mass_infinite(
+    arm7: rd.Arm, joints: list[str]
+) -> None:
+    Q = random_poses(arm7, 8, seed=3)
+    ranges = batch.effective_mass_ranges(arm7, Q, joints=joints)
+    assert np.all(np.isfinite(ranges[:, 0])) and np.all(ranges[:, 1] == np.inf)
+    for q, (low, _) in zip(Q, ranges, strict=True):
+        r = arm7.effective_mass_range(q, joints=joints)
+        assert r.min == pytest.approx(low, rel=1e-12) and r.max == np.inf
+
+
+def test_the_floor_scales_with_the_arm() -> None:
+    assert linalg.motion_floor(1.0) == 1024 * np.finfo(float).eps
+    assert linalg.motion_floor(1e-4) == pytest.approx(1e-4 * linalg.motion_floor(1.0))
+    # Given the floor, a J_v of noise is no motion; without it, the old relative test alone.
+    J = np.zeros((6, 3))
+    J[:3] = 1e-17 * np.array([[1.0, -2, 0.5], [0.3, 1, -1], [2, 0, 1]])
+    J[3:] = np.eye(3)
+    X = J.T.copy()  # M = I
+    u = np.array([1.0, 0.0, 0.0])
+    assert linalg.effective_mass(J, X, u, atol=linalg.motion_floor(1.4)) == np.inf
+    assert 1e30 < linalg.effective_mass(J, X, u) < np.inf
+    with pytest.raises(rd.ParameterError, match=r"^atol must be"):
+        linalg.effective_mass(J, X, u, atol=-1.0)
 
 
 def test_near_a_singular_pose_the_effective_mass_stays_exact(arm7: rd.Arm) -> None:

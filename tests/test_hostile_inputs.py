@@ -313,6 +313,7 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
             {"J": J0[:3], "M": M0},
         ),
         "linalg.jacobian_svd": (linalg.jacobian_svd, {"J": J0, "rtol": 1e-9}),
+        "linalg.motion_floor": (linalg.motion_floor, {"length": 1.25}),
         "linalg.manipulability": (linalg.manipulability, {"J": J0, "length": 1.0}),
         "linalg.manipulability_gradient": (
             linalg.manipulability_gradient,

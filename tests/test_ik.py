@@ -123,6 +123,83 @@ def test_manipulability_and_callable_objectives(arm7: rd.Arm) -> None:
     assert abs(pulled.q[2] - 1.0) < abs(plain.q[2] - 1.0)
 
 
+def test_an_objective_that_changes_its_argument_changes_nothing(arm7: rd.Arm) -> None:
+    rest = arm7.keyframe("home")
+
+    def in_place(q: np.ndarray) -> tuple[float, np.ndarray]:
+        d = q
+        d -= rest  # the argument itself, now q - rest
+        return float(d @ d), 2.0 * d
+
+    for i, qt in enumerate(random_poses(arm7, 4, seed=40)):
+        p_t, R_t = arm7.site_pose(qt)
+        r = arm7.solve_ik((p_t, R_t), random_poses(arm7, 1, seed=41 + i)[0], objective=in_place)
+        # The errors and the success are those of the q returned.
+        pe, oe = ik.tool_errors(p_t, R_t, *arm7.site_pose(r.q, "pinocchio"))
+        assert (r.position_error, r.orientation_error) == (pe, oe)
+        assert r.success and pe <= TOL and oe <= TOL
+        assert r.objective == pytest.approx(float((r.q - rest) @ (r.q - rest)), rel=1e-12)
+
+
+def test_a_gradient_array_the_objective_reuses_is_copied(arm7: rd.Arm) -> None:
+    buffer = np.zeros(7)
+    calls = []
+
+    def reusing(q: np.ndarray) -> tuple[float, np.ndarray]:
+        calls.append(1)
+        buffer[:] = q - 1.0  # the same array every call: the solver must keep its own
+        return float(buffer @ buffer), buffer
+
+    target = arm7.site_pose(random_poses(arm7, 1, seed=44)[0])
+    shared = arm7.solve_ik(target, objective=reusing)
+    fresh = arm7.solve_ik(target, objective=lambda q: (float((q - 1) @ (q - 1)), 2.0 * (q - 1)))
+    assert len(calls) > 2 and shared.success and fresh.success
+    # Reused or fresh, the same steps (the gradients differ only by the factor 2, which the
+    # step normalises away).
+    np.testing.assert_array_equal(shared.q, fresh.q)
+
+
+def _links(link: float, slide: bool = False) -> str:
+    """Three links of ``link`` [m]: hinges y, z, y (the middle one a slide along x)."""
+    a, r = link, link / 10
+    inertial = f'<inertial pos="0 0 {a / 2}" mass="1" diaginertia="{a * a / 12} {a * a / 12} {a * a / 100}"/>'
+    middle = f'type="slide" axis="1 0 0" range="{-a} {a}"' if slide else 'axis="0 0 1"'
+    return f"""
+<mujoco><compiler angle="radian"/><worldbody>
+  <body name="l1"><joint name="j1" axis="0 1 0" range="-2 2"/>{inertial}
+    <geom type="capsule" fromto="0 0 0 0 0 {a}" size="{r}" contype="0" conaffinity="0"/>
+    <body name="l2" pos="0 0 {a}"><joint name="j2" {middle}/>{inertial}
+      <geom type="capsule" fromto="0 0 0 0 0 {a}" size="{r}" contype="0" conaffinity="0"/>
+      <body name="l3" pos="0 0 {a}"><joint name="j3" axis="0 1 0" range="-2 2"/>{inertial}
+        <geom type="capsule" fromto="0 0 0 0 0 {a}" size="{r}" contype="0" conaffinity="0"/>
+        <site name="tip" pos="0 0 {a}"/>
+      </body>
+    </body>
+  </body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [{"restarts": 0}, {"position_only": True}, {"restarts": 0, "slide": True}],
+    ids=["pose", "position", "slide"],
+)
+def test_an_arm_of_any_size_solves_the_same_targets(settings: dict) -> None:
+    """Thirty reachable targets on arms of 1 m, 0.3 mm and 100 m links, tolerances scaled."""
+    kw = dict(settings)
+    slide = kw.pop("slide", False)
+    solved = {}
+    for link in (1.0, 3e-4, 100.0):
+        arm = rd.load_string(_links(link, slide), site="tip")
+        Qt, Q0 = random_poses(arm, 30, seed=11), random_poses(arm, 30, seed=12)
+        solved[link] = [
+            arm.solve_ik(arm.site_pose(qt), q0, position_tol=TOL * link, **kw).success
+            for qt, q0 in zip(Qt, Q0, strict=True)
+        ]
+    assert sum(solved[1.0]) >= 20
+    assert solved[3e-4] == solved[1.0] and solved[100.0] == solved[1.0]
+
+
 def test_position_only_frees_the_orientation(panda: rd.Arm) -> None:
     p_t = panda.site_pose(random_poses(panda, 1, seed=8)[0])[0]
     R_far = np.diag([1.0, -1.0, -1.0])

@@ -105,6 +105,9 @@ class Arm:
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
         rest: Where the held values come from: ``"qpos0"``, ``"keyframe 'name'"``, ``"given"``.
+        length: The arm's size: its moving bodies' offsets and the tool's, summed [m]. The
+            unit the inverse kinematics measures positions in, and the scale of the floor
+            below which the tool counts as not moving (:meth:`effective_mass`).
     """
 
     def __init__(
@@ -145,6 +148,9 @@ class Arm:
         self.lower: Array = limits[0]
         self.upper: Array = limits[1]
         self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
+        self.length: float = self.mujoco.length
+        self._floor = linalg.motion_floor(self.length)
+        self._slides: Array = np.array([t == "slide" for t in self.joint_types])
         self._recipe = recipe
         self.model_format = model_format
         self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
@@ -341,12 +347,14 @@ class Arm:
                 (``computeMinverse``).
 
         Raises:
-            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6);
-                names the lost tool directions.
+            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6, or
+                moves the tool by no more than :func:`~redundancy.linalg.motion_floor` along
+                some direction); names the lost tool directions.
             UnknownNameError: A joint or engine name the arm does not have.
             ParameterError: ``joints`` empty, repeated or not names.
         """
-        return linalg._operational_inertia(*self._mobility(q, armature, joints, engine))
+        J, X = self._mobility(q, armature, joints, engine)
+        return linalg._operational_inertia(J, X, atol=self._floor)
 
     def effective_mass(
         self,
@@ -360,7 +368,9 @@ class Arm:
         """Mass a point contact at the tool feels pushing along ``direction`` [kg].
 
         1 / (u^T J_v M^-1 J_v^T u), u the unit direction in world axes; ``inf`` along a
-        direction the tool cannot move. Defined at singular poses too.
+        direction the tool cannot move: |J_v^T u| below 1e-9 of |J_v| or at most
+        :func:`~redundancy.linalg.motion_floor` of :attr:`length` (rounding noise, as at a
+        point on every free joint's axis). Defined at singular poses too.
 
         Args:
             q: Pose [rad or m].
@@ -373,7 +383,9 @@ class Arm:
             ParameterError: ``direction`` zero, non-finite or not a 3-vector.
         """
         u = check_direction("direction", direction)
-        return linalg._effective_mass(*self._mobility(q, armature, joints, engine), u)
+        return linalg._effective_mass(
+            *self._mobility(q, armature, joints, engine), u, atol=self._floor
+        )
 
     def effective_mass_range(
         self,
@@ -387,9 +399,11 @@ class Arm:
 
         The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
         :meth:`operational_inertia`); the greatest is ``inf`` where the tool cannot move
-        along some direction.
+        along some direction, the least too where it cannot move at all (the floor as
+        :meth:`effective_mass`'s).
         """
-        return linalg._effective_mass_range(*self._mobility(q, armature, joints, engine))
+        J, X = self._mobility(q, armature, joints, engine)
+        return linalg._effective_mass_range(J, X, atol=self._floor)
 
     def dynamic_manipulability(
         self,
@@ -491,8 +505,8 @@ class Arm:
             seed = check_count("seed", seed, 0)
         try:
             lo, hi = self._ik_ranges
-        except AttributeError:  # drawn from where the sampling draws (an unlimited slide: +-1 m)
-            lo, hi = self._ik_ranges = sampling_ranges(self, unlimited_slide=1.0)
+        except AttributeError:  # drawn from where the sampling draws (an unlimited slide: +-L)
+            lo, hi = self._ik_ranges = sampling_ranges(self, unlimited_slide=self.length)
         start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
         return ik.solve(
             eng,
@@ -508,6 +522,8 @@ class Arm:
             self.ik_objective(objective, engine),
             check_flag("position_only", position_only),
             settings,
+            self.length,
+            self._slides,
         )
 
     def __repr__(self) -> str:

@@ -5,21 +5,28 @@ subcommands, so ``--help`` is instant.
 
 Exit status:
     0: done, no findings; 1: the audit has findings; 2: bad input (an argument, the model
-    file, a name), with one line on stderr; 3: an internal error (a bug: please report it),
-    with one line on stderr; 130: interrupted; 141: the reader of stdout went away (as a
-    Unix tool killed by SIGPIPE: ``redundancy audit --json - | head -1`` ends quietly).
+    file, a name) or a report that cannot be written (a full disk, a JSON file that cannot
+    be replaced), with one line on stderr; 3: an internal error (a bug: please report it),
+    with one line on stderr; 130: interrupted; 141: the reader of stdout went away, or stdout
+    is closed (as a Unix tool killed by SIGPIPE: ``redundancy audit --json - | head -1`` and
+    ``redundancy compare a.xml b.xml >&-`` end quietly).
 
 Every error is one line on stderr (a multi-line engine message is joined with "; "); with
-stderr closed the status alone says what happened.
+stderr closed the status alone says what happened. Text goes out in whatever encoding the
+terminal has: a character it cannot show (a Cyrillic joint name on a Latin-1 terminal) is
+written as a backslash escape (``\u043b``). JSON documents are ASCII, with infinities and
+NaN as ``null`` (:func:`redundancy.display.json_ready`).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import os
 import sys
-from collections.abc import Callable, Sequence
-from typing import NoReturn
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, NoReturn
 
 OK, FINDINGS, BAD_INPUT, INTERNAL_ERROR, INTERRUPTED = 0, 1, 2, 3, 130
 PIPE_CLOSED = 128 + 13  # 128 + SIGPIPE, the status a shell shows for a tool that got it
@@ -43,8 +50,6 @@ def _error(message: object) -> None:
 
 def _silence_stdout() -> None:
     """After a broken pipe: point stdout at /dev/null so the exit's flush raises nothing."""
-    import os
-
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
@@ -55,6 +60,77 @@ def _silence_stdout() -> None:
 
 class _BadInput(Exception):
     """An argument that fails its check (one line for stderr)."""
+
+
+class _OutputError(Exception):
+    """Writing to stdout failed other than by a closed pipe (a full disk): one line."""
+
+
+def _stdout_name() -> str:
+    """Standard output, and the file it is when the system says (Linux's /proc)."""
+    try:
+        target = os.readlink("/proc/self/fd/1")
+    except OSError:
+        return "standard output"
+    return f"standard output ({target})" if target.startswith("/") else "standard output"
+
+
+class _Stdout:
+    """The command's stdout: a closed one is a broken pipe, a failed write an _OutputError.
+
+    Every command prints through ``sys.stdout``; this stands in for it while the command
+    runs, so that each way the report can fail to go out ends the same way for all of them.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def _call(self, name: str, *args: Any) -> Any:
+        if self._stream is None:  # started with stdout closed (>&-): as if nobody reads
+            raise BrokenPipeError("standard output is closed")
+        try:
+            return getattr(self._stream, name)(*args)
+        except BrokenPipeError:
+            raise
+        except ValueError as err:  # the stream object was closed: nobody reads either
+            raise BrokenPipeError(str(err)) from err
+        except OSError as err:
+            raise _OutputError(f"cannot write to {_stdout_name()}: {err}") from err
+
+    def write(self, text: str) -> int:
+        return int(self._call("write", text))
+
+    def flush(self) -> None:
+        self._call("flush")
+
+    def __getattr__(self, name: str) -> Any:  # fileno, encoding, isatty...
+        if self._stream is None:
+            raise AttributeError(name)
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def _terminal_output() -> Iterator[None]:
+    """While a command runs: stdout guarded (:class:`_Stdout`), unencodable text escaped.
+
+    The streams are put back as they were afterwards (``main`` is also called in-process).
+    """
+    saved: list[tuple[Any, str]] = []
+    for stream in (sys.stdout, sys.stderr):
+        errors = getattr(stream, "errors", None)
+        if errors is not None and hasattr(stream, "reconfigure"):
+            with contextlib.suppress(OSError, ValueError):
+                stream.reconfigure(errors="backslashreplace")
+                saved.append((stream, errors))
+    original = sys.stdout
+    sys.stdout = _Stdout(original)  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        sys.stdout = original
+        for stream, errors in saved:
+            with contextlib.suppress(OSError, ValueError):
+                stream.reconfigure(errors=errors)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -277,6 +353,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns:
         0 no findings, 1 findings, 2 bad input, 3 internal error (see the module docstring).
     """
+    with _terminal_output():
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         try:
             args = _parser().parse_args(argv)
@@ -299,6 +380,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader of stdout (or stderr) went away: end quietly
         _silence_stdout()
         return PIPE_CLOSED
+    except _OutputError as err:  # the report did not go out: say where, as for a bad file
+        _silence_stdout()  # what stays buffered must not fail again at the exit
+        _error(f"redundancy: error: {err}")
+        return BAD_INPUT
     except Exception as err:  # a bug, not the user's input: one line, and the status says so
         _error(f"redundancy: internal error: {type(err).__name__}: {err} (please report it)")
         return INTERNAL_ERROR

@@ -17,8 +17,13 @@ Example:
 from __future__ import annotations
 
 import html
+import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -128,3 +133,28 @@ class Report:
 def plural(n: int, word: str, words: str | None = None) -> str:
     """``"1 pose"``, ``"2 poses"``; ``words`` is the plural where it is not word + s."""
     return f"{n} {word}" if n == 1 else f"{n} {words or word + 's'}"
+
+
+def json_ready(x: Any) -> Any:
+    """A value as a JSON document holds it: the one convention of every document written.
+
+    Dicts and sequences element by element, arrays and tuples as lists, NumPy scalars as
+    Python's, and an infinite or NaN float as ``null`` (JSON has no infinity; a reader tells
+    an infinite error or mass from a missing one by the field's documentation).
+    """
+    if isinstance(x, dict):
+        return {k: json_ready(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [json_ready(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return json_ready(x.tolist())
+    if isinstance(x, np.generic):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def to_json(document: Any) -> str:
+    """``document`` as indented, ASCII JSON after :func:`json_ready` (never Infinity or NaN)."""
+    return json.dumps(json_ready(document), indent=2, allow_nan=False)

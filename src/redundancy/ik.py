@@ -7,6 +7,10 @@ The solver (:func:`solve`, behind :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>`
   dq = J^T (J J^T + lambda I)^-1 e (the same step as (J^T J + lambda I)^-1 J^T e, through a
   6 x 6 system), clamped to the joint ranges after every step, so every iterate and every
   answer lies inside them.
+* **The same steps at any size**: positions (the position errors and rows of J, the slide
+  joints' values) are measured in half-lengths of the arm, so E and the damping are pure numbers
+  and a 0.3 mm arm, a 1 m arm and a 100 m arm take the same steps towards the same
+  (scaled) targets.
 * **Random restarts** inside the ranges when an attempt stalls, up to a budget.
 * **The answer checked in the other engine**: the iterations use one engine's kinematics
   (MuJoCo's by default, the fastest); when they meet the tolerances, the other engine
@@ -16,6 +20,7 @@ The solver (:func:`solve`, behind :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>`
   N = I - J^+ J, each followed by a few Levenberg-Marquardt corrections that remove the
   second-order drift, kept only when f decreases and the task still holds; the objective
   never costs the task anything (the task-only answer is returned if the pursuit fails).
+  The objective is given a copy of each pose: changing its argument changes nothing here.
 
 Nothing here calls an engine library: the engines' ``kinematics_kernel`` (unchecked, per
 thread) gives position, rotation and Jacobian at a pose.
@@ -60,6 +65,9 @@ class IKResult:
         objective: The objective's value at ``q`` (None without an objective).
         engine: The engine whose kinematics the iterations used.
         checked_by: The engine that recomputed the answer and decided ``success``.
+
+    ``success`` and the errors are those of this ``q``, the array returned (a copy of the
+    solver's own: changing it changes nothing else).
     """
 
     q: Array
@@ -82,10 +90,12 @@ class Settings:
         orientation_tol: Orientation tolerance [rad].
         iterations: Iterations per attempt before a restart.
         restarts: Random restarts at most.
-        damping: w_N, the constant part of Sugihara's damping [m^2 or rad^2].
+        damping: w_N, the constant part of Sugihara's damping, on errors whose positions
+            are in half-lengths of the arm [-].
         objective_steps: Null-space steps at most when pursuing an objective.
-        stall_window: An attempt whose E fell by less than ``stall_ratio`` over this many
-            iterations (while above 1e-8) is given up for a restart.
+        stall_window: An attempt whose E (positions in half-lengths of the arm) fell by less
+            than ``stall_ratio`` over this many iterations (while above 1e-8) is given up for
+            a restart.
         stall_ratio: See ``stall_window``.
     """
 
@@ -106,6 +116,11 @@ DEFAULT_SETTINGS = Settings()
 #: The iterating engine converges to this fraction of the tolerances before the other engine
 #: checks (the engines agree to ~1e-15 m; the margin keeps a check from failing on rounding).
 _MARGIN = 0.1
+
+#: The unit the iterations measure positions in, as a share of the arm's length: half of it
+#: (a typical reach) took 4 % fewer iterations than the whole length and than a fixed 1 m on
+#: 1,200 targets of arm7, UR5, xArm7 and Panda (1.1-1.5 m long).
+_UNIT = 0.5
 
 #: Corrections allowed after each null-space step.
 _CORRECTIONS = 8
@@ -186,7 +201,7 @@ def _checked(returned: object, nq: int) -> tuple[float, Array]:
     value, gradient = returned
     try:
         v = float(value)
-        g = np.asarray(gradient, dtype=np.float64)
+        g = np.array(gradient, dtype=np.float64)  # a copy: the caller may reuse its array
     except (TypeError, ValueError, OverflowError):
         raise ParameterError("objective", (value, gradient), valid) from None
     if not math.isfinite(v) or g.shape != (nq,) or not np.all(np.isfinite(g)):
@@ -195,7 +210,14 @@ def _checked(returned: object, nq: int) -> tuple[float, Array]:
 
 
 class _Solver:
-    """One solve's state: the kernel, the target, the ranges and the counters."""
+    """One solve's state: the kernel, the target, the ranges, the arm's size and the counters.
+
+    Positions are measured in L = :data:`_UNIT` x ``length`` (the arm's length [m]): E =
+    (|e_p|^2 / L^2 + |e_r|^2) / 2, the position rows damped by lambda L^2 (the step of J and
+    e with those rows divided by L), and a slide joint's column and step scaled by L (its
+    value in units of L). A hinge-only arm scaled by any factor takes exactly the steps of
+    the unscaled one.
+    """
 
     def __init__(
         self,
@@ -206,6 +228,8 @@ class _Solver:
         R_t: Array,
         position_only: bool,
         settings: Settings,
+        length: float = 1.0,
+        slide: Array | None = None,
     ) -> None:
         self.kin = engine.ik_kernel(p_t, R_t)
         self.lower, self.upper = lower, upper
@@ -215,8 +239,16 @@ class _Solver:
         self.tol_p = _MARGIN * settings.position_tol
         self.tol_r = math.inf if position_only else _MARGIN * settings.orientation_tol
         self.iterations = 0
+        length = _UNIT * length
+        self.inv_l2 = 1.0 / (length * length)
+        # Per joint, the length a unit of its value is measured in (None: 1 for every joint).
+        self.unit: Array | None = None
+        if slide is not None and length != 1.0 and np.any(slide):
+            self.unit = np.where(slide, length, 1.0)
         # The damped least-squares step with its work arrays made once per solve.
-        self.step = damped_stepper(3 if position_only else 6, len(lower))
+        L2 = length * length
+        weights = [L2] * 3 if position_only else [L2, L2, L2, 1.0, 1.0, 1.0]
+        self.step = damped_stepper(len(weights), len(lower), np.array(weights))
 
     def error(self, q: Array) -> tuple[Array, Array, float, float]:
         """Task error (6 or 3,), task Jacobian, position and orientation errors at ``q``.
@@ -240,7 +272,7 @@ class _Solver:
             The last pose, whether it converged, and E = e^T e / 2 there.
         """
         lo, hi, k, wn = self.lower, self.upper, self.s.gain, self.s.damping
-        only, kin = self.position_only, self.kin
+        only, kin, inv_l2, unit = self.position_only, self.kin, self.inv_l2, self.unit
         tp2 = self.tol_p * self.tol_p
         tr2 = math.inf if only else self.tol_r * self.tol_r
         window, ratio = self.s.stall_window, self.s.stall_ratio
@@ -248,7 +280,7 @@ class _Solver:
         e, J = kin(q)
         x, y, z, a, b, c = e.tolist()
         pp, rr = x * x + y * y + z * z, a * a + b * b + c * c
-        E = 0.5 * (pp if only else pp + rr)
+        E = 0.5 * (pp * inv_l2 if only else pp * inv_l2 + rr)
         history = [E]
         done = 0
         for _ in range(budget):
@@ -257,7 +289,10 @@ class _Solver:
             done += 1
             lam = k * E + wn  # Sugihara's lambda = E + w_N (with the gain k of Chan's)
             Jt, et = (J[:3], e[:3]) if only else (J, e)
-            step = q + step_of(Jt, et, lam)
+            if unit is None:
+                step = q + step_of(Jt, et, lam)
+            else:  # slides in lengths of the arm: J's columns and the step scaled
+                step = q + unit * step_of(Jt * unit, et, lam)
             clamped = maximum(step, lo)  # -inf / inf where a joint is unlimited
             minimum(clamped, hi, out=clamped)
             values = clamped.tolist()
@@ -265,7 +300,11 @@ class _Solver:
                 # A joint the step pushes past its limit stops there; the step is solved
                 # again without it, so the other joints make up for it (the redundancy at
                 # work).
-                clamped = maximum(q + step_of(Jt * (clamped == step), et, lam), lo)
+                Jf = Jt * (clamped == step)
+                if unit is None:
+                    clamped = maximum(q + step_of(Jf, et, lam), lo)
+                else:
+                    clamped = maximum(q + unit * step_of(Jf * unit, et, lam), lo)
                 minimum(clamped, hi, out=clamped)
                 values = clamped.tolist()
             if not math.isfinite(lam) or not math.isfinite(sum(values)):
@@ -274,7 +313,7 @@ class _Solver:
             e, J = kin(q)
             x, y, z, a, b, c = e.tolist()
             pp, rr = x * x + y * y + z * z, a * a + b * b + c * c
-            E = 0.5 * (pp if only else pp + rr)
+            E = 0.5 * (pp * inv_l2 if only else pp * inv_l2 + rr)
             # A stalled attempt (E down by less than ``stall_ratio`` over ``stall_window``
             # iterations, far from the tolerance) is given up for a restart rather than run
             # to the budget.
@@ -285,21 +324,25 @@ class _Solver:
         return q, pp <= tp2 and rr <= tr2, E
 
     def pursue(self, q: Array, objective: Objective) -> Array:
-        """Lower ``objective`` along the task's null space from the converged ``q``."""
+        """Lower ``objective`` along the task's null space from the converged ``q``.
+
+        The objective sees copies: one that changes its argument cannot move the solver's
+        pose after its errors were computed.
+        """
         nq = len(q)
-        value, grad = _checked(objective(q), nq)
-        scale = 0.25  # largest joint motion of the next trial step [rad or m]
+        value, grad = _checked(objective(q.copy()), nq)
+        scale = 0.25  # largest joint motion of the next trial step [rad, or half-lengths]
         for _ in range(self.s.objective_steps):
             J = self.error(q)[1]
             N = np.eye(nq) - np.linalg.pinv(J).dot(J)
             d = -N.dot(grad)
-            top = float(np.abs(d).max())
+            top = float(np.abs(d if self.unit is None else d / self.unit).max())
             if not top > 1e-12:
                 break
             trial = np.clip(q + (scale / top) * d, self.lower, self.upper)
             trial, ok, _ = self.descend(trial, _CORRECTIONS)
             if ok:
-                v, g = _checked(objective(trial), nq)
+                v, g = _checked(objective(trial.copy()), nq)
                 if v < value - 1e-12 * max(1.0, abs(value)):
                     gain = value - v
                     q, value, grad = trial, v, g
@@ -327,6 +370,8 @@ def solve(
     objective: Objective | None = None,
     position_only: bool = False,
     settings: Settings | None = None,
+    length: float = 1.0,
+    slide: Array | None = None,
 ) -> IKResult:
     """Solve one target (inputs validated by the caller; see the module's description).
 
@@ -345,9 +390,12 @@ def solve(
         objective: A cost lowered in the null space after convergence, or None.
         position_only: Solve for the position alone (3 rows of J).
         settings: The knobs (:class:`Settings` defaults if None).
+        length: The arm's length, which sets the unit of the iterations' positions [m] (see
+            :class:`_Solver`).
+        slide: True for each slide joint (their values are lengths), None: all hinges.
     """
     s = settings or Settings()
-    solver = _Solver(engine, lower, upper, p_t, R_t, position_only, s)
+    solver = _Solver(engine, lower, upper, p_t, R_t, position_only, s, length, slide)
     q = np.minimum(np.maximum(q0, lower), upper)
     best: tuple[float, Array] | None = None
     restarts = 0
@@ -394,9 +442,10 @@ def _result(
     objective: Objective | None,
     engine: Engine,
 ) -> IKResult:
-    value = None if objective is None else _checked(objective(q), len(q))[0]
+    q = q.copy()  # the errors are this array's; the objective gets its own copy
+    value = None if objective is None else _checked(objective(q.copy()), len(q))[0]
     return IKResult(
-        q=q.copy(),
+        q=q,
         success=bool(errors[2]),
         position_error=errors[0],
         orientation_error=errors[1],

@@ -29,6 +29,27 @@ Array = NDArray[np.float64]
 #: Relative tolerance for the numerical rank: sigma_i counts when sigma_i > RANK_RTOL * sigma_max.
 RANK_RTOL = 1e-9
 
+#: Rounding noise of a position on an arm of length 1 m, as a multiple of the double's
+#: resolution: J's linear rows come from differences of positions up to the arm's length, so
+#: their noise is a few eps x L (arm7's, with the tool on the wrist axes: 1e-17 m/rad).
+_EPS = float(np.finfo(np.float64).eps)
+_MOTION_EPS = 1024 * _EPS
+
+
+def motion_floor(length: float) -> float:
+    """Below this, a column or direction of J's linear rows is rounding noise [m/rad].
+
+    1024 eps x ``length`` (2.3e-13 of the arm's length, :attr:`Arm.length
+    <redundancy.Arm.length>`): far below any lever arm a real joint has, far above the noise
+    of a point the joints cannot move. The effective mass, its range and the operational
+    inertia count a direction whose motion is below it as one the tool cannot move along.
+
+    Raises:
+        ParameterError: ``length`` not a finite number > 0 [m].
+    """
+    return _MOTION_EPS * check_number("length", length, 0.0, low_open=True, unit="m")
+
+
 #: Names of the six rows of a site Jacobian (linear, then angular, world axes).
 TOOL_DIRECTIONS = (
     "translation x",
@@ -466,8 +487,15 @@ def _mobility(J: Array, X: Array) -> Array:
     return 0.5 * (A + np.swapaxes(A, -1, -2))
 
 
-def _lost_names(J: Array, rtol: float) -> list[str]:
-    """The tool directions J cannot produce: axis names, or the unit 6-vectors written out."""
+def _lost_names(J: Array, rtol: float, atol: float = 0.0) -> list[str]:
+    """The tool directions J cannot produce: axis names, or the unit 6-vectors written out.
+
+    Linear directions whose motion is at most ``atol`` [m/rad] count as lost.
+    """
+    if atol > 0 and J.shape[1]:
+        U, s, Vt = np.linalg.svd(J[:3], full_matrices=False)
+        J = J.copy()
+        J[:3] = (U * np.where(s > atol, s, 0.0)) @ Vt  # the noise directions set to zero
     svd = jacobian_svd(J, rtol)  # U is 6 x 6 whatever the number of joints
     names = svd.lost_direction_names()
     if len(names) == svd.lost_directions.shape[1]:
@@ -475,7 +503,7 @@ def _lost_names(J: Array, rtol: float) -> list[str]:
     return [np.array2string(u, precision=3, suppress_small=True) for u in svd.lost_directions.T]
 
 
-def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
     """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
 
     Not by inverting J M^-1 J^T, whose condition number is J's squared (near a singular pose
@@ -484,16 +512,21 @@ def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
     only J's condition number of accuracy. C is formed as V^T (X U S^-1) = V^T M^-1 V.
 
     Raises:
-        SingularPoseError: J has rank below 6 (by :func:`jacobian_svd`'s rule) at some pose:
-            names the tool directions lost (and the pose, for a stack).
+        SingularPoseError: J has rank below 6 (by :func:`jacobian_svd`'s rule), or its
+            linear rows move the tool by at most ``atol`` [m/rad] along some direction
+            (:func:`motion_floor`), at some pose: names the tool directions lost (and the
+            pose, for a stack).
     """
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     bad = (s.shape[-1] < J.shape[-2]) | ~(s[..., 0] > 0) | (s[..., -1] <= rtol * s[..., 0])
+    if atol > 0 and not np.all(bad):
+        bad = bad | (np.linalg.svd(J[..., :3, :], compute_uv=False)[..., -1] <= atol)
     if np.any(bad):
         if J.ndim == 2:
-            raise SingularPoseError("operational inertia", _lost_names(J, rtol))
+            raise SingularPoseError("operational inertia", _lost_names(J, rtol, atol))
         i = int(np.flatnonzero(bad)[0])
-        raise SingularPoseError("operational inertia", _lost_names(J[i], rtol), f" (pose {i})")
+        lost = _lost_names(J[i], rtol, atol)
+        raise SingularPoseError("operational inertia", lost, f" (pose {i})")
     inv_s = 1.0 / s
     C = Vt @ ((X @ U) * inv_s[..., None, :])
     C = 0.5 * (C + np.swapaxes(C, -1, -2))
@@ -502,7 +535,9 @@ def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
     return 0.5 * (L + np.swapaxes(L, -1, -2))
 
 
-def _effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:
+def _effective_mass(
+    J: Array, X: Array, u: Array, rtol: float = RANK_RTOL, atol: float = 0.0
+) -> float:
     """Effective mass 1 / (u^T J_v M^-1 J_v^T u) [kg] along the unit direction ``u``.
 
     Written as 1 / (g^T M^-1 g) with g = J_v^T u: a product of g with M^-1 g, which stays
@@ -515,44 +550,69 @@ def _effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> fl
         u: Unit direction, world axes (3,).
         rtol: Below ``rtol`` times the Frobenius norm of J_v, |J_v^T u| counts as zero: the
             tool cannot move along ``u`` and the mass is ``inf``.
+        atol: Likewise at or below this [m/rad] (:func:`motion_floor`): a J_v made of
+            rounding noise, relative to which ``rtol`` would pass the noise.
     """
     # ndarray.dot: on arrays this small, @ costs several times more (numpy's matmul setup).
     Jv = J[:3]
     g = u.dot(Jv)
-    if not g.dot(g) > rtol * rtol * np.vdot(Jv, Jv):
+    gg = g.dot(g)
+    if not (gg > rtol * rtol * np.vdot(Jv, Jv) and gg > atol * atol):
         return float("inf")
-    return float(1.0 / g.dot(X[:, :3].dot(u)))
+    a = g.dot(X[:, :3].dot(u))
+    return float(1.0 / a) if a > 0 else float("inf")
 
 
-def _effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> Array:
+def _effective_masses(
+    J: Array, X: Array, U: Array, rtol: float = RANK_RTOL, atol: float = 0.0
+) -> Array:
     """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,)."""
     U = np.broadcast_to(U, (len(J), 3))
     g = np.einsum("ni,nik->nk", U, J[:, :3])
     a = np.einsum("nk,nki,ni->n", g, X[:, :, :3], U)
-    moving = np.linalg.norm(g, axis=1) > rtol * np.linalg.norm(J[:, :3], axis=(1, 2))
+    size = np.linalg.norm(g, axis=1)
+    moving = (size > rtol * np.linalg.norm(J[:, :3], axis=(1, 2))) & (size > atol) & (a > 0)
     out = np.full(len(J), np.inf)
     np.divide(1.0, a, out=out, where=moving)
     return out
 
 
-def _effective_mass_range(J: Array, X: Array, rtol: float = RANK_RTOL) -> EffectiveMassRange:
+def _extremes_stuck(J: Array, w: Array, rtol: float, atol: float) -> tuple[Array, Array]:
+    """Where the least and the greatest effective mass are ``inf``.
+
+    From J (…, 6, k) and the eigenvalues w (…, 3) of J_v M^-1 J_v^T, ascending.
+    The greatest is ``inf`` where the tool cannot move along some direction: fewer than three
+    joints free, J_v's least singular value below ``rtol`` of its largest or at most ``atol``
+    (:func:`motion_floor`), or w's least at most 64 eps times its largest (inside eigh's
+    rounding). The least is ``inf`` where it cannot move at all: J_v's largest at most ``atol``.
+    """
+    s = np.linalg.svd(J[..., :3, :], compute_uv=False)
+    if s.shape[-1] < 3:  # two joints or fewer: a direction is lost, whatever J is
+        s = np.concatenate([s, np.zeros((*s.shape[:-1], 3 - s.shape[-1]))], axis=-1)
+    floor = np.maximum(rtol * s[..., 0], atol)
+    none = ~(s[..., 0] > atol) | ~(w[..., -1] > 0)
+    some = none | (s[..., -1] <= floor) | (w[..., 0] <= 64 * _EPS * w[..., -1])
+    return none, some
+
+
+def _effective_mass_range(
+    J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0
+) -> EffectiveMassRange:
     """The extremes of the effective mass over directions at one pose (see the class)."""
     w, V = np.linalg.eigh(_mobility(J[:3], X[:, :3]))
-    s = np.linalg.svd(J[:3], compute_uv=False)
-    stuck = not s[0] > 0 or s[-1] <= rtol * s[0]
-    top = float("inf") if stuck or w[0] <= 0 else float(1.0 / w[0])
-    return EffectiveMassRange(float(1.0 / w[-1]), top, V[:, -1].copy(), V[:, 0].copy())
+    none, some = _extremes_stuck(J, w, rtol, atol)
+    low = float("inf") if none else float(1.0 / w[-1])
+    top = float("inf") if some else float(1.0 / w[0])
+    return EffectiveMassRange(low, top, V[:, -1].copy(), V[:, 0].copy())
 
 
-def _effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+def _effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
     """Least and greatest effective mass over a stack, shape (n, 2) [kg]."""
     w = np.linalg.eigvalsh(_mobility(J[:, :3], X[:, :, :3]))
-    s = np.linalg.svd(J[:, :3], compute_uv=False)
-    stuck = ~(s[:, 0] > 0) | (s[:, -1] <= rtol * s[:, 0]) | (w[:, 0] <= 0)
-    out = np.empty((len(J), 2))
-    out[:, 0] = 1.0 / w[:, -1]
-    out[:, 1] = np.inf
-    np.divide(1.0, w[:, 0], out=out[:, 1], where=~stuck)
+    none, some = _extremes_stuck(J, w, rtol, atol)
+    out = np.full((len(J), 2), np.inf)
+    np.divide(1.0, w[:, -1], out=out[:, 0], where=~none)
+    np.divide(1.0, w[:, 0], out=out[:, 1], where=~some)
     return out
 
 
@@ -605,6 +665,10 @@ def _check_rtol(rtol: object) -> float:
     return check_number("rtol", rtol, 0.0, 1.0, low_open=True, high_open=True)
 
 
+def _check_atol(atol: object) -> float:
+    return check_number("atol", atol, 0.0, unit="m/rad")
+
+
 def mobility(J: Array, X: Array) -> Array:
     """Lambda^-1 = J M^-1 J^T from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetrised.
 
@@ -616,22 +680,25 @@ def mobility(J: Array, X: Array) -> Array:
     return _mobility(*_check_jx(J, X, None))
 
 
-def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
     """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
 
     Through J's SVD, not by inverting J M^-1 J^T: it loses only J's condition number of
-    accuracy near a singular pose, not its square.
+    accuracy near a singular pose, not its square. ``atol`` as :func:`effective_mass`.
 
     Raises:
-        SingularPoseError: J has rank below 6 at some pose (names the lost directions).
+        SingularPoseError: J has rank below 6 at some pose, or J_v moves the tool by at
+            most ``atol`` along some direction (names the lost directions).
         ParameterError: J or X not finite real arrays of matching shapes, ``rtol`` not in
             (0, 1).
     """
     J, X = _check_jx(J, X, None)
-    return _operational_inertia(J, X, _check_rtol(rtol))
+    return _operational_inertia(J, X, _check_rtol(rtol), _check_atol(atol))
 
 
-def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> float:
+def effective_mass(
+    J: Array, X: Array, u: Array, rtol: float = RANK_RTOL, atol: float = 0.0
+) -> float:
     """Effective mass 1 / (u^T J_v M^-1 J_v^T u) [kg] along the direction ``u``.
 
     Args:
@@ -640,44 +707,58 @@ def effective_mass(J: Array, X: Array, u: Array, rtol: float = RANK_RTOL) -> flo
         u: Direction, world axes (3,), any nonzero length.
         rtol: Relative tolerance in (0, 1) below which the tool cannot move along ``u``
             (the mass is then ``inf``).
+        atol: Motion |J_v^T u| at or below this [m/rad] counts as none, ``inf``:
+            :func:`motion_floor` of the arm's length (0: the relative test alone, which a
+            J_v of rounding noise passes).
 
     Raises:
         ParameterError: J or X not finite real arrays of matching shapes, ``u`` zero or not
             a finite (3,) vector, ``rtol`` not in (0, 1).
     """
     J, X = _check_jx(J, X, False)
-    return _effective_mass(J, X, check_direction("u", u), _check_rtol(rtol))
+    return _effective_mass(J, X, check_direction("u", u), _check_rtol(rtol), _check_atol(atol))
 
 
-def effective_masses(J: Array, X: Array, U: Array, rtol: float = RANK_RTOL) -> Array:
+def effective_masses(
+    J: Array, X: Array, U: Array, rtol: float = RANK_RTOL, atol: float = 0.0
+) -> Array:
     """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,).
 
     Raises:
         ParameterError: As :func:`effective_mass`, for stacks.
     """
     J, X = _check_jx(J, X, True)
-    return _effective_masses(J, X, check_directions("U", U, len(J)), _check_rtol(rtol))
+    return _effective_masses(
+        J, X, check_directions("U", U, len(J)), _check_rtol(rtol), _check_atol(atol)
+    )
 
 
-def effective_mass_range(J: Array, X: Array, rtol: float = RANK_RTOL) -> EffectiveMassRange:
+def effective_mass_range(
+    J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0
+) -> EffectiveMassRange:
     """The extremes of the effective mass over directions at one pose (see the class).
+
+    ``atol`` as :func:`effective_mass`: the greatest is ``inf`` where J_v moves the tool by at
+    most ``atol`` along some direction, the least too where along every direction.
 
     Raises:
         ParameterError: J (6, k) or X (k, 6) not finite real arrays, ``rtol`` not in (0, 1).
     """
     J, X = _check_jx(J, X, False)
-    return _effective_mass_range(J, X, _check_rtol(rtol))
+    return _effective_mass_range(J, X, _check_rtol(rtol), _check_atol(atol))
 
 
-def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
+def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
     """Least and greatest effective mass over a stack, shape (n, 2) [kg].
+
+    As :func:`effective_mass_range` pose by pose.
 
     Raises:
         ParameterError: J (n, 6, k) or X (n, k, 6) not finite real arrays, ``rtol`` not in
             (0, 1).
     """
     J, X = _check_jx(J, X, True)
-    return _effective_mass_ranges(J, X, _check_rtol(rtol))
+    return _effective_mass_ranges(J, X, _check_rtol(rtol), _check_atol(atol))
 
 
 def dynamic_manipulability(X: Array) -> Array | float:

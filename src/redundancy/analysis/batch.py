@@ -600,7 +600,8 @@ def operational_inertias(
             threads=threads,
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._operational_inertia(J, X) if len(J) else np.empty((0, 6, 6))
+    floor = linalg.motion_floor(arm.length)
+    return linalg._operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
 
 
 def effective_masses(
@@ -642,7 +643,7 @@ def effective_masses(
         parts = _map_chunks(executor, _effective_masses_of_rows, arm, QU, None, kwargs)
         return np.concatenate([r for _, r in parts]) if parts else np.empty(0)
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._effective_masses(J, X, U)
+    return linalg._effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
 
 def _effective_masses_of_rows(
@@ -651,7 +652,7 @@ def _effective_masses_of_rows(
     """:func:`effective_masses` of a chunk of rows (pose, unit direction), on a worker."""
     Q, U = np.ascontiguousarray(QU[:, : arm.nq]), np.ascontiguousarray(QU[:, arm.nq :])
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._effective_masses(J, X, U)
+    return linalg._effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
 
 def effective_mass_ranges(
@@ -684,7 +685,8 @@ def effective_mass_ranges(
             threads=threads,
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._effective_mass_ranges(J, X) if len(J) else np.empty((0, 2))
+    floor = linalg.motion_floor(arm.length)
+    return linalg._effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
 
 
 def dynamic_manipulabilities(

@@ -6,11 +6,16 @@ the two arms with each other. Joints are matched by name or by a joint map.
 
 * **Structure**, at a reference pose (zeros clipped into the ranges), in the world frame so
   that each file's choice of body frames does not matter: each joint's parent, type, axis
-  (with its sign) and axis line, range, effort limit, damping, friction, armature where both
-  formats carry it; mass, centre of mass and inertia of the body each joint moves (links
-  welded to it lumped in); the tool frame's placement; gravity.
+  (with its sign) and axis line, range, effort limit, damping, friction; armature, spring
+  stiffness and reference, gravity compensation (per body, and whether it goes through the
+  actuators) and velocity limits where both formats carry them; mass, centre of mass and
+  inertia of the body each joint moves (links welded to it lumped in); the tool frame's
+  placement; gravity.
 * **Poses**: tool pose, Jacobian, mass matrix and gravity torques over random poses drawn
-  in the ranges both share, and every keyframe of either file.
+  in the ranges both share, and every keyframe of either file; between two files of one
+  format also MuJoCo's passive force less the joint damping and the gravity compensation
+  (springs, fluid forces), and the gravity compensation, at random joint velocities:
+  anything else the simulation adds.
 
 First, a **rigid offset**: when B is A placed elsewhere (its base moved or turned) or with
 its tool mounted elsewhere on the last link, the transform is found from the joint axes (and
@@ -18,8 +23,9 @@ the tool frame at the reference pose), said once, and everything else is compare
 to it; what still differs comes after.
 
 Each difference names the quantity, the joint or body, both values, and the first joint
-where the two kinematic chains part. What a format cannot express (armature, keyframes and
-gravity in URDF; velocity limits in MJCF) is listed as such, not as a difference.
+where the two kinematic chains part. What a format cannot express (armature, springs,
+gravity compensation, keyframes and gravity in URDF; velocity limits in MJCF) is listed as
+such, not as a difference.
 """
 
 from __future__ import annotations
@@ -34,11 +40,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
-from ..display import Report, Table, plural, table
+from ..display import Report, Table, json_ready, plural, table, to_json
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
@@ -106,10 +113,10 @@ class RigidOffset:
         """JSON-ready form."""
         return {
             "kind": self.kind,
-            "translation": _jsonable(self.translation),
-            "rotation": _jsonable(self.rotation),
+            "translation": json_ready(self.translation),
+            "rotation": json_ready(self.rotation),
             "angle_deg": math.degrees(self.angle),
-            "axis": _jsonable(self.axis),
+            "axis": json_ready(self.axis),
         }
 
 
@@ -149,13 +156,13 @@ class Finding:
         return text + (f"; {self.note}" if self.note else "")
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (arrays as lists, infinities as strings)."""
+        """JSON-ready form (arrays as lists, infinities as null, as every document)."""
         return {
             "quantity": self.quantity,
             "where": self.where,
-            "a": _jsonable(self.a),
-            "b": _jsonable(self.b),
-            "error": _jsonable(self.error),
+            "a": json_ready(self.a),
+            "b": json_ready(self.b),
+            "error": json_ready(self.error),
             "note": self.note,
         }
 
@@ -252,7 +259,7 @@ class Comparison(Report):
             "offsets": [o.to_dict() for o in self.offsets],
             "differences": [d.to_dict() for d in self.differences],
             "not_expressible": [n.to_dict() for n in self.not_expressible],
-            "largest": {k: _jsonable(v) for k, v in self.largest.items()},
+            "largest": {k: json_ready(v) for k, v in self.largest.items()},
             "n_poses": self.n_poses,
             "tol": self.tol,
         }
@@ -294,19 +301,6 @@ class Comparison(Report):
 
 def _fmt(x: Any) -> str:
     return "(cannot express)" if x is None else format_value(x)
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, np.ndarray):
-        return [_jsonable(v) for v in x.tolist()]
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, float | np.floating):
-        v = float(x)
-        return v if math.isfinite(v) else str(v)
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
 
 
 def read_joint_map(path: str | os.PathLike[str]) -> dict[str, str]:
@@ -447,6 +441,9 @@ class _Comparer:
             "centre of mass (world)": L,
             "inertia about the centre of mass (world)": sc.inertia,
             "armature": sc.inertia,
+            "joint stiffness": sc.torque,
+            "gravity compensation": 1.0,
+            "gravity compensation through the actuators": 1.0,
             "tool frame position (world)": L,
             "tool frame rotation (world)": 1.0,
             "gravity vector": sc.gravity,
@@ -631,6 +628,7 @@ class _Comparer:
             self.check("centre of mass (world)", bw, c_a[i], c_b[j])
             self.check("inertia about the centre of mass (world)", bw, I_a[i], I_b[j])
         self.armature()
+        self.passive()
         self.format_only()
         self.find_tool()
         pos_a, rot_a = self.tool_a(*a.mujoco.site_pose(qa))
@@ -665,12 +663,67 @@ class _Comparer:
             va, vb = (None, listed) if self.fmt_a == "URDF" else (listed, None)
             self.cannot("armature", "joints", va, vb, "URDF")
 
+    def passive(self) -> None:
+        """Joint springs and gravity compensation: compared in one format, listed across two."""
+        a, b = self.a, self.b
+        ma, mb = a.mj_model, b.mj_model
+        if self.fmt_a != self.fmt_b:  # URDF has neither: list the MJCF side's
+            arm, side = (b, "b") if self.fmt_a == "URDF" else (a, "a")
+            m = arm.mj_model
+            springs = {
+                n: f"stiffness={k:g}, springref={m.qpos_spring[m.jnt_qposadr[i]]:g}"
+                for i, (n, k) in enumerate(zip(arm.joint_names, m.jnt_stiffness, strict=True))
+                if k != 0
+            }
+            bodies = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
+            gravcomp = {bodies[k]: float(g) for k, g in enumerate(m.body_gravcomp) if g != 0}
+            for quantity, where, values in (
+                ("joint spring", "joints", springs),
+                ("gravity compensation", "bodies", gravcomp),
+            ):
+                if values:
+                    va, vb = (values, None) if side == "a" else (None, values)
+                    self.cannot(quantity, where, va, vb, "URDF")
+            return
+        with_gravcomp = bool(np.any(ma.body_gravcomp) or np.any(mb.body_gravcomp))
+        for i, j in zip(self.ia, self.ib, strict=True):
+            w = self.where(i)
+            k_a, k_b = float(ma.jnt_stiffness[i]), float(mb.jnt_stiffness[j])
+            self.check("joint stiffness", w, k_a, k_b)
+            if k_a and k_b:  # a reference matters only to a spring (one alone: stiffness)
+                unit = 1.0 if a.joint_types[i] == "hinge" else self.scales.length
+                ref_a = float(ma.qpos_spring[ma.jnt_qposadr[i]])
+                ref_b = float(mb.qpos_spring[mb.jnt_qposadr[j]])
+                self.check("spring reference", w, ref_a, ref_b, size=unit)
+            ga, gb = ma.body_gravcomp[ma.jnt_bodyid[i]], mb.body_gravcomp[mb.jnt_bodyid[j]]
+            self.check("gravity compensation", self.body_where(i), float(ga), float(gb))
+            if with_gravcomp:
+                self.check(
+                    "gravity compensation through the actuators",
+                    w,
+                    float(ma.jnt_actgravcomp[i]),
+                    float(mb.jnt_actgravcomp[j]),
+                )
+
     @property
     def armature_comparable(self) -> bool:
         return "URDF" not in (self.fmt_a, self.fmt_b) or self.fmt_a == self.fmt_b
 
     def format_only(self) -> None:
-        """Velocity limits (URDF only) and keyframes (MJCF only), listed where one side has them."""
+        """Velocity limits (URDF only) and keyframes (MJCF only), listed where one side has them.
+
+        Between two URDFs the velocity limits are compared.
+        """
+        if self.fmt_a == self.fmt_b == "URDF":
+            vel_a, vel_b = (
+                np.asarray(x.pinocchio.model.velocityLimit)[x.pinocchio.perm]
+                for x in (self.a, self.b)
+            )
+            for i, j in zip(self.ia, self.ib, strict=True):
+                unit = 1.0 if self.a.joint_types[i] == "hinge" else self.scales.length
+                self.check(
+                    "velocity limit", self.where(i), float(vel_a[i]), float(vel_b[j]), size=unit
+                )
         if self.fmt_a == self.fmt_b:
             return
         for arm, fmt, side in ((self.a, self.fmt_a, "a"), (self.b, self.fmt_b, "b")):
@@ -738,12 +791,18 @@ class _Comparer:
         }
         if Ga is not None and Gb is not None:
             values["gravity torque"] = (Ga[:, cols], Gb[:, perm], 0)
+        if self.fmt_a == self.fmt_b:
+            (Pa, Ca), (Pb, Cb) = self.passive_forces(qs, seed)
+            values["spring and fluid force"] = (Pa[:, cols], Pb[:, perm], 0)
+            values["gravity compensation torque"] = (Ca[:, cols], Cb[:, perm], 0)
         sc = self.scales
         sizes = {
             "tool position": sc.length,
             "tool rotation": 1.0,
             "mass matrix": sc.inertia,
             "gravity torque": sc.torque,
+            "spring and fluid force": sc.torque,
+            "gravity compensation torque": sc.torque,
         }
         for quantity, (stack_a, stack_b, axis) in values.items():
             if quantity == "jacobian":  # linear rows [m/rad] and angular rows, each its scale
@@ -772,6 +831,27 @@ class _Comparer:
             note = f"entry {tuple(int(i) for i in entry)}; " + note
             self.diffs.append(Finding(name, where, float(va[entry]), float(vb[entry]), err, note))
         return len(qs)
+
+    def passive_forces(self, qs: Array, seed: int) -> tuple[tuple[Array, Array], ...]:
+        """Each arm's passive force less damping and gravity compensation, and the latter.
+
+        At the poses ``qs`` (A's) with random velocities in +-1 rad/s (+-1 arm length per
+        second on a slide), the same for the joints both have. The damping (compared on its
+        own) and the gravity compensation (the second array) are taken out of the passive
+        force, so that no difference is reported twice.
+        """
+        unit = np.where(np.array(self.a.joint_types) == "hinge", 1.0, self.scales.length)
+        Va = np.random.default_rng([seed, 1]).uniform(-1.0, 1.0, qs.shape) * unit
+        Vb = np.zeros((len(qs), self.b.nq))
+        Vb[:, self.ib] = Va[:, self.ia]
+        out = []
+        for arm, Q, V in ((self.a, qs, Va), (self.b, self.to_b(qs), Vb)):
+            m = arm.mj_model
+            P, C = arm.mujoco.passive_forces(Q, V)
+            # The compensation is in qfrc_passive except on joints that send it to actuators.
+            passive_gc = C * (m.jnt_actgravcomp[m.dof_jntid] == 0)
+            out.append((P + m.dof_damping * V - passive_gc, C))
+        return tuple(out)
 
     def run(self, n: int, seed: int) -> Comparison:
         self.find_base()
@@ -839,7 +919,7 @@ def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> 
         seed=args.seed,
         tol=args.tol,
     )
-    document = json.dumps(result.to_dict(), indent=2)
+    document = to_json(result.to_dict())
     if args.json == "-":
         print(document)
     else:

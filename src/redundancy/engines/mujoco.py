@@ -62,6 +62,23 @@ def joint_limits(model: mujoco.MjModel) -> tuple[Array, Array]:
     )
 
 
+def model_length(model: mujoco.MjModel, site_id: int) -> float:
+    """The size of the arm [m]: its moving bodies' offsets and the tool's, summed.
+
+    Over the bodies a joint moves (an arm inside a robot: not the held rest of it). Every
+    body at one point: MuJoCo's extent of the model (its geom sizes); nothing at all: 1.
+    The one length the library scales by (tolerances, the solver's damping, the floor
+    below which the tool counts as not moving).
+    """
+    moved = np.flatnonzero(model.body_weldid != 0)
+    length = float(np.linalg.norm(model.body_pos[moved], axis=1).sum()) + float(
+        np.linalg.norm(model.site_pos[site_id])
+    )
+    if length == 0:
+        length = float(model.stat.extent)
+    return length if length > 0 and isfinite(length) else 1.0
+
+
 class _Work:
     """One thread's ``MjData`` and output buffers, with the pose its kinematics are for."""
 
@@ -119,6 +136,9 @@ class MujocoEngine:
             reflect [kg m^2].
         damping: Viscous damping per dof: the joint's own plus what its actuators reflect
             [N m s/rad or N s/m].
+
+    Attributes:
+        length: The arm's size (:func:`model_length`) [m].
     """
 
     name = "mujoco"
@@ -129,6 +149,7 @@ class MujocoEngine:
         self.model = model
         self.site_id: int = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
         self.site_body: int = int(model.site_bodyid[self.site_id])
+        self.length: float = model_length(model, self.site_id)
         self.nv: int = model.nv
         self._armature = np.array(armature, dtype=float)
         self._damping = np.array(model.dof_damping if damping is None else damping, dtype=float)
@@ -315,6 +336,32 @@ class MujocoEngine:
                 inertia += m.body_mass[b] * (r @ r * np.eye(3) - np.outer(r, r))
             masses[k], coms[k], inertias[k] = mass, com, inertia
         return masses, coms, inertias
+
+    def passive_forces(self, Q: Array, V: Array) -> tuple[Array, Array]:
+        """MuJoCo's passive force and its gravity compensation at poses and velocities.
+
+        ``qfrc_passive`` (joint springs about ``springref``, damping, fluid forces, and the
+        gravity compensation unless it goes to the actuators) and ``qfrc_gravcomp`` (the
+        body ``gravcomp`` forces), by ``mj_fwdPosition`` and ``mj_fwdVelocity`` on a data of
+        their own: what the simulation adds that neither the gravity torque nor the mass
+        matrix shows.
+
+        Args:
+            Q: Poses, shape (n, nv) [rad or m] (validated by the caller).
+            V: Joint velocities, shape (n, nv) [rad/s or m/s].
+
+        Returns:
+            Passive forces and gravity compensation, shape (n, nv) each [N m or N].
+        """
+        m = self.model
+        d = mujoco.MjData(m)
+        P, C = np.empty((len(Q), self.nv)), np.empty((len(Q), self.nv))
+        for k, (q, v) in enumerate(zip(Q, V, strict=True)):
+            d.qpos[:], d.qvel[:] = q, v
+            mujoco.mj_fwdPosition(m, d)
+            mujoco.mj_fwdVelocity(m, d)
+            P[k], C[k] = d.qfrc_passive, d.qfrc_gravcomp
+        return P, C
 
     def joint_axes(self, q: ArrayLike) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
@@ -530,8 +577,10 @@ class MujocoEngine:
         return kernel
 
 
-def damped_stepper(r: int, n: int) -> Callable[[Array, Array, float], Array]:
-    """The damped least-squares step J^T (J J^T + lam I)^-1 e for (r, n) Jacobians.
+def damped_stepper(
+    r: int, n: int, weights: Array | None = None
+) -> Callable[[Array, Array, float], Array]:
+    """The damped least-squares step J^T (J J^T + lam W)^-1 e for (r, n) Jacobians.
 
     By MuJoCo's dense routines (``mju_mulMatMatT``, ``mju_addToScl``,
     ``mju_cholFactor``/``mju_cholSolve``, ``mju_mulMatTVec``): for the 6 x 7 systems of the
@@ -540,8 +589,16 @@ def damped_stepper(r: int, n: int) -> Callable[[Array, Array, float], Array]:
     the work arrays made once. The function returned takes J (r, n) and e (r,) C-contiguous
     float64 and lam > 0; the step it returns is its buffer, valid until its next call (the
     loop adds it to the pose at once). A stepper belongs to one thread.
+
+    Args:
+        r: Rows of J.
+        n: Columns of J.
+        weights: The diagonal of W (r,), None: the identity. Damping each row in its own
+            unit (a position row by the arm's length squared) is the step of J and e with
+            those rows divided by the length: the same step for an arm of any size.
     """
-    A, x, dq, eye = np.empty((r, r)), np.empty(r), np.empty(n), _EYES[r]
+    A, x, dq = np.empty((r, r)), np.empty(r), np.empty(n)
+    eye = _EYES[r] if weights is None else np.diag(np.asarray(weights, dtype=np.float64)).ravel()
     flat = A.reshape(-1)
     mul, add, factor, solve, mul_t = (
         _mul_mat_mat_t,

@@ -538,7 +538,9 @@ class LabSim:
         if not np.linalg.norm(v) > 1e-6:  # at rest: no direction of motion
             return float("nan")
         M = self.arm.mass_matrix(q, armature=False) + np.diag(self.model.dof_armature)
-        return linalg._effective_mass(J, np.linalg.solve(M, J.T), v / np.linalg.norm(v))
+        u = v / np.linalg.norm(v)
+        floor = linalg.motion_floor(self.arm.length)
+        return linalg._effective_mass(J, np.linalg.solve(M, J.T), u, atol=floor)
 
     def _window(
         self, t: collections.deque[float], v: collections.deque[float], span: float

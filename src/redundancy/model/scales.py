@@ -66,21 +66,15 @@ def arm_scales(arm: Arm) -> Scales:
     """The :class:`Scales` of an arm, from MuJoCo's compiled model (arrays only).
 
     Over the bodies the arm moves (an arm inside a robot: not the held rest of it): their
-    offsets and the tool's make the length (MuJoCo's extent of the model, which counts geom
-    sizes, where every body sits at one point); their masses make the mass. Zero falls back
+    offsets and the tool's make the length (the engine's
+    :func:`~redundancy.engines.mujoco.model_length`); their masses make the mass. Zero falls back
     to 1 (an absolute scale) rather than to nothing.
     """
     m = arm.mj_model
-    site = int(arm.mujoco.site_id)
     moved = np.flatnonzero(m.body_weldid != 0)
-    length = float(np.linalg.norm(m.body_pos[moved], axis=1).sum()) + float(
-        np.linalg.norm(m.site_pos[site])
-    )
-    if length == 0:  # every body at one point: the size of its geoms
-        length = float(m.stat.extent)
     mass = float(m.body_mass[moved].sum())
     g = float(np.linalg.norm(effective_gravity(m)))
-    return Scales(length if length > 0 else 1.0, mass if mass > 0 else 1.0, g if g > 0 else 1.0)
+    return Scales(arm.mujoco.length, mass if mass > 0 else 1.0, g if g > 0 else 1.0)
 
 
 def scaled_errors(a: Array, b: Array, size: float) -> Array:

@@ -14,7 +14,6 @@ explicit-damping question (which timestep a controller's kd allows) is asked onl
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -32,7 +31,7 @@ from ..analysis.crosscheck import (
 from ..arm import Arm
 from ..checks import check_count, check_number
 from ..collision import CollisionStatistics
-from ..display import Report, Table, plural
+from ..display import Report, Table, json_ready, plural, to_json
 from ..display import table as html_table
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
@@ -222,11 +221,11 @@ class AuditReport(Report):
             "findings": [asdict(f) for f in self.findings],
             "contact_mass": None if self.contact_mass is None else asdict(self.contact_mass),
         }
-        return _clean(doc)
+        return json_ready(doc)
 
     def to_json(self) -> str:
         """The report as a JSON document (infinite or NaN values as null)."""
-        return json.dumps(self.to_dict(), indent=2, allow_nan=False)
+        return to_json(self.to_dict())
 
     def lines(self) -> list[str]:
         """The report as text lines."""
@@ -267,20 +266,6 @@ class AuditReport(Report):
     def html_text(self) -> list[str]:
         """The whole text report."""
         return self.lines()
-
-
-def _clean(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
 
 
 # -- the audit ------------------------------------------------------------------------------------

@@ -608,7 +608,10 @@ def contact_mass(arm: Arm, n_poses: int, seed: int | None = 0) -> ContactMass:
     for Q in pose_chunks(arm, n_poses, seed):
         for armature in (True, False):
             J, X = engine.tool_mobilities(Q, armature)
-            masses[armature] += [linalg._effective_masses(J, X, u) for u in np.eye(3)]
+            masses[armature] += [
+                linalg._effective_masses(J, X, u, atol=linalg.motion_floor(arm.length))
+                for u in np.eye(3)
+            ]
     stats = {}
     for armature, parts in masses.items():
         m = np.concatenate(parts)
