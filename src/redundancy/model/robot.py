@@ -236,6 +236,42 @@ def moved_bodies(model: mujoco.MjModel, arm_joints: set[int]) -> set[int]:
     return out
 
 
+def bodies_filtered(model: mujoco.MjModel, b1: int, b2: int) -> bool:
+    """MuJoCo's body-pair filter (filterBodyPair in engine_collision_driver.c).
+
+    Bodies welded together (same ``body_weldid``, which includes a body and itself) never
+    collide. With ``filterparent`` on (the default), a body does not collide with its parent,
+    where both are taken as weld groups: the parent of a weld group is the weld group of the
+    parent of its root body. The world exception: the parent filter only applies when
+    neither weld group is the world's, so a body attached to the world by a joint does
+    collide with geoms welded to the world (a floor, a base plate).
+    """
+    w1, w2 = int(model.body_weldid[b1]), int(model.body_weldid[b2])
+    if w1 == w2:
+        return True
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
+        return False
+    if w1 == 0 or w2 == 0:
+        return False
+    pw1 = int(model.body_weldid[model.body_parentid[w1]])
+    pw2 = int(model.body_weldid[model.body_parentid[w2]])
+    return w1 == pw2 or w2 == pw1
+
+
+def arm_welds(model: mujoco.MjModel, arm_joints: set[int]) -> list[int]:
+    """Each body's weld group once the held joints are welded.
+
+    A body's nearest ancestor (or itself) carrying an arm joint, 0 (the world) when none
+    does. Two bodies of one group never move relative to each other, whatever the arm does.
+    """
+    welds = [0] * model.nbody
+    for b in range(1, model.nbody):  # parents come before children in MuJoCo's body order
+        lo, n = int(model.body_jntadr[b]), int(model.body_jntnum[b])
+        arm = any(j in arm_joints for j in range(lo, lo + n))
+        welds[b] = b if arm else welds[int(model.body_parentid[b])]
+    return welds
+
+
 def reduce_mujoco(
     spec: mujoco.MjSpec, full: mujoco.MjModel, sel: ArmSelection
 ) -> tuple[mujoco.MjModel, tuple[SetAside, ...]]:
@@ -301,6 +337,7 @@ def reduce_mujoco(
     for j in held_ids:
         spec.delete(spec_joints[j])
     _reduce_keys(spec, full, sel, arm_ids)
+    _keep_contact_rules(spec, full, arm_ids, spec_bodies)
     # A body left without joints must stay a body (it may carry the tool, geoms, sites).
     spec.compiler.fusestatic = False
     try:
@@ -315,6 +352,46 @@ def reduce_mujoco(
     if model.nbody != full.nbody:
         raise ModelError("holding the joints changed MuJoCo's bodies")
     return model, tuple(set_aside)
+
+
+def _keep_contact_rules(
+    spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int], spec_bodies: list
+) -> None:
+    """The whole robot's contact filter in the arm's model (MuJoCo then tests the same pairs).
+
+    Welding the held joints merges weld groups, and MuJoCo's parent filter works on weld
+    groups: on the arm's model it would both drop pairs the robot tests (a held finger welded
+    into the hand becomes a child of the forearm) and test pairs the robot never does (a
+    held free pelvis welded to the world loses its parent rule with the torso, by the world
+    exception). So the parent filter is turned off in the arm's model and every body pair the
+    robot's own parent filter drops becomes an ``<exclude>``; together with the weld rule, the
+    bitmasks and the file's excludes (an SRDF's among them), the arm's model then tests
+    exactly the robot's pairs whose distance the arm can change. The file's explicit pairs
+    that the arm cannot change (both geoms in one weld group) are dropped with them.
+    """
+    welds = arm_welds(full, arm)
+    names = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
+    colliding = [b for b in range(full.nbody) if full.body_contype[b] or full.body_conaffinity[b]]
+    excluded = {(int(s) >> 16, int(s) & 0xFFFF) for s in full.exclude_signature}
+    for i, b1 in enumerate(colliding):
+        for b2 in colliding[i + 1 :]:
+            if welds[b1] == welds[b2] or (b1, b2) in excluded:
+                continue
+            if not (
+                full.body_contype[b1] & full.body_conaffinity[b2]
+                or full.body_contype[b2] & full.body_conaffinity[b1]
+            ):
+                continue
+            if bodies_filtered(full, b1, b2):
+                for b in (b1, b2):  # an exclude names its bodies
+                    if not spec_bodies[b].name:
+                        spec_bodies[b].name = names[b]
+                spec.add_exclude(bodyname1=spec_bodies[b1].name, bodyname2=spec_bodies[b2].name)
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+    for k, pair in enumerate(list(spec.pairs)):
+        g1, g2 = int(full.pair_geom1[k]), int(full.pair_geom2[k])
+        if welds[int(full.geom_bodyid[g1])] == welds[int(full.geom_bodyid[g2])]:
+            spec.delete(pair)
 
 
 def _check_couplings(
