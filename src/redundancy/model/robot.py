@@ -24,7 +24,7 @@ of the arm's dofs).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping, Sequence, Set
 from dataclasses import dataclass, field
 
 import mujoco
@@ -152,16 +152,9 @@ def select_arm(
         raise UnsupportedFeatureError(
             "no joints", where, "an arm needs at least one hinge or slide joint on its chain"
         )
-    qpos, rest_name = _rest_qpos(model, rest, set(arm_ids))
-    held: dict[str, float | tuple[float, ...]] = {}
-    for j in range(model.njnt):
-        if j in arm_ids:
-            continue
-        adr, kind = int(model.jnt_qposadr[j]), _joint_kind(model, j)
-        values = qpos[adr : adr + _NQ[kind]]
-        held[joint_names[j] or display_names(model, mujoco.mjtObj.mjOBJ_JOINT)[j]] = (
-            float(values[0]) if len(values) == 1 else tuple(float(v) for v in values)
-        )
+    qpos, rest_name, given = _rest_qpos(model, rest, set(arm_ids))
+    follow_couplings(model, qpos, set(arm_ids), given)
+    held = held_values(model, qpos, set(arm_ids))
     for j in arm_ids:  # the arm's own joints rest at qpos0 (their ref)
         qpos[model.jnt_qposadr[j]] = model.qpos0[model.jnt_qposadr[j]]
     return ArmSelection(
@@ -175,15 +168,56 @@ def select_arm(
     )
 
 
-def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Array, str]:
-    """The whole robot's qpos at rest, and where it came from."""
+def held_values(
+    model: mujoco.MjModel, qpos: Array, arm: set[int]
+) -> dict[str, float | tuple[float, ...]]:
+    """Held joint name -> its value in the whole robot's ``qpos`` (a tuple for ball, free)."""
+    shown = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    held: dict[str, float | tuple[float, ...]] = {}
+    for j in range(model.njnt):
+        if j in arm:
+            continue
+        adr, kind = int(model.jnt_qposadr[j]), _joint_kind(model, j)
+        values = qpos[adr : adr + _NQ[kind]]
+        held[shown[j]] = float(values[0]) if len(values) == 1 else tuple(float(v) for v in values)
+    return held
+
+
+def keyframe_moves(
+    model: mujoco.MjModel, key: int, joints: Sequence[str], held: Mapping[str, object]
+) -> dict[str, float | tuple[float, ...]]:
+    """The held joints keyframe ``key`` of the whole robot puts elsewhere than ``held``.
+
+    Args:
+        model: MuJoCo's compiled model of the whole robot.
+        key: Keyframe index.
+        joints: The arm's joint names.
+        held: Held joint name -> the value the arm holds it at.
+
+    Returns:
+        Held joint name -> the keyframe's value (its couplings followed), for each joint
+        more than 1e-9 away from its held value.
+    """
+    names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    arm = {names.index(n) for n in joints}
+    qpos = model.key_qpos[key].copy()
+    follow_couplings(model, qpos, arm)
+    out = {}
+    for name, value in held_values(model, qpos, arm).items():
+        if name in held and not np.allclose(value, held[name], rtol=0, atol=1e-9):  # type: ignore[arg-type]
+            out[name] = value
+    return out
+
+
+def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Array, str, set[int]]:
+    """The whole robot's qpos at rest, where it came from, and the joints the user set."""
     if rest is None:
-        return model.qpos0.copy(), "qpos0"
+        return model.qpos0.copy(), "qpos0", set()
     if isinstance(rest, str):
         keys = object_names(model, mujoco.mjtObj.mjOBJ_KEY)
         if rest not in keys or not rest:
             raise UnknownNameError("keyframe", rest, [k for k in keys if k])
-        return model.key_qpos[keys.index(rest)].copy(), f"keyframe {rest!r}"
+        return model.key_qpos[keys.index(rest)].copy(), f"keyframe {rest!r}", set()
     if not isinstance(rest, Mapping):
         raise ParameterError(
             "rest", rest, "None, a keyframe name, or a dict joint name -> value [rad or m]"
@@ -216,7 +250,88 @@ def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Ar
             arr = np.concatenate([arr[:-4], quat / norm])
         adr = int(model.jnt_qposadr[j])
         qpos[adr : adr + arr.size] = arr
-    return qpos, "given"
+    return qpos, "given", {names.index(n) for n in rest}
+
+
+def follow_couplings(
+    model: mujoco.MjModel, qpos: Array, arm: set[int], given: Set[int] = frozenset()
+) -> None:
+    """Held joints coupled to others (a URDF ``<mimic>``, an MJCF joint equality) follow them.
+
+    MuJoCo's joint equality holds ``q1 - ref1 = c0 + c1 x + c2 x^2 + c3 x^3 + c4 x^4`` with
+    ``x = q2 - ref2`` (``x = 0`` without a second joint); a URDF mimic is ``c0 = offset``,
+    ``c1 = multiplier``. Each held follower (joint1) whose leader is held too is set from its
+    leader, in ``qpos`` (in place), a follower of a follower after its leader. Couplings that
+    reach an arm joint are left to :func:`reduce_mujoco` (refused there).
+
+    Args:
+        model: MuJoCo's compiled model of the whole robot.
+        qpos: The whole robot's configuration, edited in place.
+        arm: Arm joint ids.
+        given: Joints whose values the user set: a follower among them whose value
+            contradicts its coupling is refused.
+
+    Raises:
+        ParameterError: A value given for a follower that its coupling does not give.
+    """
+    eqs = [
+        k
+        for k in range(model.neq)
+        if model.eq_type[k] == mujoco.mjtEq.mjEQ_JOINT
+        and model.eq_active0[k]
+        and int(model.eq_obj1id[k]) not in arm
+        and int(model.eq_obj2id[k]) not in arm
+    ]
+    names = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    for _ in range(len(eqs) + 1):  # a chain of n couplings settles in n passes
+        moved = False
+        for k in eqs:
+            j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+            a1 = int(model.jnt_qposadr[j1])
+            x = 0.0
+            if j2 >= 0:
+                a2 = int(model.jnt_qposadr[j2])
+                x = float(qpos[a2] - model.qpos0[a2])
+            c = model.eq_data[k][:5]
+            value = float(model.qpos0[a1] + sum(c[i] * x**i for i in range(5)))
+            if qpos[a1] == value:
+                continue
+            if j1 in given and abs(qpos[a1] - value) > 1e-9 * max(1.0, abs(value)):
+                leader = names[j2] if j2 >= 0 else ""
+                rule = _coupling_text(model, k, names)
+                raise ParameterError(
+                    f"rest[{names[j1]!r}]",
+                    float(qpos[a1]),
+                    f"{value:.6g}, the value its coupling to joint {leader!r} gives ({rule}); "
+                    f"set {leader!r} and {names[j1]!r} follows"
+                    if leader
+                    else f"{value:.6g}, the value its equality fixes ({rule})",
+                )
+            qpos[a1] = value
+            moved = True
+        if not moved:
+            return
+
+
+def _coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
+    """``fb = 0.6 - 1 fa``: joint equality ``k`` as the file's joints see it."""
+
+    def shifted(j: int) -> str:
+        ref = float(model.qpos0[model.jnt_qposadr[j]])
+        return names[j] if ref == 0 else f"({names[j]} - {ref:.6g})"
+
+    j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+    x = shifted(j2) if j2 >= 0 else "0"
+    terms = []
+    for i, c in enumerate(model.eq_data[k][:5]):
+        if c == 0 or (i and j2 < 0):
+            continue
+        mono = "" if i == 0 else f" {x}" if i == 1 else f" {x}^{i}"
+        terms.append(f"{'-' if c < 0 else '+'} {abs(c):.6g}{mono}")
+    rhs = " ".join(terms).removeprefix("+ ") or "0"
+    if rhs.startswith("- "):
+        rhs = "-" + rhs[2:]
+    return f"{shifted(j1)} = {rhs}"
 
 
 # -- MuJoCo ---------------------------------------------------------------------------------
@@ -419,7 +534,14 @@ def _check_couplings(
             shown = mujoco.mj_id2name(full, mjobj.mjOBJ_EQUALITY, k) or " = ".join(
                 jnames[j] for j in (a, b) if j >= 0
             )
-            out.append(SetAside("joint equality", shown, "couples held joints only"))
+            out.append(
+                SetAside(
+                    "joint equality",
+                    shown,
+                    f"couples held joints only; their held values follow it "
+                    f"({_coupling_text(full, k, jnames)})",
+                )
+            )
         elif kind == mujoco.mjtEq.mjEQ_TENDON:
             out.append(SetAside("equality constraint", name, "couples tendons (checked below)"))
         else:

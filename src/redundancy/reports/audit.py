@@ -177,6 +177,7 @@ class AuditReport(Report):
                     "hold": k.hold,
                     "effort_lower": k.effort_lower,
                     "effort_upper": k.effort_upper,
+                    "moves_held": k.moves_held,
                 }
                 for k in s.keyframes
             ],
@@ -202,6 +203,7 @@ class AuditReport(Report):
                         "contacts": k.contacts,
                         "closest_pair": k.closest.pair.label if k.closest else None,
                         "closest_distance": k.closest.distance if k.closest else None,
+                        "moves_held": k.moves_held,
                     }
                     for k in c.keyframes
                 ],
@@ -588,17 +590,17 @@ def _robot_lines(r: AuditReport) -> list[str]:
         rest = "the reference pose (qpos0)" if rp.rest == "qpos0" else rp.rest
         base = f"; the arm starts below {rp.base!r}" if rp.base else ""
         out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
-
-        def value(v: float | tuple[float, ...]) -> str:
-            if isinstance(v, tuple):
-                return "(" + " ".join(f"{x:.4g}" for x in v) + ")"
-            return f"{v:.4g}"
-
-        out.append("  held: " + ", ".join(f"{k} {value(v)}" for k, v in rp.held.items()))
+        out.append("  held: " + ", ".join(f"{k} {_held_value(v)}" for k, v in rp.held.items()))
     if rp.set_aside:
         out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
         out += [f"  {a}" for a in rp.set_aside]
     return out
+
+
+def _held_value(v: float | tuple[float, ...]) -> str:
+    if isinstance(v, tuple):
+        return "(" + " ".join(f"{x:.4g}" for x in v) + ")"
+    return f"{v:.4g}"
 
 
 def _h(h: float) -> str:
@@ -665,7 +667,21 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
             ],
             "llrrll",
         ),
+        *(
+            f"  keyframe {k.name!r} is judged where it puts held joints: {_moved(k.moves_held, r)}"
+            for k in s.keyframes
+            if k.moves_held
+        ),
     ]
+
+
+def _moved(moves: dict[str, float | tuple[float, ...]], r: AuditReport) -> str:
+    """``torso_pitch 1.2 (held at 0)``: a keyframe's values for held joints."""
+    held = r.robot.held if r.robot is not None else {}
+    return ", ".join(
+        f"{j} {_held_value(v)}" + (f" (held at {_held_value(held[j])})" if j in held else "")
+        for j, v in moves.items()
+    )
 
 
 def _gravity_lines(r: AuditReport) -> list[str]:
@@ -735,7 +751,8 @@ def _collision_lines(r: AuditReport) -> list[str]:
         near = (
             f", closest {k.closest.pair.label} at {k.closest.distance:.4f} m" if k.closest else ""
         )
-        out.append(f"  keyframe {k.keyframe!r}: {k.contacts} contacts{near}")
+        moved = " (at its own pose: it moves held joints)" if k.moves_held else ""
+        out.append(f"  keyframe {k.keyframe!r}{moved}: {k.contacts} contacts{near}")
     if c.distance_engine is not None and c.pairs:
         out.append(
             f"  distances by {c.distance_engine}; poses where its touching pairs differ from "
