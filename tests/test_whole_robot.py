@@ -353,3 +353,57 @@ def test_a_keyframe_that_moves_a_held_joint_is_judged_at_its_own_pose() -> None:
     assert clearance["lean"].moves_held == {"torso_pitch": 1.2}
     # The lab starts from the keyframe with the torso leaning.
     assert LabSim(arm, keyframe="lean").arm.held == {"torso_pitch": 1.2}
+
+
+# -- what is frozen --------------------------------------------------------------------------------
+
+
+def test_a_ball_joint_between_two_arm_hinges_is_listed_as_frozen() -> None:
+    xml = """
+    <mujoco><compiler angle="radian"/><worldbody>
+      <body name="l1"><joint name="j1" axis="0 0 1"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03"/>
+        <body name="l2" pos="0 0 0.3"><joint name="wobble" type="ball"/>
+          <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03"/>
+          <body name="l3" pos="0 0 0.3"><joint name="j3" axis="0 1 0"/>
+            <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03"/>
+            <site name="tool" pos="0 0 0.3"/>
+          </body>
+        </body>
+      </body>
+    </worldbody></mujoco>"""
+    arm = rd.load_string(xml, frame="tool")
+    assert arm.joint_names == ("j1", "j3")
+    assert arm.held == {"wobble": (1.0, 0.0, 0.0, 0.0)}
+    assert arm.frozen == {
+        "wobble": "a ball joint: held at its rest value (the arm's joints are the chain's "
+        "hinges and slides); rest= sets it"
+    }
+    bent = rd.load_string(xml, frame="tool", rest={"wobble": (0.9, 0.1, 0.2, 0.0)})
+    assert bent.frozen == arm.frozen and bent.held["wobble"] != arm.held["wobble"]
+    from redundancy.reports.audit import audit
+
+    lines = audit(arm, n_poses=10).lines()
+    k = lines.index("frozen (the file lets them move, the arm does not): 1")
+    assert lines[k + 1].startswith("  joint 'wobble': a ball joint: held at its rest value")
+
+
+#: A URDF whose ``pan`` joint moves a link without mass: the loader makes it fixed.
+MASSLESS_PAN = f"""<robot name="pan">
+  <link name="base"/>{_link("l1", "0 0 0.15", 1.0)}<link name="pan_link"/>
+  {_joint("j1", "base", "l1", "0 0 0", "0 1 0")}
+  {_joint("pan", "base", "pan_link", "0.2 0 0", "0 0 1")}
+</robot>"""
+
+
+def test_a_joint_made_fixed_at_load_is_listed_and_rest_for_it_says_why() -> None:
+    arm = rd.load_string(MASSLESS_PAN, frame="l1")
+    assert arm.joint_names == ("j1",) and arm.held == {}
+    assert arm.frozen == {"pan": "moves link 'pan_link', which has no mass: held as fixed at 0"}
+    with pytest.raises(rd.ParameterError) as err:
+        rd.load_string(MASSLESS_PAN, frame="l1", rest={"pan": 1.0})
+    assert str(err.value) == (
+        "rest['pan'] must be a held joint's value; joint 'pan' was made fixed at load (moves "
+        "link 'pan_link', which has no mass: held as fixed at 0), so it has no value to set, "
+        "got 1.0"
+    )

@@ -37,6 +37,11 @@ Array = NDArray[np.float64]
 __all__ = ["ENGINES", "Arm", "EngineName", "check_arm", "random_poses", "sampling_ranges"]
 
 
+#: Kinds of ``set_aside`` entries that are joints the file lets move and the arm never does:
+#: a ball or free joint on the chain (held), a joint made fixed at load.
+FROZEN = ("joint on the chain", "joint")
+
+
 def check_arm(value: object, name: str = "arm") -> Arm:
     """An :class:`Arm`, as every function taking one checks it first.
 
@@ -165,6 +170,16 @@ class Arm:
         if self._recipe is None:
             raise TypeError("this Arm was not built by redundancy.load and cannot be pickled")
         return self._recipe
+
+    @property
+    def frozen(self) -> dict[str, str]:
+        """Joints of the robot's file that never move here -> why.
+
+        A ball or free joint on the chain to the tool (held at rest: the arm's joints are
+        hinges and slides), and a joint the loader made fixed (a URDF joint whose child link
+        has no mass). The other held joints are in :attr:`held`.
+        """
+        return {a.name: a.reason for a in self.set_aside if a.what in FROZEN}
 
     # -- names, keyframes and poses --------------------------------------------------------
     @property

@@ -541,7 +541,10 @@ def _load_urdf(
     spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
     robot.set_aside += meshes
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
-    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest)
+    made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}
+    sel = select_arm(
+        full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest, made_fixed
+    )
     mj, aside = reduce_mujoco(spec, full, sel)
     robot.set_aside += aside
     # URDF inertials are explicit and the joints are checked above: only the generic

@@ -111,8 +111,12 @@ def select_arm(
     tool_body: int,
     base: str | None = None,
     rest: RestSpec = None,
+    made_fixed: Mapping[str, str] | None = None,
 ) -> ArmSelection:
     """The arm joints on the path to ``tool_body`` and the held joints with their rest values.
+
+    A ball or free joint on the path is held too (the arm's joints are its hinges and
+    slides); each is listed in the selection's ``set_aside`` with the reason.
 
     Args:
         model: MuJoCo's compiled model of the whole robot.
@@ -122,12 +126,15 @@ def select_arm(
         rest: Held joints' values: None for ``qpos0`` (each joint's ``ref``, a free body at
             its pose in the file), a keyframe name, or a dict joint name -> value (a float, or
             4 / 7 numbers for a ball / free joint in MuJoCo's w x y z order).
+        made_fixed: Joints of the file the loader made fixed -> why (a ``rest`` value for
+            one is refused saying so).
 
     Raises:
         UnknownNameError: ``base`` is not a body on the chain, ``rest`` names no keyframe or a
             joint that is not held.
         UnsupportedFeatureError: No hinge or slide joint on the chain.
-        ParameterError: A rest value of the wrong size or not finite.
+        ParameterError: A rest value of the wrong size or not finite, or for a joint made
+            fixed at load.
     """
     bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     joint_names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
@@ -152,7 +159,19 @@ def select_arm(
         raise UnsupportedFeatureError(
             "no joints", where, "an arm needs at least one hinge or slide joint on its chain"
         )
-    qpos, rest_name, given = _rest_qpos(model, rest, set(arm_ids))
+    shown = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    frozen = tuple(
+        SetAside(
+            "joint on the chain",
+            shown[j],
+            f"a {_joint_kind(model, j)} joint: held at its rest value (the arm's joints are "
+            "the chain's hinges and slides); rest= sets it",
+        )
+        for b in path
+        for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b])
+        if _joint_kind(model, j) not in ("hinge", "slide")
+    )
+    qpos, rest_name, given = _rest_qpos(model, rest, set(arm_ids), made_fixed or {})
     follow_couplings(model, qpos, set(arm_ids), given)
     held = held_values(model, qpos, set(arm_ids))
     for j in arm_ids:  # the arm's own joints rest at qpos0 (their ref)
@@ -165,6 +184,7 @@ def select_arm(
         held=held,
         rest=rest_name,
         qpos=qpos,
+        set_aside=frozen,
     )
 
 
@@ -209,7 +229,9 @@ def keyframe_moves(
     return out
 
 
-def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Array, str, set[int]]:
+def _rest_qpos(
+    model: mujoco.MjModel, rest: RestSpec, arm: set[int], made_fixed: Mapping[str, str]
+) -> tuple[Array, str, set[int]]:
     """The whole robot's qpos at rest, where it came from, and the joints the user set."""
     if rest is None:
         return model.qpos0.copy(), "qpos0", set()
@@ -226,6 +248,13 @@ def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Ar
     names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     held_names = [n for j, n in enumerate(names) if j not in arm and n]
     for name, value in rest.items():
+        if name in made_fixed and name not in names:
+            raise ParameterError(
+                f"rest[{name!r}]",
+                value,
+                f"a held joint's value; joint {name!r} was made fixed at load "
+                f"({made_fixed[name]}), so it has no value to set",
+            )
         if name not in names or names.index(name) in arm:
             raise UnknownNameError("held joint", str(name), held_names)
         j = names.index(name)
@@ -410,7 +439,7 @@ def reduce_mujoco(
     arm_ids = {jnames.index(n) for n in sel.joints}
     held_ids = [j for j in range(full.njnt) if j not in arm_ids]
     moved = moved_bodies(full, arm_ids)
-    set_aside: list[SetAside] = []
+    set_aside: list[SetAside] = list(sel.set_aside)
     _check_couplings(full, arm_ids, moved, set_aside)
     if not sel.held and not set_aside:
         return full, ()

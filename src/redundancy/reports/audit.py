@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -29,7 +29,7 @@ from ..analysis.crosscheck import (
     crosscheck_batch,
     merge_worst,
 )
-from ..arm import Arm
+from ..arm import FROZEN, Arm
 from ..checks import check_count, check_number
 from ..collision import CollisionStatistics
 from ..display import Report, Table, plural
@@ -98,17 +98,20 @@ class RobotPart:
         rest: Where the held values come from (``"qpos0"``, ``"keyframe 'name'"``, ``"given"``).
         base: The body the arm's chain starts below, or None (the world).
         set_aside: What in the file does not reach the arm, each with the reason.
+        frozen: Joints the file lets move that never move here -> why (``arm.frozen``).
     """
 
     held: dict[str, float | tuple[float, ...]]
     rest: str
     base: str | None
     set_aside: tuple[str, ...]
+    frozen: dict[str, str] = field(default_factory=dict)
 
     @classmethod
     def of(cls, arm: Arm) -> RobotPart:
         """The arm's robot part."""
-        return cls(dict(arm.held), arm.rest, arm.base, tuple(str(a) for a in arm.set_aside))
+        aside = tuple(str(a) for a in arm.set_aside if a.what not in FROZEN)
+        return cls(dict(arm.held), arm.rest, arm.base, aside, arm.frozen)
 
 
 @dataclass(frozen=True, repr=False)
@@ -583,7 +586,7 @@ def format_report(r: AuditReport) -> list[str]:
 def _robot_lines(r: AuditReport) -> list[str]:
     """The rest of the robot: which joints are held, at what, and what was set aside."""
     rp = r.robot
-    if rp is None or not (rp.held or rp.set_aside):
+    if rp is None or not (rp.held or rp.set_aside or rp.frozen):
         return []
     out = [""]
     if rp.held:
@@ -591,6 +594,9 @@ def _robot_lines(r: AuditReport) -> list[str]:
         base = f"; the arm starts below {rp.base!r}" if rp.base else ""
         out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
         out.append("  held: " + ", ".join(f"{k} {_held_value(v)}" for k, v in rp.held.items()))
+    if rp.frozen:
+        out.append(f"frozen (the file lets them move, the arm does not): {len(rp.frozen)}")
+        out += [f"  joint {name!r}: {why}" for name, why in rp.frozen.items()]
     if rp.set_aside:
         out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
         out += [f"  {a}" for a in rp.set_aside]
