@@ -410,3 +410,19 @@ def test_a_joint_made_fixed_at_load_is_listed_and_rest_for_it_says_why() -> None
         "link 'pan_link', which has no mass: held as fixed at 0), so it has no value to set, "
         "got 1.0"
     )
+
+
+def test_explicit_pairs_the_arm_cannot_change_are_dropped() -> None:
+    """A file's <pair> between two held bodies never changes with the arm: not a pair of
+    the arm; one between an arm body and a held body is kept, as the file wrote it."""
+    xml = PELVIS_TO_PALM.replace(
+        "</worldbody>",
+        '</worldbody><contact><pair geom1="pelvis" geom2="torso"/>'
+        '<pair geom1="finger" geom2="hand"/><pair geom1="pelvis" geom2="forearm"/></contact>',
+    )
+    arm = rd.load_string(xml, frame="palm", base="pelvis")
+    pairs = {p.label: p for p in rd.collision_pairs(arm)}
+    assert "finger / hand" not in pairs  # the finger is welded to the hand: never moves
+    assert pairs["forearm / pelvis"].explicit
+    assert "pelvis / torso" in pairs and pairs["pelvis / torso"].explicit  # the waist moves it
+    _contact_lists_agree(arm, 200)

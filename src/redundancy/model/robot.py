@@ -532,8 +532,10 @@ def _keep_contact_rules(
                         spec_bodies[b].name = names[b]
                 spec.add_exclude(bodyname1=spec_bodies[b1].name, bodyname2=spec_bodies[b2].name)
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
-    for k, pair in enumerate(list(spec.pairs)):
-        g1, g2 = int(full.pair_geom1[k]), int(full.pair_geom2[k])
+    geom = mujoco.mjtObj.mjOBJ_GEOM
+    for pair in list(spec.pairs):  # by name: the compiler sorts the pairs
+        g1 = mujoco.mj_name2id(full, geom, pair.geomname1)
+        g2 = mujoco.mj_name2id(full, geom, pair.geomname2)
         if welds[int(full.geom_bodyid[g1])] == welds[int(full.geom_bodyid[g2])]:
             spec.delete(pair)
 
