@@ -111,6 +111,8 @@ class Arm:
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
         rest: Where the held values come from: ``"qpos0"``, ``"keyframe 'name'"``, ``"given"``.
+        key_moves: Per keyframe, in file order: the held joints it puts elsewhere than
+            ``held`` -> its value (see :meth:`keyframe_moves`); empty: none.
     """
 
     def __init__(
@@ -133,6 +135,7 @@ class Arm:
         frame_type: str = "site",
         base: str | None = None,
         rest: str = "qpos0",
+        key_moves: tuple[Mapping[str, float | tuple[float, ...]], ...] = (),
     ) -> None:
         self.source = source
         self.site = site
@@ -160,7 +163,7 @@ class Arm:
         self.frame_type: str = frame_type
         self.base: str | None = base
         self.rest: str = rest
-        self._moves: dict[str, dict[str, float | tuple[float, ...]]] | None = None
+        self._key_moves = tuple(dict(k) for k in key_moves)
         self._at_keys: dict[str, Arm] = {}
         self._lock = threading.Lock()
 
@@ -256,16 +259,7 @@ class Arm:
         names = self.keyframe_names
         if not isinstance(name, str) or name not in names:
             raise UnknownNameError("keyframe", name, list(names))
-        if not self.held:
-            return {}
-        if self._moves is None:  # the models never change: computed once
-            from .model.robot import keyframe_moves
-
-            self._moves = {
-                n: keyframe_moves(self.robot_model, k, self.joint_names, self.held)
-                for k, n in enumerate(names)
-            }
-        return dict(self._moves[name])
+        return dict(self._key_moves[names.index(name)]) if self._key_moves else {}
 
     def at_keyframe(self, name: str) -> Arm:
         """This arm with its held joints where keyframe ``name`` puts them.

@@ -513,6 +513,7 @@ def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[Keyfr
     A keyframe that moves held joints is measured on the arm at it
     (:meth:`~redundancy.Arm.at_keyframe`): the robot's real pose under the keyframe's name.
     """
+    checker(arm)  # the arm checked, its checker built
     out = []
     for name in arm.keyframe_names:
         at = arm.at_keyframe(name)

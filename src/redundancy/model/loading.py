@@ -23,7 +23,15 @@ from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .ends import frame_for
 from .names import display_names
-from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
+from .robot import (
+    ArmSelection,
+    RestSpec,
+    SetAside,
+    keyframe_moves,
+    reduce_mujoco,
+    reduce_pinocchio,
+    select_arm,
+)
 from .support import check_supported
 from .urdf import (
     DisabledPairs,
@@ -624,4 +632,5 @@ def _build(
         frame_type=frame_type,
         base=sel.base,
         rest=sel.rest,
+        key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
     )
