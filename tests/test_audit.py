@@ -387,7 +387,13 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
         "contact_mass",
         "robot",
     }
-    assert data["robot"] == {"held": {}, "rest": "qpos0", "base": None, "set_aside": []}
+    assert data["robot"] == {
+        "held": {},
+        "rest": "qpos0",
+        "base": None,
+        "set_aside": [],
+        "frozen": {},
+    }
     cm = data["contact_mass"]
     assert cm["n_poses"] == 500 and cm["payload"] == 0.0
     assert cm["with_armature"][0] <= cm["with_armature"][1] <= cm["with_armature"][2]

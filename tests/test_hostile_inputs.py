@@ -279,6 +279,8 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
         "Arm.jacobian": (a.jacobian, {"q": Q0, "engine": "mujoco"}),
         "Arm.joint_index": (a.joint_index, {"name": "j1"}),
         "Arm.keyframe": (a.keyframe, {"name": "x"}),
+        "Arm.keyframe_moves": (a.keyframe_moves, {"name": "x"}),
+        "Arm.at_keyframe": (a.at_keyframe, {"name": "x"}),
         "Arm.manipulability": (a.manipulability, {"q": Q0, "length": 1.0, "engine": "mujoco"}),
         "Arm.manipulability_gradient": (a.manipulability_gradient, {"q": Q0, "engine": "mujoco"}),
         "Arm.mass_matrix": (a.mass_matrix, {"q": Q0, "armature": True, "engine": "mujoco"}),
@@ -544,7 +546,7 @@ def test_every_case_runs_as_given() -> None:
     """The valid arguments are valid: each case's call returns (or raises only the library's
     error where the case is a lookup of a missing name)."""
     for name, (fn, kwargs) in CASES.items():
-        if name in ("rd.load_string", "Arm.keyframe"):
+        if name in ("rd.load_string", "Arm.keyframe", "Arm.keyframe_moves", "Arm.at_keyframe"):
             with pytest.raises(rd.RedundancyError):
                 fn(**kwargs)
         else:

@@ -7,6 +7,7 @@ Arm itself only dispatches: every number comes from an engine of :mod:`redundanc
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -34,6 +35,11 @@ from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
 Array = NDArray[np.float64]
 
 __all__ = ["ENGINES", "Arm", "EngineName", "check_arm", "random_poses", "sampling_ranges"]
+
+
+#: Kinds of ``set_aside`` entries that are joints the file lets move and the arm never does:
+#: a ball or free joint on the chain (held), a joint made fixed at load.
+FROZEN = ("joint on the chain", "joint")
 
 
 def check_arm(value: object, name: str = "arm") -> Arm:
@@ -108,6 +114,8 @@ class Arm:
         length: The arm's size: its moving bodies' offsets and the tool's, summed [m]. The
             unit the inverse kinematics measures positions in, and the scale of the floor
             below which the tool counts as not moving (:meth:`effective_mass`).
+        key_moves: Per keyframe, in file order: the held joints it puts elsewhere than
+            ``held`` -> its value (see :meth:`keyframe_moves`); empty: none.
     """
 
     def __init__(
@@ -130,6 +138,7 @@ class Arm:
         frame_type: str = "site",
         base: str | None = None,
         rest: str = "qpos0",
+        key_moves: tuple[Mapping[str, float | tuple[float, ...]], ...] = (),
     ) -> None:
         self.source = source
         self.site = site
@@ -160,6 +169,9 @@ class Arm:
         self.frame_type: str = frame_type
         self.base: str | None = base
         self.rest: str = rest
+        self._key_moves = tuple(dict(k) for k in key_moves)
+        self._at_keys: dict[str, Arm] = {}
+        self._lock = threading.Lock()
 
     def __reduce__(self) -> tuple[Callable[..., Arm], tuple[Any, ...]]:
         # Engine models and data do not pickle (and views into MjData would become detached
@@ -168,6 +180,16 @@ class Arm:
         if self._recipe is None:
             raise TypeError("this Arm was not built by redundancy.load and cannot be pickled")
         return self._recipe
+
+    @property
+    def frozen(self) -> dict[str, str]:
+        """Joints of the robot's file that never move here -> why.
+
+        A ball or free joint on the chain to the tool (held at rest: the arm's joints are
+        hinges and slides), and a joint the loader made fixed (a URDF joint whose child link
+        has no mass). The other held joints are in :attr:`held`.
+        """
+        return {a.name: a.reason for a in self.set_aside if a.what in FROZEN}
 
     # -- names, keyframes and poses --------------------------------------------------------
     @property
@@ -181,14 +203,13 @@ class Arm:
         return self.mujoco.model
 
     @property
-    def keyframes(self) -> dict[str, Array]:
-        """Keyframe name -> joint configuration [rad or m].
+    def keyframe_names(self) -> tuple[str, ...]:
+        """Every keyframe of the robot's file, in file order.
 
         An unnamed keyframe is called ``key<index>``, with ``_`` appended until the name is
         not one a keyframe of the model has (an unnamed key never hides a named one).
         """
-        m = self.mj_model
-        names = object_names(m, mujoco.mjtObj.mjOBJ_KEY)
+        names = object_names(self.mj_model, mujoco.mjtObj.mjOBJ_KEY)
         taken = set(names)
         for k, name in enumerate(names):
             if not name:
@@ -197,14 +218,89 @@ class Arm:
                     name += "_"
                 names[k] = name
                 taken.add(name)
-        return {names[k]: m.key_qpos[k].copy() for k in range(m.nkey)}
+        return tuple(names)
+
+    @property
+    def keyframes(self) -> dict[str, Array]:
+        """Keyframe name -> joint configuration [rad or m], for the keyframes of this arm.
+
+        A keyframe is the whole robot's: one that puts a held joint elsewhere than this arm
+        holds it (:meth:`keyframe_moves`) is a pose of another arm, :meth:`at_keyframe`, and
+        is not listed here (:attr:`keyframe_names` lists every keyframe).
+        """
+        m = self.mj_model
+        return {
+            name: m.key_qpos[k].copy()
+            for k, name in enumerate(self.keyframe_names)
+            if not self.keyframe_moves(name)
+        }
 
     def keyframe(self, name: str) -> Array:
-        """Joint configuration of a named keyframe [rad or m]."""
-        keys = self.keyframes
-        if not isinstance(name, str) or name not in keys:
-            raise UnknownNameError("keyframe", name, list(keys))
-        return keys[name]
+        """Joint configuration of a named keyframe [rad or m].
+
+        Raises:
+            UnknownNameError: No keyframe of that name.
+            PoseError: The keyframe moves held joints: it is a pose of :meth:`at_keyframe`.
+        """
+        moved = self.keyframe_moves(name)
+        if moved:
+            shown = ", ".join(
+                f"{j} = {_value(v)} (held at {_value(self.held[j])})" for j, v in moved.items()
+            )
+            raise PoseError(
+                f"keyframe {name!r} moves held joints ({shown}): it is not a pose of this arm; "
+                f"arm.at_keyframe({name!r}) is the arm at it (or load with rest={name!r})"
+            )
+        return self.mj_model.key_qpos[self.keyframe_names.index(name)].copy()
+
+    def keyframe_moves(self, name: str) -> dict[str, float | tuple[float, ...]]:
+        """The held joints keyframe ``name`` puts elsewhere than this arm holds them.
+
+        Returns:
+            Held joint name -> the keyframe's value [rad or m] (its couplings followed);
+            empty when the keyframe is a pose of this arm.
+
+        Raises:
+            UnknownNameError: No keyframe of that name.
+        """
+        names = self.keyframe_names
+        if not isinstance(name, str) or name not in names:
+            raise UnknownNameError("keyframe", name, list(names))
+        return dict(self._key_moves[names.index(name)]) if self._key_moves else {}
+
+    def at_keyframe(self, name: str) -> Arm:
+        """This arm with its held joints where keyframe ``name`` puts them.
+
+        Itself when the keyframe moves no held joint; otherwise the robot loaded again with
+        ``rest=name`` (built once per keyframe, then shared), whose ``keyframe(name)`` is the
+        keyframe's pose. The audit, the lab and the collision statistics judge each keyframe
+        there, at the robot's real pose.
+
+        Raises:
+            UnknownNameError: No keyframe of that name.
+            TypeError: The keyframe moves held joints and this Arm was not built by
+                :func:`redundancy.load` (it cannot be loaded again).
+        """
+        if not self.keyframe_moves(name):
+            return self
+        with self._lock:
+            if name not in self._at_keys:
+                if self._recipe is None:
+                    raise TypeError(
+                        "this Arm was not built by redundancy.load and cannot be loaded again "
+                        f"at keyframe {name!r}"
+                    )
+                fn, args = self._recipe
+                # The loader's last argument is rest=: a keyframe by name, or (unnamed) its
+                # held values.
+                named = name in object_names(self.robot_model, mujoco.mjtObj.mjOBJ_KEY)
+                rest = name if named else self._key_held(name)
+                self._at_keys[name] = fn(*args[:-1], rest)
+            return self._at_keys[name]
+
+    def _key_held(self, name: str) -> dict[str, float | tuple[float, ...]]:
+        """The held values an unnamed keyframe gives (its couplings followed)."""
+        return {**self.held, **self.keyframe_moves(name)}
 
     def joint_index(self, name: str) -> int:
         """Index of a joint in the library's order."""
@@ -592,3 +688,10 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
             n,
             f"a count of poses that fits in memory ({n} x {arm.nq} float64: {size:.3g} bytes)",
         ) from None
+
+
+def _value(v: float | tuple[float, ...]) -> str:
+    """A held joint's value for a message: ``1.2`` or ``(0, 0, 0.8, 1, 0, 0, 0)``."""
+    if isinstance(v, tuple):
+        return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
+    return f"{v:.6g}"

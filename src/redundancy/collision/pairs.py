@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from ..checks import describe
 from ..errors import ParameterError, UnknownNameError, UnsupportedFeatureError
 from ..model.names import display_names
+from ..model.robot import bodies_filtered
 from .shapes import geom_type_name
 
 if TYPE_CHECKING:
@@ -136,28 +137,6 @@ def _margin_gap(model: mujoco.MjModel, g1: int, g2: int, ipair: int) -> tuple[fl
     return margin, gap
 
 
-def _bodies_filtered(model: mujoco.MjModel, b1: int, b2: int) -> bool:
-    """MuJoCo's body-pair filter (filterBodyPair in engine_collision_driver.c).
-
-    Bodies welded together (same ``body_weldid``, which includes a body and itself) never
-    collide. With ``filterparent`` on (the default), a body does not collide with its parent,
-    where both are taken as weld groups: the parent of a weld group is the weld group of the
-    parent of its root body. The world exception: the parent filter only applies when
-    neither weld group is the world's, so a body attached to the world by a joint does
-    collide with geoms welded to the world (a floor, a base plate).
-    """
-    w1, w2 = int(model.body_weldid[b1]), int(model.body_weldid[b2])
-    if w1 == w2:
-        return True
-    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
-        return False
-    if w1 == 0 or w2 == 0:
-        return False
-    pw1 = int(model.body_weldid[model.body_parentid[w1]])
-    pw2 = int(model.body_weldid[model.body_parentid[w2]])
-    return w1 == pw2 or w2 == pw1
-
-
 def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
     """The geom pairs MuJoCo's ``mj_collision`` tests for contact, sorted by geom ids.
 
@@ -168,12 +147,15 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
     * none at all when ``<flag contact="disable"/>`` or ``constraint="disable"``;
     * every ``<contact><pair>``, whatever its geoms' bitmasks, bodies or exclusions;
     * otherwise geoms on bodies that pass the body filter (not welded together, not parent
-      and child unless ``filterparent`` is disabled or one side is welded to the world; for an
-      arm inside a robot, welded in the arm's model and parent and child in the robot's), whose
+      and child unless ``filterparent`` is disabled or one side is welded to the world), whose
       bodies are not listed in a ``<contact><exclude>``, and whose bitmasks match:
       ``(contype1 & conaffinity2) | (contype2 & conaffinity1) != 0``. A pair also named in a
       ``<pair>`` element is tested once, with the element's parameters.
     * never plane or height field against plane or height field (MuJoCo has no collider).
+
+    An arm inside a robot: its model carries the whole robot's rules (see
+    :func:`~redundancy.model.robot.reduce_mujoco`), so these are the pairs MuJoCo tests on the
+    whole robot with the held joints at rest, less those whose distance the arm cannot change.
 
     Not modelled: sleeping bodies (``<flag sleep="enable"/>``), which MuJoCo skips pose by
     pose, and flex objects.
@@ -191,11 +173,6 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
 
         model = check_arm(model, "model")
     m: mujoco.MjModel = model if isinstance(model, mujoco.MjModel) else model.mj_model
-    # An arm inside a robot: its model welds the held joints, which would make a body whose
-    # parent is held (the first arm link on a torso) a world-welded parent's child, and the
-    # parent filter skips those. The parent rule is the whole robot's (same body ids); bodies
-    # welded together in the arm's model never move relative to each other.
-    robot: mujoco.MjModel = m if isinstance(model, mujoco.MjModel) else model.robot_model
     dsbl = m.opt.disableflags
     if dsbl & (mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):
         return ()
@@ -216,7 +193,7 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             if (g1, g2) in found:
                 continue
             b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
-            if _bodies_filtered(m, b1, b2) or _bodies_filtered(robot, b1, b2):
+            if bodies_filtered(m, b1, b2):
                 continue
             if (min(b1, b2), max(b1, b2)) in excluded:
                 continue

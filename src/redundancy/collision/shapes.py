@@ -140,6 +140,10 @@ def bounding_box(model: mujoco.MjModel, geom: int) -> tuple[Array, Array]:
     return zero, np.full(3, np.inf)
 
 
+#: Directions per block in :class:`Support` for a mesh.
+_BLOCK = 64
+
+
 class Support:
     """The support function of the solid MuJoCo collides for a geom, in the geom's frame.
 
@@ -153,6 +157,7 @@ class Support:
         self.type = int(model.geom_type[geom])
         self.size = model.geom_size[geom].astype(float)
         self.points = mesh_hull(model, geom).points if self.type == _G.mjGEOM_MESH else None
+        self._points_t = None if self.points is None else np.ascontiguousarray(self.points.T)
 
     def __call__(self, v: Array) -> Array:
         """``h`` at each column of ``v`` [m]."""
@@ -167,6 +172,14 @@ class Support:
             return s[0] * np.abs(v[0]) + s[1] * np.abs(v[1]) + s[2] * np.abs(v[2])
         if t == _G.mjGEOM_ELLIPSOID:
             return np.sqrt((s[0] * v[0]) ** 2 + (s[1] * v[1]) ** 2 + (s[2] * v[2]) ** 2)
-        if self.points is not None:
-            return (self.points @ v).max(axis=0)
+        if self._points_t is not None:
+            # Directions a block at a time, each block's projections a small row-major
+            # (block x points) array reduced along its rows: it stays in cache and BLAS
+            # stays single-threaded, where one (points x k) product does neither (10x slower
+            # for a 2000-point hull and 20000 directions).
+            vt = np.ascontiguousarray(v.T)
+            out = np.empty(vt.shape[0])
+            for s in range(0, len(vt), _BLOCK):
+                out[s : s + _BLOCK] = (vt[s : s + _BLOCK] @ self._points_t).max(axis=1)
+            return out
         return np.full(v.shape[1], np.inf)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -53,12 +53,16 @@ class KeyframeClearance:
         q: Its pose [rad or m].
         contacts: Number of contacts MuJoCo lists there.
         closest: The pair with the smallest clearance, with its distance (None: no pairs).
+        moves_held: Held joints the keyframe puts elsewhere than the arm holds them -> the
+            keyframe's value [rad or m]; the clearance is measured there
+            (:meth:`~redundancy.Arm.at_keyframe`).
     """
 
     keyframe: str
     q: Array
     contacts: int
     closest: PairDistance | None
+    moves_held: dict[str, float | tuple[float, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, repr=False)
@@ -504,9 +508,23 @@ class _Sweep:
 
 
 def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[KeyframeClearance, ...]:
-    """Contacts and the closest pair at every keyframe of the model."""
-    ch = checker(arm)
+    """Contacts and the closest pair at every keyframe of the model.
+
+    A keyframe that moves held joints is measured on the arm at it
+    (:meth:`~redundancy.Arm.at_keyframe`): the robot's real pose under the keyframe's name.
+    """
+    checker(arm)  # the arm checked, its checker built
     out = []
-    for name, q in arm.keyframes.items():
-        out.append(KeyframeClearance(name, q, len(ch.contacts(q)), ch.distances(q, engine).closest))
+    for name in arm.keyframe_names:
+        at = arm.at_keyframe(name)
+        ch, q = checker(at), at.keyframe(name)
+        out.append(
+            KeyframeClearance(
+                name,
+                q,
+                len(ch.contacts(q)),
+                ch.distances(q, engine).closest,
+                arm.keyframe_moves(name),
+            )
+        )
     return tuple(out)

@@ -255,6 +255,10 @@ class LabSim:
         contact_forces: bool = False,
         watch: str | None = None,
     ) -> None:
+        if keyframe in arm.keyframe_names:
+            # The keyframe is the whole robot's: where it moves held joints, the lab runs
+            # the arm with them there, never the keyframe's arm joints on another robot pose.
+            arm = arm.at_keyframe(keyframe)
         self.arm = arm
         self.model = copy.deepcopy(arm.mj_model)
         self.data = mujoco.MjData(self.model)

@@ -357,7 +357,12 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         "gravity",
     )
     return EquivalenceReport(
-        tuple(diffs), arm.bridges, tol, checked, largest, simulated_only(arm.mj_model)
+        tuple(diffs),
+        arm.bridges,
+        tol,
+        checked,
+        largest,
+        simulated_only(arm.mj_model, int(arm.robot_model.opt.disableflags)),
     )
 
 
@@ -377,7 +382,9 @@ def parent_joint(arm: Arm, i: int) -> str:
     return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
-def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
+def simulated_only(
+    model: mujoco.MjModel, file_flags: int | None = None
+) -> tuple[SimulatedOnly, ...]:
     """What MuJoCo simulates for this model that neither engine's numbers include.
 
     Read from MuJoCo's compiled model: per-body ``gravcomp``; force, control and joint
@@ -386,8 +393,12 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
 
     Args:
         model: MuJoCo's compiled model.
+        file_flags: The disable flags the file sets, where they differ from the model's (an
+            arm inside a robot: its model turns ``filterparent`` off to keep the robot's
+            parent rule as excludes); default: the model's.
     """
     out: list[SimulatedOnly] = []
+    flags = int(model.opt.disableflags) if file_flags is None else file_flags
     bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     joints = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     actuators = [
@@ -518,7 +529,7 @@ def simulated_only(model: mujoco.MjModel) -> tuple[SimulatedOnly, ...]:
     for key, bit in mujoco.mjtDisableBit.__members__.items():
         if key == "mjNDISABLE" or int(bit) & known:
             continue
-        if int(bit) & int(model.opt.disableflags):
+        if int(bit) & flags:
             name = bit.name.removeprefix("mjDSBL_").lower()
             out.append(
                 SimulatedOnly(

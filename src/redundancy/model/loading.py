@@ -24,7 +24,15 @@ from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .content import Recipe, feed_assets, mujoco_assets, rebuild, record, recording
 from .ends import frame_for
 from .names import display_names
-from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
+from .robot import (
+    ArmSelection,
+    RestSpec,
+    SetAside,
+    keyframe_moves,
+    reduce_mujoco,
+    reduce_pinocchio,
+    select_arm,
+)
 from .support import check_supported
 from .urdf import (
     DisabledPairs,
@@ -596,7 +604,10 @@ def _load_urdf(
     spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
     robot.set_aside += meshes
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
-    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest)
+    made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}
+    sel = select_arm(
+        full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest, made_fixed
+    )
     mj, aside = reduce_mujoco(spec, full, sel)
     robot.set_aside += aside
     # URDF inertials are explicit and the joints are checked above: only the generic
@@ -675,4 +686,5 @@ def _build(
         frame_type=frame_type,
         base=sel.base,
         rest=sel.rest,
+        key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
     )

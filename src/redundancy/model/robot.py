@@ -24,7 +24,7 @@ of the arm's dofs).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping, Sequence, Set
 from dataclasses import dataclass, field
 
 import mujoco
@@ -111,8 +111,12 @@ def select_arm(
     tool_body: int,
     base: str | None = None,
     rest: RestSpec = None,
+    made_fixed: Mapping[str, str] | None = None,
 ) -> ArmSelection:
     """The arm joints on the path to ``tool_body`` and the held joints with their rest values.
+
+    A ball or free joint on the path is held too (the arm's joints are its hinges and
+    slides); each is listed in the selection's ``set_aside`` with the reason.
 
     Args:
         model: MuJoCo's compiled model of the whole robot.
@@ -122,12 +126,15 @@ def select_arm(
         rest: Held joints' values: None for ``qpos0`` (each joint's ``ref``, a free body at
             its pose in the file), a keyframe name, or a dict joint name -> value (a float, or
             4 / 7 numbers for a ball / free joint in MuJoCo's w x y z order).
+        made_fixed: Joints of the file the loader made fixed -> why (a ``rest`` value for
+            one is refused saying so).
 
     Raises:
         UnknownNameError: ``base`` is not a body on the chain, ``rest`` names no keyframe or a
             joint that is not held.
         UnsupportedFeatureError: No hinge or slide joint on the chain.
-        ParameterError: A rest value of the wrong size or not finite.
+        ParameterError: A rest value of the wrong size or not finite, or for a joint made
+            fixed at load.
     """
     bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     joint_names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
@@ -152,16 +159,21 @@ def select_arm(
         raise UnsupportedFeatureError(
             "no joints", where, "an arm needs at least one hinge or slide joint on its chain"
         )
-    qpos, rest_name = _rest_qpos(model, rest, set(arm_ids))
-    held: dict[str, float | tuple[float, ...]] = {}
-    for j in range(model.njnt):
-        if j in arm_ids:
-            continue
-        adr, kind = int(model.jnt_qposadr[j]), _joint_kind(model, j)
-        values = qpos[adr : adr + _NQ[kind]]
-        held[joint_names[j] or display_names(model, mujoco.mjtObj.mjOBJ_JOINT)[j]] = (
-            float(values[0]) if len(values) == 1 else tuple(float(v) for v in values)
+    shown = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    frozen = tuple(
+        SetAside(
+            "joint on the chain",
+            shown[j],
+            f"a {_joint_kind(model, j)} joint: held at its rest value (the arm's joints are "
+            "the chain's hinges and slides); rest= sets it",
         )
+        for b in path
+        for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b])
+        if _joint_kind(model, j) not in ("hinge", "slide")
+    )
+    qpos, rest_name, given = _rest_qpos(model, rest, set(arm_ids), made_fixed or {})
+    follow_couplings(model, qpos, set(arm_ids), given)
+    held = held_values(model, qpos, set(arm_ids))
     for j in arm_ids:  # the arm's own joints rest at qpos0 (their ref)
         qpos[model.jnt_qposadr[j]] = model.qpos0[model.jnt_qposadr[j]]
     return ArmSelection(
@@ -172,18 +184,62 @@ def select_arm(
         held=held,
         rest=rest_name,
         qpos=qpos,
+        set_aside=frozen,
     )
 
 
-def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Array, str]:
-    """The whole robot's qpos at rest, and where it came from."""
+def held_values(
+    model: mujoco.MjModel, qpos: Array, arm: set[int]
+) -> dict[str, float | tuple[float, ...]]:
+    """Held joint name -> its value in the whole robot's ``qpos`` (a tuple for ball, free)."""
+    shown = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    held: dict[str, float | tuple[float, ...]] = {}
+    for j in range(model.njnt):
+        if j in arm:
+            continue
+        adr, kind = int(model.jnt_qposadr[j]), _joint_kind(model, j)
+        values = qpos[adr : adr + _NQ[kind]]
+        held[shown[j]] = float(values[0]) if len(values) == 1 else tuple(float(v) for v in values)
+    return held
+
+
+def keyframe_moves(
+    model: mujoco.MjModel, key: int, joints: Sequence[str], held: Mapping[str, object]
+) -> dict[str, float | tuple[float, ...]]:
+    """The held joints keyframe ``key`` of the whole robot puts elsewhere than ``held``.
+
+    Args:
+        model: MuJoCo's compiled model of the whole robot.
+        key: Keyframe index.
+        joints: The arm's joint names.
+        held: Held joint name -> the value the arm holds it at.
+
+    Returns:
+        Held joint name -> the keyframe's value (its couplings followed), for each joint
+        more than 1e-9 away from its held value.
+    """
+    names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    arm = {names.index(n) for n in joints}
+    qpos = model.key_qpos[key].copy()
+    follow_couplings(model, qpos, arm)
+    out = {}
+    for name, value in held_values(model, qpos, arm).items():
+        if name in held and not np.allclose(value, held[name], rtol=0, atol=1e-9):  # type: ignore[arg-type]
+            out[name] = value
+    return out
+
+
+def _rest_qpos(
+    model: mujoco.MjModel, rest: RestSpec, arm: set[int], made_fixed: Mapping[str, str]
+) -> tuple[Array, str, set[int]]:
+    """The whole robot's qpos at rest, where it came from, and the joints the user set."""
     if rest is None:
-        return model.qpos0.copy(), "qpos0"
+        return model.qpos0.copy(), "qpos0", set()
     if isinstance(rest, str):
         keys = object_names(model, mujoco.mjtObj.mjOBJ_KEY)
         if rest not in keys or not rest:
             raise UnknownNameError("keyframe", rest, [k for k in keys if k])
-        return model.key_qpos[keys.index(rest)].copy(), f"keyframe {rest!r}"
+        return model.key_qpos[keys.index(rest)].copy(), f"keyframe {rest!r}", set()
     if not isinstance(rest, Mapping):
         raise ParameterError(
             "rest", rest, "None, a keyframe name, or a dict joint name -> value [rad or m]"
@@ -192,6 +248,13 @@ def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Ar
     names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     held_names = [n for j, n in enumerate(names) if j not in arm and n]
     for name, value in rest.items():
+        if name in made_fixed and name not in names:
+            raise ParameterError(
+                f"rest[{name!r}]",
+                value,
+                f"a held joint's value; joint {name!r} was made fixed at load "
+                f"({made_fixed[name]}), so it has no value to set",
+            )
         if name not in names or names.index(name) in arm:
             raise UnknownNameError("held joint", str(name), held_names)
         j = names.index(name)
@@ -216,7 +279,88 @@ def _rest_qpos(model: mujoco.MjModel, rest: RestSpec, arm: set[int]) -> tuple[Ar
             arr = np.concatenate([arr[:-4], quat / norm])
         adr = int(model.jnt_qposadr[j])
         qpos[adr : adr + arr.size] = arr
-    return qpos, "given"
+    return qpos, "given", {names.index(n) for n in rest}
+
+
+def follow_couplings(
+    model: mujoco.MjModel, qpos: Array, arm: set[int], given: Set[int] = frozenset()
+) -> None:
+    """Held joints coupled to others (a URDF ``<mimic>``, an MJCF joint equality) follow them.
+
+    MuJoCo's joint equality holds ``q1 - ref1 = c0 + c1 x + c2 x^2 + c3 x^3 + c4 x^4`` with
+    ``x = q2 - ref2`` (``x = 0`` without a second joint); a URDF mimic is ``c0 = offset``,
+    ``c1 = multiplier``. Each held follower (joint1) whose leader is held too is set from its
+    leader, in ``qpos`` (in place), a follower of a follower after its leader. Couplings that
+    reach an arm joint are left to :func:`reduce_mujoco` (refused there).
+
+    Args:
+        model: MuJoCo's compiled model of the whole robot.
+        qpos: The whole robot's configuration, edited in place.
+        arm: Arm joint ids.
+        given: Joints whose values the user set: a follower among them whose value
+            contradicts its coupling is refused.
+
+    Raises:
+        ParameterError: A value given for a follower that its coupling does not give.
+    """
+    eqs = [
+        k
+        for k in range(model.neq)
+        if model.eq_type[k] == mujoco.mjtEq.mjEQ_JOINT
+        and model.eq_active0[k]
+        and int(model.eq_obj1id[k]) not in arm
+        and int(model.eq_obj2id[k]) not in arm
+    ]
+    names = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    for _ in range(len(eqs) + 1):  # a chain of n couplings settles in n passes
+        moved = False
+        for k in eqs:
+            j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+            a1 = int(model.jnt_qposadr[j1])
+            x = 0.0
+            if j2 >= 0:
+                a2 = int(model.jnt_qposadr[j2])
+                x = float(qpos[a2] - model.qpos0[a2])
+            c = model.eq_data[k][:5]
+            value = float(model.qpos0[a1] + sum(c[i] * x**i for i in range(5)))
+            if qpos[a1] == value:
+                continue
+            if j1 in given and abs(qpos[a1] - value) > 1e-9 * max(1.0, abs(value)):
+                leader = names[j2] if j2 >= 0 else ""
+                rule = _coupling_text(model, k, names)
+                raise ParameterError(
+                    f"rest[{names[j1]!r}]",
+                    float(qpos[a1]),
+                    f"{value:.6g}, the value its coupling to joint {leader!r} gives ({rule}); "
+                    f"set {leader!r} and {names[j1]!r} follows"
+                    if leader
+                    else f"{value:.6g}, the value its equality fixes ({rule})",
+                )
+            qpos[a1] = value
+            moved = True
+        if not moved:
+            return
+
+
+def _coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
+    """``fb = 0.6 - 1 fa``: joint equality ``k`` as the file's joints see it."""
+
+    def shifted(j: int) -> str:
+        ref = float(model.qpos0[model.jnt_qposadr[j]])
+        return names[j] if ref == 0 else f"({names[j]} - {ref:.6g})"
+
+    j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+    x = shifted(j2) if j2 >= 0 else "0"
+    terms = []
+    for i, c in enumerate(model.eq_data[k][:5]):
+        if c == 0 or (i and j2 < 0):
+            continue
+        mono = "" if i == 0 else f" {x}" if i == 1 else f" {x}^{i}"
+        terms.append(f"{'-' if c < 0 else '+'} {abs(c):.6g}{mono}")
+    rhs = " ".join(terms).removeprefix("+ ") or "0"
+    if rhs.startswith("- "):
+        rhs = "-" + rhs[2:]
+    return f"{shifted(j1)} = {rhs}"
 
 
 # -- MuJoCo ---------------------------------------------------------------------------------
@@ -234,6 +378,42 @@ def moved_bodies(model: mujoco.MjModel, arm_joints: set[int]) -> set[int]:
                 break
             c = int(model.body_parentid[c])
     return out
+
+
+def bodies_filtered(model: mujoco.MjModel, b1: int, b2: int) -> bool:
+    """MuJoCo's body-pair filter (filterBodyPair in engine_collision_driver.c).
+
+    Bodies welded together (same ``body_weldid``, which includes a body and itself) never
+    collide. With ``filterparent`` on (the default), a body does not collide with its parent,
+    where both are taken as weld groups: the parent of a weld group is the weld group of the
+    parent of its root body. The world exception: the parent filter only applies when
+    neither weld group is the world's, so a body attached to the world by a joint does
+    collide with geoms welded to the world (a floor, a base plate).
+    """
+    w1, w2 = int(model.body_weldid[b1]), int(model.body_weldid[b2])
+    if w1 == w2:
+        return True
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
+        return False
+    if w1 == 0 or w2 == 0:
+        return False
+    pw1 = int(model.body_weldid[model.body_parentid[w1]])
+    pw2 = int(model.body_weldid[model.body_parentid[w2]])
+    return w1 == pw2 or w2 == pw1
+
+
+def arm_welds(model: mujoco.MjModel, arm_joints: set[int]) -> list[int]:
+    """Each body's weld group once the held joints are welded.
+
+    A body's nearest ancestor (or itself) carrying an arm joint, 0 (the world) when none
+    does. Two bodies of one group never move relative to each other, whatever the arm does.
+    """
+    welds = [0] * model.nbody
+    for b in range(1, model.nbody):  # parents come before children in MuJoCo's body order
+        lo, n = int(model.body_jntadr[b]), int(model.body_jntnum[b])
+        arm = any(j in arm_joints for j in range(lo, lo + n))
+        welds[b] = b if arm else welds[int(model.body_parentid[b])]
+    return welds
 
 
 def reduce_mujoco(
@@ -259,7 +439,7 @@ def reduce_mujoco(
     arm_ids = {jnames.index(n) for n in sel.joints}
     held_ids = [j for j in range(full.njnt) if j not in arm_ids]
     moved = moved_bodies(full, arm_ids)
-    set_aside: list[SetAside] = []
+    set_aside: list[SetAside] = list(sel.set_aside)
     _check_couplings(full, arm_ids, moved, set_aside)
     if not sel.held and not set_aside:
         return full, ()
@@ -301,6 +481,7 @@ def reduce_mujoco(
     for j in held_ids:
         spec.delete(spec_joints[j])
     _reduce_keys(spec, full, sel, arm_ids)
+    _keep_contact_rules(spec, full, arm_ids, spec_bodies)
     # A body left without joints must stay a body (it may carry the tool, geoms, sites).
     spec.compiler.fusestatic = False
     try:
@@ -315,6 +496,48 @@ def reduce_mujoco(
     if model.nbody != full.nbody:
         raise ModelError("holding the joints changed MuJoCo's bodies")
     return model, tuple(set_aside)
+
+
+def _keep_contact_rules(
+    spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int], spec_bodies: list
+) -> None:
+    """The whole robot's contact filter in the arm's model (MuJoCo then tests the same pairs).
+
+    Welding the held joints merges weld groups, and MuJoCo's parent filter works on weld
+    groups: on the arm's model it would both drop pairs the robot tests (a held finger welded
+    into the hand becomes a child of the forearm) and test pairs the robot never does (a
+    held free pelvis welded to the world loses its parent rule with the torso, by the world
+    exception). So the parent filter is turned off in the arm's model and every body pair the
+    robot's own parent filter drops becomes an ``<exclude>``; together with the weld rule, the
+    bitmasks and the file's excludes (an SRDF's among them), the arm's model then tests
+    exactly the robot's pairs whose distance the arm can change. The file's explicit pairs
+    that the arm cannot change (both geoms in one weld group) are dropped with them.
+    """
+    welds = arm_welds(full, arm)
+    names = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
+    colliding = [b for b in range(full.nbody) if full.body_contype[b] or full.body_conaffinity[b]]
+    excluded = {(int(s) >> 16, int(s) & 0xFFFF) for s in full.exclude_signature}
+    for i, b1 in enumerate(colliding):
+        for b2 in colliding[i + 1 :]:
+            if welds[b1] == welds[b2] or (b1, b2) in excluded:
+                continue
+            if not (
+                full.body_contype[b1] & full.body_conaffinity[b2]
+                or full.body_contype[b2] & full.body_conaffinity[b1]
+            ):
+                continue
+            if bodies_filtered(full, b1, b2):
+                for b in (b1, b2):  # an exclude names its bodies
+                    if not spec_bodies[b].name:
+                        spec_bodies[b].name = names[b]
+                spec.add_exclude(bodyname1=spec_bodies[b1].name, bodyname2=spec_bodies[b2].name)
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+    geom = mujoco.mjtObj.mjOBJ_GEOM
+    for pair in list(spec.pairs):  # by name: the compiler sorts the pairs
+        g1 = mujoco.mj_name2id(full, geom, pair.geomname1)
+        g2 = mujoco.mj_name2id(full, geom, pair.geomname2)
+        if welds[int(full.geom_bodyid[g1])] == welds[int(full.geom_bodyid[g2])]:
+            spec.delete(pair)
 
 
 def _check_couplings(
@@ -342,7 +565,14 @@ def _check_couplings(
             shown = mujoco.mj_id2name(full, mjobj.mjOBJ_EQUALITY, k) or " = ".join(
                 jnames[j] for j in (a, b) if j >= 0
             )
-            out.append(SetAside("joint equality", shown, "couples held joints only"))
+            out.append(
+                SetAside(
+                    "joint equality",
+                    shown,
+                    f"couples held joints only; their held values follow it "
+                    f"({_coupling_text(full, k, jnames)})",
+                )
+            )
         elif kind == mujoco.mjtEq.mjEQ_TENDON:
             out.append(SetAside("equality constraint", name, "couples tendons (checked below)"))
         else:

@@ -15,7 +15,7 @@ explicit-damping question (which timestep a controller's kd allows) is asked onl
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -28,7 +28,7 @@ from ..analysis.crosscheck import (
     crosscheck_batch,
     merge_worst,
 )
-from ..arm import Arm
+from ..arm import FROZEN, Arm
 from ..checks import check_count, check_number
 from ..collision import CollisionStatistics
 from ..display import Report, Table, json_ready, plural, to_json
@@ -97,17 +97,20 @@ class RobotPart:
         rest: Where the held values come from (``"qpos0"``, ``"keyframe 'name'"``, ``"given"``).
         base: The body the arm's chain starts below, or None (the world).
         set_aside: What in the file does not reach the arm, each with the reason.
+        frozen: Joints the file lets move that never move here -> why (``arm.frozen``).
     """
 
     held: dict[str, float | tuple[float, ...]]
     rest: str
     base: str | None
     set_aside: tuple[str, ...]
+    frozen: dict[str, str] = field(default_factory=dict)
 
     @classmethod
     def of(cls, arm: Arm) -> RobotPart:
         """The arm's robot part."""
-        return cls(dict(arm.held), arm.rest, arm.base, tuple(str(a) for a in arm.set_aside))
+        aside = tuple(str(a) for a in arm.set_aside if a.what not in FROZEN)
+        return cls(dict(arm.held), arm.rest, arm.base, aside, arm.frozen)
 
 
 @dataclass(frozen=True, repr=False)
@@ -176,6 +179,7 @@ class AuditReport(Report):
                     "hold": k.hold,
                     "effort_lower": k.effort_lower,
                     "effort_upper": k.effort_upper,
+                    "moves_held": k.moves_held,
                 }
                 for k in s.keyframes
             ],
@@ -201,6 +205,7 @@ class AuditReport(Report):
                         "contacts": k.contacts,
                         "closest_pair": k.closest.pair.label if k.closest else None,
                         "closest_distance": k.closest.distance if k.closest else None,
+                        "moves_held": k.moves_held,
                     }
                     for k in c.keyframes
                 ],
@@ -566,24 +571,27 @@ def format_report(r: AuditReport) -> list[str]:
 def _robot_lines(r: AuditReport) -> list[str]:
     """The rest of the robot: which joints are held, at what, and what was set aside."""
     rp = r.robot
-    if rp is None or not (rp.held or rp.set_aside):
+    if rp is None or not (rp.held or rp.set_aside or rp.frozen):
         return []
     out = [""]
     if rp.held:
         rest = "the reference pose (qpos0)" if rp.rest == "qpos0" else rp.rest
         base = f"; the arm starts below {rp.base!r}" if rp.base else ""
         out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
-
-        def value(v: float | tuple[float, ...]) -> str:
-            if isinstance(v, tuple):
-                return "(" + " ".join(f"{x:.4g}" for x in v) + ")"
-            return f"{v:.4g}"
-
-        out.append("  held: " + ", ".join(f"{k} {value(v)}" for k, v in rp.held.items()))
+        out.append("  held: " + ", ".join(f"{k} {_held_value(v)}" for k, v in rp.held.items()))
+    if rp.frozen:
+        out.append(f"frozen (the file lets them move, the arm does not): {len(rp.frozen)}")
+        out += [f"  joint {name!r}: {why}" for name, why in rp.frozen.items()]
     if rp.set_aside:
         out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
         out += [f"  {a}" for a in rp.set_aside]
     return out
+
+
+def _held_value(v: float | tuple[float, ...]) -> str:
+    if isinstance(v, tuple):
+        return "(" + " ".join(f"{x:.4g}" for x in v) + ")"
+    return f"{v:.4g}"
 
 
 def _h(h: float) -> str:
@@ -650,7 +658,21 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
             ],
             "llrrll",
         ),
+        *(
+            f"  keyframe {k.name!r} is judged where it puts held joints: {_moved(k.moves_held, r)}"
+            for k in s.keyframes
+            if k.moves_held
+        ),
     ]
+
+
+def _moved(moves: dict[str, float | tuple[float, ...]], r: AuditReport) -> str:
+    """``torso_pitch 1.2 (held at 0)``: a keyframe's values for held joints."""
+    held = r.robot.held if r.robot is not None else {}
+    return ", ".join(
+        f"{j} {_held_value(v)}" + (f" (held at {_held_value(held[j])})" if j in held else "")
+        for j, v in moves.items()
+    )
 
 
 def _gravity_lines(r: AuditReport) -> list[str]:
@@ -720,7 +742,8 @@ def _collision_lines(r: AuditReport) -> list[str]:
         near = (
             f", closest {k.closest.pair.label} at {k.closest.distance:.4f} m" if k.closest else ""
         )
-        out.append(f"  keyframe {k.keyframe!r}: {k.contacts} contacts{near}")
+        moved = " (at its own pose: it moves held joints)" if k.moves_held else ""
+        out.append(f"  keyframe {k.keyframe!r}{moved}: {k.contacts} contacts{near}")
     if c.distance_engine is not None and c.pairs:
         out.append(
             f"  distances by {c.distance_engine}; poses where its touching pairs differ from "

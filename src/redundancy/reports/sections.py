@@ -15,7 +15,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -227,6 +227,9 @@ class KeyframeRow:
             gravity compensation) [N m or N].
         effort_lower: Most negative torque they can give there [N m or N].
         effort_upper: Most positive [N m or N].
+        moves_held: Held joints the keyframe puts elsewhere than the arm holds them -> the
+            keyframe's value [rad or m]; the row is computed there
+            (:meth:`~redundancy.Arm.at_keyframe`).
     """
 
     name: str
@@ -236,6 +239,7 @@ class KeyframeRow:
     hold: Array
     effort_lower: Array
     effort_upper: Array
+    moves_held: dict[str, float | tuple[float, ...]] = field(default_factory=dict)
 
     @property
     def unheld(self) -> tuple[int, ...]:
@@ -245,15 +249,20 @@ class KeyframeRow:
 
 
 def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeRow, ...]:
-    """Singular values and holding torque at each keyframe (all by default)."""
-    keys = arm.keyframes
+    """Singular values and holding torque at each keyframe (all by default).
+
+    A keyframe that moves held joints is computed on the arm at it
+    (:meth:`~redundancy.Arm.at_keyframe`): the robot's real pose under the keyframe's name.
+    """
     rows = []
-    load = _Load(arm)
-    for name in names if names is not None else tuple(keys):
-        q = keys[name] if name in keys else arm.keyframe(name)
-        s = arm.svd(q)
-        sp = arm.svd(q, "pinocchio")
-        hold, effort = load(q[None, :], arm.gravity(q)[None, :])
+    loads = {id(arm): _Load(arm)}
+    for name in names if names is not None else arm.keyframe_names:
+        at = arm.at_keyframe(name)
+        load = loads.setdefault(id(at), _Load(at))
+        q = at.keyframe(name)
+        s = at.svd(q)
+        sp = at.svd(q, "pinocchio")
+        hold, effort = load(q[None, :], at.gravity(q)[None, :])
         rows.append(
             KeyframeRow(
                 name,
@@ -263,6 +272,7 @@ def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeR
                 hold[0],
                 effort.lower[0],
                 effort.upper[0],
+                arm.keyframe_moves(name),
             )
         )
     return tuple(rows)
