@@ -167,8 +167,24 @@ def check_supported(
             )
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
         check_names(model, tool_site)
-    if strict and xml_root is not None:
-        _check_xml_strict(xml_root)  # _check_xml_values ran first, above
+
+
+def check_robot_values(model: mujoco.MjModel) -> None:
+    """Refuse values of the whole robot's joints that Pinocchio's parser cannot take.
+
+    Run on the whole robot (held joints included: Pinocchio reads every joint of the file).
+
+    Raises:
+        ModelError: A negative ``frictionloss``, naming the joint and the attribute.
+    """
+    names = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    for j in range(model.njnt):
+        value = float(model.dof_frictionloss[model.jnt_dofadr[j]])
+        if value < 0:
+            raise ModelError(
+                f"joint {names[j]!r} has negative frictionloss {value:g} [N m or N]; "
+                "it must be >= 0 (a friction force opposes motion)"
+            )
 
 
 def _tag(el: ET.Element, *attrs: str) -> str:
@@ -254,101 +270,6 @@ def _check_xml_values(root: ET.Element) -> None:
             "Pinocchio's MJCF parser reads the first one again for each of them; "
             "merge them into one",
         )
-
-
-def _check_xml_strict(root: ET.Element) -> None:
-    """Refuse, under ``strict``, MJCF spellings Pinocchio's parser reads differently."""
-    tags = [child.tag for child in root]
-    if "worldbody" in tags:
-        first_body = tags.index("worldbody")
-        for later in ("compiler", "default"):
-            if later in tags[first_body:]:
-                raise UnsupportedFeatureError(
-                    f"<{later}> after <worldbody>",
-                    f"<{later}>",
-                    "Pinocchio's MJCF parser reads the file in order and applies it only to "
-                    f"what follows (MuJoCo applies it everywhere); move <{later}> before "
-                    "<worldbody>",
-                )
-    compiler = root.find("compiler")
-    seq = compiler.get("eulerseq", "xyz") if compiler is not None else "xyz"
-    if seq != seq.lower():
-        raise UnsupportedFeatureError(
-            "extrinsic eulerseq",
-            f"<compiler eulerseq={seq!r}>",
-            "Pinocchio's MJCF parser reads it as intrinsic",
-        )
-    for el in root.iter():
-        aa = el.get("axisangle")
-        if aa is not None:
-            try:
-                axis = np.array([float(x) for x in aa.split()[:3]])
-            except ValueError:
-                continue  # MuJoCo has already rejected it
-            if abs(np.linalg.norm(axis) - 1.0) > 1e-9:
-                raise UnsupportedFeatureError(
-                    "axisangle with a non-unit axis",
-                    f"<{el.tag} name={el.get('name', '')!r} axisangle={aa!r}>",
-                    "Pinocchio's MJCF parser does not normalise the axis; write a unit axis",
-                )
-    if root.find(".//frame") is not None:
-        raise UnsupportedFeatureError(
-            "<frame> element", "worldbody", "Pinocchio's MJCF parser drops the contents of <frame>"
-        )
-    if root.find(".//replicate") is not None:
-        raise UnsupportedFeatureError(
-            "<replicate> element",
-            "worldbody",
-            "Pinocchio's MJCF parser does not expand it; write the copies out",
-        )
-    attach = root.find(".//attach")
-    if attach is not None:
-        raise UnsupportedFeatureError(
-            "<attach> element",
-            _tag(attach, "model", "body", "prefix"),
-            "Pinocchio's MJCF parser does not expand it (the attached bodies would be missing "
-            "from one engine); write the attached model's bodies out",
-        )
-    for default in root.iter("default"):
-        where = f"<default class={default.get('class', 'main')!r}>"
-        for joint in default.findall("joint"):
-            if joint.get("pos") is not None:
-                raise UnsupportedFeatureError(
-                    "joint pos in a default class",
-                    where,
-                    "Pinocchio's MJCF parser does not apply it to every joint; "
-                    "give the pos on each joint",
-                )
-
-    # Class -> its parent class; an element's class may refine the body's childclass (Pinocchio
-    # then merges a class with its own ancestor, which changes nothing), not replace it.
-    parent_class: dict[str, str] = {}
-    for default in root.iter("default"):
-        for sub in default.findall("default"):
-            parent_class[sub.get("class", "")] = default.get("class", "main")
-
-    def refines(cls: str, active: str) -> bool:
-        seen: set[str] = set()
-        while cls != active and cls in parent_class and cls not in seen:
-            seen.add(cls)
-            cls = parent_class[cls]
-        return cls == active
-
-    def walk(el: ET.Element, active: str | None) -> None:
-        for child in el:
-            cls = child.get("class")
-            if active is not None and cls is not None and not refines(cls, active):
-                raise UnsupportedFeatureError(
-                    "class inside a different childclass",
-                    f"{_tag(child, 'class')} in a body with childclass {active!r}",
-                    "Pinocchio's MJCF parser merges the two classes where MuJoCo uses only "
-                    "the element's class; set the attributes on the element or use the body's "
-                    "childclass",
-                )
-            walk(child, child.get("childclass", active) if child.tag == "body" else active)
-
-    for world in root.iter("worldbody"):
-        walk(world, None)
 
 
 def check_names(model: mujoco.MjModel, tool_site: str | None = None) -> None:
