@@ -354,7 +354,9 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     and there it differs from MuJoCo: a mesh geom gets a placeholder inertia (1 kg, unit
     inertia); a geom's mass is read from the geom element only, not from its default class;
     visual geoms (``contype = conaffinity = 0``) are left out although MuJoCo counts their
-    mass; ``inertiagrouprange`` is ignored. ``settotalmass``, ``boundmass`` and
+    mass; ``inertiagrouprange`` is ignored. An ``<inertial>`` without ``diaginertia`` or
+    ``fullinertia`` has no rotational inertia in MuJoCo and the identity in Pinocchio.
+    ``settotalmass``, ``boundmass`` and
     ``boundinertia`` change MuJoCo's masses beyond what Pinocchio applies. Each such body is
     returned with the causes found (possibly none: the body's inertia still comes from its
     geoms), for :func:`redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
@@ -403,10 +405,22 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
     for b, (el, active) in enumerate(found, start=1):
-        from_geoms = from_geoms_always or el.find("inertial") is None
-        if not from_geoms and not global_causes and el.get("name"):
+        inertial = el.find("inertial")
+        from_geoms = from_geoms_always or inertial is None
+        no_inertia = (
+            not from_geoms
+            and inertial is not None
+            and inertial.get("diaginertia") is None
+            and inertial.get("fullinertia") is None
+        )
+        if not from_geoms and not global_causes and el.get("name") and not no_inertia:
             continue
         causes = list(global_causes)
+        if no_inertia:
+            causes.append(
+                f"<inertial> of body {bodies[b]!r} without diaginertia or fullinertia "
+                "(MuJoCo gives it no rotational inertia, Pinocchio's parser 1 kg m^2 on each axis)"
+            )
         if not el.get("name"):
             causes.append(
                 f"unnamed body {bodies[b]!r} (Pinocchio's parser names it after its "
