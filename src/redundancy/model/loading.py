@@ -23,8 +23,8 @@ from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .ends import frame_for
 from .names import display_names
-from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
 from .resolved import resolve_causes, resolved_mjcf
+from .robot import ArmSelection, RestSpec, SetAside, reduce_mujoco, reduce_pinocchio, select_arm
 from .support import check_robot_values, check_supported
 from .urdf import (
     DisabledPairs,

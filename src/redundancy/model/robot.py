@@ -373,15 +373,28 @@ def _check_couplings(
             objs = (a, b)
             if full.eq_objtype[k] == mjobj.mjOBJ_SITE:
                 objs = tuple(int(full.site_bodyid[s]) for s in (a, b) if s >= 0)
-            bodies = [x for x in objs if x in moved]
-            if bodies:
+            between = _joints_between(full, *(objs if len(objs) == 2 else (objs[0], 0)))
+            if any(j in arm for j in between):
+                bodies = [x for x in objs if x in moved]
                 raise UnsupportedFeatureError(
                     "equality constraint on a body the arm moves",
                     f"equality {name!r} (body {bnames[bodies[0]]!r})",
                     "a constraint on the arm's bodies changes its motion; "
                     "the library handles an open chain",
                 )
-            out.append(SetAside("equality constraint", name, "acts on held bodies only"))
+            if any(x in moved for x in objs):
+                held = ", ".join(repr(jnames[j]) for j in between) or "none"
+                out.append(
+                    SetAside(
+                        "equality constraint",
+                        name,
+                        "joins bodies that move with the arm but only relative to each other "
+                        f"through held joints ({held}): it cannot change the arm's J, M or "
+                        "gravity",
+                    )
+                )
+            else:
+                out.append(SetAside("equality constraint", name, "acts on held bodies only"))
     for t in range(full.ntendon):
         name = mujoco.mj_id2name(full, mjobj.mjOBJ_TENDON, t) or f"tendon {t}"
         lo, n = int(full.tendon_adr[t]), int(full.tendon_num[t])
@@ -419,6 +432,23 @@ def _check_couplings(
             if any(b in moved for b in bodies):
                 raise transmission_refusal(int(trn), name)
             out.append(SetAside("actuator", name, "acts on held bodies only"))
+
+
+def _joints_between(full: mujoco.MjModel, a: int, b: int) -> list[int]:
+    """Joints on the tree path between bodies ``a`` and ``b`` (their relative pose's joints)."""
+
+    def up(body: int) -> list[int]:
+        out = [body]
+        while body != 0:
+            body = int(full.body_parentid[body])
+            out.append(body)
+        return out
+
+    pa, pb = up(a), up(b)
+    common = next(x for x in pa if x in pb)
+    path = pa[: pa.index(common)] + pb[: pb.index(common)]
+    starts = {body: int(full.body_jntadr[body]) for body in path}
+    return [j for body in path for j in range(starts[body], starts[body] + full.body_jntnum[body])]
 
 
 def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
@@ -545,8 +575,6 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
     Raises:
         UnsupportedFeatureError: Pinocchio lacks an arm joint, or has joints MuJoCo does not.
     """
-    import pinocchio as pin
-
     names = [pm.names[j] for j in range(1, pm.njoints)]  # type: ignore[attr-defined]
     missing = [n for n in sel.joints if n not in names]
     if missing:
