@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from .. import collision, linalg
 from ..analysis import selfmotion
 from ..arm import Arm, sampling_ranges
-from ..errors import PoseError, RedundancyError
+from ..errors import MissingInertiaError, PoseError, RedundancyError
 from .control import JointPD
 
 Array = NDArray[np.float64]
@@ -255,6 +255,8 @@ class LabSim:
         contact_forces: bool = False,
         watch: str | None = None,
     ) -> None:
+        if arm.missing_inertia:  # a simulation needs every mass the arm moves
+            raise MissingInertiaError("a simulation", arm.missing_inertia)
         self.arm = arm
         self.model = copy.deepcopy(arm.mj_model)
         self.data = mujoco.MjData(self.model)

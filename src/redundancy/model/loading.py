@@ -317,6 +317,7 @@ class _Robot:
         self.recipe, self.source = recipe, source
         self.set_aside: list[SetAside] = []
         self.defects: list[str] = []  # defects of the file on bodies the arm moves
+        self.missing_inertia: list[str] = []  # links the arm moves without inertial data
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
@@ -581,7 +582,8 @@ def _load_urdf(
     tool_link = resolve_frame(tree, robot.tool)
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
     disabled = read_disabled_pairs(pairs, tree)
-    mended, notes, defects = prepare_urdf(root, tree, tool_link, base_link, source)
+    mended, notes, defects, missing = prepare_urdf(root, tree, tool_link, base_link, source)
+    robot.missing_inertia += missing
     if notes:
         text = ET.tostring(mended, encoding="unicode")
         robot.set_aside += notes
@@ -666,6 +668,7 @@ def _build(
         held=sel.held,
         set_aside=tuple(robot.set_aside),
         defects=tuple(robot.defects),
+        missing_inertia=tuple(robot.missing_inertia),
         robot_model=full,
         frame_type=frame_type,
         base=sel.base,
