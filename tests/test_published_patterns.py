@@ -196,6 +196,18 @@ def test_negative_frictionloss_is_refused_naming_the_joint(joint: str) -> None:
     )
 
 
+def test_negative_urdf_friction_is_refused_naming_the_joint() -> None:
+    urdf = _urdf(True).replace(
+        'velocity="1"/></joint>', 'velocity="1"/><dynamics friction="-1"/></joint>', 1
+    )
+    with pytest.raises(rd.ModelError) as exc:
+        rd.load_string(urdf, frame="tool0")
+    assert str(exc.value) == (
+        "URDF <string>: joint 'joint_1' has negative <dynamics friction='-1'>; it must be >= 0 "
+        "(a friction force opposes motion)"
+    )
+
+
 @pytest.mark.parametrize("base", [None, "waist"])
 def test_body_and_joint_sharing_a_name(base: str | None) -> None:
     """A humanoid's ``waist`` body and joint: ``buildReducedModel`` raised a raw ValueError

@@ -239,6 +239,15 @@ def _check_numbers(root: ET.Element, source: str) -> None:
             if len(numbers) != count or not all(np.isfinite(numbers)):
                 what = "a finite number" if count == 1 else f"{count} finite numbers"
                 raise ModelError(f"URDF {source}: <{el.tag} {attr}={value!r}> must be {what}")
+    for joint in root.findall("joint"):
+        for el in joint.findall("dynamics"):
+            friction = float(el.get("friction", "0"))
+            if friction < 0:  # Pinocchio's parser fails on it in words of its own
+                raise ModelError(
+                    f"URDF {source}: joint {joint.get('name', '')!r} has negative <dynamics "
+                    f"friction={el.get('friction')!r}>; it must be >= 0 (a friction force "
+                    "opposes motion)"
+                )
 
 
 def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
