@@ -313,6 +313,40 @@ def test_audit_without_inertias_says_what_it_skipped(tmp_path, capsys) -> None:
     assert "gravity: skipped (the file gives some links the arm moves no inertia)" in text
 
 
+def test_published_human_without_inertial_virtual_links() -> None:
+    """example-robot-data's human: shoulders and wrists are revolute joints through massless
+    virtual links (no <inertial>); refused whole until now, its kinematics are served."""
+    path = rd.example_robot_data("human_description/robots/human.urdf")
+    arm = rd.load(path, frame="left_hand")
+    assert arm.missing_inertia == (
+        "middle_abdomen_virtual",
+        "middle_thorax_virtual",
+        "middle_thorax_virtual_2",
+        "left_upperarm_virtual",
+        "left_upperarm_virtual_2",
+        "left_lowerarm_virtual",
+        "left_hand_virtual",
+    )
+    whole = mujoco.MjData(arm.robot_model)
+    names = [arm.robot_model.joint(j).name for j in range(arm.robot_model.njnt)]
+    for q in random_poses(arm, 10, seed=0):
+        whole.qpos[:] = arm.robot_model.qpos0
+        for name, value in zip(arm.joint_names, q, strict=True):
+            whole.qpos[arm.robot_model.jnt_qposadr[names.index(name)]] = value
+        mujoco.mj_kinematics(arm.robot_model, whole)
+        mujoco.mj_comPos(arm.robot_model, whole)
+        jp, jr = np.zeros((3, arm.robot_model.nv)), np.zeros((3, arm.robot_model.nv))
+        site = mujoco.mj_name2id(arm.robot_model, mujoco.mjtObj.mjOBJ_SITE, arm.site)
+        mujoco.mj_jacSite(arm.robot_model, whole, jp, jr, site)
+        dofs = [arm.robot_model.jnt_dofadr[names.index(n)] for n in arm.joint_names]
+        for engine in ("mujoco", "pinocchio"):
+            np.testing.assert_allclose(
+                arm.jacobian(q, engine), np.vstack([jp, jr])[:, dofs], rtol=0, atol=1e-14
+            )
+    with pytest.raises(rd.MissingInertiaError, match="^gravity needs the inertia"):
+        arm.gravity(q)
+
+
 def test_mass_without_rotational_inertia_is_a_finding_not_a_disagreement(tmp_path) -> None:
     """Links with mass on their joint axes and no rotational inertia: cond(M) ~ 1e12, and
     J M^-1 J^T differs by ~1e-4 between the engines from M's rounding alone."""

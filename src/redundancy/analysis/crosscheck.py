@@ -472,7 +472,8 @@ def crosscheck_batch(
                 errors = quantity_errors(name, out["mujoco"][name], out["pinocchio"][name], scales)
                 found[name] = merge_worst(found[name], worst(errors), lo)
             if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
-                condition = np.fmax(condition, mass_condition(arm, part))
+                M = out["mujoco"].get("mass matrix")  # MuJoCo's M with armature, when compared
+                condition = np.fmax(condition, mass_condition(arm, part, M))
     agreements = tuple(
         Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
         for n in names
@@ -480,12 +481,17 @@ def crosscheck_batch(
     return CrossCheckReport(agreements, arm.bridges, len(Q), float(condition), skipped)
 
 
-def mass_condition(arm: Arm, Q: Array) -> float:
-    """Largest condition number of MuJoCo's mass matrix (armature in) over the poses ``Q``."""
-    n, nv = len(Q), arm.nq
-    stacks = Stacks(M=np.empty((n, nv, nv)))
-    arm.mujoco.evaluate(Q, stacks)
-    return float(np.max(np.linalg.cond(stacks.M)))
+def mass_condition(arm: Arm, Q: Array, M: Array | None = None) -> float:
+    """Largest condition number of MuJoCo's mass matrix (armature in) over the poses ``Q``.
+
+    ``M``: those mass matrices when already computed, shape (n, nq, nq).
+    """
+    if M is None:
+        n, nv = len(Q), arm.nq
+        stacks = Stacks(M=np.empty((n, nv, nv)))
+        arm.mujoco.evaluate(Q, stacks)
+        M = stacks.M
+    return float(np.max(np.linalg.cond(M)))
 
 
 def crosscheck(
