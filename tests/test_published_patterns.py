@@ -343,7 +343,7 @@ def test_published_human_without_inertial_virtual_links() -> None:
             np.testing.assert_allclose(
                 arm.jacobian(q, engine), np.vstack([jp, jr])[:, dofs], rtol=0, atol=1e-14
             )
-    with pytest.raises(rd.MissingInertiaError, match="^gravity needs the inertia"):
+    with pytest.raises(rd.MissingInertiaError, match=r"^gravity needs the inertia"):
         arm.gravity(q)
 
 
