@@ -210,8 +210,12 @@ def load(
     Args:
         path: MJCF or URDF file.
         site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
-        strict: Refuse features Pinocchio's MJCF parser reads differently (see
-            :func:`check_supported`); MJCF only.
+        strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
+            (``<frame>``, ``<replicate>``, a class inside another childclass...: see
+            :func:`redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
+            compiled model instead, reported in ``arm.bridges``. False: Pinocchio reads the
+            file itself and :func:`redundancy.compare_models` shows the differences. MJCF
+            only.
         frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
             Overrides ``site``. Neither given: the model's one chain end (a leaf with a
             moving joint above it; see :mod:`redundancy.model.ends`), else its frame named

@@ -1,7 +1,8 @@
 """Refusal rules: what the two engines may not agree on, refused with the reason.
 
 :func:`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
-for spellings MuJoCo compiles away and Pinocchio's parser reads differently.
+for values no engine should be given and names Pinocchio cannot tell apart;
+:func:`check_robot_values` the whole robot's joints for values Pinocchio's parser fails on.
 """
 
 from __future__ import annotations
@@ -47,12 +48,12 @@ def check_supported(
     Args:
         model: MuJoCo's compiled model.
         xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
-        strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed
-            fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle, default
-            classes it applies differently, compiler mass bounds). With ``strict=False``
-            such a model loads and :func:`redundancy.compare_models` shows the differences;
-            what Pinocchio cannot represent at all, and invalid values (non-finite numbers,
-            negative armature or damping, inverted ranges), are refused either way.
+        strict: The load's mode, checked to be a bool. What Pinocchio's parser reads
+            differently is not refused in either mode: the loader gives Pinocchio MuJoCo's
+            compiled model in strict mode (:mod:`redundancy.model.resolved`) and reports
+            the differences otherwise; what Pinocchio cannot represent at all, and invalid
+            values (non-finite numbers, negative armature or damping, inverted ranges), are
+            refused either way.
         tool_site: The site the loader put on a tool body (named after the body, whose
             frame Pinocchio reads instead): exempt from the site-name check.
 
