@@ -1,8 +1,10 @@
 """Every published arm of example-robot-data, loaded as published: the closing-note table.
 
-For each arm (``redundancy.models.EXAMPLE_ARMS``): its joints and held joints, the largest
-cross-check error over random poses, the largest difference to MuJoCo's model of the whole
-robot with the rest held, the audit's exit status and the load time.
+For each arm (``redundancy.models.EXAMPLE_ARMS``, then :data:`MORE_ARMS`): served or the
+refusal's text, its joints and held joints, the largest cross-check error over random poses,
+the largest difference to MuJoCo's model of the whole robot with the rest held, the audit's
+exit status and the load time. An arm whose links lack inertias is compared on its kinematic
+quantities only (its dynamic ones refuse), and the table says so.
 
 Usage: ``python scripts/survey_robots.py [--poses 20] [--audit-poses 200] [--no-audit]``
 """
@@ -17,11 +19,68 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 import redundancy as rd
 from redundancy.arm import random_poses
 from redundancy.cli import main as cli
-from redundancy.model.robot import difference_to_whole_robot
+from redundancy.model.robot import difference_to_whole_robot, whole_robot_quantities
 from redundancy.models import EXAMPLE_ARMS, example_robot_data
+
+#: Published arms beyond the tests' list: a human model whose shoulders and wrists are
+#: revolute joints through massless virtual links (no <inertial>).
+MORE_ARMS: tuple[tuple[str, str, str | None], ...] = (
+    ("human_description/robots/human.urdf", "left_hand", None),
+    ("human_description/robots/human.urdf", "right_hand", None),
+)
+
+
+def kinematic_difference(arm: rd.Arm, q: np.ndarray) -> float:
+    """Largest relative difference of J and the tool position to MuJoCo's whole robot."""
+    whole = whole_robot_quantities(arm, q)
+    worst = 0.0
+    for engine in ("mujoco", "pinocchio"):
+        for key, value in (
+            ("jacobian", arm.jacobian(q, engine)),
+            ("site position", arm.site_pose(q, engine)[0]),
+        ):
+            scale = max(1.0, float(np.max(np.abs(whole[key]))))
+            worst = max(worst, float(np.max(np.abs(value - whole[key]))) / scale)
+    return worst
+
+
+def survey_one(file: str, tool: str, base: str | None, args: argparse.Namespace) -> str:
+    """One table row."""
+    path = example_robot_data(file)
+    name = Path(file).name + (f" (base {base})" if base else "")
+    t = time.perf_counter()
+    try:
+        arm = rd.load(path, frame=tool, base=base)
+    except rd.RedundancyError as err:
+        return f"| {name} | {tool} | refused: {err} | - | - | - | - | - | - |"
+    load = time.perf_counter() - t
+    Q = random_poses(arm, args.poses, seed=0)
+    report = rd.crosscheck(arm, Q)
+    xerr = max(a.max_error for a in report.agreements)
+    if arm.missing_inertia:
+        whole = max(kinematic_difference(arm, q) for q in Q)
+        served = f"kinematics only (no inertia: {', '.join(arm.missing_inertia)})"
+    else:
+        whole = max(difference_to_whole_robot(arm, q) for q in Q)
+        served = "served"
+    code = "-"
+    if not args.no_audit:
+        cmd = ["audit", str(path), "--site", tool, "--poses", str(args.audit_poses)]
+        if base:
+            cmd += ["--base", base]
+        with tempfile.TemporaryDirectory() as tmp:
+            cmd += ["--json", str(Path(tmp) / "r.json")]
+            with contextlib.redirect_stdout(io.StringIO()):
+                code = str(cli(cmd))
+    return (
+        f"| {name} | {tool} | {served} | {arm.nq} | {len(arm.held)} | {xerr:.1e}"
+        f"{'' if report.ok else ' FAILED'} | {whole:.1e} | {code} | {load:.2f} s |"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,34 +90,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-audit", action="store_true", help="skip the audits")
     args = p.parse_args(argv)
     print(
-        "| robot | tool | arm joints | held joints | largest cross-check error "
+        "| robot | tool | served | arm joints | held joints | largest cross-check error "
         "| largest difference to MuJoCo's full model | audit exit | load time |"
     )
-    print("|---|---|---|---|---|---|---|---|")
-    for file, tool, base in EXAMPLE_ARMS:
-        path = example_robot_data(file)
-        t = time.perf_counter()
-        arm = rd.load(path, frame=tool, base=base)
-        load = time.perf_counter() - t
-        Q = random_poses(arm, args.poses, seed=0)
-        report = rd.crosscheck(arm, Q)
-        xerr = max(a.max_error for a in report.agreements)
-        whole = max(difference_to_whole_robot(arm, q) for q in Q)
-        code = "-"
-        if not args.no_audit:
-            cmd = ["audit", str(path), "--site", tool, "--poses", str(args.audit_poses)]
-            if base:
-                cmd += ["--base", base]
-            with tempfile.TemporaryDirectory() as tmp:
-                cmd += ["--json", str(Path(tmp) / "r.json")]
-                with contextlib.redirect_stdout(io.StringIO()):
-                    code = str(cli(cmd))
-        name = Path(file).name + (f" (base {base})" if base else "")
-        print(
-            f"| {name} | {tool} | {arm.nq} | {len(arm.held)} | {xerr:.1e}"
-            f"{'' if report.ok else ' FAILED'} | {whole:.1e} | {code} | {load:.2f} s |",
-            flush=True,
-        )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for file, tool, base in (*EXAMPLE_ARMS, *MORE_ARMS):
+        print(survey_one(file, tool, base, args), flush=True)
     return 0
 
 

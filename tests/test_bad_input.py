@@ -21,6 +21,7 @@ import pytest
 
 import redundancy as rd
 
+from .fullmodel import largest_difference_to_full_model
 from .models import chain
 
 JOINTS = "['q1', 'q2', 'q3', 'q4', 'q5', 'q6', 'q7']"
@@ -275,34 +276,6 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             r"^site must be a name \(str\) or None, got int$",
         ),
         # -- features the engines read differently or not at all -----------------------------------
-        "frame around the arm": Case(
-            _load(
-                chain()
-                .replace("<worldbody>", '<worldbody><frame pos="0 0 1">')
-                .replace("</worldbody>", "</frame></worldbody>")
-            ),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "<frame> element (worldbody): Pinocchio's MJCF parser drops the "
-                "contents of <frame>"
-            )
-            + "$",
-        ),
-        "replicate": Case(
-            _load(
-                chain(
-                    body_extra='<replicate count="2" offset="0 0 0.1"><geom size="0.01"/></replicate>'
-                )
-            ),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "<replicate> element (worldbody): Pinocchio's MJCF parser does not "
-                "expand it; write the copies out"
-            )
-            + "$",
-        ),
         "shell inertia": Case(
             _load(chain(body_extra='<geom size="0.05" shellinertia="true"/>'), strict=False),
             rd.UnsupportedFeatureError,
@@ -312,26 +285,6 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
                 "cannot compute it; use a solid geom or an explicit <inertial>"
             )
             + "$",
-        ),
-        "compiler after worldbody": Case(
-            _load(chain().replace("</worldbody>", '</worldbody><compiler angle="radian"/>')),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "<compiler> after <worldbody> (<compiler>): Pinocchio's MJCF parser reads "
-                "the file in order and applies it only to what follows (MuJoCo applies it "
-                "everywhere); move <compiler> before <worldbody>"
-            )
-            + "$",
-        ),
-        "default after worldbody": Case(
-            _load(
-                chain().replace(
-                    "</worldbody>", '</worldbody><default><joint damping="1"/></default>'
-                )
-            ),
-            rd.UnsupportedFeatureError,
-            r"^unsupported feature: <default> after <worldbody> \(<default>\)",
         ),
         "body placed at 1e308 m": Case(
             _load(
@@ -380,27 +333,6 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             ),
             rd.ModelError,
             r"sdf|SDF",
-        ),
-        "extrinsic eulerseq": Case(
-            _load(chain().replace("<mujoco>", '<mujoco><compiler eulerseq="ZYX"/>')),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "extrinsic eulerseq (<compiler eulerseq='ZYX'>): Pinocchio's MJCF "
-                "parser reads it as intrinsic"
-            )
-            + "$",
-        ),
-        "non-unit axisangle": Case(
-            _load(_l2('axisangle="0 0 2 30"')),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "axisangle with a non-unit axis (<body name='l2' axisangle='0 0 2 "
-                "30'>): Pinocchio's MJCF parser does not normalise the axis; write a unit "
-                "axis"
-            )
-            + "$",
         ),
         "free joint below the root": Case(
             _load(
@@ -492,9 +424,9 @@ def test_table_size() -> None:
     assert len(NAMES) >= 40
 
 
-def test_attach_is_refused_in_strict_mode(tmp_path: Path) -> None:
+def test_attach_is_given_to_pinocchio_as_mujoco_resolved_it(tmp_path: Path) -> None:
     """Issue 21: Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
-    the arm was in MuJoCo's M only: M11 0.456 vs 0.105); the strict load refuses it."""
+    the arm was in MuJoCo's M only: M11 0.456 vs 0.105); Pinocchio gets MuJoCo's model."""
     (tmp_path / "block.xml").write_text(
         '<mujoco><worldbody><body name="blk" pos="0 0 0.3">'
         '<geom type="box" size="0.05 0.05 0.05" mass="3"/></body></worldbody></mujoco>'
@@ -505,14 +437,58 @@ def test_attach_is_refused_in_strict_mode(tmp_path: Path) -> None:
             "<mujoco>", '<mujoco><asset><model name="block" file="block.xml"/></asset>'
         )
     )
-    expected = (
-        UF + "<attach> element (<attach model='block' body='blk' prefix='b_'>): Pinocchio's "
-        "MJCF parser does not expand it (the attached bodies would be missing from one "
-        "engine); write the attached model's bodies out"
-    )
-    with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(expected) + "$"):
-        rd.load(arm, site="tip")
-    assert rd.load(arm, site="tip", strict=False).mj_model.nbody == 4  # MuJoCo expands it
+    loaded = rd.load(arm, site="tip")
+    assert loaded.mj_model.nbody == 4  # MuJoCo expands it
+    (note,) = [b for b in loaded.bridges if b.quantity == "whole model"]
+    assert note.source.endswith("because of <attach> (Pinocchio's parser does not expand it)")
+    q = np.array([0.3, -0.5])
+    M = loaded.mass_matrix(q, engine="pinocchio")
+    np.testing.assert_allclose(M, loaded.mass_matrix(q), rtol=0, atol=1e-12)
+    assert largest_difference_to_full_model(loaded, q) < 1e-12
+
+
+READ_DIFFERENTLY = {
+    "frame around the arm": (
+        chain()
+        .replace("<worldbody>", '<worldbody><frame pos="0 0 1" euler="10 0 20">')
+        .replace("</worldbody>", "</frame></worldbody>"),
+        "<frame> (Pinocchio's parser drops its contents)",
+    ),
+    "replicate": (
+        chain(body_extra='<replicate count="2" offset="0 0 0.1"><geom size="0.01"/></replicate>'),
+        "<replicate> (Pinocchio's parser does not expand it)",
+    ),
+    "compiler after worldbody": (
+        chain().replace("</worldbody>", '</worldbody><compiler angle="radian"/>'),
+        "<compiler> after <worldbody> (Pinocchio's parser applies it only to what follows)",
+    ),
+    "default after worldbody": (
+        chain().replace("</worldbody>", '</worldbody><default><joint damping="1"/></default>'),
+        "<default> after <worldbody> (Pinocchio's parser applies it only to what follows)",
+    ),
+    "extrinsic eulerseq": (
+        chain()
+        .replace("<mujoco>", '<mujoco><compiler eulerseq="ZYX"/>')
+        .replace('<body name="l2" pos="0 0 0.3"', '<body name="l2" pos="0 0 0.3" euler="5 10 20"'),
+        "<compiler eulerseq='ZYX'> (Pinocchio's parser reads it as intrinsic)",
+    ),
+    "non-unit axisangle": (
+        _l2('axisangle="0 0 2 30"'),
+        "<body name='l2' axisangle='0 0 2 30'> (Pinocchio's parser does not normalise the axis)",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(READ_DIFFERENTLY))
+def test_read_differently_is_served(name: str) -> None:
+    """Valid MJCF that Pinocchio's parser reads differently (refused until issue 26): served
+    with MuJoCo's compiled model given to Pinocchio, the cause named in ``arm.bridges``."""
+    xml, cause = READ_DIFFERENTLY[name]
+    arm = rd.load_string(xml, site="tip")
+    (note,) = [b for b in arm.bridges if b.quantity == "whole model"]
+    assert note.source.endswith(f"because of {cause}")
+    for q in ([0.3, -0.5], [1.2, 0.4]):
+        assert largest_difference_to_full_model(arm, np.array(q)) < 1e-12
 
 
 def test_jointinparent_actuator_reads_as_joint() -> None:

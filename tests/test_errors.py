@@ -132,11 +132,6 @@ def test_malformed_models(xml, match):
             "an MJCF <equality joint>) is not a free coordinate, and Pinocchio's parsers ignore "
             "the coupling; choose a tool or base that leaves it off the chain",
         ),
-        (
-            chain(body_extra='<frame pos="0 0 0.1"><geom size="0.02"/></frame>'),
-            "unsupported feature: <frame> element (worldbody): Pinocchio's MJCF parser drops the "
-            "contents of <frame>",
-        ),
     ],
 )
 def test_unsupported_features(xml, message):

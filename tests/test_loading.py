@@ -135,15 +135,17 @@ def test_path_of_wrong_type() -> None:
 
 
 def test_urdf_without_inertials_is_the_librarys_error() -> None:
-    """Issue 12: not MuJoCo's mass error, but the library's, naming the link."""
+    """Issue 12: not MuJoCo's mass error; issue 26: kinematics served, dynamics the library's
+    error naming the link."""
     text = (
         '<robot name="r"><link name="base"/><link name="l1"/>'
         '<joint name="j1" type="continuous"><parent link="base"/><child link="l1"/></joint>'
         "</robot>"
     )
-    with pytest.raises(rd.UnsupportedFeatureError) as err:
-        rd.load_string(text, frame="l1")
-    assert "moving link without inertial (link 'l1' (moved by arm joint 'j1')" in str(err.value)
+    arm = rd.load_string(text, frame="l1")
+    assert arm.jacobian([0.3]).shape == (6, 1)
+    with pytest.raises(rd.MissingInertiaError, match="the model gives none for 'l1'"):
+        arm.gravity([0.3])
 
 
 def test_mjcf_site_and_frame() -> None:

@@ -417,15 +417,17 @@ def test_unresolved_mesh_is_named(tmp_path: Path) -> None:
 
 
 # -- bad input ------------------------------------------------------------------------------
-def test_missing_inertial_is_refused_not_a_mujoco_mass_error() -> None:
+def test_missing_inertial_serves_kinematics_not_a_mujoco_mass_error() -> None:
     text = tiny_urdf(body="<visual><geometry><box size='0.1 0.1 0.1'/></geometry></visual>")
-    with pytest.raises(rd.UnsupportedFeatureError) as err:
-        rd.load_string(text, frame="tool")
+    arm = rd.load_string(text, frame="tool")
+    assert arm.missing_inertia == ("l1",)
+    with pytest.raises(rd.MissingInertiaError) as err:
+        arm.mass_matrix(np.zeros(arm.nq))
     assert str(err.value) == (
-        "unsupported feature: moving link without inertial (link 'l1' (moved by arm joint 'j1') "
-        "in <string>): a URDF link without <inertial> has no mass, and a moving body needs one "
-        "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an <inertial> "
-        "with its mass, centre of mass and inertia"
+        "mass matrix needs the inertia of every link the arm moves, and the model gives none "
+        "for 'l1' (no <inertial>); kinematic quantities (Jacobian, SVD, manipulability, null "
+        "space, self-motion, IK, collision) are served: add an <inertial> with mass, centre of "
+        "mass and inertia to each of these links"
     )
 
 
@@ -434,10 +436,14 @@ def test_no_inertials_at_all(tmp_path: Path) -> None:
     for link in root.findall("link"):
         for inertial in link.findall("inertial"):
             link.remove(inertial)
-    with pytest.raises(
-        rd.UnsupportedFeatureError, match="link 'link1' \\(moved by arm joint 'j1'\\)"
-    ):
-        rd.load(write(root, tmp_path / "arm7.urdf"), frame="ee")
+    arm = rd.load(write(root, tmp_path / "arm7.urdf"), frame="ee")
+    reference = rd.load(MODELS / "arm7.urdf", frame="ee")
+    assert arm.missing_inertia == tuple(f"link{i}" for i in range(1, 8))
+    for q in random_poses(arm, 10, seed=2):
+        np.testing.assert_allclose(arm.jacobian(q, "pinocchio"), reference.jacobian(q), atol=1e-14)
+    assert crosscheck(arm, random_poses(arm, 10, seed=2)).ok
+    with pytest.raises(rd.MissingInertiaError, match="gravity needs the inertia"):
+        arm.gravity(np.zeros(arm.nq))
 
 
 def test_inertial_on_a_fixed_child_is_enough() -> None:

@@ -32,6 +32,7 @@ from .collision import (
 )
 from .errors import (
     MissingDependencyError,
+    MissingInertiaError,
     ModelError,
     OutOfRangeError,
     ParameterError,
@@ -69,6 +70,7 @@ __all__ = [
     "JacobianSVD",
     "Manipulability",
     "MissingDependencyError",
+    "MissingInertiaError",
     "ModelError",
     "OutOfRangeError",
     "ParameterError",

@@ -107,6 +107,9 @@ class Arm:
             (:class:`redundancy.model.robot.SetAside`).
         defects: Defects of the published file on bodies the arm moves, mended the same way
             in both engines (an invalid inertia); the audit reports each as a finding.
+        missing_inertia: Links the arm moves that the file gives no inertia (a URDF link
+            without ``<inertial>``): kinematic quantities are served, dynamic ones raise
+            :class:`~redundancy.errors.MissingInertiaError` naming them.
         robot_model: MuJoCo's compiled model of the whole robot (all joints).
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
@@ -134,6 +137,7 @@ class Arm:
         held: Mapping[str, float | tuple[float, ...]] | None = None,
         set_aside: tuple[Any, ...] = (),
         defects: tuple[str, ...] = (),
+        missing_inertia: tuple[str, ...] = (),
         robot_model: mujoco.MjModel | None = None,
         frame_type: str = "site",
         base: str | None = None,
@@ -165,6 +169,9 @@ class Arm:
         self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
         self.set_aside: tuple[Any, ...] = tuple(set_aside)
         self.defects: tuple[str, ...] = tuple(defects)
+        self.missing_inertia: tuple[str, ...] = tuple(missing_inertia)
+        for engine in (self.mujoco, self.pinocchio):
+            engine.missing_inertia = self.missing_inertia  # their dynamic quantities refuse
         self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
         self.frame_type: str = frame_type
         self.base: str | None = base

@@ -57,6 +57,30 @@ class UnsupportedFeatureError(ModelError):
         super().__init__(f"unsupported feature: {feature} ({where}): {why}")
 
 
+class MissingInertiaError(ModelError):
+    """A dynamic quantity of an arm whose model gives some moving links no inertia.
+
+    Kinematic quantities (pose, Jacobian, SVD, manipulability, null space, self-motion, IK,
+    collision) need no inertia and are served; the mass matrix, gravity and everything
+    computed from them are refused.
+
+    Attributes:
+        quantity: What was asked for, e.g. ``"mass matrix"``.
+        links: The links (bodies) the arm moves that have no inertial data.
+    """
+
+    def __init__(self, quantity: str, links: Sequence[str]) -> None:
+        self.quantity = quantity
+        self.links = tuple(links)
+        shown = ", ".join(repr(n) for n in self.links)
+        super().__init__(
+            f"{quantity} needs the inertia of every link the arm moves, and the model gives "
+            f"none for {shown} (no <inertial>); kinematic quantities (Jacobian, SVD, "
+            "manipulability, null space, self-motion, IK, collision) are served: add an "
+            "<inertial> with mass, centre of mass and inertia to each of these links"
+        )
+
+
 class UnknownNameError(RedundancyError, KeyError):
     """A site, joint, body, geom or keyframe name that the model does not have.
 

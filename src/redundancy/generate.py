@@ -9,8 +9,10 @@ actuators, gravity and a site ``"tip"`` at the end of the last body. Every model
 one the loader accepts (``strict=True``), so both engines must agree on it; a failing model
 shrinks to a small one.
 
-:func:`refused_arms` draws the same arms with one feature the loader must refuse (a posed
-fixed root, an extrinsic euler sequence, a ball joint...), with the feature's name.
+:func:`refused_arms` draws the same arms with one feature the loader must refuse (several
+joints in one body, a tendon on an arm joint...), with the feature's name;
+:func:`resolved_arms` with one feature Pinocchio's parser reads differently (``<frame>``, an
+extrinsic euler sequence...), which the loader serves through MuJoCo's compiled model.
 
 Example:
     >>> from hypothesis import given
@@ -50,18 +52,24 @@ HELD_FEATURES = (
 
 #: Features :func:`refused_arms` can add, each the ``feature`` of the loader's refusal.
 REFUSED_FEATURES = (
-    "extrinsic eulerseq",
-    "axisangle with a non-unit axis",
-    "<frame> element",
     "several joints in one body",
     "tendon on an arm joint",
     "joint coupling on the arm",
     "unnamed joint",
     "no joints",
+    "shell inertia",
+)
+
+#: Features Pinocchio's parser reads differently, for which the loader gives Pinocchio the
+#: model as MuJoCo compiled it (:mod:`redundancy.model.resolved`); :func:`resolved_arms` draws
+#: one per model, and both engines must agree with MuJoCo's model of the file.
+RESOLVED_FEATURES = (
+    "extrinsic eulerseq",
+    "axisangle with a non-unit axis",
+    "<frame> element",
     "class inside a different childclass",
     "joint pos in a default class",
     "<replicate> element",
-    "shell inertia",
 )
 
 #: Features Pinocchio's parser reads differently and the loader bridges (issue 11): :func:`arms`
@@ -401,8 +409,10 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         "free joint",
         "several joints in one body",
         "unnamed joint",
+        "shell inertia",
+        *RESOLVED_FEATURES,
     ):
-        jointed[-1] = True  # the tool's body: its joint is on the arm
+        jointed[-1] = True  # the tool's body: its joint is on the arm (never "no joints")
     if "fixed root body with a pose" in extras:
         jointed[0] = False
         if not any(jointed):
@@ -552,13 +562,29 @@ def refused_arms(
     return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
 
 
+def resolved_arms(
+    features: tuple[str, ...] = RESOLVED_FEATURES, max_joints: int = 4
+) -> st.SearchStrategy[GeneratedArm]:
+    """Random arms with one feature Pinocchio's parser reads differently; ``refused`` names it.
+
+    The loader serves such an arm through MuJoCo's compiled model.
+
+    Args:
+        features: Which features to draw from (a subset of :data:`RESOLVED_FEATURES`).
+        max_joints: Largest number of hinge and slide joints.
+    """
+    return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
+
+
 __all__ = [
     "BRIDGED_FEATURES",
     "EULER_SEQUENCES",
     "HELD_FEATURES",
     "REFUSED_FEATURES",
+    "RESOLVED_FEATURES",
     "GeneratedArm",
     "arms",
     "held_arms",
     "refused_arms",
+    "resolved_arms",
 ]

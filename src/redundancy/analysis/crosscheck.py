@@ -54,6 +54,27 @@ TOLERANCES: dict[str, float] = {
     "dynamic manipulability": 1e-8,
 }
 
+#: Quantities computed through M^-1: their tolerance holds for cond(M) up to
+#: :data:`CALIBRATED_CONDITION` and grows with it beyond (:func:`conditioned_tolerance`).
+M_INVERSE_QUANTITIES = ("operational inertia^-1", "dynamic manipulability")
+#: The conditioning at which the M^-1 tolerances were set (a generated arm, cond(M) ~ 1e7).
+CALIBRATED_CONDITION = 1e7
+#: Quantities that need the links' inertias; an arm without them is checked on the others.
+DYNAMIC_QUANTITIES = ("mass matrix", "mass matrix (bare)", "gravity", *M_INVERSE_QUANTITIES)
+
+
+def conditioned_tolerance(name: str, tol: float, condition: float) -> float:
+    """The tolerance of ``name`` at a mass matrix of condition number ``condition``.
+
+    Solving with M multiplies the engines' rounding of M (relative, ~eps) by cond(M): links
+    with mass but (almost) no rotational inertia give cond(M) ~ 1e12 and M^-1 J^T differs
+    by ~1e-4 between two correct engines. A quantity computed through M^-1 is held to
+    ``tol x max(1, condition / CALIBRATED_CONDITION)``; the others to ``tol``.
+    """
+    if name not in M_INVERSE_QUANTITIES or not np.isfinite(condition):
+        return tol
+    return float(tol * max(1.0, condition / CALIBRATED_CONDITION))
+
 
 @dataclass(frozen=True)
 class Agreement:
@@ -88,11 +109,16 @@ class CrossCheckReport(Report):
         agreements: One entry per quantity.
         bridges: Values Pinocchio got from MuJoCo (not independent, so not compared).
         n_poses: Number of poses compared.
+        mass_condition: Largest condition number of MuJoCo's M (armature in) over the poses
+            where a quantity computed through M^-1 was compared (NaN: none was).
+        skipped: Why quantities were left out (an arm whose links lack inertias), or "".
     """
 
     agreements: tuple[Agreement, ...]
     bridges: tuple[Bridge, ...]
     n_poses: int
+    mass_condition: float = float("nan")
+    skipped: str = ""
 
     @property
     def checked(self) -> bool:
@@ -154,6 +180,13 @@ class CrossCheckReport(Report):
         for a in self.agreements:
             flag = "ok" if a.ok else "DISAGREE"
             out.append(f"{a.quantity:<26}{a.max_error:>14.2e}{a.tol:>9.0e}  {flag}")
+        if np.isfinite(self.mass_condition) and self.mass_condition > CALIBRATED_CONDITION:
+            out.append(
+                f"cond(M) up to {self.mass_condition:.2g}: the M^-1 tolerances grow with it "
+                f"(x cond(M) / {CALIBRATED_CONDITION:.0e})"
+            )
+        if self.skipped:
+            out.append(f"not compared: {self.skipped}")
         if self.bridges:
             kinds = sorted({b.quantity for b in self.bridges})
             out.append(
@@ -412,30 +445,53 @@ def crosscheck_batch(
     """
     arm = check_arm(arm)
     names = quantity_names(quantities)
+    skipped = ""
+    if quantities is None and arm.missing_inertia:
+        names = tuple(n for n in names if n not in DYNAMIC_QUANTITIES)
+        skipped = f"{', '.join(DYNAMIC_QUANTITIES)}: no inertia for " + ", ".join(
+            repr(n) for n in arm.missing_inertia
+        )
     tols = tolerances_for(names, tolerances)
     threads = check_threads(threads)
     chunk = check_count("chunk", chunk, 1)
     Q = check_pose_or_poses(Q, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
+    condition = np.nan
     if executor is not None:
         kwargs = {"quantities": names, "tolerances": tols, "threads": threads, "chunk": chunk}
         for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
             for a in part.agreements:
                 found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
-        return CrossCheckReport(
-            tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names),
-            arm.bridges,
-            len(Q),
-        )
-    scales = arm_scales(arm)
-    for lo in range(0, len(Q), chunk):
-        part = Q[lo : lo + chunk]
-        out = _both_engines(arm, part, names, threads)
-        for name in names:
-            errors = quantity_errors(name, out["mujoco"][name], out["pinocchio"][name], scales)
-            found[name] = merge_worst(found[name], worst(errors), lo)
-    agreements = tuple(Agreement(n, found[n][0], tols[n], found[n][1]) for n in names)
-    return CrossCheckReport(agreements, arm.bridges, len(Q))
+            condition = np.fmax(condition, part.mass_condition)
+    else:
+        scales = arm_scales(arm)
+        for lo in range(0, len(Q), chunk):
+            part = Q[lo : lo + chunk]
+            out = _both_engines(arm, part, names, threads)
+            for name in names:
+                errors = quantity_errors(name, out["mujoco"][name], out["pinocchio"][name], scales)
+                found[name] = merge_worst(found[name], worst(errors), lo)
+            if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
+                M = out["mujoco"].get("mass matrix")  # MuJoCo's M with armature, when compared
+                condition = np.fmax(condition, mass_condition(arm, part, M))
+    agreements = tuple(
+        Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
+        for n in names
+    )
+    return CrossCheckReport(agreements, arm.bridges, len(Q), float(condition), skipped)
+
+
+def mass_condition(arm: Arm, Q: Array, M: Array | None = None) -> float:
+    """Largest condition number of MuJoCo's mass matrix (armature in) over the poses ``Q``.
+
+    ``M``: those mass matrices when already computed, shape (n, nq, nq).
+    """
+    if M is None:
+        n, nv = len(Q), arm.nq
+        stacks = Stacks(M=np.empty((n, nv, nv)))
+        arm.mujoco.evaluate(Q, stacks)
+        M = stacks.M
+    return float(np.max(np.linalg.cond(M)))
 
 
 def crosscheck(

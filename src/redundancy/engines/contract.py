@@ -23,6 +23,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import MissingInertiaError
+
 Array = NDArray[np.float64]
 
 
@@ -50,6 +52,17 @@ class Stacks:
     def dynamics(self) -> bool:
         """True when anything beyond the site pose is wanted (J, M or gravity)."""
         return self.J is not None or self.M is not None or self.G is not None
+
+
+def check_dynamics(engine: object, quantity: str) -> None:
+    """Refuse a dynamic quantity of an engine whose arm lacks inertial data.
+
+    Raises:
+        MissingInertiaError: ``engine.missing_inertia`` names links without inertia.
+    """
+    links = getattr(engine, "missing_inertia", ())
+    if links:
+        raise MissingInertiaError(quantity, links)
 
 
 def remove_armature(M: Array, armature: Array) -> None:

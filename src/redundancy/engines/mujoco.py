@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_pose, pose_key
-from .contract import Stacks, remove_armature
+from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, run_split
 
 Array = NDArray[np.float64]
@@ -142,6 +142,8 @@ class MujocoEngine:
     """
 
     name = "mujoco"
+    #: Links without inertial data (set by the Arm): dynamic quantities refuse.
+    missing_inertia: tuple[str, ...] = ()
 
     def __init__(
         self, model: mujoco.MjModel, site: str, armature: Array, damping: Array | None = None
@@ -256,6 +258,7 @@ class MujocoEngine:
 
     def mass_matrix(self, q: ArrayLike, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
+        check_dynamics(self, "mass matrix")
         w = self.update(q)
         if not w.have_M:
             # mj_crb fills d.M (sparse, armature included); mj_fullM makes it dense.
@@ -270,6 +273,7 @@ class MujocoEngine:
 
     def gravity(self, q: ArrayLike) -> Array:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
+        check_dynamics(self, "gravity")
         w = self.update(q)
         # With qvel = 0 (and cvel = 0, see jacobian_derivatives) and flg_acc = 0, RNE returns
         # the bias force, which is then gravity alone.
@@ -314,6 +318,7 @@ class MujocoEngine:
 
         Bodies welded to a moving body are lumped into it, as Pinocchio does.
         """
+        check_dynamics(self, "link inertias")
         m = self.model
         d = self.update(q).data
         masses = np.zeros(self.nv)
@@ -377,6 +382,8 @@ class MujocoEngine:
         ``mj_*``, so ``threads`` > 1 runs spans of poses in parallel, each thread on its own
         ``MjData``.
         """
+        if out.M is not None or out.G is not None:
+            check_dynamics(self, "mass matrix" if out.M is not None else "gravity")
         m, sid, n = self.model, self.site_id, len(Q)
         kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
         crb, full, rne = mujoco.mj_crb, mujoco.mj_fullM, mujoco.mj_rne
@@ -483,6 +490,7 @@ class MujocoEngine:
         Returns:
             J_f, shape (6, k) [m/rad; rad/rad], and M_ff^-1 J_f^T, shape (k, 6) [1/kg...].
         """
+        check_dynamics(self, "M^-1 J^T (effective mass, operational inertia)")
         w = self.update(q)
         m, d = self.model, w.data
         _jac_site(m, d, w.jacp, w.jacr, self.site_id)
@@ -505,6 +513,7 @@ class MujocoEngine:
         One kinematics pass, ``mj_jacSite``, ``mj_crb``, ``mj_factorM`` and ``mj_solveM`` per
         pose, writing into the stacks' rows, on ``threads`` threads (MuJoCo releases the GIL).
         """
+        check_dynamics(self, "M^-1 J^T (effective mass, operational inertia)")
         m, sid, n, nv = self.model, self.site_id, len(Q), self.nv
         J = np.empty((n, 6, nv))
         if free is not None:

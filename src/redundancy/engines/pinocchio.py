@@ -15,7 +15,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_pose, pose_key
-from .contract import Stacks, remove_armature
+from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, spans
 
 Array = NDArray[np.float64]
@@ -94,6 +94,8 @@ class PinocchioEngine:
     """
 
     name = "pinocchio"
+    #: Links without inertial data (set by the Arm): dynamic quantities refuse.
+    missing_inertia: tuple[str, ...] = ()
 
     def __init__(
         self, model: pin.Model, site: str, joint_names: Sequence[str], frame_type: str = "site"
@@ -186,6 +188,7 @@ class PinocchioEngine:
 
     def mass_matrix(self, q: ArrayLike, armature: bool = True) -> Array:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
+        check_dynamics(self, "mass matrix")
         q = check_pose(q, self.joint_names)
         w = self._work()
         w.key = None  # crba overwrites the kinematics the key stands for
@@ -198,6 +201,7 @@ class PinocchioEngine:
 
     def gravity(self, q: ArrayLike) -> Array:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
+        check_dynamics(self, "gravity")
         q = check_pose(q, self.joint_names)
         w = self._work()
         w.key = None  # the RNEA pass overwrites the kinematics the key stands for
@@ -235,6 +239,7 @@ class PinocchioEngine:
 
     def link_inertias(self, q: ArrayLike) -> tuple[Array, Array, Array]:
         """Mass [kg], centre of mass [m] and world inertia about it [kg m^2] per joint's body."""
+        check_dynamics(self, "link inertias")
         data = self.update(q).data  # oMi, from update's forward pass
         n = self.nv
         masses, coms, inertias = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3))
@@ -272,6 +277,8 @@ class PinocchioEngine:
         as :func:`~redundancy.engines.threads.spans` splits one; one in a process forked
         from one that had started OpenMP threads, whose pool does not survive the fork).
         """
+        if out.M is not None or out.G is not None:
+            check_dynamics(self, "mass matrix" if out.M is not None else "gravity")
         model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
         X, R, J, M, G = out.X, out.R, out.J, out.M, out.G
         w = self._work()
@@ -348,6 +355,7 @@ class PinocchioEngine:
         Returns:
             J_f, shape (6, k) [m/rad; rad/rad], and M_ff^-1 J_f^T, shape (k, 6).
         """
+        check_dynamics(self, "M^-1 J^T (effective mass, operational inertia)")
         q = check_pose(q, self.joint_names)
         J = self.site_jacobian(q)
         if free is None and armature:
@@ -369,6 +377,7 @@ class PinocchioEngine:
         Pinocchio's bindings hold the GIL: the loop runs in the caller's thread
         (``threads`` is accepted for the contract's sake).
         """
+        check_dynamics(self, "M^-1 J^T (effective mass, operational inertia)")
         n, nv = len(Q), self.nv
         J = np.empty((n, 6, nv))
         if free is None and armature:

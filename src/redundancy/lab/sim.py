@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from .. import collision, linalg
 from ..analysis import selfmotion
 from ..arm import Arm, sampling_ranges
-from ..errors import PoseError, RedundancyError
+from ..errors import MissingInertiaError, PoseError, RedundancyError
 from .control import JointPD
 
 Array = NDArray[np.float64]
@@ -255,6 +255,8 @@ class LabSim:
         contact_forces: bool = False,
         watch: str | None = None,
     ) -> None:
+        if arm.missing_inertia:  # a simulation needs every mass the arm moves
+            raise MissingInertiaError("a simulation", arm.missing_inertia)
         if keyframe in arm.keyframe_names:
             # The keyframe is the whole robot's: where it moves held joints, the lab runs
             # the arm with them there, never the keyframe's arm joints on another robot pose.

@@ -32,18 +32,20 @@ class Bridge:
     Attributes:
         quantity: What was bridged, e.g. ``"effort limit"``.
         joint: Joint it applies to.
-        value: The value given to Pinocchio [N m, kg m^2...].
+        value: The value given to Pinocchio [N m, kg m^2...], or a description of it.
         source: Where in MuJoCo's model it came from.
     """
 
     quantity: str
     joint: str
-    value: float | tuple[float, ...]
+    value: float | tuple[float, ...] | str
     source: str
 
     @property
     def value_text(self) -> str:
         """The value, formatted compactly."""
+        if isinstance(self.value, str):
+            return self.value
         if isinstance(self.value, tuple):
             return "(" + ", ".join(f"{v:g}" for v in self.value) + ")"
         return f"{self.value:g}"

@@ -24,6 +24,7 @@ from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .content import Recipe, feed_assets, mujoco_assets, rebuild, record, recording
 from .ends import frame_for
 from .names import display_names
+from .resolved import resolve_causes, resolved_mjcf
 from .robot import (
     ArmSelection,
     RestSpec,
@@ -33,7 +34,7 @@ from .robot import (
     reduce_pinocchio,
     select_arm,
 )
-from .support import check_supported
+from .support import check_robot_values, check_supported
 from .urdf import (
     DisabledPairs,
     build_mujoco,
@@ -68,6 +69,10 @@ def _read_mujoco(
                 if base is not None:
                     # Transcoded text of a file: relative asset paths count from its directory.
                     spec.modelfiledir = str(base)
+            if spec.compiler.fusestatic:
+                # Fused bodies would leave the compiled model with fewer bodies than the spec
+                # the held joints are edited in; unfused, masses and placements are the same.
+                spec.compiler.fusestatic = False
             feed_assets(spec, mujoco_assets(spec, base or Path.cwd()))
             pristine = spec.copy()
             model = spec.compile()  # MuJoCo's own errors first, then the tool's
@@ -215,8 +220,12 @@ def load(
     Args:
         path: MJCF or URDF file.
         site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
-        strict: Refuse features Pinocchio's MJCF parser reads differently (see
-            :func:`check_supported`); MJCF only.
+        strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
+            (``<frame>``, ``<replicate>``, a class inside another childclass...: see
+            :func:`redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
+            compiled model instead, reported in ``arm.bridges``. False: Pinocchio reads the
+            file itself and :func:`redundancy.compare_models` shows the differences. MJCF
+            only.
         frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
             Overrides ``site``. Neither given: the model's one chain end (a leaf with a
             moving joint above it; see :mod:`redundancy.model.ends`), else its frame named
@@ -373,6 +382,7 @@ class _Robot:
         self.source = source
         self.set_aside: list[SetAside] = []
         self.defects: list[str] = []  # defects of the file on bodies the arm moves
+        self.missing_inertia: list[str] = []  # links the arm moves without inertial data
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
@@ -532,6 +542,15 @@ def _load_mjcf(
     path: Path | None,
 ) -> Arm:
     """Both engines' MJCF parsers on the whole robot, then the arm selected and the rest held."""
+    if any(c.get("fusestatic") == "true" for c in root.iter("compiler")):
+        robot.set_aside.append(
+            SetAside(
+                "compiler option",
+                'fusestatic="true"',
+                "bodies without joints kept as bodies (the same masses and placements; "
+                "fused, a held joint's body could not be placed)",
+            )
+        )
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
     sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
@@ -554,12 +573,47 @@ def _load_mjcf(
         pin_root = _only_tree(root, roots.index(tree_root))
         robot.changed = True
     check_supported(mj, pin_root, strict, tool_site=robot.tool if kind == "body" else None)
-    if path is not None and not robot.changed:
-        pm = _read_pinocchio(path)
-    else:
-        pm = _pinocchio_from_text(ET.tostring(pin_root, encoding="unicode"))
+    check_robot_values(full)
+    causes = resolve_causes(pin_root) if strict else []
+    pm = None
+    if not causes:
+        try:
+            if path is not None and not robot.changed:
+                pm = _read_pinocchio(path)
+            else:
+                pm = _pinocchio_from_text(ET.tostring(pin_root, encoding="unicode"))
+        except ModelError as err:
+            # The parser's own failure ("unordered_map::at") explains nothing to the user:
+            # Pinocchio gets the model as MuJoCo compiled it instead, and the report says why.
+            causes = [f"Pinocchio's parser could not read the file ({err.__cause__ or err})"]
+    bridged: tuple[Bridge, ...] = ()
+    if causes:
+        pm, bridged = _read_resolved(full, tree_root, causes)
+        pin_root = None  # every inertial is explicit: nothing for the inertia bridges to do
     frame_type = "body" if kind == "body" else "site"
-    return _build(mj, full, pm, sel, robot, (), pin_root, "MJCF", frame_type)
+    return _build(mj, full, pm, sel, robot, bridged, pin_root, "MJCF", frame_type)
+
+
+def _read_resolved(
+    full: mujoco.MjModel, tree_root: int, causes: list[str]
+) -> tuple[object, tuple[Bridge, ...]]:
+    """Pinocchio's model of MuJoCo's compiled tree (:mod:`.resolved`), and the note saying so."""
+    text = resolved_mjcf(full, tree_root)
+    try:
+        pm = _pinocchio_from_text(text)
+    except ModelError as err:
+        raise ModelError(
+            f"Pinocchio could not read the model: {'; '.join(causes)}; nor MuJoCo's compiled "
+            f"model of it written out as plain MJCF ({err.__cause__ or err})"
+        ) from err
+    note = Bridge(
+        "whole model",
+        display_names(full, mujoco.mjtObj.mjOBJ_BODY)[tree_root],
+        f"{int(np.sum(full.body_rootid == tree_root))} bodies",
+        "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
+        "sites), because of " + "; ".join(causes),
+    )
+    return pm, (note,)
 
 
 def _only_tree(root: ET.Element, index: int) -> ET.Element:
@@ -595,7 +649,8 @@ def _load_urdf(
     tool_link = resolve_frame(tree, robot.tool)
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
     disabled = read_disabled_pairs(pairs, tree)
-    mended, notes, defects = prepare_urdf(root, tree, tool_link, base_link, source)
+    mended, notes, defects, missing = prepare_urdf(root, tree, tool_link, base_link, source)
+    robot.missing_inertia += missing
     if notes:
         text = ET.tostring(mended, encoding="unicode")
         robot.set_aside += notes
@@ -682,6 +737,7 @@ def _build(
         held=sel.held,
         set_aside=tuple(robot.set_aside),
         defects=tuple(robot.defects),
+        missing_inertia=tuple(robot.missing_inertia),
         robot_model=full,
         frame_type=frame_type,
         base=sel.base,

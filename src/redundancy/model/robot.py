@@ -461,22 +461,7 @@ def reduce_mujoco(
                 f"body {bnames[b]!r} (arm joint {mixed[0]!r})",
                 "a body on the arm's chain may carry hinge and slide joints only",
             )
-        body = spec_bodies[b]
-        if body.frame is not None:
-            raise UnsupportedFeatureError(
-                "<frame> around a held body",
-                f"body {bnames[b]!r}",
-                "a held body is placed relative to its parent body; move it out of the <frame>",
-            )
-        p = int(full.body_parentid[b])
-        Rp = data.xmat[p].reshape(3, 3)
-        body.pos = Rp.T @ (data.xpos[b] - data.xpos[p])
-        q = np.zeros(4)
-        mujoco.mju_negQuat(q, data.xquat[p])
-        rel = np.zeros(4)
-        mujoco.mju_mulQuat(rel, q, data.xquat[b])
-        body.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
-        body.quat = rel
+        _place_held_body(spec_bodies[b], full, data, b, bnames[b])
     _delete_couplings(spec, full, arm_ids)
     for j in held_ids:
         spec.delete(spec_joints[j])
@@ -540,6 +525,45 @@ def _keep_contact_rules(
             spec.delete(pair)
 
 
+def _place_held_body(
+    body: mujoco.MjsBody, full: mujoco.MjModel, data: mujoco.MjData, b: int, name: str
+) -> None:
+    """Give a held body the placement in its parent that the rest configuration gives it.
+
+    A body inside a ``<frame>`` (a ``<replicate>`` makes one) is placed in that frame: the
+    frame's pose F in the parent is what the compiled placement adds to the body's own
+    (``compiled = F * own``), so the new own placement is ``own * compiled^-1 * rest``.
+    """
+    p = int(full.body_parentid[b])
+    rest_pos = data.xmat[p].reshape(3, 3).T @ (data.xpos[b] - data.xpos[p])
+    neg = np.zeros(4)
+    mujoco.mju_negQuat(neg, data.xquat[p])
+    rest_quat = np.zeros(4)
+    mujoco.mju_mulQuat(rest_quat, neg, data.xquat[b])
+    if body.frame is not None:
+        if body.alt.type != mujoco.mjtOrientation.mjORIENTATION_QUAT:
+            raise UnsupportedFeatureError(
+                "held body inside a <frame>, oriented by euler, axisangle or xyaxes",
+                f"body {name!r}",
+                "give the body its orientation as quat, or move it out of the <frame>",
+            )
+        own_quat = np.asarray(body.quat, dtype=float) / np.linalg.norm(body.quat)
+        # (own * compiled^-1) maps the compiled placement back to the body's own.
+        inv = np.zeros(4)
+        mujoco.mju_negQuat(inv, full.body_quat[b])
+        delta = np.zeros(4)
+        mujoco.mju_mulQuat(delta, own_quat, inv)
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, delta)
+        rest_pos = rot.reshape(3, 3) @ (rest_pos - full.body_pos[b]) + np.asarray(body.pos)
+        quat = np.zeros(4)
+        mujoco.mju_mulQuat(quat, delta, rest_quat)
+        rest_quat = quat
+    body.pos = rest_pos
+    body.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
+    body.quat = rest_quat
+
+
 def _check_couplings(
     full: mujoco.MjModel, arm: set[int], moved: set[int], out: list[SetAside]
 ) -> None:
@@ -579,15 +603,28 @@ def _check_couplings(
             objs = (a, b)
             if full.eq_objtype[k] == mjobj.mjOBJ_SITE:
                 objs = tuple(int(full.site_bodyid[s]) for s in (a, b) if s >= 0)
-            bodies = [x for x in objs if x in moved]
-            if bodies:
+            between = _joints_between(full, *(objs if len(objs) == 2 else (objs[0], 0)))
+            if any(j in arm for j in between):
+                bodies = [x for x in objs if x in moved]
                 raise UnsupportedFeatureError(
                     "equality constraint on a body the arm moves",
                     f"equality {name!r} (body {bnames[bodies[0]]!r})",
                     "a constraint on the arm's bodies changes its motion; "
                     "the library handles an open chain",
                 )
-            out.append(SetAside("equality constraint", name, "acts on held bodies only"))
+            if any(x in moved for x in objs):
+                held = ", ".join(repr(jnames[j]) for j in between) or "none"
+                out.append(
+                    SetAside(
+                        "equality constraint",
+                        name,
+                        "joins bodies that move with the arm but only relative to each other "
+                        f"through held joints ({held}): it cannot change the arm's J, M or "
+                        "gravity",
+                    )
+                )
+            else:
+                out.append(SetAside("equality constraint", name, "acts on held bodies only"))
     for t in range(full.ntendon):
         name = mujoco.mj_id2name(full, mjobj.mjOBJ_TENDON, t) or f"tendon {t}"
         lo, n = int(full.tendon_adr[t]), int(full.tendon_num[t])
@@ -625,6 +662,23 @@ def _check_couplings(
             if any(b in moved for b in bodies):
                 raise transmission_refusal(int(trn), name)
             out.append(SetAside("actuator", name, "acts on held bodies only"))
+
+
+def _joints_between(full: mujoco.MjModel, a: int, b: int) -> list[int]:
+    """Joints on the tree path between bodies ``a`` and ``b`` (their relative pose's joints)."""
+
+    def up(body: int) -> list[int]:
+        out = [body]
+        while body != 0:
+            body = int(full.body_parentid[body])
+            out.append(body)
+        return out
+
+    pa, pb = up(a), up(b)
+    common = next(x for x in pa if x in pb)
+    path = pa[: pa.index(common)] + pb[: pb.index(common)]
+    starts = {body: int(full.body_jntadr[body]) for body in path}
+    return [j for body in path for j in range(starts[body], starts[body] + full.body_jntnum[body])]
 
 
 def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
@@ -751,8 +805,6 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
     Raises:
         UnsupportedFeatureError: Pinocchio lacks an arm joint, or has joints MuJoCo does not.
     """
-    import pinocchio as pin
-
     names = [pm.names[j] for j in range(1, pm.njoints)]  # type: ignore[attr-defined]
     missing = [n for n in sel.joints if n not in names]
     if missing:
@@ -765,17 +817,7 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
     if not locked:
         return pm
     q = pinocchio_configuration(pm, full, sel.qpos)
-    # buildReducedModel finds each locked joint's frame by the joint's name alone and fails
-    # when a link shares it ("Several frames match the filter"): such a joint and its frame
-    # are renamed (q is already mapped; nothing looks a held joint up after this).
-    counts: dict[str, int] = {}
-    for f in pm.frames:  # type: ignore[attr-defined]
-        counts[f.name] = counts.get(f.name, 0) + 1
-    for i, f in enumerate(pm.frames):  # type: ignore[attr-defined]
-        if f.type == pin.FrameType.JOINT and counts[f.name] > 1 and f.parentJoint in locked:
-            pm.names[f.parentJoint] = f.name = f"{f.name} (held joint)"  # type: ignore[attr-defined]
-            pm.frames[i] = f  # type: ignore[attr-defined]
-    reduced = pin.buildReducedModel(pm, locked, q)
+    reduced = _reduced_model(pm, locked, q)
     for n in sel.joints:  # pinocchio#2746: the reduced model's per-dof vectors restart
         a = pm.joints[pm.getJointId(n)]  # type: ignore[attr-defined]
         b = reduced.joints[reduced.getJointId(n)]
@@ -788,6 +830,43 @@ def reduce_pinocchio(pm: object, full: mujoco.MjModel, sel: ArmSelection) -> obj
             vec[b.idx_q] = np.asarray(getattr(pm, attr))[a.idx_q]
             setattr(reduced, attr, vec)
     reduced.gravity = pm.gravity  # type: ignore[attr-defined]
+    return reduced
+
+
+def _reduced_model(pm: object, locked: list[int], q: Array) -> object:
+    """``buildReducedModel``, with frames that share a name told apart while it runs.
+
+    It finds frames by name alone and fails when a body and a joint share one ("Several
+    frames match the filter"): each frame of a shared name gets a unique name for the call,
+    and the reduced model gets the names back (a locked joint's frame keeps its own). A
+    failure is reported as the library's error, naming the joints it was asked to lock.
+    """
+    import pinocchio as pin
+
+    work = pin.Model(pm)  # a copy: the whole robot's names stay as they are
+    counts: dict[str, int] = {}
+    for f in work.frames:
+        counts[f.name] = counts.get(f.name, 0) + 1
+    original: dict[str, str] = {}
+    for i, f in enumerate(work.frames):
+        if counts[f.name] > 1:
+            unique = f"{f.name}\x00{i}"
+            original[unique] = f.name
+            if f.type == pin.FrameType.JOINT and work.names[f.parentJoint] == f.name:
+                work.names[f.parentJoint] = unique
+            f.name = unique
+            work.frames[i] = f
+    try:
+        reduced = pin.buildReducedModel(work, locked, q)
+    except (RuntimeError, ValueError) as err:
+        held = [pm.names[j] for j in locked]  # type: ignore[attr-defined]
+        raise ModelError(f"Pinocchio could not hold the joints {held}: {err}") from err
+    for i, f in enumerate(reduced.frames):
+        if f.name in original:
+            f.name = original[f.name]
+            reduced.frames[i] = f
+    for j in range(reduced.njoints):
+        reduced.names[j] = original.get(reduced.names[j], reduced.names[j])
     return reduced
 
 

@@ -1,7 +1,8 @@
 """Refusal rules: what the two engines may not agree on, refused with the reason.
 
 :func:`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
-for spellings MuJoCo compiles away and Pinocchio's parser reads differently.
+for values no engine should be given and names Pinocchio cannot tell apart;
+:func:`check_robot_values` the whole robot's joints for values Pinocchio's parser fails on.
 """
 
 from __future__ import annotations
@@ -47,12 +48,12 @@ def check_supported(
     Args:
         model: MuJoCo's compiled model.
         xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
-        strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed
-            fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle, default
-            classes it applies differently, compiler mass bounds). With ``strict=False``
-            such a model loads and :func:`redundancy.compare_models` shows the differences;
-            what Pinocchio cannot represent at all, and invalid values (non-finite numbers,
-            negative armature or damping, inverted ranges), are refused either way.
+        strict: The load's mode, checked to be a bool. What Pinocchio's parser reads
+            differently is not refused in either mode: the loader gives Pinocchio MuJoCo's
+            compiled model in strict mode (:mod:`redundancy.model.resolved`) and reports
+            the differences otherwise; what Pinocchio cannot represent at all, and invalid
+            values (non-finite numbers, negative armature or damping, inverted ranges), are
+            refused either way.
         tool_site: The site the loader put on a tool body (named after the body, whose
             frame Pinocchio reads instead): exempt from the site-name check.
 
@@ -167,8 +168,24 @@ def check_supported(
             )
     if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
         check_names(model, tool_site)
-    if strict and xml_root is not None:
-        _check_xml_strict(xml_root)  # _check_xml_values ran first, above
+
+
+def check_robot_values(model: mujoco.MjModel) -> None:
+    """Refuse values of the whole robot's joints that Pinocchio's parser cannot take.
+
+    Run on the whole robot (held joints included: Pinocchio reads every joint of the file).
+
+    Raises:
+        ModelError: A negative ``frictionloss``, naming the joint and the attribute.
+    """
+    names = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    for j in range(model.njnt):
+        value = float(model.dof_frictionloss[model.jnt_dofadr[j]])
+        if value < 0:
+            raise ModelError(
+                f"joint {names[j]!r} has negative frictionloss {value:g} [N m or N]; "
+                "it must be >= 0 (a friction force opposes motion)"
+            )
 
 
 def _tag(el: ET.Element, *attrs: str) -> str:
@@ -256,101 +273,6 @@ def _check_xml_values(root: ET.Element) -> None:
         )
 
 
-def _check_xml_strict(root: ET.Element) -> None:
-    """Refuse, under ``strict``, MJCF spellings Pinocchio's parser reads differently."""
-    tags = [child.tag for child in root]
-    if "worldbody" in tags:
-        first_body = tags.index("worldbody")
-        for later in ("compiler", "default"):
-            if later in tags[first_body:]:
-                raise UnsupportedFeatureError(
-                    f"<{later}> after <worldbody>",
-                    f"<{later}>",
-                    "Pinocchio's MJCF parser reads the file in order and applies it only to "
-                    f"what follows (MuJoCo applies it everywhere); move <{later}> before "
-                    "<worldbody>",
-                )
-    compiler = root.find("compiler")
-    seq = compiler.get("eulerseq", "xyz") if compiler is not None else "xyz"
-    if seq != seq.lower():
-        raise UnsupportedFeatureError(
-            "extrinsic eulerseq",
-            f"<compiler eulerseq={seq!r}>",
-            "Pinocchio's MJCF parser reads it as intrinsic",
-        )
-    for el in root.iter():
-        aa = el.get("axisangle")
-        if aa is not None:
-            try:
-                axis = np.array([float(x) for x in aa.split()[:3]])
-            except ValueError:
-                continue  # MuJoCo has already rejected it
-            if abs(np.linalg.norm(axis) - 1.0) > 1e-9:
-                raise UnsupportedFeatureError(
-                    "axisangle with a non-unit axis",
-                    f"<{el.tag} name={el.get('name', '')!r} axisangle={aa!r}>",
-                    "Pinocchio's MJCF parser does not normalise the axis; write a unit axis",
-                )
-    if root.find(".//frame") is not None:
-        raise UnsupportedFeatureError(
-            "<frame> element", "worldbody", "Pinocchio's MJCF parser drops the contents of <frame>"
-        )
-    if root.find(".//replicate") is not None:
-        raise UnsupportedFeatureError(
-            "<replicate> element",
-            "worldbody",
-            "Pinocchio's MJCF parser does not expand it; write the copies out",
-        )
-    attach = root.find(".//attach")
-    if attach is not None:
-        raise UnsupportedFeatureError(
-            "<attach> element",
-            _tag(attach, "model", "body", "prefix"),
-            "Pinocchio's MJCF parser does not expand it (the attached bodies would be missing "
-            "from one engine); write the attached model's bodies out",
-        )
-    for default in root.iter("default"):
-        where = f"<default class={default.get('class', 'main')!r}>"
-        for joint in default.findall("joint"):
-            if joint.get("pos") is not None:
-                raise UnsupportedFeatureError(
-                    "joint pos in a default class",
-                    where,
-                    "Pinocchio's MJCF parser does not apply it to every joint; "
-                    "give the pos on each joint",
-                )
-
-    # Class -> its parent class; an element's class may refine the body's childclass (Pinocchio
-    # then merges a class with its own ancestor, which changes nothing), not replace it.
-    parent_class: dict[str, str] = {}
-    for default in root.iter("default"):
-        for sub in default.findall("default"):
-            parent_class[sub.get("class", "")] = default.get("class", "main")
-
-    def refines(cls: str, active: str) -> bool:
-        seen: set[str] = set()
-        while cls != active and cls in parent_class and cls not in seen:
-            seen.add(cls)
-            cls = parent_class[cls]
-        return cls == active
-
-    def walk(el: ET.Element, active: str | None) -> None:
-        for child in el:
-            cls = child.get("class")
-            if active is not None and cls is not None and not refines(cls, active):
-                raise UnsupportedFeatureError(
-                    "class inside a different childclass",
-                    f"{_tag(child, 'class')} in a body with childclass {active!r}",
-                    "Pinocchio's MJCF parser merges the two classes where MuJoCo uses only "
-                    "the element's class; set the attributes on the element or use the body's "
-                    "childclass",
-                )
-            walk(child, child.get("childclass", active) if child.tag == "body" else active)
-
-    for world in root.iter("worldbody"):
-        walk(world, None)
-
-
 def check_names(model: mujoco.MjModel, tool_site: str | None = None) -> None:
     """Refuse names Pinocchio cannot tell apart, before Pinocchio reads the model.
 
@@ -433,7 +355,9 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     and there it differs from MuJoCo: a mesh geom gets a placeholder inertia (1 kg, unit
     inertia); a geom's mass is read from the geom element only, not from its default class;
     visual geoms (``contype = conaffinity = 0``) are left out although MuJoCo counts their
-    mass; ``inertiagrouprange`` is ignored. ``settotalmass``, ``boundmass`` and
+    mass; ``inertiagrouprange`` is ignored. An ``<inertial>`` without ``diaginertia`` or
+    ``fullinertia`` has no rotational inertia in MuJoCo and the identity in Pinocchio.
+    ``settotalmass``, ``boundmass`` and
     ``boundinertia`` change MuJoCo's masses beyond what Pinocchio applies. Each such body is
     returned with the causes found (possibly none: the body's inertia still comes from its
     geoms), for :func:`redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
@@ -482,10 +406,22 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
     for b, (el, active) in enumerate(found, start=1):
-        from_geoms = from_geoms_always or el.find("inertial") is None
-        if not from_geoms and not global_causes and el.get("name"):
+        inertial = el.find("inertial")
+        from_geoms = from_geoms_always or inertial is None
+        no_inertia = (
+            not from_geoms
+            and inertial is not None
+            and inertial.get("diaginertia") is None
+            and inertial.get("fullinertia") is None
+        )
+        if not from_geoms and not global_causes and el.get("name") and not no_inertia:
             continue
         causes = list(global_causes)
+        if no_inertia:
+            causes.append(
+                f"<inertial> of body {bodies[b]!r} without diaginertia or fullinertia "
+                "(MuJoCo gives it no rotational inertia, Pinocchio's parser 1 kg m^2 on each axis)"
+            )
         if not el.get("name"):
             causes.append(
                 f"unnamed body {bodies[b]!r} (Pinocchio's parser names it after its "

@@ -19,8 +19,10 @@ part, this module decides:
 * **missing inertials**: MuJoCo infers the mass of a link without ``<inertial>`` from its
   collision geoms (``inertiafromgeom`` auto), Pinocchio gives it none (URDF's meaning). The
   library compiles with ``inertiafromgeom`` false, so both read a missing inertial as no
-  mass; a moving link left with no mass at all (with the links fixed to it) is refused,
-  naming it (MuJoCo would raise a mass error, Pinocchio a singular mass matrix).
+  mass. A link the arm moves left with no mass at all (with the links fixed to it; the
+  ROS-Industrial arms give none) gets a placeholder inertia so that MuJoCo compiles it, and
+  the arm serves kinematics only: every dynamic quantity refuses, naming the links
+  (:class:`~redundancy.errors.MissingInertiaError`). Off the arm, such a joint is held fixed.
 * **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside
   when the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
   (:mod:`redundancy.model.robot`); a mimic on a fixed joint is nothing.
@@ -51,6 +53,11 @@ from ..errors import ModelError, UnknownNameError, UnsupportedFeatureError
 from .content import feed_assets, record
 from .robot import SetAside
 
+#: What a moving link without mass gets so that MuJoCo compiles it; its dynamics are refused.
+_PLACEHOLDER_INERTIAL = (
+    '<inertial><origin xyz="0 0 0"/><mass value="1"/>'
+    '<inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial>'
+)
 _XACRO_NS = "{http://www.ros.org/wiki/xacro}"
 _JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 # MuJoCo compiler settings (the URDF's <mujoco><compiler> extension) that change masses or
@@ -113,7 +120,7 @@ def check_urdf(root: ET.Element, source: str) -> UrdfTree:
 
     Raises:
         UnsupportedFeatureError: xacro macros, floating or planar joints,
-            a moving link without inertial, MuJoCo compiler settings that change masses.
+            MuJoCo compiler settings that change masses.
         ModelError: Not a valid URDF (missing names, unknown link, several roots).
     """
     _check_xacro(root, source)
@@ -233,6 +240,15 @@ def _check_numbers(root: ET.Element, source: str) -> None:
             if len(numbers) != count or not all(np.isfinite(numbers)):
                 what = "a finite number" if count == 1 else f"{count} finite numbers"
                 raise ModelError(f"URDF {source}: <{el.tag} {attr}={value!r}> must be {what}")
+    for joint in root.findall("joint"):
+        for el in joint.findall("dynamics"):
+            friction = float(el.get("friction", "0"))
+            if friction < 0:  # Pinocchio's parser fails on it in words of its own
+                raise ModelError(
+                    f"URDF {source}: joint {joint.get('name', '')!r} has negative <dynamics "
+                    f"friction={el.get('friction')!r}>; it must be >= 0 (a friction force "
+                    "opposes motion)"
+                )
 
 
 def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
@@ -326,12 +342,14 @@ def _inertia_state(m: Sequence[Sequence[float]]) -> str:
 
 def prepare_urdf(
     root: ET.Element, tree: UrdfTree, tool_link: str, base: str | None, source: str
-) -> tuple[ET.Element, list[SetAside], list[str]]:
+) -> tuple[ET.Element, list[SetAside], list[str], list[str]]:
     """The URDF as both engines read it, with what they would refuse mended off the arm.
 
     * A joint off the arm's chain that moves links without mass (MuJoCo refuses a moving
       body without mass; it is held anyway) becomes fixed at 0, the URDF's reference. On the
-      chain it is refused, naming the link.
+      chain, its link gets a placeholder inertial (1 kg, 1e-3 kg m^2) and is returned as
+      missing: the arm serves kinematics and refuses dynamics
+      (:class:`~redundancy.errors.MissingInertiaError`).
     * A published inertia MuJoCo rejects: a point mass or a rod (moments 0 up to rounding)
       gets a tiny isotropic moment added; an invalid one (a moment below 0, A + B < C) is
       replaced by MuJoCo's ``balanceinertia`` rule (all three moments their mean, about the
@@ -339,10 +357,8 @@ def prepare_urdf(
       the arm moves is also a defect of the file, returned for the audit.
 
     Returns:
-        The (possibly) mended URDF, what was set aside, and the defects on the arm's bodies.
-
-    Raises:
-        UnsupportedFeatureError: A joint of the arm moves links without mass.
+        The (possibly) mended URDF, what was set aside, the defects on the arm's bodies, and
+        the links the arm moves that have no mass (their dynamics are refused).
     """
     chain = chain_joints(tree, tool_link, base)
     moved: set[str] = set()  # links an arm joint moves
@@ -359,19 +375,19 @@ def prepare_urdf(
     out = copy.deepcopy(root)
     notes: list[SetAside] = []
     defects: list[str] = []
+    missing: list[str] = []
     joints = {el.get("name", ""): el for el in out.findall("joint")}
     for joint in tree.moving_joints:
         child = tree.joints[joint][2]
         if sum(mass[link] for link in tree.groups[child]) > 0:
             continue
         if joint in chain:
-            raise UnsupportedFeatureError(
-                "moving link without inertial",
-                f"link {child!r} (moved by arm joint {joint!r}) in {source}",
-                "a URDF link without <inertial> has no mass, and a moving body needs one "
-                "(MuJoCo refuses it, Pinocchio's mass matrix would be singular); add an "
-                "<inertial> with its mass, centre of mass and inertia",
-            )
+            # Kinematics needs no mass, but MuJoCo refuses a moving body without one: a
+            # placeholder in the text both engines read, and every dynamic quantity refused.
+            link = next(el for el in out.findall("link") if el.get("name") == child)
+            link.append(ET.fromstring(_PLACEHOLDER_INERTIAL))
+            missing.append(child)
+            continue
         el = joints[joint]
         el.set("type", "fixed")
         for sub in [*el.findall("mimic"), *el.findall("limit")]:
@@ -425,7 +441,17 @@ def prepare_urdf(
             notes.append(SetAside("invalid inertia", name, f"the arm moves it: {what}"))
         else:
             notes.append(SetAside("invalid inertia", name, f"the arm does not move it: {what}"))
-    return out, notes, defects
+    if missing:
+        notes.append(
+            SetAside(
+                "links without inertial",
+                ", ".join(missing),
+                "moved by the arm with no mass in the file: kinematic quantities are served, "
+                "dynamic ones (mass matrix, gravity, effective mass) refuse; a placeholder "
+                "inertia keeps MuJoCo compiling",
+            )
+        )
+    return out, notes, defects, missing
 
 
 def resolve_frame(tree: UrdfTree, frame: str) -> str:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..analysis.crosscheck import (
     BATCH_QUANTITIES,
+    DYNAMIC_QUANTITIES,
     TOLERANCES,
     Agreement,
     CrossCheckReport,
@@ -40,6 +41,9 @@ from .tables import fit, fmt, limit, ms, table
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
+#: Condition number of M above which the model is reported as ill-conditioned: M^-1's
+#: rounding (cond(M) x eps) passes 1e-7 relative.
+ILL_CONDITIONED = 1e9
 #: Poses on which the second-order quantities (dJ/dq, manipulability gradient) are
 #: cross-checked; the others are checked on every pose of the gravity sweep.
 CROSSCHECK_POSES = 200
@@ -155,7 +159,15 @@ class AuditReport(Report):
         s = self.sections
         j, g, c = s.joints, s.gravity, s.contacts
         cc, eq = self.engines.crosscheck, self.engines.equivalence
-        gravity = {k: v for k, v in asdict(g).items() if k != "agreement"}  # in "crosscheck"
+        gravity = (
+            None
+            if g is None
+            else {
+                **{k: v for k, v in asdict(g).items() if k != "agreement"},  # in "crosscheck"
+                "peak": g.peak,
+                "ratio": g.ratio,
+            }
+        )
         doc = {
             "model": self.model,
             "format": self.model_format,
@@ -183,7 +195,7 @@ class AuditReport(Report):
                 }
                 for k in s.keyframes
             ],
-            "gravity": {**gravity, "peak": g.peak, "ratio": g.ratio},
+            "gravity": gravity,
             "collision": {
                 "n_poses": c.n_poses,
                 "seed": c.seed,
@@ -214,6 +226,8 @@ class AuditReport(Report):
                 "n_poses": cc.n_poses,
                 "n_poses_second_order": self.engines.second_order_poses,
                 "ok": cc.ok,
+                "mass_condition": cc.mass_condition,
+                "skipped": cc.skipped,
                 "quantities": [{**asdict(a), "ok": a.ok} for a in cc.agreements],
             },
             "equivalence": {
@@ -306,13 +320,16 @@ def audit(
     say = progress or sections._quiet
     if computed is None:
         computed = sections.compute(arm, n_poses, seed, kd, progress=say)
-    engines = _engines(arm, n_poses, seed, computed.gravity.agreement, say)
+    g = computed.gravity
+    engines = _engines(arm, n_poses, seed, None if g is None else g.agreement, say)
     urdf = arm.model_format == "URDF"
     judged = _Judged()
+    _judge_inertia(judged, arm, engines)
     _judge_joints(judged, computed.joints, urdf)
     _judge_simulation(judged, computed)
     _judge_keyframes(judged, arm, computed)
-    _judge_gravity(judged, arm, computed.gravity, computed.joints, urdf)
+    if g is not None:
+        _judge_gravity(judged, arm, g, computed.joints, urdf)
     _judge_engines(judged, engines, computed.contacts)
     for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
         judged.finding("published inertia", defect)
@@ -326,34 +343,45 @@ def audit(
         tuple(judged.notes),
         arm.model_format,
         RobotPart.of(arm),
-        sections.contact_mass(arm, n_poses, seed),
+        None if arm.missing_inertia else sections.contact_mass(arm, n_poses, seed),
     )
 
 
 def _engines(
-    arm: Arm, n_poses: int, seed: int, gravity: Agreement, say: Progress
+    arm: Arm, n_poses: int, seed: int, gravity: Agreement | None, say: Progress
 ) -> EngineAgreement:
     """Cross-check over the gravity sweep's poses, chunk by chunk, and compare the models.
 
-    ``gravity`` is the sweep's own row (it computed both engines' gravity on these poses).
+    ``gravity`` is the sweep's own row (it computed both engines' gravity on these poses);
+    None when the arm's links lack inertias: then only the kinematic quantities are compared.
     """
-    batched = tuple(q for q in BATCH_QUANTITIES if q != gravity.quantity)
-    rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES)
-    merged: dict[str, Agreement] = {gravity.quantity: gravity}
+    skip = set(DYNAMIC_QUANTITIES) if arm.missing_inertia else set()
+    skip |= {"gravity"}  # the sweep's own row, or nothing to compare
+    batched = tuple(q for q in BATCH_QUANTITIES if q not in skip)
+    rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES and q not in skip)
+    merged: dict[str, Agreement] = {} if gravity is None else {gravity.quantity: gravity}
+    condition = np.nan
     offset, second = 0, 0
     say("engine cross-check", 0, n_poses)
     for Q in sections.pose_chunks(arm, n_poses, seed):
         parts = crosscheck_batch(arm, Q, quantities=batched).agreements
         if offset < CROSSCHECK_POSES:
             head = Q[: CROSSCHECK_POSES - offset]
-            parts += crosscheck_batch(arm, head, quantities=rest).agreements
+            second_order = crosscheck_batch(arm, head, quantities=rest)
+            parts += second_order.agreements
+            condition = np.fmax(condition, second_order.mass_condition)
             second += len(head)
         for a in parts:
             merged[a.quantity] = _worse(merged.get(a.quantity), a, offset)
         offset += len(Q)
         say("engine cross-check", offset, n_poses)
     agreements = tuple(merged[q] for q in (*BATCH_QUANTITIES, *rest) if q in merged)
-    cc = CrossCheckReport(agreements, arm.bridges, n_poses)
+    skipped = (
+        f"{', '.join(DYNAMIC_QUANTITIES)}: no inertia for {_names(list(arm.missing_inertia))}"
+        if arm.missing_inertia
+        else ""
+    )
+    cc = CrossCheckReport(agreements, arm.bridges, n_poses, float(condition), skipped)
     return EngineAgreement(cc, second, compare_models(arm))
 
 
@@ -384,6 +412,29 @@ class _Judged:
 
 def _names(names: list[str]) -> str:
     return ", ".join(repr(n) for n in names)
+
+
+def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
+    """What the model's inertias do not allow: skipped sections, an ill-conditioned M."""
+    if arm.missing_inertia:
+        links = _names(list(arm.missing_inertia))
+        for section in (
+            "the gravity budget",
+            "the keyframes' holding torques",
+            "M_ii and the timestep bounds",
+            "the effective mass at the tool",
+            f"the engines' cross-check of {', '.join(DYNAMIC_QUANTITIES)}",
+        ):
+            out.note("inertia", f"skipped {section}: the file gives no inertia for {links}")
+    kappa = e.crosscheck.mass_condition
+    if np.isfinite(kappa) and kappa > ILL_CONDITIONED:
+        out.finding(
+            "inertia",
+            f"the mass matrix is ill-conditioned: cond(M) up to {kappa:.2g} (links with mass "
+            "but almost no rotational inertia?); anything solved with M (effective mass, "
+            f"operational inertia, accelerations) carries a relative rounding of about "
+            f"{kappa * np.finfo(float).eps:.1g}, in either engine",
+        )
 
 
 def _judge_joints(out: _Judged, j: JointSection, urdf: bool) -> None:
@@ -652,7 +703,11 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
                     str(k.svd.rank),
                     fmt(k.svd.manipulability, 3),
                     ", ".join(k.svd.lost_direction_names()) or "-",
-                    "yes" if not k.unheld else "no: " + ", ".join(names[i] for i in k.unheld),
+                    "-"
+                    if np.isnan(k.hold).any()
+                    else "yes"
+                    if not k.unheld
+                    else "no: " + ", ".join(names[i] for i in k.unheld),
                 ]
                 for k in s.keyframes
             ],
@@ -677,6 +732,8 @@ def _moved(moves: dict[str, float | tuple[float, ...]], r: AuditReport) -> str:
 
 def _gravity_lines(r: AuditReport) -> list[str]:
     g = r.sections.gravity
+    if g is None:
+        return ["gravity: skipped (the file gives some links the arm moves no inertia)"]
     names = [x.name for x in r.sections.joints.rows]
     comp = ", gravity compensation subtracted" if g.gravcomp else ""
     off = "" if g.gravity_enabled else " (gravity disabled: nothing to hold)"

@@ -171,19 +171,26 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         ref, q = key, arm.keyframe(key)
     m = arm.mj_model
     sim = actuators.simulation(m)
-    M = np.diag(arm.mass_matrix(q))
-    bare = np.diag(arm.mass_matrix(q, armature=False))
-    diff = max(
-        float(np.max(np.abs(np.diag(arm.mass_matrix(q, a, "pinocchio")) - (M if a else bare))))
-        for a in (True, False)
-    )
+    if arm.missing_inertia:  # M is unknown: M_ii and the timestep bounds are NaN ("-")
+        M = bare = np.full(arm.nq, np.nan)
+        diff = float("nan")
+    else:
+        M = np.diag(arm.mass_matrix(q))
+        bare = np.diag(arm.mass_matrix(q, armature=False))
+        diff = max(
+            float(np.max(np.abs(np.diag(arm.mass_matrix(q, a, "pinocchio")) - (M if a else bare))))
+            for a in (True, False)
+        )
     b = arm.damping()
     kv = actuators.servo_damping(m)
     kd_each = np.full(arm.nq, 0.0 if kd is None else float(kd))
     stiffness = actuators.servo_stiffness(m)
     split = actuators.damping_split(sim, b, kv, kd_each, stiffness)
-    h = actuators.max_stable_timestep(M, split)
-    hb = actuators.max_stable_timestep(bare, split)
+    if arm.missing_inertia:
+        h = hb = np.full(arm.nq, np.nan)
+    else:
+        h = actuators.max_stable_timestep(M, split)
+        hb = actuators.max_stable_timestep(bare, split)
     effort = actuators.effort_range(m, q)
     arma = arm.armature()
     rows = tuple(
@@ -262,7 +269,8 @@ def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeR
         q = at.keyframe(name)
         s = at.svd(q)
         sp = at.svd(q, "pinocchio")
-        hold, effort = load(q[None, :], at.gravity(q)[None, :])
+        tau = np.full(at.nq, np.nan) if at.missing_inertia else at.gravity(q)
+        hold, effort = load(q[None, :], tau[None, :])
         rows.append(
             KeyframeRow(
                 name,
@@ -519,7 +527,7 @@ class Sections:
 
     joints: JointSection
     keyframes: tuple[KeyframeRow, ...]
-    gravity: GravityBudget
+    gravity: GravityBudget | None  # None: the arm's links lack inertias (arm.missing_inertia)
     contacts: CollisionStatistics
 
 
@@ -533,6 +541,9 @@ def compute(
 ) -> Sections:
     """Every section: gravity and self-collision over the same ``n_poses`` poses of ``seed``.
 
+    An arm whose links lack inertias (``arm.missing_inertia``) gets no gravity budget
+    (None), NaN for M_ii, the timestep bounds and the keyframes' holding torques.
+
     Args:
         arm: The arm.
         n_poses: Random poses of each sweep.
@@ -543,7 +554,7 @@ def compute(
     """
     say = progress or _quiet
     joint_section, keys = joints(arm, kd), keyframes(arm)
-    gravity = gravity_budget(arm, n_poses, seed, say)
+    gravity = None if arm.missing_inertia else gravity_budget(arm, n_poses, seed, say)
     collisions = contacts(arm, n_poses, seed, distances, say)
     return Sections(joint_section, keys, gravity, collisions)
 

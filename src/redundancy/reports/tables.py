@@ -40,12 +40,14 @@ def limit(lower: float, upper: float, digits: int = 4) -> str:
 
 
 def ms(h: float, unit: str = "") -> str:
-    """A timestep in milliseconds with two decimals, ``any`` when unbounded.
+    """A timestep in milliseconds with two decimals, ``any`` when unbounded, ``-`` for NaN.
 
     Args:
         h: The timestep [s].
         unit: Text after a number (``" ms"``; a table's header names it).
     """
+    if math.isnan(h):
+        return "-"
     return "any" if not math.isfinite(h) else f"{1e3 * h:.2f}{unit}"
 
 
