@@ -8,6 +8,8 @@ and dof orders coincide).
 from __future__ import annotations
 
 import contextlib
+import copy
+import functools
 import itertools
 from collections.abc import Callable, Iterator
 from math import isfinite
@@ -16,7 +18,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..checks import check_pose, pose_key
+from ..checks import check_joint_vector, check_pose, pose_key
 from .contract import Stacks, remove_armature
 from .threads import PerThread, run_split
 
@@ -27,6 +29,8 @@ _ndarray = np.ndarray
 # The single-pose hot path's engine calls, bound once (a module attribute lookup per call
 # is measurable against a 1.5 us Jacobian).
 _kinematics, _com_pos, _jac_site = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
+# Cyclic column orders for cross products of (n, 3) stacks: a x b = a[YZX] b[ZXY] - a[ZXY] b[YZX].
+_YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])
 
 #: MuJoCo joint type -> the library's name for it.
 JOINT_TYPES = {
@@ -525,6 +529,196 @@ class MujocoEngine:
             return e, jac
 
         return kernel
+
+    # -- motion: the Coriolis matrix, the centre of mass, momentum --------------------------
+    @functools.cached_property
+    def _weightless(self) -> mujoco.MjModel:
+        """A copy of the model without gravity, for the Coriolis matrix's biases.
+
+        With gravity the bias of a slow velocity is gravity plus a term below its rounding
+        (at |v| = 1e-9 rad/s, C v ~ 1e-18 against g ~ 10): without it the bias is C v
+        alone, to rounding relative to itself. Same sizes, so each thread's ``MjData``
+        serves it too. (Made once; two threads racing to make it make equal copies.)
+        """
+        m = copy.copy(self.model)
+        m.opt.gravity[:] = 0.0
+        return m
+
+    def _coriolis_at(self, w: _Work, v: Array, C: Array, Hp: Array, Hm: Array) -> None:
+        """C(q, v) into ``C`` at the pose the data holds (kinematics and ``mj_comPos`` done).
+
+        The bias C(q, u) u of ``mj_rne`` (flg_acc = 0, no gravity) is exactly quadratic
+        in u, and the Christoffel symbols of the first kind are symmetric in their last two
+        indices, so column j of the Christoffel-form C(q, u) is the bilinear form B(e_j, u):
+        (h(u + e_j) - h(u - e_j)) / 4. No finite-difference error; u = v / |v| keeps every
+        bias near the size of C (no underflow or overflow), and C(q, v) = |v| C(q, u). The
+        data is left moving (``w.moving``); the caller stops it or lets the next load do it.
+        """
+        m, d, qvel, n = self._weightless, w.data, w.qvel, self.nv
+        s = float(np.sqrt(v @ v))
+        if s == 0.0:
+            C[:] = 0.0
+            return
+        u = v / s
+        w.key, w.moving = None, True  # until the velocity is zero again (see _stop)
+        vel, rne = mujoco.mj_comVel, mujoco.mj_rne
+        for j in range(n):
+            qvel[:] = u
+            qvel[j] += 1.0
+            vel(m, d)  # cvel and cdof_dot, which mj_rne reads
+            rne(m, d, 0, Hp[j])
+            qvel[j] = u[j] - 1.0
+            vel(m, d)
+            rne(m, d, 0, Hm[j])
+        np.subtract(Hp, Hm, out=Hp)
+        np.multiply(Hp.T, 0.25 * s, out=C)
+
+    def coriolis(self, q: ArrayLike, v: ArrayLike) -> Array:
+        """Coriolis matrix C(q, v) in the Christoffel form, (nv, nv) [N m s/rad].
+
+        C v is the bias minus gravity, and dM/dt = C + C^T (see :meth:`_coriolis_at`).
+
+        Raises:
+            PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
+        """
+        v = check_joint_vector("velocity", v, self.joint_names)
+        w = self.update(q)
+        n = self.nv
+        C, H = np.empty((n, n)), np.empty((2, n, n))
+        key = w.key
+        self._coriolis_at(w, v, C, H[0], H[1])
+        if w.moving:
+            _stop(self.model, w)
+            w.key = key  # mj_comVel and mj_rne leave the kinematics of the pose as they were
+        return C
+
+    def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
+        """:meth:`coriolis` for every pose and velocity of validated stacks, into ``out``.
+
+        The same calls in the same order as one pose at a time (bit-equal results); MuJoCo
+        releases the GIL inside ``mj_*``, so ``threads`` > 1 runs spans of poses in parallel.
+        """
+        m, n = self.model, self.nv
+
+        def span(lo: int, hi: int) -> None:
+            w = self._work()
+            w.key = None  # this thread's data is about to hold other poses
+            d, qpos = w.data, w.qpos
+            H = np.empty((2, n, n))
+            for q, v, C in zip(Q[lo:hi], V[lo:hi], out[lo:hi], strict=True):
+                qpos[:] = q
+                _kinematics(m, d)
+                _com_pos(m, d)
+                self._coriolis_at(w, v, C, H[0], H[1])
+                w.key = None
+            if w.moving:
+                _stop(m, w)
+
+        run_split(len(Q), threads, span)
+
+    def com(self, q: ArrayLike) -> Array:
+        """The whole model's centre of mass, world frame (3,) [m].
+
+        ``subtree_com`` of the world body (``mj_comPos``): every body with mass, those
+        welded to the world included.
+        """
+        return self.update(q).data.subtree_com[0].copy()
+
+    def com_jacobian(self, q: ArrayLike) -> Array:
+        """Jacobian of :meth:`com` with respect to the joints, (3, nv) [m/rad]."""
+        w = self.update(q)
+        J = np.empty((3, self.nv))
+        # The world's subtree: bodies welded to the world are in it with zero columns.
+        mujoco.mj_jacSubtreeCom(self.model, w.data, J, 0)
+        return J
+
+    def centroidal_momentum_matrix(self, q: ArrayLike) -> Array:
+        """Whole-model momentum per unit joint velocity, (6, nv), world-aligned.
+
+        Rows 0-2: linear momentum [kg m/rad] (total mass times :meth:`com_jacobian`);
+        rows 3-5: angular momentum about the centre of mass [kg m^2/rad], from
+        ``mj_angmomMat`` of the world body (its subtree centre of mass is the whole one).
+        """
+        w = self.update(q)
+        m, d = self.model, w.data
+        A = np.empty((6, self.nv))
+        mujoco.mj_jacSubtreeCom(m, d, A[:3], 0)
+        A[:3] *= m.body_subtreemass[0]
+        mujoco.mj_angmomMat(m, d, A[3:], 0)
+        return A
+
+    def momentum_terms(self, q: ArrayLike, v: ArrayLike) -> tuple[Array, Array]:
+        """The generalized momentum p = M v and the rate of p without actuators and contacts.
+
+        dp/dt = tau + tau_ext + beta with beta = C^T v - g + the passive force (joint
+        damping and springs, gravity compensation, fluid: ``mj_passive``'s
+        ``qfrc_passive``), the terms a momentum observer integrates. C^T v is
+        (1/2) d(v^T M v)/dq, read from one pass: for dof i of body b, cdof_dot_i . h_b with
+        h_b the spatial momentum of b's subtree about the tree's origin (``mj_subtreeVel``).
+
+        Returns:
+            p (nv,) [N m s], beta (nv,) [N m].
+
+        Raises:
+            PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
+        """
+        v = check_joint_vector("velocity", v, self.joint_names)
+        w = self.update(q)
+        m, d = self.model, w.data
+        p, g = np.empty(self.nv), np.empty(self.nv)
+        mujoco.mj_crb(m, d)  # sparse M (armature included), which mj_mulM reads
+        mujoco.mj_mulM(m, d, p, v)
+        mujoco.mj_rne(m, d, 0, g)  # at rest: gravity alone
+        key, w.key, w.moving = w.key, None, True
+        w.qvel[:] = v
+        # mj_tendon: tendon lengths and moments; mj_fwdVelocity: cvel and cdof_dot, the
+        # tendons' velocities and then mj_passive (springs and damping of joints and
+        # tendons, gravity compensation, fluid forces).
+        mujoco.mj_tendon(m, d)
+        mujoco.mj_fwdVelocity(m, d)
+        mujoco.mj_subtreeVel(m, d)
+        beta = self._coriolis_transpose_times_v(d) - g + d.qfrc_passive
+        _stop(m, w)
+        w.key = key
+        return p, beta
+
+    def _coriolis_transpose_times_v(self, d: mujoco.MjData) -> Array:
+        """C^T v from ``cdof_dot`` and the subtrees' momenta (``mj_subtreeVel`` done).
+
+        Flat gathers with indices made once: at 7 dofs each NumPy call costs more than its
+        arithmetic, and the observer calls this every step.
+        """
+        try:
+            at, at_y, at_z, root_y, root_z, mass = self._ctv_index
+        except AttributeError:
+            m = self.model
+            body = m.dof_bodyid
+            root = m.body_rootid[body]
+
+            def flat(b: NDArray[np.intp], order: NDArray[np.intp]) -> NDArray[np.intp]:
+                return (3 * b[:, None] + order).ravel()
+
+            xyz = np.arange(3)
+            self._ctv_index = at, at_y, at_z, root_y, root_z, mass = (
+                flat(body, xyz),
+                flat(body, _YZX),
+                flat(body, _ZXY),
+                flat(root, _YZX),
+                flat(root, _ZXY),
+                np.repeat(m.body_subtreemass[body], 3),
+            )
+        com, lin = d.subtree_com.ravel(), d.subtree_linvel.ravel()
+        # Each dof's subtree: linear momentum P, and angular momentum about the tree's origin
+        # (where cdof_dot is expressed): about the subtree's centre of mass plus r x P.
+        # Cross products column by column: (r x P)[x] = r[y] P[z] - r[z] P[y], cyclically.
+        L = d.subtree_angmom.ravel()[at]
+        L += (com[at_y] - com[root_y]) * (lin[at_z] * mass)
+        L -= (com[at_z] - com[root_z]) * (lin[at_y] * mass)
+        cd = d.cdof_dot
+        P = lin[at] * mass
+        return (cd[:, :3] * L.reshape(-1, 3)).sum(axis=1) + (cd[:, 3:] * P.reshape(-1, 3)).sum(
+            axis=1
+        )
 
 
 def damped_stepper(r: int, n: int) -> Callable[[Array, Array, float], Array]:

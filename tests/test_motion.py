@@ -1,0 +1,235 @@
+"""Motion: the Coriolis matrix, dM/dt, the whole robot's centre of mass and momentum.
+
+Ground truth is MuJoCo's model of the WHOLE robot (``arm.robot_model``, every joint free) at
+rest with the arm's pose and velocity put in (held joints still), never the arm's reduced
+models; the two engines are also held to each other.
+"""
+
+from __future__ import annotations
+
+import re
+
+import mujoco
+import numpy as np
+import pytest
+
+import redundancy as rd
+from redundancy.model.names import display_names
+
+ENGINES = ("mujoco", "pinocchio")
+
+#: Published robots with held joints: the Panda's fingers (and its base link welded to the
+#: world), Talos's arm on its held torso (legs, head, other arm, free base held), the G1's
+#: left arm from the pelvis (waist, legs, hands held).
+HELD = (
+    ("panda_description/urdf/panda.urdf", "panda_hand", None),
+    ("talos_data/robots/talos_full_v2.urdf", "gripper_left_base_link", "torso_2_link"),
+    ("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf", "left_hand_palm_link", None),
+)
+
+#: Two links swinging about parallel axes, link 1 of length l1 = 0.5, link 2's centre of mass
+#: lc2 = 0.3 along it, m2 = 2: C = h [[-qd2, -(qd1 + qd2)], [qd1, 0]], h = m2 l1 lc2 sin q2,
+#: whatever the links' inertias (the textbook's planar two-link arm).
+TWO_LINK = """
+<mujoco>
+  <worldbody>
+    <body name="l1">
+      <joint name="j1" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="0"/>
+      <inertial pos="0.25 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+      <body name="l2" pos="0.5 0 0">
+        <joint name="j2" axis="0 1 0"/>
+        <inertial pos="0.3 0 0" mass="2" diaginertia="0.02 0.05 0.04"/>
+        <site name="ee" pos="0.6 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+#: A slide joint between two hinges, a base welded to the world with mass, an offset axis.
+SLIDER = """
+<mujoco>
+  <worldbody>
+    <body name="base" pos="0.1 0 0.2">
+      <inertial pos="0 0.05 0" mass="3" diaginertia="0.1 0.1 0.1"/>
+      <body name="a">
+        <joint name="hinge1" axis="0 0 1"/>
+        <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+        <body name="b" pos="0.2 0 0" euler="0.3 0 0">
+          <joint name="slide" type="slide" axis="1 0 0" range="-0.2 0.2"/>
+          <inertial pos="0.05 0.02 0" mass="0.7" diaginertia="0.01 0.01 0.02"/>
+          <body name="c" pos="0.1 0 0">
+            <joint name="hinge2" axis="0 1 1"/>
+            <inertial pos="0.1 0.01 0.02" mass="0.4" diaginertia="0.004 0.005 0.006"/>
+            <site name="ee" pos="0.2 0 0"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def held_arms() -> dict[str, rd.Arm]:
+    return {
+        tool: rd.load(rd.example_robot_data(f), frame=tool, base=base) for f, tool, base in HELD
+    }
+
+
+@pytest.fixture(scope="module")
+def small() -> dict[str, rd.Arm]:
+    return {
+        "two_link": rd.load_string(TWO_LINK, site="ee"),
+        "slider": rd.load_string(SLIDER, site="ee"),
+    }
+
+
+def all_arms(arms: dict[str, rd.Arm], held_arms: dict[str, rd.Arm], small: dict) -> list:
+    return [*arms.values(), *held_arms.values(), *small.values()]
+
+
+class Whole:
+    """MuJoCo's model of the whole robot with the held joints at rest and the arm's q, v."""
+
+    def __init__(self, arm: rd.Arm, q: np.ndarray, v: np.ndarray | None = None) -> None:
+        m = self.m = arm.robot_model
+        d = self.d = mujoco.MjData(m)
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or "" for j in range(m.njnt)]
+        shown = display_names(m, mujoco.mjtObj.mjOBJ_JOINT)
+        d.qpos[:] = m.qpos0
+        for name, value in arm.held.items():
+            j = names.index(name) if name in names else shown.index(name)
+            adr = int(m.jnt_qposadr[j])
+            d.qpos[adr : adr + np.size(value)] = value
+        ids = [names.index(n) for n in arm.joint_names]
+        d.qpos[m.jnt_qposadr[ids]] = q
+        self.dofs = m.jnt_dofadr[ids]
+        self.v = np.zeros(m.nv)
+        if v is not None:
+            self.v[self.dofs] = v
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+
+    def bias(self, v_full: np.ndarray) -> np.ndarray:
+        """mj_rne's bias (C v + g) at the whole robot's velocity ``v_full``."""
+        self.d.qvel[:] = v_full
+        mujoco.mj_comVel(self.m, self.d)
+        out = np.zeros(self.m.nv)
+        mujoco.mj_rne(self.m, self.d, 0, out)
+        return out
+
+    def coriolis_times_v(self) -> np.ndarray:
+        """C v at the arm's dofs: the bias at v minus the bias at rest (gravity)."""
+        return (self.bias(self.v) - self.bias(0 * self.v))[self.dofs]
+
+    def mass_matrix_along(self, q_step: float, arm: rd.Arm, q: np.ndarray) -> np.ndarray:
+        """The arm's block of the whole robot's M at q + q_step v."""
+        w = Whole(arm, q + q_step * self.v[self.dofs])
+        M = np.zeros((w.m.nv, w.m.nv))
+        mujoco.mj_crb(w.m, w.d)
+        mujoco.mj_fullM(w.m, w.d, M)
+        return M[np.ix_(w.dofs, w.dofs)]
+
+
+def rel(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+
+
+def states(arm: rd.Arm, n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    Q = rd.random_poses(arm, n, seed=seed)
+    V = np.random.default_rng(seed).uniform(-2.0, 2.0, Q.shape)
+    return list(zip(Q, V, strict=True))
+
+
+# -- the Coriolis matrix and dM/dt ------------------------------------------------------------
+
+
+def test_two_link_coriolis_is_the_textbook_matrix(small: dict) -> None:
+    arm = small["two_link"]
+    for q, v in states(arm, 5, seed=4):
+        h = 2.0 * 0.5 * 0.3 * np.sin(q[1])
+        expected = h * np.array([[-v[1], -(v[0] + v[1])], [v[0], 0.0]])
+        for engine in ENGINES:
+            C = arm.coriolis(q, v, engine=engine)
+            assert np.max(np.abs(C - expected)) < 1e-12 * max(1.0, np.max(np.abs(expected)))
+
+
+def test_coriolis_times_velocity_is_bias_minus_gravity_of_the_whole_robot(
+    arms: dict, held_arms: dict, small: dict
+) -> None:
+    for arm in all_arms(arms, held_arms, small):
+        for q, v in states(arm, 3, seed=7):
+            truth = Whole(arm, q, v).coriolis_times_v()
+            for engine in ENGINES:
+                Cv = arm.coriolis(q, v, engine=engine) @ v
+                assert rel(Cv, truth) < 1e-9, (arm, engine)
+
+
+def test_mass_matrix_derivative_is_C_plus_CT_and_central_differences_of_M(
+    arms: dict, held_arms: dict, small: dict
+) -> None:
+    h = 1e-5  # central differences: O(h^2) truncation, eps |M| / h rounding
+    for arm in all_arms(arms, held_arms, small):
+        for q, v in states(arm, 2, seed=9):
+            whole = Whole(arm, q, v)
+            fd = (whole.mass_matrix_along(h, arm, q) - whole.mass_matrix_along(-h, arm, q)) / (
+                2 * h
+            )
+            for engine in ENGINES:
+                C = arm.coriolis(q, v, engine=engine)
+                dM = arm.mass_matrix_derivative(q, v, engine=engine)
+                assert np.array_equal(dM, C + C.T)
+                S = dM - 2 * C
+                assert np.max(np.abs(S + S.T)) <= 1e-12 * np.max(np.abs(dM))
+                assert rel(dM, fd) < 1e-7, (arm, engine, rel(dM, fd))
+
+
+def test_engines_agree_on_the_coriolis_matrix(arms: dict, held_arms: dict, small: dict) -> None:
+    for arm in all_arms(arms, held_arms, small):
+        for q, v in states(arm, 4, seed=11):
+            a = arm.coriolis(q, v)
+            b = arm.coriolis(q, v, engine="pinocchio")
+            assert rel(b, a) < 1e-9, arm
+
+
+def test_coriolis_is_zero_at_rest_and_linear_in_velocity(arm7: rd.Arm) -> None:
+    q, v = states(arm7, 1, seed=2)[0]
+    assert not arm7.coriolis(q, np.zeros(7)).any()
+    assert rel(arm7.coriolis(q, 3.0 * v), 3.0 * arm7.coriolis(q, v)) < 1e-14
+    # tiny and huge velocities keep their relative accuracy (the step scales with |v|)
+    for s in (1e-9, 1e6):
+        assert rel(arm7.coriolis(q, s * v), arm7.coriolis(q, s * v, engine="pinocchio")) < 1e-9
+
+
+def test_coriolis_leaves_the_pose_queries_as_they_were(arm7: rd.Arm) -> None:
+    """Gravity and M at the same pose after a Coriolis call: the data is at rest again."""
+    q, v = states(arm7, 1, seed=3)[0]
+    g, M, J = arm7.gravity(q), arm7.mass_matrix(q), arm7.jacobian(q)
+    arm7.coriolis(q, v)
+    assert np.array_equal(arm7.gravity(q), g)
+    assert np.array_equal(arm7.mass_matrix(q), M)
+    assert np.array_equal(arm7.jacobian(q), J)
+
+
+def test_bad_velocity_is_a_pose_error_naming_it(arm7: rd.Arm) -> None:
+    q = np.zeros(7)
+    names = list(arm7.joint_names)
+    for engine in ENGINES:
+        shape = f"velocity must have shape (7,) for joints {names}, got shape (6,)"
+        with pytest.raises(rd.PoseError, match=f"^{re.escape(shape)}$"):
+            arm7.coriolis(q, np.zeros(6), engine=engine)
+        bad = np.zeros(7)
+        bad[2] = np.nan
+        with pytest.raises(rd.PoseError, match=r"^velocity has non-finite values: j3=nan$"):
+            arm7.mass_matrix_derivative(q, bad, engine=engine)
+        with pytest.raises(rd.PoseError, match="velocity must be numeric"):
+            arm7.coriolis(q, "fast", engine=engine)
+        with pytest.raises(rd.PoseError, match="velocity must be real, got complex values"):
+            arm7.coriolis(q, np.ones(7) * 1j, engine=engine)
+        with pytest.raises(rd.PoseError, match="pose has non-finite values"):
+            arm7.coriolis(np.full(7, np.inf), np.zeros(7), engine=engine)
+    with pytest.raises(rd.UnknownNameError, match="unknown engine 'drake'"):
+        arm7.coriolis(q, q, engine="drake")  # type: ignore[arg-type]
