@@ -7,13 +7,16 @@ models; the two engines are also held to each other.
 
 from __future__ import annotations
 
+import multiprocessing
 import re
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import mujoco
 import numpy as np
 import pytest
 
 import redundancy as rd
+from redundancy import batch
 from redundancy.model.names import display_names
 
 ENGINES = ("mujoco", "pinocchio")
@@ -233,3 +236,52 @@ def test_bad_velocity_is_a_pose_error_naming_it(arm7: rd.Arm) -> None:
             arm7.coriolis(np.full(7, np.inf), np.zeros(7), engine=engine)
     with pytest.raises(rd.UnknownNameError, match="unknown engine 'drake'"):
         arm7.coriolis(q, q, engine="drake")  # type: ignore[arg-type]
+
+
+# -- stacks --------------------------------------------------------------------------------------
+
+
+def test_batch_coriolis_equals_the_single_calls_bit_for_bit(
+    arm7: rd.Arm, held_arms: dict, small: dict
+) -> None:
+    for arm in (arm7, held_arms["gripper_left_base_link"], small["slider"]):
+        pairs = states(arm, 9, seed=5)
+        Q = np.array([q for q, _ in pairs])
+        V = np.array([v for _, v in pairs])
+        V[4] = 0.0  # a state at rest: C = 0
+        for engine in ENGINES:
+            single = np.array(
+                [arm.coriolis(q, v, engine=engine) for q, v in zip(Q, V, strict=True)]
+            )
+            assert np.array_equal(batch.coriolis(arm, Q, V, engine=engine), single)
+            assert np.array_equal(batch.coriolis(arm, Q, V, engine=engine, threads=2), single)
+    assert batch.coriolis(arm7, np.empty((0, 7)), np.empty((0, 7))).shape == (0, 7, 7)
+
+
+def test_batch_coriolis_on_executors_equals_the_serial_stack(arm7: rd.Arm) -> None:
+    pairs = states(arm7, 6, seed=8)
+    Q, V = np.array([q for q, _ in pairs]), np.array([v for _, v in pairs])
+    serial = batch.coriolis(arm7, Q, V)
+    with ThreadPoolExecutor(2) as pool:
+        assert np.array_equal(batch.coriolis(arm7, Q, V, executor=pool), serial)
+        assert batch.coriolis(arm7, Q[:0], V[:0], executor=pool).shape == (0, 7, 7)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        assert np.array_equal(batch.coriolis(arm7, Q, V, executor=pool), serial)
+
+
+def test_batch_coriolis_refuses_velocities_that_do_not_match(arm7: rd.Arm) -> None:
+    Q = np.zeros((3, 7))
+    names = list(arm7.joint_names)
+    shape = (
+        f"velocities must have shape (3, 7), one row per pose, for joints {names}, got shape (2, 7)"
+    )
+    with pytest.raises(rd.PoseError, match=f"^{re.escape(shape)}$"):
+        batch.coriolis(arm7, Q, np.zeros((2, 7)))
+    V = np.zeros((3, 7))
+    V[1, 4] = np.inf
+    with pytest.raises(rd.PoseError, match=r"^velocities row 1 has non-finite values: j5=inf$"):
+        batch.coriolis(arm7, Q, V)
+    with pytest.raises(rd.PoseError, match="pose 2 has non-finite values: j1=nan"):
+        batch.coriolis(arm7, np.where(np.arange(3)[:, None] == 2, np.nan, Q), Q)
+    with pytest.raises(rd.ParameterError, match="executor must be None or a concurrent"):
+        batch.coriolis(arm7, Q, Q, executor="dask")  # type: ignore[arg-type]

@@ -56,6 +56,7 @@ from ..checks import (
     check_directions,
     check_flag,
     check_joint_subset,
+    check_joint_vectors,
     check_number,
     check_poses,
     check_threads,
@@ -728,3 +729,55 @@ def solve_ik(
         (lo, hi), *rest = jobs
         run_beside(lambda: span(lo, hi), *(lambda a=a, b=b: span(a, b) for a, b in rest))
     return tuple(r for r in out if r is not None)
+
+
+def coriolis(
+    arm: Arm,
+    Q: ArrayLike,
+    V: ArrayLike,
+    *,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+    executor: Executor | None = None,
+) -> Array:
+    """Coriolis matrices of a stack of states, as :meth:`Arm.coriolis <redundancy.Arm.coriolis>`.
+
+    Equal to the single calls bit for bit: each pose runs the same engine calls in the
+    same order.
+
+    Args:
+        arm: The arm.
+        Q: Poses, shape (n, nq) [rad or m].
+        V: Joint velocities, one per pose, shape (n, nq) [rad/s or m/s].
+        engine: ``"mujoco"`` or ``"pinocchio"``.
+        threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
+        executor: Run on this :class:`concurrent.futures.Executor` in chunks of states (see
+            :func:`jacobians`); None runs here.
+
+    Returns:
+        Coriolis matrices in the Christoffel form, shape (n, nq, nq) [N m s/rad].
+
+    Raises:
+        PoseError: ``Q`` not finite poses, ``V`` not finite and of the same shape.
+    """
+    arm = check_arm(arm)
+    check_choice("engine", engine, ENGINES)
+    threads = check_threads(threads)
+    Q = poses(arm, Q)
+    V = check_joint_vectors("velocities", V, arm.joint_names, len(Q))
+    nq = arm.nq
+    if executor is not None:
+        # The poses and velocities travel side by side, (n, 2 nq), chunked as poses are.
+        kwargs = {"engine": engine, "threads": threads}
+        _check_executor(executor, _coriolis_of_states, kwargs)
+        parts = _map_chunks(executor, _coriolis_of_states, arm, np.hstack((Q, V)), None, kwargs)
+        return np.concatenate([r for _, r in parts]) if parts else np.empty((0, nq, nq))
+    out = np.empty((len(Q), nq, nq))
+    arm.engine(engine).coriolis_stack(Q, V, out, threads)
+    return out
+
+
+def _coriolis_of_states(arm: Arm, QV: Array, engine: EngineName, threads: int) -> Array:
+    """:func:`coriolis` of a chunk of states laid side by side, (n, 2 nq), on a worker."""
+    nq = arm.nq
+    return coriolis(arm, QV[:, :nq], QV[:, nq:], engine=engine, threads=threads)
