@@ -14,10 +14,14 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import redundancy as rd
 from redundancy import batch
+from redundancy.analysis.crosscheck import crosscheck_velocities
 from redundancy.model.names import display_names
+from redundancy.testing import states
 
 ENGINES = ("mujoco", "pinocchio")
 
@@ -141,7 +145,7 @@ def rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
 
 
-def states(arm: rd.Arm, n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+def drawn(arm: rd.Arm, n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
     Q = rd.random_poses(arm, n, seed=seed)
     V = np.random.default_rng(seed).uniform(-2.0, 2.0, Q.shape)
     return list(zip(Q, V, strict=True))
@@ -152,7 +156,7 @@ def states(arm: rd.Arm, n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]
 
 def test_two_link_coriolis_is_the_textbook_matrix(small: dict) -> None:
     arm = small["two_link"]
-    for q, v in states(arm, 5, seed=4):
+    for q, v in drawn(arm, 5, seed=4):
         h = 2.0 * 0.5 * 0.3 * np.sin(q[1])
         expected = h * np.array([[-v[1], -(v[0] + v[1])], [v[0], 0.0]])
         for engine in ENGINES:
@@ -164,7 +168,7 @@ def test_coriolis_times_velocity_is_bias_minus_gravity_of_the_whole_robot(
     arms: dict, held_arms: dict, small: dict
 ) -> None:
     for arm in all_arms(arms, held_arms, small):
-        for q, v in states(arm, 3, seed=7):
+        for q, v in drawn(arm, 3, seed=7):
             truth = Whole(arm, q, v).coriolis_times_v()
             for engine in ENGINES:
                 Cv = arm.coriolis(q, v, engine=engine) @ v
@@ -176,7 +180,7 @@ def test_mass_matrix_derivative_is_C_plus_CT_and_central_differences_of_M(
 ) -> None:
     h = 1e-5  # central differences: O(h^2) truncation, eps |M| / h rounding
     for arm in all_arms(arms, held_arms, small):
-        for q, v in states(arm, 2, seed=9):
+        for q, v in drawn(arm, 2, seed=9):
             whole = Whole(arm, q, v)
             fd = (whole.mass_matrix_along(h, arm, q) - whole.mass_matrix_along(-h, arm, q)) / (
                 2 * h
@@ -192,14 +196,14 @@ def test_mass_matrix_derivative_is_C_plus_CT_and_central_differences_of_M(
 
 def test_engines_agree_on_the_coriolis_matrix(arms: dict, held_arms: dict, small: dict) -> None:
     for arm in all_arms(arms, held_arms, small):
-        for q, v in states(arm, 4, seed=11):
+        for q, v in drawn(arm, 4, seed=11):
             a = arm.coriolis(q, v)
             b = arm.coriolis(q, v, engine="pinocchio")
             assert rel(b, a) < 1e-9, arm
 
 
 def test_coriolis_is_zero_at_rest_and_linear_in_velocity(arm7: rd.Arm) -> None:
-    q, v = states(arm7, 1, seed=2)[0]
+    q, v = drawn(arm7, 1, seed=2)[0]
     assert not arm7.coriolis(q, np.zeros(7)).any()
     assert rel(arm7.coriolis(q, 3.0 * v), 3.0 * arm7.coriolis(q, v)) < 1e-14
     # tiny and huge velocities keep their relative accuracy (the step scales with |v|)
@@ -209,7 +213,7 @@ def test_coriolis_is_zero_at_rest_and_linear_in_velocity(arm7: rd.Arm) -> None:
 
 def test_coriolis_leaves_the_pose_queries_as_they_were(arm7: rd.Arm) -> None:
     """Gravity and M at the same pose after a Coriolis call: the data is at rest again."""
-    q, v = states(arm7, 1, seed=3)[0]
+    q, v = drawn(arm7, 1, seed=3)[0]
     g, M, J = arm7.gravity(q), arm7.mass_matrix(q), arm7.jacobian(q)
     arm7.coriolis(q, v)
     assert np.array_equal(arm7.gravity(q), g)
@@ -245,7 +249,7 @@ def test_batch_coriolis_equals_the_single_calls_bit_for_bit(
     arm7: rd.Arm, held_arms: dict, small: dict
 ) -> None:
     for arm in (arm7, held_arms["gripper_left_base_link"], small["slider"]):
-        pairs = states(arm, 9, seed=5)
+        pairs = drawn(arm, 9, seed=5)
         Q = np.array([q for q, _ in pairs])
         V = np.array([v for _, v in pairs])
         V[4] = 0.0  # a state at rest: C = 0
@@ -259,7 +263,7 @@ def test_batch_coriolis_equals_the_single_calls_bit_for_bit(
 
 
 def test_batch_coriolis_on_executors_equals_the_serial_stack(arm7: rd.Arm) -> None:
-    pairs = states(arm7, 6, seed=8)
+    pairs = drawn(arm7, 6, seed=8)
     Q, V = np.array([q for q, _ in pairs]), np.array([v for _, v in pairs])
     serial = batch.coriolis(arm7, Q, V)
     with ThreadPoolExecutor(2) as pool:
@@ -285,3 +289,38 @@ def test_batch_coriolis_refuses_velocities_that_do_not_match(arm7: rd.Arm) -> No
         batch.coriolis(arm7, np.where(np.arange(3)[:, None] == 2, np.nan, Q), Q)
     with pytest.raises(rd.ParameterError, match="executor must be None or a concurrent"):
         batch.coriolis(arm7, Q, Q, executor="dask")  # type: ignore[arg-type]
+
+
+# -- the cross-check and property tests ----------------------------------------------------------
+
+
+@given(st.data())
+def test_property_engines_agree_on_coriolis_and_it_is_the_bias(arms: dict, data) -> None:  # type: ignore[no-untyped-def]
+    for name, arm in arms.items():
+        q, v = data.draw(states(arm), label=name)
+        a = arm.coriolis(q, v)
+        b = arm.coriolis(q, v, engine="pinocchio")
+        size = max(np.max(np.abs(a)), 1e-3 * np.max(np.abs(arm.mass_matrix(q))))
+        assert np.max(np.abs(a - b)) <= 1e-9 * size
+        truth = Whole(arm, q, v).coriolis_times_v()
+        assert np.max(np.abs(a @ v - truth)) <= 1e-9 * max(np.max(np.abs(truth)), size)
+
+
+def test_crosscheck_reports_coriolis_the_same_in_any_chunk(arm7: rd.Arm) -> None:
+    Q = rd.random_poses(arm7, 7, seed=6)
+    whole = rd.crosscheck_batch(arm7, Q, ["coriolis"])
+    assert whole.ok and whole["coriolis"].tol == 1e-9
+    assert rd.crosscheck_batch(arm7, Q, ["coriolis"], chunk=3) == whole
+    with ThreadPoolExecutor(2) as pool:
+        assert rd.crosscheck_batch(arm7, Q, ["coriolis"], chunk=3, executor=pool) == whole
+    assert rd.crosscheck(arm7, Q[2], ["coriolis"], seed=4).ok
+    with pytest.raises(rd.ParameterError, match="seed must be an integer >= 0, got -1"):
+        rd.crosscheck(arm7, Q, ["coriolis"], seed=-1)
+
+
+def test_crosscheck_velocities_depend_on_the_pose_and_seed_only(arm7: rd.Arm) -> None:
+    Q = rd.random_poses(arm7, 5, seed=1)
+    V = crosscheck_velocities(Q, 0)
+    assert V.shape == Q.shape and np.all(np.abs(V) <= 1.0)
+    assert np.array_equal(crosscheck_velocities(Q[3:], 0), V[3:])
+    assert not np.array_equal(crosscheck_velocities(Q, 1), V)
