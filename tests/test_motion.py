@@ -23,6 +23,8 @@ from redundancy.analysis.crosscheck import crosscheck_velocities
 from redundancy.model.names import display_names
 from redundancy.testing import states
 
+from .test_robot import ACTUATORS, BIMANUAL_MAIN, HUMANOID, SIDE
+
 ENGINES = ("mujoco", "pinocchio")
 
 #: Published robots with held joints: the Panda's fingers (and its base link welded to the
@@ -87,10 +89,17 @@ def held_arms() -> dict[str, rd.Arm]:
 
 
 @pytest.fixture(scope="module")
-def small() -> dict[str, rd.Arm]:
+def small(tmp_path_factory: pytest.TempPathFactory) -> dict[str, rd.Arm]:
+    cell = tmp_path_factory.mktemp("cell")
+    (cell / "actuators.xml").write_text(ACTUATORS)
+    sides = {s: SIDE.format(s=s, x=x) for s, x in (("left", "-0.3"), ("right", "0.3"))}
+    (cell / "cell.xml").write_text(BIMANUAL_MAIN.format(**sides))
     return {
         "two_link": rd.load_string(TWO_LINK, site="ee"),
         "slider": rd.load_string(SLIDER, site="ee"),
+        # a table and the other arm (held) welded to the world, outside Pinocchio's tree
+        "cell": rd.load(cell / "cell.xml", frame="right_gripper"),
+        "humanoid": rd.load_string(HUMANOID, frame="l_palm"),  # a held free base
     }
 
 
@@ -324,3 +333,76 @@ def test_crosscheck_velocities_depend_on_the_pose_and_seed_only(arm7: rd.Arm) ->
     assert V.shape == Q.shape and np.all(np.abs(V) <= 1.0)
     assert np.array_equal(crosscheck_velocities(Q[3:], 0), V[3:])
     assert not np.array_equal(crosscheck_velocities(Q, 1), V)
+
+
+# -- the whole robot's centre of mass and momentum ------------------------------------------------
+
+
+def body_sums(arm: rd.Arm, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Centre of mass, its Jacobian, linear and angular momentum about it, summed over the
+    whole robot's bodies from raw MuJoCo data (body masses, xipos, ximat, velocities)."""
+    w = Whole(arm, q, v)
+    m, d = w.m, w.d
+    d.qvel[:] = w.v
+    mujoco.mj_comVel(m, d)
+    mass = m.body_mass[1:].sum()
+    com = (m.body_mass[1:, None] * d.xipos[1:]).sum(axis=0) / mass
+    J = np.zeros((3, m.nv))
+    P, L = np.zeros(3), np.zeros(3)
+    for b in range(1, m.nbody):
+        jp = np.zeros((3, m.nv))
+        mujoco.mj_jacBodyCom(m, d, jp, None, b)
+        J += m.body_mass[b] * jp / mass
+        vel = np.zeros(6)  # [angular; linear] at the body's centre of mass, world axes
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, b, vel, 0)
+        R = d.ximat[b].reshape(3, 3)
+        p = m.body_mass[b] * vel[3:]
+        P += p
+        L += R @ np.diag(m.body_inertia[b]) @ R.T @ vel[:3] + np.cross(d.xipos[b] - com, p)
+    return com, J[:, w.dofs], P, L
+
+
+def test_com_and_momentum_are_the_sums_over_the_whole_robots_bodies(
+    arms: dict, held_arms: dict, small: dict
+) -> None:
+    for arm in all_arms(arms, held_arms, small):
+        for q, v in drawn(arm, 2, seed=13):
+            com, J, P, L = body_sums(arm, q, v)
+            size = arm.robot_model.body_mass.sum()
+            for engine in ENGINES:
+                assert rel(arm.com(q, engine=engine), com) < 1e-12, (arm, engine)
+                assert np.max(np.abs(arm.com_jacobian(q, engine=engine) - J)) < 1e-12
+                A = arm.centroidal_momentum_matrix(q, engine=engine)
+                assert A.shape == (6, arm.nq)
+                assert np.max(np.abs(A[:3] @ v - P)) <= 1e-12 * size, (arm, engine)
+                assert np.max(np.abs(A[3:] @ v - L)) <= 1e-12 * size, (arm, engine)
+
+
+def test_fixed_mass_counts_in_the_com_and_not_in_the_momentum(small: dict, arm7: rd.Arm) -> None:
+    """SLIDER's base (3 kg, welded to the world, posed): in the centre of mass, no momentum."""
+    arm = small["slider"]
+    q = np.array([0.4, 0.1, -0.3])
+    moving = rd.load_string(SLIDER.replace('mass="3"', 'mass="0"'), site="ee")
+    base = np.array([0.1, 0.05, 0.2])  # the base's centre of mass in the world
+    expected = (3.0 * base + 2.1 * moving.com(q)) / 5.1
+    for engine in ENGINES:
+        assert np.max(np.abs(arm.com(q, engine=engine) - expected)) < 1e-15
+        A = arm.centroidal_momentum_matrix(q, engine=engine)
+        assert np.max(np.abs(A[:3] - 5.1 * arm.com_jacobian(q, engine=engine))) < 1e-14
+        assert (
+            np.max(np.abs(A[:3] - moving.centroidal_momentum_matrix(q, engine=engine)[:3])) < 1e-14
+        )
+    # Pinocchio's parser has the cell's right tree only: the table and the left arm, welded
+    # to the world in MuJoCo's model, are bridged; the arms with their base in the tree are not.
+    (world,) = [b for b in small["cell"].bridges if b.quantity == "world mass"]
+    assert world.joint == "world" and world.value[0] == pytest.approx(100.4601707256)
+    assert not [b for b in arm7.bridges + arm.bridges if b.quantity == "world mass"]
+
+
+def test_com_queries_check_the_pose(arm7: rd.Arm) -> None:
+    for engine in ENGINES:
+        for method in (arm7.com, arm7.com_jacobian, arm7.centroidal_momentum_matrix):
+            with pytest.raises(rd.PoseError, match=r"pose must have shape \(7,\)"):
+                method(np.zeros(3), engine=engine)
+            with pytest.raises(rd.PoseError, match="pose has non-finite values: j2=nan"):
+                method(np.array([0, np.nan, 0, 0, 0, 0, 0.0]), engine=engine)

@@ -29,8 +29,29 @@ _ndarray = np.ndarray
 # The single-pose hot path's engine calls, bound once (a module attribute lookup per call
 # is measurable against a 1.5 us Jacobian).
 _kinematics, _com_pos, _jac_site = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
-# Cyclic column orders for cross products of (n, 3) stacks: a x b = a[YZX] b[ZXY] - a[ZXY] b[YZX].
-_YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])
+# mju_mulInertVec as a 6 x 6 matrix of a body's cinert (10 values; index 10 is a zero):
+# [angular; linear] momentum about the com-based frame's origin of a motion [w; v].
+_INERT_INDEX = np.array(
+    [
+        [0, 3, 4, 10, 8, 7],
+        [3, 1, 5, 8, 10, 6],
+        [4, 5, 2, 7, 6, 10],
+        [10, 8, 7, 9, 10, 10],
+        [8, 10, 6, 10, 9, 10],
+        [7, 6, 10, 10, 10, 9],
+    ]
+)
+_INERT_SIGN = np.array(
+    [
+        [1, 1, 1, 0, -1, 1],
+        [1, 1, 1, 1, 0, -1],
+        [1, 1, 1, -1, 1, 0],
+        [0, 1, -1, 1, 0, 0],
+        [-1, 0, 1, 0, 1, 0],
+        [1, -1, 0, 0, 0, 1],
+    ],
+    dtype=float,
+)
 
 #: MuJoCo joint type -> the library's name for it.
 JOINT_TYPES = {
@@ -650,11 +671,11 @@ class MujocoEngine:
     def momentum_terms(self, q: ArrayLike, v: ArrayLike) -> tuple[Array, Array]:
         """The generalized momentum p = M v and the rate of p without actuators and contacts.
 
-        dp/dt = tau + tau_ext + beta with beta = C^T v - g + the passive force (joint
-        damping and springs, gravity compensation, fluid: ``mj_passive``'s
-        ``qfrc_passive``), the terms a momentum observer integrates. C^T v is
-        (1/2) d(v^T M v)/dq, read from one pass: for dof i of body b, cdof_dot_i . h_b with
-        h_b the spatial momentum of b's subtree about the tree's origin (``mj_subtreeVel``).
+        dp/dt = tau + tau_ext + beta with beta = C^T v - g + the passive force (joint and
+        tendon damping and springs, gravity compensation, fluid: ``qfrc_passive``), the
+        terms a momentum observer integrates. One state load: ``mj_fwdVelocity`` gives the
+        passive force and the bias C v + g at v, ``mj_rne`` of the gravity-free copy C v
+        alone, and C^T v comes from :meth:`_coriolis_transpose_times_v`.
 
         Returns:
             p (nv,) [N m s], beta (nv,) [N m].
@@ -663,62 +684,57 @@ class MujocoEngine:
             PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
         """
         v = check_joint_vector("velocity", v, self.joint_names)
-        w = self.update(q)
-        m, d = self.model, w.data
-        p, g = np.empty(self.nv), np.empty(self.nv)
-        mujoco.mj_crb(m, d)  # sparse M (armature included), which mj_mulM reads
-        mujoco.mj_mulM(m, d, p, v)
-        mujoco.mj_rne(m, d, 0, g)  # at rest: gravity alone
-        key, w.key, w.moving = w.key, None, True
+        q = pose_key(q, self.joint_names)[0]
+        w = self._work()
+        m, d, n = self.model, w.data, self.nv
+        # The data holds a velocity from here on: no pose key (the next pose query reloads
+        # the kinematics and stops it, see _load).
+        w.key, w.have_M, w.have_J, w.moving = None, False, False, True
+        w.qpos[:] = q
         w.qvel[:] = v
-        # mj_tendon: tendon lengths and moments; mj_fwdVelocity: cvel and cdof_dot, the
-        # tendons' velocities and then mj_passive (springs and damping of joints and
-        # tendons, gravity compensation, fluid forces).
+        _kinematics(m, d)
+        _com_pos(m, d)
+        p, cv = np.empty(n), np.empty(n)
+        mujoco.mj_crb(m, d)  # the sparse M (armature included) that mj_mulM reads
+        mujoco.mj_mulM(m, d, p, v)
+        # Tendon lengths and moments (mj_tendon), then cvel and cdof_dot, the tendons'
+        # velocities, mj_passive and qfrc_bias = C v + g (mj_fwdVelocity).
         mujoco.mj_tendon(m, d)
         mujoco.mj_fwdVelocity(m, d)
-        mujoco.mj_subtreeVel(m, d)
-        beta = self._coriolis_transpose_times_v(d) - g + d.qfrc_passive
-        _stop(m, w)
-        w.key = key
+        mujoco.mj_rne(self._weightless, d, 0, cv)  # C v
+        # C^T v - g = C^T v + C v - (C v + g)
+        beta = self._coriolis_transpose_times_v(d)
+        beta += cv
+        beta -= d.qfrc_bias
+        beta += d.qfrc_passive
         return p, beta
 
+    @functools.cached_property
+    def _subtrees(self) -> Array:
+        """(nv, nbody): 1 where the body is in the subtree of the dof's body."""
+        m = self.model
+        out = np.zeros((self.nv, m.nbody))
+        for i in range(self.nv):
+            top = int(m.dof_bodyid[i])
+            for b in range(1, m.nbody):
+                k = b
+                while k > top:  # a parent's id is below its children's
+                    k = int(m.body_parentid[k])
+                out[i, b] = k == top
+        return out
+
     def _coriolis_transpose_times_v(self, d: mujoco.MjData) -> Array:
-        """C^T v from ``cdof_dot`` and the subtrees' momenta (``mj_subtreeVel`` done).
+        """C^T v at the data's pose and velocity (``mj_comVel`` done).
 
-        Flat gathers with indices made once: at 7 dofs each NumPy call costs more than its
-        arithmetic, and the observer calls this every step.
+        C^T v = (1/2) d(v^T M v)/dq: for dof i, cdof_dot_i . h_i with h_i the spatial
+        momentum of its body's subtree, the sum of cinert_b cvel_b (``mju_mulInertVec``
+        for every body at once, as a (6, 6) matrix per body); all in MuJoCo's com-based
+        frame, where cdof_dot is expressed.
         """
-        try:
-            at, at_y, at_z, root_y, root_z, mass = self._ctv_index
-        except AttributeError:
-            m = self.model
-            body = m.dof_bodyid
-            root = m.body_rootid[body]
-
-            def flat(b: NDArray[np.intp], order: NDArray[np.intp]) -> NDArray[np.intp]:
-                return (3 * b[:, None] + order).ravel()
-
-            xyz = np.arange(3)
-            self._ctv_index = at, at_y, at_z, root_y, root_z, mass = (
-                flat(body, xyz),
-                flat(body, _YZX),
-                flat(body, _ZXY),
-                flat(root, _YZX),
-                flat(root, _ZXY),
-                np.repeat(m.body_subtreemass[body], 3),
-            )
-        com, lin = d.subtree_com.ravel(), d.subtree_linvel.ravel()
-        # Each dof's subtree: linear momentum P, and angular momentum about the tree's origin
-        # (where cdof_dot is expressed): about the subtree's centre of mass plus r x P.
-        # Cross products column by column: (r x P)[x] = r[y] P[z] - r[z] P[y], cyclically.
-        L = d.subtree_angmom.ravel()[at]
-        L += (com[at_y] - com[root_y]) * (lin[at_z] * mass)
-        L -= (com[at_z] - com[root_z]) * (lin[at_y] * mass)
-        cd = d.cdof_dot
-        P = lin[at] * mass
-        return (cd[:, :3] * L.reshape(-1, 3)).sum(axis=1) + (cd[:, 3:] * P.reshape(-1, 3)).sum(
-            axis=1
-        )
+        inert = np.zeros((self.model.nbody, 11))  # cinert and a zero for the matrix's zeros
+        inert[:, :10] = d.cinert
+        h = ((inert[:, _INERT_INDEX] * _INERT_SIGN) @ d.cvel[:, :, None])[:, :, 0]
+        return (d.cdof_dot * (self._subtrees @ h)).sum(axis=1)
 
 
 def damped_stepper(r: int, n: int) -> Callable[[Array, Array, float], Array]:
