@@ -22,6 +22,7 @@ from .analysis.crosscheck import (
     crosscheck,
     crosscheck_batch,
 )
+from .analysis.observer import MomentumObserver
 from .arm import Arm, random_poses
 from .collision import (
     CollisionChecker,
@@ -70,6 +71,7 @@ __all__ = [
     "Manipulability",
     "MissingDependencyError",
     "ModelError",
+    "MomentumObserver",
     "OutOfRangeError",
     "ParameterError",
     "PoseError",

@@ -61,6 +61,7 @@ from ..checks import (
     check_poses,
     check_threads,
     check_tool_pose,
+    check_values,
 )
 from ..collision import DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
@@ -68,6 +69,7 @@ from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
 from ..ik import IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
+from .observer import MomentumObserver
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -781,3 +783,44 @@ def _coriolis_of_states(arm: Arm, QV: Array, engine: EngineName, threads: int) -
     """:func:`coriolis` of a chunk of states laid side by side, (n, 2 nq), on a worker."""
     nq = arm.nq
     return coriolis(arm, QV[:, :nq], QV[:, nq:], engine=engine, threads=threads)
+
+
+def external_torques(
+    arm: Arm, Q: ArrayLike, V: ArrayLike, TAU: ArrayLike, dt: object, gain: object
+) -> Array:
+    """A recorded trajectory through a :class:`~redundancy.MomentumObserver`, step by step.
+
+    Equal to ``obs = MomentumObserver(arm, gain)`` and ``obs.update(Q[k], V[k], TAU[k],
+    dt[k])`` for every k (the same calls: bit-equal).
+
+    Args:
+        arm: The arm.
+        Q: Poses at the steps, shape (n, nq) [rad or m].
+        V: Joint velocities at the steps, shape (n, nq) [rad/s or m/s].
+        TAU: The actuators' torque applied from each step to the next (MuJoCo's
+            ``qfrc_actuator``), shape (n, nq) [N m or N].
+        dt: Time from each step to the next [s], one number or one per step (n,), > 0.
+        gain: The observer's gain K [1/s], a number or one per joint.
+
+    Returns:
+        The estimated external joint torque at each step, shape (n, nq) [N m or N].
+
+    Raises:
+        PoseError: ``Q``, ``V`` or ``TAU`` not finite, or of different shapes.
+        ParameterError: A bad ``dt`` or ``gain``.
+    """
+    arm = check_arm(arm)
+    observer = MomentumObserver(arm, gain)
+    Q = poses(arm, Q)
+    n = len(Q)
+    V = check_joint_vectors("velocities", V, arm.joint_names, n)
+    TAU = check_joint_vectors("torques", TAU, arm.joint_names, n)
+    steps = check_values("dt", dt, 0.0, low_open=True, unit="s")
+    if steps.ndim == 0:
+        steps = np.full(n, float(steps))
+    elif steps.shape != (n,):
+        raise ParameterError("dt", dt, f"a number or one per step, shape ({n},) [s]")
+    out = np.empty((n, arm.nq))
+    for k in range(n):
+        out[k] = observer.update(Q[k], V[k], TAU[k], float(steps[k]))
+    return out

@@ -1,0 +1,109 @@
+"""The momentum observer: the external joint torque on an arm from its joint data alone.
+
+De Luca and Mattone's observer of the generalized momentum p = M(q) v. Along the motion,
+dp/dt = tau + tau_ext + C(q, v)^T v - g(q) + tau_passive, so the residual
+
+    r = K (p(t) - p(0) - integral of (tau + C^T v - g + tau_passive + r) dt)
+
+follows tau_ext as a first-order filter of gain K [1/s]: r(s) = K / (s + K) tau_ext(s). No
+acceleration is measured or differentiated. The model's terms come from MuJoCo
+(:meth:`MujocoEngine.momentum_terms <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`):
+M with armature, C^T v, gravity, and ``qfrc_passive`` (joint damping and springs, gravity
+compensation, fluid forces), so ``tau`` is the actuators' torque alone (MuJoCo's
+``qfrc_actuator``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..arm import Arm, check_arm
+from ..checks import check_joint_vector, check_number, check_values
+from ..errors import ParameterError
+
+Array = NDArray[np.float64]
+
+__all__ = ["MomentumObserver"]
+
+
+def check_gain(gain: object, nq: int) -> Array:
+    """The observer's gain: a number or one per joint, finite and > 0 [1/s], as (nq,).
+
+    Raises:
+        ParameterError: Not finite numbers > 0, or neither one number nor nq of them.
+    """
+    K = check_values("gain", gain, 0.0, low_open=True, unit="1/s")
+    if K.ndim == 0:
+        return np.full(nq, float(K))
+    if K.shape != (nq,):
+        raise ParameterError("gain", gain, f"a number or one per joint, shape ({nq},) [1/s]")
+    return K.copy()
+
+
+class MomentumObserver:
+    """Estimate of the external joint torque from q, v and the actuators' torque.
+
+    One observer follows one trajectory: its state is the momentum at the first update and
+    the running integral. Give each thread or stream its own observer (an arm may be
+    shared). The first :meth:`update` starts the observer and returns zeros.
+
+    Args:
+        arm: The arm.
+        gain: K [1/s], a number or one per joint (> 0): the estimate follows a step of
+            external torque as 1 - exp(-K t).
+
+    Raises:
+        ParameterError: ``arm`` is not an Arm, or a bad gain.
+
+    Example:
+        >>> obs = MomentumObserver(arm, gain=50.0)
+        >>> r = obs.update(q, v, tau, dt)  # each step, after the simulator's or robot's step
+    """
+
+    def __init__(self, arm: Arm, gain: object) -> None:
+        self.arm = check_arm(arm)
+        self.gain: Array = check_gain(gain, arm.nq)
+        self._terms = arm.mujoco.momentum_terms
+        self._names = arm.joint_names
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the trajectory: the next :meth:`update` starts again from zero."""
+        self._p0: Array | None = None
+        self._integral = np.zeros(self.arm.nq)
+        self._r = np.zeros(self.arm.nq)
+
+    @property
+    def residual(self) -> Array:
+        """The last estimate of the external torque [N m or N] (a copy)."""
+        return self._r.copy()
+
+    def update(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, dt: float) -> Array:
+        """Take the state at one step and the torque applied until the next; return r.
+
+        Args:
+            q: Pose at this step [rad or m].
+            v: Joint velocity at this step [rad/s or m/s].
+            tau: The actuators' torque applied from this step to the next (MuJoCo's
+                ``qfrc_actuator``) [N m or N].
+            dt: Time to the next step [s], > 0.
+
+        Returns:
+            The estimated external joint torque at this step, shape (nq,) [N m or N]
+            (torques acting on the arm, as ``J^T F`` for a force F at the tool).
+
+        Raises:
+            PoseError: ``q``, ``v`` or ``tau`` not a finite real (nq,) vector.
+            ParameterError: ``dt`` not a finite number > 0.
+        """
+        tau = check_joint_vector("tau", tau, self._names)
+        if type(dt) is not float or not 0.0 < dt < float("inf"):
+            dt = check_number("dt", dt, 0.0, low_open=True, unit="s")
+        p, beta = self._terms(q, v)
+        if self._p0 is None:
+            self._p0 = p
+        r = self._r
+        np.multiply(self.gain, p - self._p0 - self._integral, out=r)
+        self._integral += (tau + beta + r) * dt
+        return r.copy()
