@@ -1,9 +1,11 @@
-"""The README runs: every ```python block, in order, in one namespace, from the repository
-root; every ``redundancy ...`` command of its ```sh / ```console blocks through the CLI's
-``main()``.
+"""The README and every page of the guide (docs/guide/*.md) run: each document's ```python
+blocks, in order, in one namespace of its own (as one script would: ``__name__`` is
+``"__main__"``), from the repository root; every ``redundancy ...`` command of its ```sh /
+```console blocks through the CLI's ``main()``.
 
-A failure names the block by its line in README.md (the test ids are ``python-L<line>`` and
-``sh-L<line>``), and a traceback inside a block shows README.md's own line numbers.
+A failure names the document and the block's line in it (the test ids are
+``<document>:python-L<line>`` and ``<document>:sh-L<line>``), and a traceback inside a block
+shows the document's own line numbers.
 
 Shell blocks share one environment: ``NAME=$(...)`` lines are run by bash (with this Python's
 ``bin`` first on PATH) and ``$NAME`` is replaced in later commands. In ```console blocks only
@@ -27,22 +29,26 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+GUIDE = ROOT / "docs" / "guide"
+DOCUMENTS = [README, *sorted(GUIDE.glob("*.md"))]
 SHELLS = ("sh", "console", "bash", "shell")
+REPO_URL = "https://github.com/redundancy-robotics/redundancy/blob/main/"
 
 
 @dataclass(frozen=True)
 class Block:
     lang: str
-    line: int  # README line of the block's first code line
+    line: int  # the document's line of the block's first code line
     code: str
+    doc: str = "README.md"  # the document, relative to the repository root
 
     @property
     def id(self) -> str:
         kind = "python" if self.lang == "python" else "sh"
-        return f"{kind}-L{self.line}"
+        return f"{self.doc}:{kind}-L{self.line}"
 
 
-def blocks(text: str) -> list[Block]:
+def blocks(text: str, doc: str = "README.md") -> list[Block]:
     """The fenced code blocks of a Markdown text, with the line each starts on."""
     out, lang, start, body = [], None, 0, []
     for n, line in enumerate(text.splitlines(), start=1):
@@ -50,46 +56,52 @@ def blocks(text: str) -> list[Block]:
         if lang is None and fence:
             lang, start, body = fence.group(1) or "text", n + 1, []
         elif lang is not None and line.startswith("```"):
-            out.append(Block(lang, start, "\n".join(body)))
+            out.append(Block(lang, start, "\n".join(body), doc))
             lang = None
         elif lang is not None:
             body.append(line)
-    assert lang is None, f"README.md: the block opened at line {start - 1} is never closed"
+    assert lang is None, f"{doc}: the block opened at line {start - 1} is never closed"
     return out
 
 
-BLOCKS = blocks(README.read_text())
+def _relative(path: Path) -> str:
+    return path.relative_to(ROOT).as_posix()
+
+
+BLOCKS = [b for path in DOCUMENTS for b in blocks(path.read_text(), _relative(path))]
 PYTHON = [b for b in BLOCKS if b.lang == "python"]
 SHELL = [b for b in BLOCKS if b.lang in SHELLS]
 
 
 @pytest.fixture(scope="module")
-def namespace() -> dict[str, Any]:
-    return {"__name__": "__readme__"}
+def namespaces() -> dict[str, dict[str, Any]]:
+    """One namespace per document, shared by its blocks in order."""
+    return {}
 
 
 @pytest.fixture(scope="module")
-def shell_env() -> dict[str, str]:
+def shell_envs() -> dict[str, dict[str, str]]:
     return {}
 
 
 @pytest.mark.parametrize("block", PYTHON, ids=[b.id for b in PYTHON])
 def test_python_block(
-    block: Block, namespace: dict[str, Any], monkeypatch: pytest.MonkeyPatch
+    block: Block, namespaces: dict[str, dict[str, Any]], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(ROOT)
-    # Padded so that the code's line numbers are README.md's: a traceback points at the line.
-    code = compile("\n" * (block.line - 1) + block.code, str(README), "exec")
+    namespace = namespaces.setdefault(block.doc, {"__name__": "__main__"})
+    # Padded so that the code's line numbers are the document's: a traceback points at the line.
+    code = compile("\n" * (block.line - 1) + block.code, str(ROOT / block.doc), "exec")
     try:
         exec(code, namespace)
     except Exception as err:
         raise AssertionError(
-            f"README.md line {block.line}: the python block fails: {type(err).__name__}: {err}"
+            f"{block.doc} line {block.line}: the python block fails: {type(err).__name__}: {err}"
         ) from err
 
 
 def _commands(block: Block) -> list[tuple[int, str]]:
-    """(README line, command) of each command line, comments and prompts stripped."""
+    """(document line, command) of each command line, comments and prompts stripped."""
     out = []
     for k, raw in enumerate(block.code.splitlines()):
         line = raw.strip()
@@ -110,16 +122,17 @@ def _expand(text: str, env: dict[str, str]) -> str:
 @pytest.mark.parametrize("block", SHELL, ids=[b.id for b in SHELL])
 def test_shell_block(
     block: Block,
-    shell_env: dict[str, str],
+    shell_envs: dict[str, dict[str, str]],
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     from redundancy import cli
 
     monkeypatch.chdir(ROOT)
+    shell_env = shell_envs.setdefault(block.doc, {})
     path = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
     for line_no, line in _commands(block):
-        where = f"README.md line {line_no}: {line}"
+        where = f"{block.doc} line {line_no}: {line}"
         assign = re.match(r"^(\w+)=(\$\(.*\))$", line)
         if assign:
             run = subprocess.run(
@@ -144,26 +157,53 @@ def test_shell_block(
         assert status in (0, 1), f"{where}\nexit status {status}: {err[-2000:]}"
 
 
-def test_no_placeholders_and_the_contents_resolve() -> None:
-    text = README.read_text()
+def _anchor(heading: str) -> str:
+    """GitHub's (and mkdocs'): lower case, punctuation dropped, - for a space."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def _anchors(path: Path) -> set[str]:
+    text = re.sub(r"^```.*?^```", "", path.read_text(), flags=re.M | re.S)  # no code comments
+    return {_anchor(h) for h in re.findall(r"^#{1,4} (.+)$", text, flags=re.M)}
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=[_relative(p) for p in DOCUMENTS])
+def test_no_placeholders_and_every_link_resolves(path: Path) -> None:
+    text = path.read_text()
     for placeholder in ("my_arm.xml", "robot.urdf", "robot.srdf", "vendor_arm.xml"):
         assert not re.search(rf"(?<![\w.]){re.escape(placeholder)}", text), placeholder
+    broken = []
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if target.startswith(REPO_URL):  # a file of this repository, as GitHub shows it
+            file, anchor = ROOT / target.removeprefix(REPO_URL), ""
+        elif re.match(r"^\w+:", target):
+            continue  # another site
+        else:
+            name, _, anchor = target.partition("#")
+            file = (path.parent / name).resolve() if name else path
+        if not file.exists() or (anchor and anchor not in _anchors(file)):
+            broken.append(target)
+    assert broken == [], f"{_relative(path)}: links to nothing"
 
-    def anchor(heading: str) -> str:  # GitHub's: lower case, punctuation dropped, - for space
-        return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
 
-    headings = {anchor(h) for h in re.findall(r"^#{2,3} (.+)$", text, flags=re.M)}
-    contents = text.split("## Contents", 1)[1].split("\n## ", 1)[0]
-    links = re.findall(r"\]\(#([^)]+)\)", contents)
-    assert len(links) >= 15
-    assert [a for a in links if a not in headings] == []
-    top = [anchor(h) for h in re.findall(r"^## (.+)$", text, flags=re.M)]
-    assert [a for a in top if a not in links and a != "contents"] == []
+def test_the_readme_is_short_and_links_every_guide_page() -> None:
+    text = README.read_text()
+    assert len(text.splitlines()) <= 250
+    assert "make audit" in text and "make test" in text
+    linked = set(re.findall(r"\]\(docs/guide/([\w-]+\.md)\)", text))
+    pages = {p.name for p in GUIDE.glob("*.md")} - {"index.md"}
+    assert pages - linked == set()
+    nav = (ROOT / "mkdocs.yml").read_text()
+    assert [p for p in sorted(pages | {"index.md"}) if f"guide/{p}" not in nav] == []
 
 
 def test_blocks_parser_gives_readme_line_numbers() -> None:
-    found = blocks("intro\n```python\nx = 1\ny = 2\n```\n\n```sh\nredundancy audit\n```\n")
-    assert found == [Block("python", 3, "x = 1\ny = 2"), Block("sh", 8, "redundancy audit")]
+    found = blocks("intro\n```python\nx = 1\ny = 2\n```\n\n```sh\nredundancy audit\n```\n", "a.md")
+    assert found == [
+        Block("python", 3, "x = 1\ny = 2", "a.md"),
+        Block("sh", 8, "redundancy audit", "a.md"),
+    ]
+    assert found[0].id == "a.md:python-L3"
     assert _commands(Block("console", 10, "$ redundancy audit\noutput\n$ make test")) == [
         (10, "redundancy audit"),
         (12, "make test"),

@@ -123,7 +123,7 @@ def example_robot_data(path: str) -> Path:
     try:
         files = importlib.metadata.files("example-robot-data") or []
     except importlib.metadata.PackageNotFoundError as err:
-        raise MissingDependencyError("example_robot_data", "test") from err
+        raise MissingDependencyError("example_robot_data", "examples") from err
     urdfs = []
     for f in files:
         text = str(f).replace("\\", "/")
