@@ -178,9 +178,16 @@ def test_observer_input_is_checked(arm7: rd.Arm) -> None:
     with pytest.raises(rd.ParameterError, match="arm must be an Arm"):
         rd.MomentumObserver("arm7.xml", 1.0)  # type: ignore[arg-type]
     observer = rd.MomentumObserver(arm7, 10.0)
-    with pytest.raises(rd.ParameterError, match=r"^dt must be a finite number > 0 \[s\], got 0.0$"):
+    bound = "a finite number (or array of them) in (0, 0.2) [s, below 2 / gain, where the observer diverges]"
+    with pytest.raises(rd.ParameterError, match=f"^dt must be {re.escape(bound)}, got 0.0$"):
         observer.update(q, q, q, 0.0)
-    with pytest.raises(rd.ParameterError, match="dt must be a finite number > 0"):
+    with pytest.raises(rd.ParameterError, match=f"^dt must be {re.escape(bound)}, got 0.2$"):
+        observer.update(q, q, q, 0.2)
+    with pytest.raises(
+        rd.ParameterError, match=r"^dt must be one number \[s\], got \[0.01, 0.01\]$"
+    ):
+        observer.update(q, q, q, [0.01, 0.01])
+    with pytest.raises(rd.ParameterError, match="dt must be a finite number"):
         observer.update(q, q, q, float("nan"))
     with pytest.raises(rd.PoseError, match=re.escape("tau must have shape (7,) for joints")):
         observer.update(q, q, np.zeros(3), 0.01)

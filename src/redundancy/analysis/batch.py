@@ -61,7 +61,6 @@ from ..checks import (
     check_poses,
     check_threads,
     check_tool_pose,
-    check_values,
 )
 from ..collision import DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
@@ -69,7 +68,7 @@ from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
 from ..ik import IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
-from .observer import MomentumObserver
+from .observer import MomentumObserver, check_dt
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -799,7 +798,8 @@ def external_torques(
         V: Joint velocities at the steps, shape (n, nq) [rad/s or m/s].
         TAU: The actuators' torque applied from each step to the next (MuJoCo's
             ``qfrc_actuator``), shape (n, nq) [N m or N].
-        dt: Time from each step to the next [s], one number or one per step (n,), > 0.
+        dt: Time from each step to the next [s], one number or one per step (n,), in
+            (0, 2 / gain).
         gain: The observer's gain K [1/s], a number or one per joint.
 
     Returns:
@@ -815,7 +815,7 @@ def external_torques(
     n = len(Q)
     V = check_joint_vectors("velocities", V, arm.joint_names, n)
     TAU = check_joint_vectors("torques", TAU, arm.joint_names, n)
-    steps = check_values("dt", dt, 0.0, low_open=True, unit="s")
+    steps = check_dt(dt, observer.max_dt)
     if steps.ndim == 0:
         steps = np.full(n, float(steps))
     elif steps.shape != (n,):

@@ -297,7 +297,7 @@ CHUNK = 2048
 
 
 def crosscheck_velocities(Q: Array, seed: int) -> Array:
-    """The joint velocities the cross-check pairs with poses ``Q`` (n, nq), in [-1, 1] [rad/s].
+    """The joint velocities the cross-check pairs with poses ``Q`` (n, nq), each in -1..1 rad/s.
 
     Drawn from ``seed`` as a function of each pose, v = sin(q A + b) with A and b drawn
     from the seed: the same pose gets the same velocity in any chunk, thread or worker, so

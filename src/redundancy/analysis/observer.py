@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm, check_arm
-from ..checks import check_joint_vector, check_number, check_values
+from ..checks import check_joint_vector, check_values
 from ..errors import ParameterError
 
 Array = NDArray[np.float64]
@@ -39,6 +39,18 @@ def check_gain(gain: object, nq: int) -> Array:
     if K.shape != (nq,):
         raise ParameterError("gain", gain, f"a number or one per joint, shape ({nq},) [1/s]")
     return K.copy()
+
+
+def check_dt(dt: object, max_dt: float) -> Array:
+    """Steps of the observer: a number or an array of them, each in (0, max_dt) [s].
+
+    Raises:
+        ParameterError: Not finite numbers in that range (the message says why the bound).
+    """
+    return check_values("dt", dt, 0.0, max_dt, low_open=True, high_open=True, unit=_DT_UNIT)
+
+
+_DT_UNIT = "s, below 2 / gain, where the observer diverges"
 
 
 class MomentumObserver:
@@ -64,6 +76,9 @@ class MomentumObserver:
     def __init__(self, arm: Arm, gain: object) -> None:
         self.arm = check_arm(arm)
         self.gain: Array = check_gain(gain, arm.nq)
+        #: The longest step [s]: the observer integrates r' = K (tau_ext - r) by forward
+        #: Euler, r <- (1 - K dt) r + K dt tau_ext, which diverges at K dt >= 2.
+        self.max_dt: float = 2.0 / float(np.max(self.gain))
         self._terms = arm.mujoco.momentum_terms
         self._names = arm.joint_names
         self.reset()
@@ -87,7 +102,8 @@ class MomentumObserver:
             v: Joint velocity at this step [rad/s or m/s].
             tau: The actuators' torque applied from this step to the next (MuJoCo's
                 ``qfrc_actuator``) [N m or N].
-            dt: Time to the next step [s], > 0.
+            dt: Time to the next step [s], in (0, :attr:`max_dt`): 2 / gain, beyond which
+                the observer's filter diverges.
 
         Returns:
             The estimated external joint torque at this step, shape (nq,) [N m or N]
@@ -95,11 +111,14 @@ class MomentumObserver:
 
         Raises:
             PoseError: ``q``, ``v`` or ``tau`` not a finite real (nq,) vector.
-            ParameterError: ``dt`` not a finite number > 0.
+            ParameterError: ``dt`` not a finite number in (0, 2 / gain).
         """
         tau = check_joint_vector("tau", tau, self._names)
-        if type(dt) is not float or not 0.0 < dt < float("inf"):
-            dt = check_number("dt", dt, 0.0, low_open=True, unit="s")
+        if type(dt) is not float or not 0.0 < dt < self.max_dt:
+            step = check_dt(dt, self.max_dt)
+            if step.ndim:
+                raise ParameterError("dt", dt, "one number [s]")
+            dt = float(step)
         p, beta = self._terms(q, v)
         if self._p0 is None:
             self._p0 = p

@@ -571,12 +571,13 @@ class MujocoEngine:
         The bias C(q, u) u of ``mj_rne`` (flg_acc = 0, no gravity) is exactly quadratic
         in u, and the Christoffel symbols of the first kind are symmetric in their last two
         indices, so column j of the Christoffel-form C(q, u) is the bilinear form B(e_j, u):
-        (h(u + e_j) - h(u - e_j)) / 4. No finite-difference error; u = v / |v| keeps every
-        bias near the size of C (no underflow or overflow), and C(q, v) = |v| C(q, u). The
+        (h(u + e_j) - h(u - e_j)) / 4. No finite-difference error; u = v / s with s = max |v_i|
+        keeps every bias near the size of C (no underflow or overflow), and C(q, v) =
+        s C(q, u). The
         data is left moving (``w.moving``); the caller stops it or lets the next load do it.
         """
         m, d, qvel, n = self._weightless, w.data, w.qvel, self.nv
-        s = float(np.sqrt(v @ v))
+        s = float(np.max(np.abs(v)))  # not |v|, whose square may overflow
         if s == 0.0:
             C[:] = 0.0
             return
