@@ -406,3 +406,29 @@ def test_com_queries_check_the_pose(arm7: rd.Arm) -> None:
                 method(np.zeros(3), engine=engine)
             with pytest.raises(rd.PoseError, match="pose has non-finite values: j2=nan"):
                 method(np.array([0, np.nan, 0, 0, 0, 0, 0.0]), engine=engine)
+
+
+def test_observer_terms_are_the_whole_robots(arms: dict, held_arms: dict, small: dict) -> None:
+    """p = M v and beta = C^T v - g + passive against the whole robot: M, C by polarization
+    of its bias, gravity, and qfrc_passive from mj_forward (held joints still)."""
+    for arm in all_arms(arms, held_arms, small):
+        for q, v in drawn(arm, 2, seed=17):
+            w = Whole(arm, q, v)
+            m, d, dofs = w.m, w.d, w.dofs
+            C = np.empty((len(dofs), len(dofs)))
+            for col, j in enumerate(dofs):
+                e = np.zeros(m.nv)
+                e[j] = 1.0
+                C[:, col] = ((w.bias(w.v + e) - w.bias(w.v - e)) / 4.0)[dofs]
+            g = w.bias(0 * w.v)[dofs]
+            d.qvel[:] = w.v
+            mujoco.mj_forward(m, d)
+            M = np.zeros((m.nv, m.nv))
+            mujoco.mj_fullM(m, d, M)
+            truth = C.T @ v - g + d.qfrc_passive[dofs]
+            p, beta = arm.mujoco.momentum_terms(q, v)
+            assert rel(p, M[np.ix_(dofs, dofs)] @ v) < 1e-12, arm
+            assert rel(beta, truth) < 1e-9, (arm, rel(beta, truth))
+            # C^T v itself against Pinocchio's C (no springs or gravity compensation here)
+            C_pin = arm.coriolis(q, v, engine="pinocchio")
+            assert rel(C.T @ v, C_pin.T @ v) < 1e-9
