@@ -356,7 +356,9 @@ def _engines(
         parts = crosscheck_batch(arm, Q, quantities=batched).agreements
         if offset < CROSSCHECK_POSES:
             head = Q[: CROSSCHECK_POSES - offset]
-            parts += crosscheck_batch(arm, head, quantities=rest).agreements
+            # The Coriolis row's velocities are drawn from the audit's seed too.
+            velocity_seed = 0 if seed is None else seed
+            parts += crosscheck_batch(arm, head, quantities=rest, seed=velocity_seed).agreements
             second += len(head)
         for a in parts:
             merged[a.quantity] = _worse(merged.get(a.quantity), a, offset)
