@@ -482,7 +482,7 @@ def _motion_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
         ),
         "batch.external_torques": (
             batch.external_torques,
-            {**states, "TAU": QS, "dt": 0.01, "gain": 10.0},
+            {**states, "TAU": QS, "dt": 0.01, "gain": 10.0, "executor": None},
         ),
         "rd.MomentumObserver": (rd.MomentumObserver, {"arm": a, "gain": 10.0}),
         "MomentumObserver.update": (

@@ -8,6 +8,7 @@ torque (``qfrc_actuator``) and must report J^T F.
 from __future__ import annotations
 
 import re
+from concurrent.futures import ThreadPoolExecutor
 
 import mujoco
 import numpy as np
@@ -144,6 +145,11 @@ def test_batch_external_torques_equal_stepping_the_observer(arms: dict) -> None:
     assert np.array_equal(
         batch.external_torques(arm, run["q"], run["v"], run["tau"], 0.002, 30.0), out
     )
+    with ThreadPoolExecutor(2) as pool:
+        chunks = batch.external_torques(
+            arm, run["q"], run["v"], run["tau"], 0.002, 30.0, executor=pool
+        )
+    assert np.array_equal(chunks, out)
     observer = rd.MomentumObserver(arm, 30.0)
     for q, v, tau in zip(run["q"][:5], run["v"][:5], run["tau"][:5], strict=True):
         observer.update(q, v, tau, 0.002)

@@ -785,12 +785,21 @@ def _coriolis_of_states(arm: Arm, QV: Array, engine: EngineName, threads: int) -
 
 
 def external_torques(
-    arm: Arm, Q: ArrayLike, V: ArrayLike, TAU: ArrayLike, dt: object, gain: object
+    arm: Arm,
+    Q: ArrayLike,
+    V: ArrayLike,
+    TAU: ArrayLike,
+    dt: object,
+    gain: object,
+    *,
+    executor: Executor | None = None,
 ) -> Array:
     """A recorded trajectory through a :class:`~redundancy.MomentumObserver`, step by step.
 
     Equal to ``obs = MomentumObserver(arm, gain)`` and ``obs.update(Q[k], V[k], TAU[k],
-    dt[k])`` for every k (the same calls: bit-equal).
+    dt[k])`` for every k, bit for bit: the model's terms of every step (M v, C^T v - g and
+    the passive force) are the same engine calls, here or on an executor's workers, and the
+    observer then advances through them in order.
 
     Args:
         arm: The arm.
@@ -801,6 +810,8 @@ def external_torques(
         dt: Time from each step to the next [s], one number or one per step (n,), in
             (0, 2 / gain).
         gain: The observer's gain K [1/s], a number or one per joint.
+        executor: Compute the model's terms on this :class:`concurrent.futures.Executor`
+            in chunks of steps (see :func:`jacobians`); None: here.
 
     Returns:
         The estimated external joint torque at each step, shape (n, nq) [N m or N].
@@ -820,7 +831,30 @@ def external_torques(
         steps = np.full(n, float(steps))
     elif steps.shape != (n,):
         raise ParameterError("dt", dt, f"a number or one per step, shape ({n},) [s]")
-    out = np.empty((n, arm.nq))
+    nq = arm.nq
+    if executor is not None:
+        _check_executor(executor, _momentum_terms_of_states, {})
+        parts = _map_chunks(executor, _momentum_terms_of_states, arm, np.hstack((Q, V)), None, {})
+        terms = np.concatenate([r for _, r in parts]) if parts else np.empty((0, 2 * nq))
+    else:
+        terms = _momentum_terms_of_states(arm, np.hstack((Q, V)))
+    out = np.empty((n, nq))
     for k in range(n):
-        out[k] = observer.update(Q[k], V[k], TAU[k], float(steps[k]))
+        out[k] = observer.advance(terms[k, :nq], terms[k, nq:], TAU[k], float(steps[k]))
+    return out
+
+
+def _momentum_terms_of_states(arm: Arm, QV: Array) -> Array:
+    """The observer's terms of states laid side by side, (n, 2 nq) -> (n, 2 nq).
+
+    Each row [q, v] gives [p, beta] (:meth:`MujocoEngine.momentum_terms
+    <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`).
+    """
+    nq = arm.nq
+    out = np.empty((len(QV), 2 * nq))
+    terms = arm.mujoco.momentum_terms
+    for row, qv in zip(out, QV, strict=True):
+        p, beta = terms(qv[:nq], qv[nq:])
+        row[:nq] = p
+        row[nq:] = beta
     return out

@@ -120,6 +120,22 @@ class MomentumObserver:
                 raise ParameterError("dt", dt, "one number [s]")
             dt = float(step)
         p, beta = self._terms(q, v)
+        return self.advance(p, beta, tau, dt)
+
+    def advance(self, p: Array, beta: Array, tau: Array, dt: float) -> Array:
+        """:meth:`update` from the model's terms at the step, unchecked.
+
+        For a recorded trajectory whose terms were computed apart (on workers, see
+        :func:`redundancy.batch.external_torques`): the same arithmetic as :meth:`update`.
+
+        Args:
+            p: The momentum M v at the step (nq,) [N m s].
+            beta: C^T v - g + the passive force at the step (nq,) [N m]
+                (:meth:`MujocoEngine.momentum_terms
+                <redundancy.engines.mujoco.MujocoEngine.momentum_terms>` gives both).
+            tau: The actuators' torque (nq,) [N m], finite float64.
+            dt: Time to the next step [s], a float in (0, :attr:`max_dt`).
+        """
         if self._p0 is None:
             self._p0 = p
         r = self._r
