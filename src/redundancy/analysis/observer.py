@@ -10,7 +10,13 @@ acceleration is measured or differentiated. The model's terms come from MuJoCo
 (:meth:`MujocoEngine.momentum_terms <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`):
 M with armature, C^T v, gravity, and ``qfrc_passive`` (joint damping and springs, gravity
 compensation, fluid forces), so ``tau`` is the actuators' torque alone (MuJoCo's
-``qfrc_actuator``).
+``qfrc_actuator``). What the model's smooth dynamics leave out shows in r as external:
+contacts, joint-limit and friction-loss constraints, and any difference between the arm's
+model and the robot (a changed armature, a payload).
+
+The integral is a sum of rectangles, one per step, as MuJoCo's Euler step integrates: in
+simulation the estimate differs from the true torque's first-order filter by the
+discretization (0.3 % of the torque at dt = 2 ms in the tests, four times less at dt / 4).
 """
 
 from __future__ import annotations
@@ -69,8 +75,12 @@ class MomentumObserver:
         ParameterError: ``arm`` is not an Arm, or a bad gain.
 
     Example:
-        >>> obs = MomentumObserver(arm, gain=50.0)
-        >>> r = obs.update(q, v, tau, dt)  # each step, after the simulator's or robot's step
+        Each step of a MuJoCo simulation (the guide's Motion and momentum page runs one)::
+
+            obs = MomentumObserver(arm, gain=50.0)
+            q, v = d.qpos.copy(), d.qvel.copy()  # the state the step starts from
+            mujoco.mj_step(m, d)
+            r = obs.update(q, v, d.qfrc_actuator, m.opt.timestep)
     """
 
     def __init__(self, arm: Arm, gain: object) -> None:
