@@ -426,6 +426,72 @@ def controller_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
     ]
 
 
+def motion_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
+    """The Coriolis matrix and the momentum observer against their targets.
+
+    arm.coriolis against the bare MuJoCo calls it needs, batch.coriolis against a loop of
+    arm.coriolis, and the time of one MomentumObserver update.
+    """
+    m, d = arm.mj_model, mujoco.MjData(arm.mj_model)
+    n = arm.nq
+    qs = random_poses(arm, calls, seed=7)
+    vs = np.random.default_rng(7).uniform(-1.0, 1.0, qs.shape)
+    taus = np.random.default_rng(8).uniform(-1.0, 1.0, qs.shape)
+    H = np.empty((2, n, n))
+    qpos, qvel = d.qpos, d.qvel
+    kin, com, vel, rne = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_comVel, mujoco.mj_rne
+
+    def bare_coriolis() -> None:
+        # The calls C needs: one kinematics pass, then 2 n biases at v +- e_j.
+        for q, v in zip(qs, vs, strict=True):
+            qpos[:] = q
+            kin(m, d)
+            com(m, d)
+            for j in range(n):
+                qvel[:] = v
+                qvel[j] += 1.0
+                vel(m, d)
+                rne(m, d, 0, H[0, j])
+                qvel[j] -= 2.0
+                vel(m, d)
+                rne(m, d, 0, H[1, j])
+
+    def lib_coriolis() -> None:
+        for q, v in zip(qs, vs, strict=True):
+            arm.coriolis(q, v)
+
+    observer = rd.MomentumObserver(arm, 50.0)
+
+    def lib_observer() -> None:
+        observer.reset()
+        for q, v, tau in zip(qs, vs, taus, strict=True):
+            observer.update(q, v, tau, 1e-3)
+
+    cases = {
+        "bare C": bare_coriolis,
+        "arm.coriolis": lib_coriolis,
+        "batch.coriolis": lambda: batch.coriolis(arm, qs, vs),
+        "observer": lib_observer,
+    }
+    t = rounds(cases, repeats)
+
+    def us(k: str) -> float:
+        return 1e6 * statistics.median(t[k]) / calls
+
+    rc = ratio(t, "arm.coriolis", "bare C")
+    rb = ratio(t, "batch.coriolis", "arm.coriolis")
+    return [
+        f"Motion ({calls} states): the Coriolis matrix and the momentum observer",
+        f"  arm.coriolis {us('arm.coriolis'):.1f} us, bare mj_kinematics + mj_comPos + "
+        f"{2 * n} x (mj_comVel + mj_rne) {us('bare C'):.1f} us: ratio {rc:.2f} (target 2.00) "
+        f"{'ok' if rc <= 2 else 'OVER'}",
+        f"  batch.coriolis {us('batch.coriolis'):.1f} us per state against a loop of "
+        f"arm.coriolis: ratio {rb:.2f} (target 1.00) {'ok' if rb <= 1 else 'OVER'}",
+        f"  MomentumObserver.update {us('observer'):.1f} us per step (target 30) "
+        f"{'ok' if us('observer') <= 30 else 'OVER'}",
+    ]
+
+
 def rtb_section(calls: int, repeats: int) -> list[str]:
     """arm.manipulability on the panda against Robotics Toolbox's on its Panda, one process."""
     try:
@@ -610,6 +676,7 @@ def main(argv: list[str] | None = None) -> int:
     for section in (batched_section, crosscheck_section, gram_section):
         print("\n".join(section(arm, Q, args.repeats)) + "\n", flush=True)
     print("\n".join(controller_section(arm, args.calls, args.repeats)) + "\n", flush=True)
+    print("\n".join(motion_section(arm, args.calls, args.repeats)) + "\n", flush=True)
     print("\n".join(rtb_section(args.calls, args.repeats)) + "\n", flush=True)
     print("\n".join(robot_section(args.repeats)), flush=True)
     # Inverse kinematics against its peers and the effective mass (scripts/bench_ik.py).

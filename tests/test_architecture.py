@@ -43,6 +43,11 @@ MUJOCO_COMPUTE = {
     "mj_factorM",
     "mj_energyPos",
     "mj_rnePostConstraint",
+    "mj_jacSubtreeCom",
+    "mj_angmomMat",
+    "mj_subtreeVel",
+    "mj_tendon",
+    "mj_passive",
 }
 
 #: Pinocchio functions that compute kinematics or dynamics.
@@ -72,6 +77,8 @@ PINOCCHIO_COMPUTE = {
     "computeDistance",
     "computeCollisions",
     "updateGeometryPlacements",
+    "computeCoriolisMatrix",
+    "computeCentroidalMap",
 }
 
 #: Modules (relative to src/redundancy) allowed to make such calls, and why.

@@ -28,7 +28,10 @@ LARGEST: dict[tuple[str, str], float] = {}
 FINDINGS: dict[str, list[str]] = {}
 #: The bridges each model needs, and only those.
 EXPECTED_BRIDGES = {
-    "fr3": set(),  # actuatorfrcrange is read by Pinocchio; meshes do not feed the inertia
+    # actuatorfrcrange is read by Pinocchio; meshes do not feed the inertia. Pinocchio's parser
+    # gives fr3_link0 (no inertial, mass-0 geoms: massless in MuJoCo) 1 kg and a unit inertia,
+    # welded to the world: only the whole robot's centre of mass reads it ("world mass").
+    "fr3": {"world mass"},
     "ur5e": {"root pose", "effort limit"},  # posed base; forcerange x gear
     "iiwa14": set(),
 }

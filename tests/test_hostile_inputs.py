@@ -233,7 +233,7 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
         "rd.compare_models": (rd.compare_models, {"arm": a, "q": Q0, "tol": 1e-9}),
         "rd.crosscheck": (
             rd.crosscheck,
-            {"arm": a, "poses": QS, "quantities": None, "tolerances": None},
+            {"arm": a, "poses": QS, "quantities": None, "tolerances": None, "seed": 0},
         ),
         "rd.crosscheck_batch": (
             rd.crosscheck_batch,
@@ -244,6 +244,7 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
                 "tolerances": None,
                 "threads": 1,
                 "chunk": 2048,
+                "seed": 0,
             },
         ),
         "rd.load": (
@@ -385,6 +386,8 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
         ),
         # inverse kinematics and the mass a contact feels
         **_contact_cases(),
+        # motion: the Coriolis matrix, the centre of mass and momentum, the observer
+        **_motion_cases(),
         # the executor plumbing of the batch functions
         "batch.map_chunks": (
             batch.map_chunks,
@@ -463,6 +466,32 @@ def _contact_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
             {"J": J7, "kind": "scaled", "length": 1.0},
         ),
         "linalg.mobility": (linalg.mobility, {"J": J7, "X": X7}),
+    }
+
+
+def _motion_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
+    """The Coriolis matrix, the whole robot's centre of mass and momentum, the observer."""
+    a, v, e = ARM, np.array([0.2, -0.1, 0.3]), {"engine": "mujoco"}
+    states = {"arm": a, "Q": QS, "V": QS}
+    return {
+        "Arm.coriolis": (a.coriolis, {"q": Q0, "v": v, **e}),
+        "Arm.mass_matrix_derivative": (a.mass_matrix_derivative, {"q": Q0, "v": v, **e}),
+        "Arm.com": (a.com, {"q": Q0, **e}),
+        "Arm.com_jacobian": (a.com_jacobian, {"q": Q0, **e}),
+        "Arm.centroidal_momentum_matrix": (a.centroidal_momentum_matrix, {"q": Q0, **e}),
+        "batch.coriolis": (
+            batch.coriolis,
+            {**states, **e, "threads": 1, "executor": None},
+        ),
+        "batch.external_torques": (
+            batch.external_torques,
+            {**states, "TAU": QS, "dt": 0.01, "gain": 10.0, "executor": None},
+        ),
+        "rd.MomentumObserver": (rd.MomentumObserver, {"arm": a, "gain": 10.0}),
+        "MomentumObserver.update": (
+            rd.MomentumObserver(a, 10.0).update,
+            {"q": Q0, "v": v, "tau": v, "dt": 0.01},
+        ),
     }
 
 

@@ -30,6 +30,8 @@ import pytest
 import redundancy as rd
 from redundancy import collision
 from redundancy.lab.sim import (
+    OBSERVER_GAIN,
+    PUSH_MAX,
     SIGMA_WINDOW,
     SPEED_WINDOW,
     LabSim,
@@ -689,7 +691,7 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
         assert b.slider_value("j4 (rad)") == 1.6
         b.wait_readout("browsers", lambda s: s == "1", what="one browser")
         titles = set(b.plots())
-        assert len(titles) == 3
+        assert len(titles) == 4
 
         # The velocity ellipsoid at home: semi-axes = singular values of J's position block.
         sv = np.linalg.svd(arm7.jacobian(sim.home)[:3], compute_uv=False)
@@ -748,8 +750,25 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
         )
         assert set(text.split(", ")) == SEVEN_PAIRS
 
+        lap("push")
+        # 4. A push at the tool: the momentum observer's estimate reaches the push's torque.
+        b.click(L.RESET_LABEL)
+        b.wait_readout("contacts", lambda s: s == "none", what="no contacts at home")
+        b.set_slider(L.PUSH_LABELS[0], 20.0)
+        wait_for("the push", lambda: sim.push[0] == 20.0)
+
+        def estimate_reached() -> bool:
+            p = next(p for t, p in b.plots().items() if "external" in t)
+            true = np.linalg.norm(arm7.jacobian(sim.data.qpos)[:3].T @ sim.push)
+            return len(p["y"]) > 0 and abs(p["y"][-1] - true) < 0.05 * true
+
+        wait_for("the estimate of the push", estimate_reached)
+        check_plots(b, titles, "the push")
+        b.set_slider(L.PUSH_LABELS[0], 0.0)
+        wait_for("no push", lambda: not sim.push.any())
+
         lap("buzz")
-        # 4. Armature 0 and a nudge: j7 buzzes near 15 rad/s, held by its 10 N m limit.
+        # 5. Armature 0 and a nudge: j7 buzzes near 15 rad/s, held by its 10 N m limit.
         b.click(L.RESET_LABEL)
         b.wait_readout("contacts", lambda s: s == "none", what="no contacts at home")
         b.select(L.ARMATURE_LABEL, L.ARMATURE_ZERO)
@@ -965,3 +984,30 @@ def test_the_effective_mass_readout_follows_the_tools_motion(arm7: rd.Arm) -> No
     assert bare.contact_mass == pytest.approx(
         arm7.effective_mass(bare.q, v, armature=False), rel=1e-12
     )
+
+
+def test_a_push_at_the_tool_is_estimated_by_the_momentum_observer(arm7: rd.Arm) -> None:
+    """Held at home, pushed at the tool: the observer's |r| reaches |J^T F| (5/K = 0.25 s:
+    within the filter's e^-5 = 0.7 % and the discretization), and returns to 0 when let go."""
+    sim = LabSim(arm7)
+    sim.step(100)
+    _, (_, est), (_, true) = sim.external_torque_history()
+    assert np.max(est) < 1e-9 and not np.any(true)  # at rest, nothing pushes
+    sim.set_push([20.0, 0.0, -10.0])
+    sim.step(round(5.0 / OBSERVER_GAIN / sim.timestep))
+    _, (_, est), (_, true) = sim.external_torque_history()
+    F = np.array([20.0, 0.0, -10.0])
+    assert true[-1] == pytest.approx(
+        np.linalg.norm(arm7.jacobian(sim.data.qpos)[:3].T @ F), rel=2e-3
+    )
+    assert abs(est[-1] - true[-1]) < 0.02 * true[-1]
+    sim.set_push([0.0, 0.0, 0.0])
+    sim.step(1000)
+    _, (_, est), (_, true) = sim.external_torque_history()
+    assert true[-1] == 0.0 and est[-1] < 0.01 * np.max(est)
+    sim.set_push([100.0, 0.0, 0.0])  # clipped to PUSH_MAX
+    assert sim.push[0] == PUSH_MAX
+    sim.reset_all()
+    assert not sim.push.any()
+    with pytest.raises(rd.RedundancyError, match="push must be three finite numbers"):
+        sim.set_push([1.0, np.nan, 0.0])

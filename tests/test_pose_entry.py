@@ -35,6 +35,10 @@ def _single_pose_calls(engine: Engine) -> dict[str, Callable[[object], object]]:
         "joint_axes": engine.joint_axes,
         "integrate": lambda q: engine.integrate(q, np.zeros(NQ)),
         "integrate (dq)": lambda q: engine.integrate(np.zeros(NQ), q),
+        "coriolis": lambda q: engine.coriolis(q, np.ones(NQ)),
+        "com": engine.com,
+        "com_jacobian": engine.com_jacobian,
+        "centroidal_momentum_matrix": engine.centroidal_momentum_matrix,
     }
 
 

@@ -22,6 +22,7 @@ from .analysis.crosscheck import (
     crosscheck,
     crosscheck_batch,
 )
+from .analysis.observer import MomentumObserver
 from .arm import Arm, random_poses
 from .collision import (
     CollisionChecker,
@@ -72,6 +73,7 @@ __all__ = [
     "MissingDependencyError",
     "MissingInertiaError",
     "ModelError",
+    "MomentumObserver",
     "OutOfRangeError",
     "ParameterError",
     "PoseError",

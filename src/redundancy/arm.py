@@ -420,6 +420,58 @@ class Arm:
         """Damping b per joint: dof damping plus gear^2 x actuator damping [N m s/rad]."""
         return self.engine(engine).damping
 
+    # -- motion: the Coriolis matrix, the centre of mass and momentum ---------------------
+    def coriolis(self, q: ArrayLike, v: ArrayLike, *, engine: EngineName = "mujoco") -> Array:
+        """Coriolis matrix C(q, v) in the Christoffel form, shape (nq, nq) [N m s/rad].
+
+        ``C @ v`` is the velocity-dependent joint torque (the bias force minus gravity) and
+        dM/dt = C + C^T, so dM/dt - 2 C is skew-symmetric. Held joints have zero velocity.
+        MuJoCo: from ``mj_rne``'s bias, exactly quadratic in v (2 nq evaluations, no
+        finite-difference error); Pinocchio: ``computeCoriolisMatrix``.
+
+        Args:
+            q: Pose [rad or m].
+            v: Joint velocity [rad/s or m/s], shape (nq,).
+            engine: ``"mujoco"`` or ``"pinocchio"``.
+
+        Raises:
+            PoseError: ``q`` or ``v`` not a finite real vector of shape (nq,).
+        """
+        return self.engine(engine).coriolis(q, v)
+
+    def mass_matrix_derivative(
+        self, q: ArrayLike, v: ArrayLike, *, engine: EngineName = "mujoco"
+    ) -> Array:
+        """dM/dt along the joint velocity ``v``, shape (nq, nq) [kg m^2/s]: C + C^T.
+
+        Arguments as :meth:`coriolis`. Armature is constant: it does not appear.
+        """
+        C = self.engine(engine).coriolis(q, v)
+        return C + C.T
+
+    def com(self, q: ArrayLike, *, engine: EngineName = "mujoco") -> Array:
+        """The whole robot's centre of mass, world frame, shape (3,) [m].
+
+        Every body of the file with mass: the arm's, the held ones at rest, and those
+        welded to the world (a fixed base link, which Pinocchio's ``centerOfMass`` leaves
+        out and the engine adds back).
+        """
+        return self.engine(engine).com(q)
+
+    def com_jacobian(self, q: ArrayLike, *, engine: EngineName = "mujoco") -> Array:
+        """Jacobian of :meth:`com` for the arm's joints, shape (3, nq) [m/rad or m/m]."""
+        return self.engine(engine).com_jacobian(q)
+
+    def centroidal_momentum_matrix(self, q: ArrayLike, *, engine: EngineName = "mujoco") -> Array:
+        """The whole robot's momentum per unit joint velocity, shape (6, nq), world axes.
+
+        Rows 0-2: linear momentum [kg m/s per rad/s]; rows 3-5: angular momentum about
+        the whole robot's centre of mass (:meth:`com`) [kg m^2/s per rad/s]. Times a joint
+        velocity it is the robot's momentum; bodies that do not move contribute their mass
+        to the centre of mass only.
+        """
+        return self.engine(engine).centroidal_momentum_matrix(q)
+
     # -- the mass a contact at the tool feels ------------------------------------------------
     def _mobility(
         self, q: ArrayLike, armature: bool, joints: object, engine: EngineName

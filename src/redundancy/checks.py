@@ -533,3 +533,58 @@ def _tool_pose_pair(target: object) -> tuple[Array, Array] | None:
     if worst > ROTATION_ATOL or not det > 0.0:
         return None
     return p, R
+
+
+def check_joint_vector(what: str, x: ArrayLike, names: Sequence[str]) -> Array:
+    """A per-joint vector other than a pose (a velocity, a torque) as float64 (nq,), finite.
+
+    Args:
+        what: Its name in messages (``"velocity"``, ``"tau"``).
+        x: The values, in the order of ``names`` [rad/s, N m...].
+        names: Joint names (their number is nq; they name the bad values in messages).
+
+    Raises:
+        PoseError: Not numeric, complex, of another shape, or with NaN or infinite values.
+    """
+    if type(x) is np.ndarray and x.dtype is _F64 and x.shape == (len(names),):
+        if math.isfinite(sum(x.tolist())):
+            return x
+    arr = _as_real(x, what)
+    if arr.shape != (len(names),):
+        raise PoseError(
+            f"{what} must have shape ({len(names)},) for joints {list(names)}, "
+            f"got shape {arr.shape}"
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        which = [f"{names[i]}={arr[i]}" for i in np.flatnonzero(bad)]
+        raise PoseError(f"{what} has non-finite values: {', '.join(which)}")
+    return arr
+
+
+def check_joint_vectors(what: str, X: ArrayLike, names: Sequence[str], n: int) -> Array:
+    """A stack of per-joint vectors, one per pose, as C-contiguous float64 (n, nq), finite.
+
+    Args:
+        what: Its name in messages (``"velocities"``).
+        X: The stack, shape (n, nq).
+        names: Joint names.
+        n: The number of poses it goes with.
+
+    Raises:
+        PoseError: Not numeric, complex, not of shape (n, nq), or with NaN or infinite values
+            (the message names the first bad row and its joints).
+    """
+    arr = _as_real(X, what)
+    nq = len(names)
+    if arr.shape != (n, nq):
+        raise PoseError(
+            f"{what} must have shape ({n}, {nq}), one row per pose, for joints "
+            f"{list(names)}, got shape {arr.shape}"
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row = int(np.flatnonzero(bad.any(axis=1))[0])
+        which = [f"{names[j]}={arr[row, j]}" for j in np.flatnonzero(bad[row])]
+        raise PoseError(f"{what} row {row} has non-finite values: {', '.join(which)}")
+    return np.ascontiguousarray(arr)

@@ -98,4 +98,23 @@ def poses(arm: Arm, margin: float = 0.0, unlimited: float = np.pi) -> st.SearchS
     return st.tuples(*elements).map(lambda t: np.array(t, dtype=np.float64))
 
 
-__all__ = ["PROFILES", "poses", "register_profiles"]
+def velocities(arm: Arm, speed: float = 2.0) -> st.SearchStrategy[np.ndarray]:
+    """Joint velocities in [-speed, speed] per joint, shape (nq,), float64 [rad/s or m/s].
+
+    Each joint is drawn independently (shrinking toward rest, one joint at a time).
+    """
+    elements = [
+        st.floats(-speed, speed, allow_nan=False, allow_infinity=False, width=64)
+        for _ in arm.joint_names
+    ]
+    return st.tuples(*elements).map(lambda t: np.array(t, dtype=np.float64))
+
+
+def states(
+    arm: Arm, margin: float = 0.0, unlimited: float = np.pi, speed: float = 2.0
+) -> st.SearchStrategy[tuple[np.ndarray, np.ndarray]]:
+    """(pose, velocity) pairs: :func:`poses` and :func:`velocities` drawn together."""
+    return st.tuples(poses(arm, margin, unlimited), velocities(arm, speed))
+
+
+__all__ = ["PROFILES", "poses", "register_profiles", "states", "velocities"]

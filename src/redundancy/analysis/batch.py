@@ -58,6 +58,7 @@ from ..checks import (
     check_directions,
     check_flag,
     check_joint_subset,
+    check_joint_vectors,
     check_number,
     check_poses,
     check_threads,
@@ -71,6 +72,7 @@ from ..ik import IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
 from ..model.content import ContentUnavailable, Recipe
 from ..model.loading import rebuild_arm
+from .observer import MomentumObserver, check_dt
 
 Array = NDArray[np.float64]
 R = TypeVar("R")
@@ -808,3 +810,131 @@ def solve_ik(
         (lo, hi), *rest = jobs
         run_beside(lambda: span(lo, hi), *(lambda a=a, b=b: span(a, b) for a, b in rest))
     return tuple(r for r in out if r is not None)
+
+
+def coriolis(
+    arm: Arm,
+    Q: ArrayLike,
+    V: ArrayLike,
+    *,
+    engine: EngineName = "mujoco",
+    threads: int = 1,
+    executor: Executor | None = None,
+) -> Array:
+    """Coriolis matrices of a stack of states, as :meth:`Arm.coriolis <redundancy.Arm.coriolis>`.
+
+    Equal to the single calls bit for bit: each pose runs the same engine calls in the
+    same order.
+
+    Args:
+        arm: The arm.
+        Q: Poses, shape (n, nq) [rad or m].
+        V: Joint velocities, one per pose, shape (n, nq) [rad/s or m/s].
+        engine: ``"mujoco"`` or ``"pinocchio"``.
+        threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
+        executor: Run on this :class:`concurrent.futures.Executor` in chunks of states (see
+            :func:`jacobians`); None runs here.
+
+    Returns:
+        Coriolis matrices in the Christoffel form, shape (n, nq, nq) [N m s/rad].
+
+    Raises:
+        PoseError: ``Q`` not finite poses, ``V`` not finite and of the same shape.
+    """
+    arm = check_arm(arm)
+    check_choice("engine", engine, ENGINES)
+    threads = check_threads(threads)
+    Q = poses(arm, Q)
+    V = check_joint_vectors("velocities", V, arm.joint_names, len(Q))
+    nq = arm.nq
+    if executor is not None:
+        # The poses and velocities travel side by side, (n, 2 nq), chunked as poses are.
+        kwargs = {"engine": engine, "threads": threads}
+        _check_executor(executor, _coriolis_of_states, kwargs)
+        parts = _map_chunks(executor, _coriolis_of_states, arm, np.hstack((Q, V)), None, kwargs)
+        return np.concatenate([r for _, r in parts]) if parts else np.empty((0, nq, nq))
+    out = np.empty((len(Q), nq, nq))
+    arm.engine(engine).coriolis_stack(Q, V, out, threads)
+    return out
+
+
+def _coriolis_of_states(arm: Arm, QV: Array, engine: EngineName, threads: int) -> Array:
+    """:func:`coriolis` of a chunk of states laid side by side, (n, 2 nq), on a worker."""
+    nq = arm.nq
+    return coriolis(arm, QV[:, :nq], QV[:, nq:], engine=engine, threads=threads)
+
+
+def external_torques(
+    arm: Arm,
+    Q: ArrayLike,
+    V: ArrayLike,
+    TAU: ArrayLike,
+    dt: object,
+    gain: object,
+    *,
+    executor: Executor | None = None,
+) -> Array:
+    """A recorded trajectory through a :class:`~redundancy.MomentumObserver`, step by step.
+
+    Equal to ``obs = MomentumObserver(arm, gain)`` and ``obs.update(Q[k], V[k], TAU[k],
+    dt[k])`` for every k, bit for bit: the model's terms of every step (M v, C^T v - g and
+    the passive force) are the same engine calls, here or on an executor's workers, and the
+    observer then advances through them in order.
+
+    Args:
+        arm: The arm.
+        Q: Poses at the steps, shape (n, nq) [rad or m].
+        V: Joint velocities at the steps, shape (n, nq) [rad/s or m/s].
+        TAU: The actuators' torque applied from each step to the next (MuJoCo's
+            ``qfrc_actuator``), shape (n, nq) [N m or N].
+        dt: Time from each step to the next [s], one number or one per step (n,), in
+            (0, 2 / gain).
+        gain: The observer's gain K [1/s], a number or one per joint.
+        executor: Compute the model's terms on this :class:`concurrent.futures.Executor`
+            in chunks of steps (see :func:`jacobians`); None: here.
+
+    Returns:
+        The estimated external joint torque at each step, shape (n, nq) [N m or N].
+
+    Raises:
+        PoseError: ``Q``, ``V`` or ``TAU`` not finite, or of different shapes.
+        ParameterError: A bad ``dt`` or ``gain``.
+    """
+    arm = check_arm(arm)
+    observer = MomentumObserver(arm, gain)
+    Q = poses(arm, Q)
+    n = len(Q)
+    V = check_joint_vectors("velocities", V, arm.joint_names, n)
+    TAU = check_joint_vectors("torques", TAU, arm.joint_names, n)
+    steps = check_dt(dt, observer.max_dt)
+    if steps.ndim == 0:
+        steps = np.full(n, float(steps))
+    elif steps.shape != (n,):
+        raise ParameterError("dt", dt, f"a number or one per step, shape ({n},) [s]")
+    nq = arm.nq
+    if executor is not None:
+        _check_executor(executor, _momentum_terms_of_states, {})
+        parts = _map_chunks(executor, _momentum_terms_of_states, arm, np.hstack((Q, V)), None, {})
+        terms = np.concatenate([r for _, r in parts]) if parts else np.empty((0, 2 * nq))
+    else:
+        terms = _momentum_terms_of_states(arm, np.hstack((Q, V)))
+    out = np.empty((n, nq))
+    for k in range(n):
+        out[k] = observer.advance(terms[k, :nq], terms[k, nq:], TAU[k], float(steps[k]))
+    return out
+
+
+def _momentum_terms_of_states(arm: Arm, QV: Array) -> Array:
+    """The observer's terms of states laid side by side, (n, 2 nq) -> (n, 2 nq).
+
+    Each row [q, v] gives [p, beta] (:meth:`MujocoEngine.momentum_terms
+    <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`).
+    """
+    nq = arm.nq
+    out = np.empty((len(QV), 2 * nq))
+    terms = arm.mujoco.momentum_terms
+    for row, qv in zip(out, QV, strict=True):
+        p, beta = terms(qv[:nq], qv[nq:])
+        row[:nq] = p
+        row[nq:] = beta
+    return out

@@ -52,6 +52,10 @@ TOLERANCES: dict[str, float] = {
     # 1.3e-9, hence 1e-8.
     "operational inertia^-1": 1e-8,
     "dynamic manipulability": 1e-8,
+    # C(q, v) in the Christoffel form at a velocity drawn from the seed
+    # (:func:`crosscheck_velocities`): MuJoCo's exact polarization of its bias against
+    # Pinocchio's computeCoriolisMatrix; differences are rounding.
+    "coriolis": 1e-9,
 }
 
 #: Quantities computed through M^-1: their tolerance holds for cond(M) up to
@@ -60,7 +64,13 @@ M_INVERSE_QUANTITIES = ("operational inertia^-1", "dynamic manipulability")
 #: The conditioning at which the M^-1 tolerances were set (a generated arm, cond(M) ~ 1e7).
 CALIBRATED_CONDITION = 1e7
 #: Quantities that need the links' inertias; an arm without them is checked on the others.
-DYNAMIC_QUANTITIES = ("mass matrix", "mass matrix (bare)", "gravity", *M_INVERSE_QUANTITIES)
+DYNAMIC_QUANTITIES = (
+    "mass matrix",
+    "mass matrix (bare)",
+    "gravity",
+    "coriolis",
+    *M_INVERSE_QUANTITIES,
+)
 
 
 def conditioned_tolerance(name: str, tol: float, condition: float) -> float:
@@ -270,6 +280,8 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
         "mass matrix (bare)": scales.inertia,
         "gravity": scales.torque,
         "manipulability gradient": L**3,
+        # [N m s/rad]: an inertia times the drawn velocities' size, 1 rad/s.
+        "coriolis": scales.inertia,
         # Its factors, the singular values of M^-1 J^T, against the largest; a linear
         # column of M^-1 J^T is [1/(kg m)].
         "dynamic manipulability": 1.0 / (scales.mass * L),
@@ -323,7 +335,26 @@ BATCH_QUANTITIES: tuple[str, ...] = (
 CHUNK = 2048
 
 
-def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) -> dict[str, Array]:
+def crosscheck_velocities(Q: Array, seed: int) -> Array:
+    """The joint velocities the cross-check pairs with poses ``Q`` (n, nq), each in -1..1 rad/s.
+
+    Drawn from ``seed`` as a function of each pose, v = sin(q A + b) with A and b drawn
+    from the seed: the same pose gets the same velocity in any chunk, thread or worker, so
+    a report does not depend on how the poses were split. Elementwise (no matrix product,
+    whose rounding may depend on the stack's size).
+    """
+    rng = np.random.default_rng(seed)
+    nq = Q.shape[1]
+    A, b = rng.standard_normal((nq, nq)), rng.uniform(-np.pi, np.pi, nq)
+    phase = np.broadcast_to(b, Q.shape).copy()
+    for k in range(nq):
+        phase += Q[:, k : k + 1] * A[k]
+    return np.sin(phase)
+
+
+def _evaluate(
+    engine: Engine, Q: Array, names: tuple[str, ...], threads: int, seed: int = 0
+) -> dict[str, Array]:
     """Every requested quantity over the stack ``Q`` from one engine."""
     n, nv = len(Q), engine.nv
     want = set(names)
@@ -360,6 +391,9 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
             # largest: the product itself near a singular pose is the tiny factor times
             # others, and carries that factor's rounding (eps sigma_max) as a relative error.
             out["dynamic manipulability"] = np.linalg.svd(X, compute_uv=False)
+    if "coriolis" in want:
+        out["coriolis"] = np.empty((n, nv, nv))
+        engine.coriolis_stack(Q, crosscheck_velocities(Q, seed), out["coriolis"], threads)
     # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
     if "jacobian derivative" in want:
         out["jacobian derivative"] = np.empty((n, nv, 6, nv))
@@ -378,7 +412,7 @@ def _evaluate(engine: Engine, Q: Array, names: tuple[str, ...], threads: int) ->
 
 
 def _both_engines(
-    arm: Arm, Q: Array, names: tuple[str, ...], threads: int
+    arm: Arm, Q: Array, names: tuple[str, ...], threads: int, seed: int = 0
 ) -> dict[str, dict[str, Array]]:
     """Both engines' stacks for ``Q``, keyed by engine name.
 
@@ -389,7 +423,7 @@ def _both_engines(
     out: dict[str, dict[str, Array]] = {}
 
     def fill(engine: Engine, k: int) -> None:
-        out[engine.name] = _evaluate(engine, Q, names, k)
+        out[engine.name] = _evaluate(engine, Q, names, k, seed)
 
     # Pinocchio gets no more OpenMP threads than MuJoCo leaves free: rneaInParallel's
     # workers busy-wait ~5 ms after each call (libgomp's default), once per chunk, on the
@@ -413,6 +447,8 @@ def crosscheck_batch(
     threads: int = 1,
     chunk: int = CHUNK,
     executor: Executor | None = None,
+    *,
+    seed: int = 0,
 ) -> CrossCheckReport:
     """Compare MuJoCo and Pinocchio over a stack of poses (or one pose).
 
@@ -434,6 +470,8 @@ def crosscheck_batch(
             cross-checked on a worker (:func:`redundancy.batch.map_chunks`); None runs here.
             The report is the same, bit for bit: the worst pose of the chunks is merged as
             within one process.
+        seed: Seed of the joint velocities paired with the poses for ``"coriolis"``
+            (:func:`crosscheck_velocities`), an integer >= 0.
 
     Returns:
         The report; over zero poses it says that nothing was checked and is not ``ok``.
@@ -454,11 +492,18 @@ def crosscheck_batch(
     tols = tolerances_for(names, tolerances)
     threads = check_threads(threads)
     chunk = check_count("chunk", chunk, 1)
+    seed = check_count("seed", seed, 0)
     Q = check_pose_or_poses(Q, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
     condition = np.nan
     if executor is not None:
-        kwargs = {"quantities": names, "tolerances": tols, "threads": threads, "chunk": chunk}
+        kwargs = {
+            "quantities": names,
+            "tolerances": tols,
+            "threads": threads,
+            "chunk": chunk,
+            "seed": seed,
+        }
         for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
             for a in part.agreements:
                 found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
@@ -467,7 +512,7 @@ def crosscheck_batch(
         scales = arm_scales(arm)
         for lo in range(0, len(Q), chunk):
             part = Q[lo : lo + chunk]
-            out = _both_engines(arm, part, names, threads)
+            out = _both_engines(arm, part, names, threads, seed)
             for name in names:
                 errors = quantity_errors(name, out["mujoco"][name], out["pinocchio"][name], scales)
                 found[name] = merge_worst(found[name], worst(errors), lo)
@@ -499,6 +544,8 @@ def crosscheck(
     poses: ArrayLike,
     quantities: Iterable[str] | None = None,
     tolerances: dict[str, float] | None = None,
+    *,
+    seed: int = 0,
 ) -> CrossCheckReport:
     """Compare MuJoCo and Pinocchio at one pose or many (:func:`crosscheck_batch`, 1 thread).
 
@@ -507,5 +554,6 @@ def crosscheck(
         poses: One pose, shape (nq,), or many, shape (n, nq) [rad or m].
         quantities: Subset of :data:`TOLERANCES` keys; all by default.
         tolerances: Overrides for :data:`TOLERANCES`.
+        seed: Seed of the velocities for ``"coriolis"`` (see :func:`crosscheck_batch`).
     """
-    return crosscheck_batch(arm, poses, quantities, tolerances)
+    return crosscheck_batch(arm, poses, quantities, tolerances, seed=seed)

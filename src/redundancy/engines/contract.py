@@ -160,3 +160,23 @@ class Engine(Protocol):
     def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
         """An unchecked q -> (tool error [p* - p; log(R* R^T)], J) for this thread (IK loops)."""
         ...
+
+    def coriolis(self, q: ArrayLike, v: ArrayLike) -> Array:
+        """Coriolis matrix in the Christoffel form (nv, nv) [N m s/rad]."""
+        ...
+
+    def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
+        """:meth:`coriolis` over validated stacks (n, nv), into ``out`` (n, nv, nv)."""
+        ...
+
+    def com(self, q: ArrayLike) -> Array:
+        """The whole model's centre of mass, world frame (3,) [m]."""
+        ...
+
+    def com_jacobian(self, q: ArrayLike) -> Array:
+        """Jacobian of :meth:`com`, (3, nv) [m/rad]."""
+        ...
+
+    def centroidal_momentum_matrix(self, q: ArrayLike) -> Array:
+        """Linear and angular (about the centre of mass) momentum per joint velocity, (6, nv)."""
+        ...

@@ -8,6 +8,8 @@ and dof orders coincide).
 from __future__ import annotations
 
 import contextlib
+import copy
+import functools
 import itertools
 import os
 import sys
@@ -19,7 +21,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..checks import check_pose, pose_key
+from ..checks import check_joint_vector, check_pose, pose_key
 from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, run_split
 
@@ -30,6 +32,29 @@ _ndarray = np.ndarray
 # The single-pose hot path's engine calls, bound once (a module attribute lookup per call
 # is measurable against a 1.5 us Jacobian).
 _kinematics, _com_pos, _jac_site = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
+# mju_mulInertVec as a 6 x 6 matrix of a body's cinert (10 values; index 10 is a zero):
+# [angular; linear] momentum about the com-based frame's origin of a motion [w; v].
+_INERT_INDEX = np.array(
+    [
+        [0, 3, 4, 10, 8, 7],
+        [3, 1, 5, 8, 10, 6],
+        [4, 5, 2, 7, 6, 10],
+        [10, 8, 7, 9, 10, 10],
+        [8, 10, 6, 10, 9, 10],
+        [7, 6, 10, 10, 10, 9],
+    ]
+)
+_INERT_SIGN = np.array(
+    [
+        [1, 1, 1, 0, -1, 1],
+        [1, 1, 1, 1, 0, -1],
+        [1, 1, 1, -1, 1, 0],
+        [0, 1, -1, 1, 0, 0],
+        [-1, 0, 1, 0, 1, 0],
+        [1, -1, 0, 0, 0, 1],
+    ],
+    dtype=float,
+)
 
 #: MuJoCo joint type -> the library's name for it.
 JOINT_TYPES = {
@@ -584,6 +609,198 @@ class MujocoEngine:
             return e, jac
 
         return kernel
+
+    # -- motion: the Coriolis matrix, the centre of mass, momentum --------------------------
+    @functools.cached_property
+    def _weightless(self) -> mujoco.MjModel:
+        """A copy of the model without gravity, for the Coriolis matrix's biases.
+
+        With gravity the bias of a slow velocity is gravity plus a term below its rounding
+        (at |v| = 1e-9 rad/s, C v ~ 1e-18 against g ~ 10): without it the bias is C v
+        alone, to rounding relative to itself. Same sizes, so each thread's ``MjData``
+        serves it too. (Made once; two threads racing to make it make equal copies.)
+        """
+        m = copy.copy(self.model)
+        m.opt.gravity[:] = 0.0
+        return m
+
+    def _coriolis_at(self, w: _Work, v: Array, C: Array, Hp: Array, Hm: Array) -> None:
+        """C(q, v) into ``C`` at the pose the data holds (kinematics and ``mj_comPos`` done).
+
+        The bias C(q, u) u of ``mj_rne`` (flg_acc = 0, no gravity) is exactly quadratic
+        in u, and the Christoffel symbols of the first kind are symmetric in their last two
+        indices, so column j of the Christoffel-form C(q, u) is the bilinear form B(e_j, u):
+        (h(u + e_j) - h(u - e_j)) / 4. No finite-difference error; u = v / s with s = max |v_i|
+        keeps every bias near the size of C (no underflow or overflow), and C(q, v) =
+        s C(q, u). The
+        data is left moving (``w.moving``); the caller stops it or lets the next load do it.
+        """
+        m, d, qvel, n = self._weightless, w.data, w.qvel, self.nv
+        s = float(np.max(np.abs(v)))  # not |v|, whose square may overflow
+        if s == 0.0:
+            C[:] = 0.0
+            return
+        u = v / s
+        w.key, w.moving = None, True  # until the velocity is zero again (see _stop)
+        vel, rne = mujoco.mj_comVel, mujoco.mj_rne
+        for j in range(n):
+            qvel[:] = u
+            qvel[j] += 1.0
+            vel(m, d)  # cvel and cdof_dot, which mj_rne reads
+            rne(m, d, 0, Hp[j])
+            qvel[j] = u[j] - 1.0
+            vel(m, d)
+            rne(m, d, 0, Hm[j])
+        np.subtract(Hp, Hm, out=Hp)
+        np.multiply(Hp.T, 0.25 * s, out=C)
+
+    def coriolis(self, q: ArrayLike, v: ArrayLike) -> Array:
+        """Coriolis matrix C(q, v) in the Christoffel form, (nv, nv) [N m s/rad].
+
+        C v is the bias minus gravity, and dM/dt = C + C^T (see :meth:`_coriolis_at`).
+
+        Raises:
+            PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
+        """
+        check_dynamics(self, "Coriolis matrix")
+        v = check_joint_vector("velocity", v, self.joint_names)
+        w = self.update(q)
+        n = self.nv
+        C, H = np.empty((n, n)), np.empty((2, n, n))
+        key = w.key
+        self._coriolis_at(w, v, C, H[0], H[1])
+        if w.moving:
+            _stop(self.model, w)
+            w.key = key  # mj_comVel and mj_rne leave the kinematics of the pose as they were
+        return C
+
+    def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
+        """:meth:`coriolis` for every pose and velocity of validated stacks, into ``out``.
+
+        The same calls in the same order as one pose at a time (bit-equal results); MuJoCo
+        releases the GIL inside ``mj_*``, so ``threads`` > 1 runs spans of poses in parallel.
+        """
+        check_dynamics(self, "Coriolis matrix")
+        m, n = self.model, self.nv
+
+        def span(lo: int, hi: int) -> None:
+            w = self._work()
+            w.key = None  # this thread's data is about to hold other poses
+            d, qpos = w.data, w.qpos
+            H = np.empty((2, n, n))
+            for q, v, C in zip(Q[lo:hi], V[lo:hi], out[lo:hi], strict=True):
+                qpos[:] = q
+                _kinematics(m, d)
+                _com_pos(m, d)
+                self._coriolis_at(w, v, C, H[0], H[1])
+                w.key = None
+            if w.moving:
+                _stop(m, w)
+
+        run_split(len(Q), threads, span)
+
+    def com(self, q: ArrayLike) -> Array:
+        """The whole model's centre of mass, world frame (3,) [m].
+
+        ``subtree_com`` of the world body (``mj_comPos``): every body with mass, those
+        welded to the world included.
+        """
+        check_dynamics(self, "centre of mass")
+        return self.update(q).data.subtree_com[0].copy()
+
+    def com_jacobian(self, q: ArrayLike) -> Array:
+        """Jacobian of :meth:`com` with respect to the joints, (3, nv) [m/rad]."""
+        check_dynamics(self, "centre of mass")
+        w = self.update(q)
+        J = np.empty((3, self.nv))
+        # The world's subtree: bodies welded to the world are in it with zero columns.
+        mujoco.mj_jacSubtreeCom(self.model, w.data, J, 0)
+        return J
+
+    def centroidal_momentum_matrix(self, q: ArrayLike) -> Array:
+        """Whole-model momentum per unit joint velocity, (6, nv), world-aligned.
+
+        Rows 0-2: linear momentum [kg m/rad] (total mass times :meth:`com_jacobian`);
+        rows 3-5: angular momentum about the centre of mass [kg m^2/rad], from
+        ``mj_angmomMat`` of the world body (its subtree centre of mass is the whole one).
+        """
+        check_dynamics(self, "centroidal momentum")
+        w = self.update(q)
+        m, d = self.model, w.data
+        A = np.empty((6, self.nv))
+        mujoco.mj_jacSubtreeCom(m, d, A[:3], 0)
+        A[:3] *= m.body_subtreemass[0]
+        mujoco.mj_angmomMat(m, d, A[3:], 0)
+        return A
+
+    def momentum_terms(self, q: ArrayLike, v: ArrayLike) -> tuple[Array, Array]:
+        """The generalized momentum p = M v and the rate of p without actuators and contacts.
+
+        dp/dt = tau + tau_ext + beta with beta = C^T v - g + the passive force (joint and
+        tendon damping and springs, gravity compensation, fluid: ``qfrc_passive``), the
+        terms a momentum observer integrates. One state load: ``mj_fwdVelocity`` gives the
+        passive force and the bias C v + g at v, ``mj_rne`` of the gravity-free copy C v
+        alone, and C^T v comes from :meth:`_coriolis_transpose_times_v`.
+
+        Returns:
+            p (nv,) [N m s], beta (nv,) [N m].
+
+        Raises:
+            PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
+        """
+        check_dynamics(self, "momentum observer")
+        v = check_joint_vector("velocity", v, self.joint_names)
+        q = pose_key(q, self.joint_names)[0]
+        w = self._work()
+        m, d, n = self.model, w.data, self.nv
+        # The data holds a velocity from here on: no pose key (the next pose query reloads
+        # the kinematics and stops it, see _load).
+        w.key, w.have_M, w.have_J, w.moving = None, False, False, True
+        w.qpos[:] = q
+        w.qvel[:] = v
+        _kinematics(m, d)
+        _com_pos(m, d)
+        p, cv = np.empty(n), np.empty(n)
+        mujoco.mj_crb(m, d)  # the sparse M (armature included) that mj_mulM reads
+        mujoco.mj_mulM(m, d, p, v)
+        # Tendon lengths and moments (mj_tendon), then cvel and cdof_dot, the tendons'
+        # velocities, mj_passive and qfrc_bias = C v + g (mj_fwdVelocity).
+        mujoco.mj_tendon(m, d)
+        mujoco.mj_fwdVelocity(m, d)
+        mujoco.mj_rne(self._weightless, d, 0, cv)  # C v
+        # C^T v - g = C^T v + C v - (C v + g)
+        beta = self._coriolis_transpose_times_v(d)
+        beta += cv
+        beta -= d.qfrc_bias
+        beta += d.qfrc_passive
+        return p, beta
+
+    @functools.cached_property
+    def _subtrees(self) -> Array:
+        """(nv, nbody): 1 where the body is in the subtree of the dof's body."""
+        m = self.model
+        out = np.zeros((self.nv, m.nbody))
+        for i in range(self.nv):
+            top = int(m.dof_bodyid[i])
+            for b in range(1, m.nbody):
+                k = b
+                while k > top:  # a parent's id is below its children's
+                    k = int(m.body_parentid[k])
+                out[i, b] = k == top
+        return out
+
+    def _coriolis_transpose_times_v(self, d: mujoco.MjData) -> Array:
+        """C^T v at the data's pose and velocity (``mj_comVel`` done).
+
+        C^T v = (1/2) d(v^T M v)/dq: for dof i, cdof_dot_i . h_i with h_i the spatial
+        momentum of its body's subtree, the sum of cinert_b cvel_b (``mju_mulInertVec``
+        for every body at once, as a (6, 6) matrix per body); all in MuJoCo's com-based
+        frame, where cdof_dot is expressed.
+        """
+        inert = np.zeros((self.model.nbody, 11))  # cinert and a zero for the matrix's zeros
+        inert[:, :10] = d.cinert
+        h = ((inert[:, _INERT_INDEX] * _INERT_SIGN) @ d.cvel[:, :, None])[:, :, 0]
+        return (d.cdof_dot * (self._subtrees @ h)).sum(axis=1)
 
 
 def damped_stepper(

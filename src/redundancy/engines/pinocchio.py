@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ..checks import check_pose, pose_key
+from ..checks import check_joint_vector, check_pose, pose_key
 from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, spans
 
@@ -331,6 +331,99 @@ class PinocchioEngine:
             pin.rneaInParallel(threads, pool, Qp.T, zeros, zeros, tau)
             if not direct:
                 G[:] = tau.T[:, self.perm]
+
+    # -- motion: the Coriolis matrix, the centre of mass, momentum --------------------------
+    def _pin_v(self, v: Array) -> Array:
+        vp = np.empty(self.nv)
+        vp[self.perm] = v
+        return vp
+
+    def coriolis(self, q: ArrayLike, v: ArrayLike) -> Array:
+        """Coriolis matrix C(q, v) in the Christoffel form, (nv, nv) [N m s/rad].
+
+        ``computeCoriolisMatrix(model, data, q, v)``, q and v in Pinocchio's joint order,
+        the result put back in the library's.
+
+        Raises:
+            PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
+        """
+        check_dynamics(self, "Coriolis matrix")
+        q = check_pose(q, self.joint_names)
+        v = check_joint_vector("velocity", v, self.joint_names)
+        w = self._work()
+        w.key = None  # its forward pass overwrites the kinematics the key stands for
+        C = pin.computeCoriolisMatrix(self.model, w.data, self._pin_q(w, q), self._pin_v(v))
+        C = np.reshape(C, (self.nv, self.nv))  # eigenpy gives a 1 x 1 matrix as (1,)
+        return C.copy() if self.identity else C[np.ix_(self.perm, self.perm)]
+
+    def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
+        """:meth:`coriolis` over validated stacks, into ``out`` (the bindings hold the GIL)."""
+        check_dynamics(self, "Coriolis matrix")
+        for q, v, C in zip(Q, V, out, strict=True):
+            C[:] = self.coriolis(q, v)
+
+    def _fixed_inertia(self) -> pin.Inertia:
+        """What is welded to the universe (a fixed base link, held joints' bodies).
+
+        ``centerOfMass``, ``jacobianCenterOfMass`` and ``computeCentroidalMap`` sum joints
+        1 and up: the universe's own inertia, where the parsers and ``buildReducedModel``
+        put such bodies, is left out of them.
+        """
+        return self.model.inertias[0]
+
+    def _subtree_com(self, q: Array) -> tuple[Array, float, Array, float]:
+        """Centre of mass and mass of the moving bodies (joints 1 and up), and the whole's."""
+        w = self._work()
+        w.key = None
+        com = np.array(pin.centerOfMass(self.model, w.data, self._pin_q(w, q)))
+        moving = float(w.data.mass[0])
+        fixed = self._fixed_inertia()
+        total = moving + fixed.mass
+        whole = (moving * com + fixed.mass * np.asarray(fixed.lever)) / total
+        return com, moving, whole, total
+
+    def com(self, q: ArrayLike) -> Array:
+        """The whole model's centre of mass, world frame (3,) [m], fixed bodies included."""
+        check_dynamics(self, "centre of mass")
+        return self._subtree_com(check_pose(q, self.joint_names))[2]
+
+    def com_jacobian(self, q: ArrayLike) -> Array:
+        """Jacobian of :meth:`com`, (3, nv) [m/rad].
+
+        ``jacobianCenterOfMass`` is the moving bodies' centre of mass; the fixed mass does
+        not move, so the whole's is that times moving mass / total mass.
+        """
+        check_dynamics(self, "centre of mass")
+        q = check_pose(q, self.joint_names)
+        w = self._work()
+        w.key = None
+        J = pin.jacobianCenterOfMass(self.model, w.data, self._pin_q(w, q))
+        J = np.reshape(J, (3, self.nv)) * (
+            w.data.mass[0] / (w.data.mass[0] + self._fixed_inertia().mass)
+        )
+        return J if self.identity else J[:, self.perm]
+
+    def centroidal_momentum_matrix(self, q: ArrayLike) -> Array:
+        """Whole-model momentum per unit joint velocity, (6, nv), world-aligned.
+
+        ``computeCentroidalMap`` gives the moving bodies' momentum with the angular part
+        about their own centre of mass c_m; about the whole's c (fixed mass included, which
+        has no momentum) the angular rows gain (c_m - c) x (linear rows).
+        """
+        check_dynamics(self, "centroidal momentum")
+        q = check_pose(q, self.joint_names)
+        w = self._work()
+        w.key = None
+        A = np.array(
+            np.reshape(
+                pin.computeCentroidalMap(self.model, w.data, self._pin_q(w, q)), (6, self.nv)
+            )
+        )
+        c_m, moving = np.array(w.data.com[0]), float(w.data.mass[0])
+        fixed = self._fixed_inertia()
+        c = (moving * c_m + fixed.mass * np.asarray(fixed.lever)) / (moving + fixed.mass)
+        A[3:] += np.cross(c_m - c, A[:3], axis=0)
+        return A if self.identity else A[:, self.perm]
 
     # -- the tool's mobility J M^-1 J^T, and a kernel for inverse kinematics ---------------
     def _inverse_mass(self, w: _Work, q_pin: Array) -> Array:

@@ -49,6 +49,8 @@ from ..errors import MissingDependencyError, RedundancyError
 from .sim import (
     KD,
     LOST_SIGMA,
+    OBSERVER_GAIN,
+    PUSH_MAX,
     RATES,
     SIGMA_WINDOW,
     SPEED_WINDOW,
@@ -94,6 +96,10 @@ RATE_LABEL = "speed"
 RATE_OPTIONS = {f"{r:g}x real time": r for r in RATES}
 #: Checkbox that turns contact forces on.
 COLLIDE_LABEL = "links collide"
+#: The push sliders, one per world axis [N].
+PUSH_LABELS = ("push x (N)", "push y (N)", "push z (N)")
+#: The external-torque plot's vertical range to start with [N m] (it grows with the data).
+EXTERNAL_RANGE = 5.0
 #: The self-motion slider [rad of joint motion along the null space].
 SELF_MOTION_LABEL = "self-motion (rad)"
 SELF_MOTION_RANGE = 3.0
@@ -583,6 +589,21 @@ class LabPage:
             self.collide.on_update(lambda _: sim.set_contact_forces(bool(self.collide.value)))
             self.nudge = gui.add_button(NUDGE_LABEL, hint="add 0.01 rad/s to every joint's speed")
             self.nudge.on_click(lambda _: sim.nudge())
+        with gui.add_folder("push the tool"):
+            self.push = [
+                gui.add_slider(
+                    label,
+                    min=-PUSH_MAX,
+                    max=PUSH_MAX,
+                    step=0.5,
+                    initial_value=0.0,
+                    hint="a force at the tool, world axes: the plot below shows the joint "
+                    "torque it makes and the momentum observer's estimate of it",
+                )
+                for label in PUSH_LABELS
+            ]
+            for slider in self.push:
+                slider.on_update(lambda _: self._on_push())
         with gui.add_folder("session"):
             self.reset = gui.add_button(RESET_LABEL, hint="the keyframe at rest; settings kept")
             self.reset.on_click(lambda _: self._reset(all_settings=False))
@@ -640,6 +661,25 @@ class LabPage:
                     "y": viser.uplot.Scale(auto=False, range=(-1.25 * limit, 1.25 * limit)),
                 },
                 self._symmetric_axes(SPEED_WINDOW, limit, limit),
+            )
+            self._external_top = EXTERNAL_RANGE
+            self.external_plot = self.server.gui.add_uplot(
+                data=(np.zeros(0), np.zeros(0), np.zeros(0)),
+                series=(
+                    viser.uplot.Series(label="t − now (s)"),
+                    viser.uplot.Series(label="estimate |r|", stroke="#2f9e44", width=1.5),
+                    viser.uplot.Series(
+                        label="push |Jᵀ F|", stroke="#495057", width=1, dash=(6.0, 4.0)
+                    ),
+                ),
+                title=(
+                    f"external joint torque (N m), last {SPEED_WINDOW:g} s: the momentum "
+                    f"observer (gain {OBSERVER_GAIN:g}/s) from q, q̇ and the motors' torque; "
+                    "dashed: the push's"
+                ),
+                scales=self._external_scales(EXTERNAL_RANGE),
+                axes=(self._time_axis(SPEED_WINDOW), viser.uplot.Axis(size=48)),
+                aspect=2.4,
             )
             # Up to the power of ten above twice the keyframe's sigma_min (1 for arm7's 0.23).
             s0 = float(sim.readouts().sigma_min)
@@ -740,6 +780,13 @@ class LabPage:
             "y": viser.uplot.Scale(auto=False, range=(-1.15 * half, 1.15 * half)),
         }
 
+    @staticmethod
+    def _external_scales(top: float) -> dict[str, viser.uplot.Scale]:
+        return {
+            "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
+            "y": viser.uplot.Scale(auto=False, range=(0.0, 1.1 * top)),
+        }
+
     def _speed_axes(self, half: float) -> tuple[viser.uplot.Axis, ...]:
         return self._symmetric_axes(SPEED_WINDOW, half, REST_SPEED)
 
@@ -755,6 +802,11 @@ class LabPage:
             self._sync_gizmo()
 
         return on_update
+
+    def _on_push(self) -> None:
+        if self._syncing:
+            return
+        self.sim.set_push([float(s.value) for s in self.push])
 
     def _sync_sliders(self, q: Array) -> None:
         """Show ``q`` on the joint sliders without acting on it."""
@@ -851,6 +903,8 @@ class LabPage:
                     self.armature.value = self._armature_modelled
                     self.collide.value = bool(self.sim.contact_forces)
                     self.rate.value = next(iter(RATE_OPTIONS))
+                    for slider in self.push:
+                        slider.value = 0.0
                 finally:
                     self._syncing = False
                 if self.runner is not None:
@@ -974,10 +1028,13 @@ class LabPage:
         # One read of the time and the series: a step between separate reads put samples
         # after "now" (issue 21: the browser test saw them right after a reset).
         now, (t, v), (_, tau), (ts, s) = sim.histories()
+        later, (te, est), (_, true) = sim.external_torque_history()
         return {
             "speed": (t - now, v),
             "torque": (t - now, tau),
             "sigma": (ts - now, np.maximum(s, SIGMA_FLOOR)),
+            "external": (te - later, est),
+            "push": (te - later, true),
         }
 
     def update(self, sim: LabSim, force: bool = False) -> None:
@@ -1022,6 +1079,13 @@ class LabPage:
         self.speed_plot.data = data["speed"]
         self.torque_plot.data = data["torque"]
         self.sigma_plot.data = data["sigma"]
+        t, est = data["external"]
+        true = data["push"][1]
+        top = nice_ceil(max(np.max(est, initial=0.0), np.max(true, initial=0.0)), EXTERNAL_RANGE)
+        if top != self._external_top:
+            self._external_top = top
+            self.external_plot.scales = self._external_scales(top)
+        self.external_plot.data = (t, est, true)
 
     def _update_frames(self, pos: Array, quat: Array, anchor: Array, axis: Array) -> None:
         show = bool(self.show_frames.value)

@@ -178,7 +178,39 @@ def bridge(
         )
         bridges.append(Bridge("gravity", "model", tuple(float(x) for x in g), source))
         pm.gravity = pin.Motion(g, np.zeros(3))
+    bridges += _bridge_world_mass(pm, mm)
     return tuple(bridges)
+
+
+def _bridge_world_mass(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
+    """Give Pinocchio's world the mass MuJoCo welds to the world, where it lacks it.
+
+    Only the whole robot's centre of mass and momentum read it (the dynamics of the arm's
+    joints do not). Pinocchio's parser reads one tree (a table or a second robot in the
+    file are not in its model) and puts a fixed base link's mass in the world's inertia;
+    when its mass or centre differs from MuJoCo's bodies welded to the world (held ones
+    included), MuJoCo's is copied.
+    """
+    data = _rest_kinematics(mm)
+    welded = [b for b in range(1, mm.nbody) if mm.body_weldid[b] == 0 and mm.body_mass[b] > 0]
+    ours = pin.Inertia.Zero()
+    for b in welded:
+        R = data.ximat[b].reshape(3, 3)
+        inertia = R @ np.diag(mm.body_inertia[b]) @ R.T
+        ours += pin.Inertia(float(mm.body_mass[b]), data.xipos[b].copy(), inertia)
+    theirs = pm.inertias[0]
+    size = max(1.0, ours.mass)
+    if abs(theirs.mass - ours.mass) <= 1e-9 * size and np.allclose(
+        theirs.mass * theirs.lever, ours.mass * ours.lever, rtol=0.0, atol=1e-9 * size
+    ):
+        return []
+    pm.inertias[0] = ours
+    value = (float(ours.mass), *(float(x) for x in ours.lever))
+    return [
+        Bridge(
+            "world mass", "world", value, "body_mass and xipos of the bodies welded to the world"
+        )
+    ]
 
 
 def _rest_kinematics(mm: mujoco.MjModel) -> mujoco.MjData:
@@ -273,6 +305,9 @@ def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel, site: int) -> list[Brid
         if frame.parentJoint == 0:
             frame.placement = pose * frame.placement
             pm.frames[f] = frame
+    # The root body's own mass, which the parser adds to the world's inertia in the root's
+    # frame (the whole robot's centre of mass counts it).
+    pm.inertias[0] = pose.act(pm.inertias[0])
     return [
         Bridge(
             "root pose",

@@ -367,7 +367,9 @@ def _engines(
         parts = crosscheck_batch(arm, Q, quantities=batched).agreements
         if offset < CROSSCHECK_POSES:
             head = Q[: CROSSCHECK_POSES - offset]
-            second_order = crosscheck_batch(arm, head, quantities=rest)
+            # The Coriolis row's velocities are drawn from the audit's seed too.
+            velocity_seed = 0 if seed is None else seed
+            second_order = crosscheck_batch(arm, head, quantities=rest, seed=velocity_seed)
             parts += second_order.agreements
             condition = np.fmax(condition, second_order.mass_condition)
             second += len(head)
