@@ -386,7 +386,9 @@ def _expand_includes(
             parent.remove(child)
             for k, el in enumerate(list(inner)):
                 parent.insert(i + k, el)
-            edits.append(SetAside("include", name, "expanded in place for Pinocchio's parser"))
+            edits.append(
+                SetAside("include", name, "expanded in place for Pinocchio's parser", True)
+            )
     return root
 
 
@@ -413,6 +415,7 @@ def _merge_worldbodies(root: ET.Element, edits: list[SetAside]) -> ET.Element:
             "worldbody",
             f"{len(worlds)} <worldbody> sections",
             "merged into one for Pinocchio's parser, in order (MuJoCo reads them as one)",
+            reaches_arm=True,
         )
     )
     return root

@@ -48,15 +48,20 @@ RestSpec = str | Mapping[str, float | Sequence[float]] | None
 class SetAside:
     """Something in the robot's file that does not reach the arm, and why it does not matter.
 
+    With ``reaches_arm``: something the loader read or mended on the way to both engines.
+
     Attributes:
         what: The element, e.g. ``"equality constraint"``.
         name: Its name (or display name).
-        reason: Why the arm's numbers do not depend on it.
+        reason: Why the arm's numbers do not depend on it (or what was done with it).
+        reaches_arm: The arm does depend on it (a link the arm moves, a file read in place):
+            the audit lists it as read or mended, never as set aside.
     """
 
     what: str
     name: str
     reason: str
+    reaches_arm: bool = False
 
     def __str__(self) -> str:
         return f"{self.what} {self.name!r}: {self.reason}"

@@ -405,6 +405,7 @@ def prepare_urdf(
                     name,
                     f"principal moments {eig[0]:.3g}, {eig[1]:.3g}, {eig[2]:.3g} [kg m^2] "
                     f"(a point mass or a rod): {eps:.3g} added about each axis for MuJoCo",
+                    reaches_arm=name in moved,
                 )
             )
             continue
@@ -421,7 +422,9 @@ def prepare_urdf(
         what = f"{violated} [kg m^2]; replaced by {mean:.3g} about each axis (balanceinertia)"
         if name in moved:
             defects.append(f"link {name!r}: published inertia invalid, {what}")
-            notes.append(SetAside("invalid inertia", name, f"the arm moves it: {what}"))
+            notes.append(
+                SetAside("invalid inertia", name, f"the arm moves it: {what}", reaches_arm=True)
+            )
         else:
             notes.append(SetAside("invalid inertia", name, f"the arm does not move it: {what}"))
     return out, notes, defects
@@ -575,6 +578,7 @@ def build_mujoco(
                             "Collada mesh",
                             path.name,
                             "read with trimesh; MuJoCo and coal get the same vertices",
+                            reaches_arm=True,
                         )
                     )
                 else:
@@ -639,14 +643,16 @@ def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
 def _name_geoms(spec: mujoco.MjSpec) -> None:
     """Name MuJoCo's unnamed URDF geoms after their link, so reports can say which is which.
 
-    A link's only collision geom takes the link's name, several take ``link/1``, ``link/2``...
-    (MuJoCo's URDF import leaves them unnamed; names already given are kept).
+    A link's only collision geom takes the link's name; several take the names an unnamed
+    MJCF geom gets (:mod:`redundancy.model.names`): ``link geom 0``, ``link geom 1``..., by
+    their index in the link, counted from 0 in file order (MuJoCo's URDF import leaves them
+    unnamed; names already given are kept).
     """
     taken = {g.name for g in spec.geoms if g.name}
     for body in spec.bodies:
-        unnamed = [g for g in body.geoms if not g.name]
-        for k, geom in enumerate(unnamed, 1):
-            name = body.name if len(unnamed) == 1 else f"{body.name}/{k}"
+        unnamed = [(k, g) for k, g in enumerate(body.geoms) if not g.name]
+        for k, geom in unnamed:
+            name = body.name if len(body.geoms) == 1 else f"{body.name} geom {k}"
             while name in taken:
                 name += "'"
             geom.name = name

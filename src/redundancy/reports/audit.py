@@ -37,7 +37,7 @@ from ..display import table as html_table
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
 from .sections import GravityBudget, JointSection, KeyframeRow, Progress, Sections
-from .tables import fit, fmt, limit, ms, table
+from .tables import fit, fmt, key, limit, ms, table
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
@@ -98,17 +98,24 @@ class RobotPart:
         rest: Where the held values come from (``"qpos0"``, ``"keyframe 'name'"``, ``"given"``).
         base: The body the arm's chain starts below, or None (the world).
         set_aside: What in the file does not reach the arm, each with the reason.
+        mended: What the loader read or mended that the arm does depend on (a link the arm
+            moves whose published inertia MuJoCo rejects, a mesh read with trimesh), each
+            with what was done.
     """
 
     held: dict[str, float | tuple[float, ...]]
     rest: str
     base: str | None
     set_aside: tuple[str, ...]
+    mended: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, arm: Arm) -> RobotPart:
         """The arm's robot part."""
-        return cls(dict(arm.held), arm.rest, arm.base, tuple(str(a) for a in arm.set_aside))
+        items = arm.set_aside
+        aside = tuple(str(a) for a in items if not getattr(a, "reaches_arm", False))
+        mended = tuple(str(a) for a in items if getattr(a, "reaches_arm", False))
+        return cls(dict(arm.held), arm.rest, arm.base, aside, mended)
 
 
 @dataclass(frozen=True, repr=False)
@@ -581,13 +588,13 @@ def format_report(r: AuditReport) -> list[str]:
 def _robot_lines(r: AuditReport) -> list[str]:
     """The rest of the robot: which joints are held, at what, and what was set aside."""
     rp = r.robot
-    if rp is None or not (rp.held or rp.set_aside):
+    if rp is None or not (rp.held or rp.set_aside or rp.mended):
         return []
     out = [""]
     if rp.held:
         rest = "the reference pose (qpos0)" if rp.rest == "qpos0" else rp.rest
         base = f"; the arm starts below {rp.base!r}" if rp.base else ""
-        out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
+        out.append(f"the rest of the robot: {plural(len(rp.held), 'joint')} held at {rest}{base}")
 
         def value(v: float | tuple[float, ...]) -> str:
             if isinstance(v, tuple):
@@ -598,6 +605,9 @@ def _robot_lines(r: AuditReport) -> list[str]:
     if rp.set_aside:
         out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
         out += [f"  {a}" for a in rp.set_aside]
+    if rp.mended:
+        out.append(f"read or mended for the engines (the arm depends on these): {len(rp.mended)}")
+        out += [f"  {a}" for a in rp.mended]
     return out
 
 
@@ -636,10 +646,16 @@ def _joint_lines(r: AuditReport) -> list[str]:
         row += [fmt(x.servo_kv, 3), fmt(x.stiffness, 3)] if servos else []
         row += [fmt(x.m_ii), ms(x.h_max), ms(x.h_max_bare)]
         rows.append(row)
+    gains = "; kv, kp: a servo's velocity and position gains" if servos else ""
     return [
-        f"joints at the {_reference(j.keyframe)}; h_max, the largest stable timestep, for "
-        f"{kd}; {j.note}:",
+        f"joints at the {_reference(j.keyframe)}:",
         *table(header, rows, "ll" + "r" * (len(header) - 2)),
+        key(
+            "range [rad or m]; effort: what the actuators can apply; armature [kg m^2]; b: "
+            f"damping [N m s/rad]{gains}; M_ii: mass matrix diagonal [kg m^2]; h_max: largest "
+            f"stable timestep for {kd}, bare: without armature (any: no bound)"
+        ),
+        f"  {j.note}: implicit damping cannot make a step unstable, explicit damping can",
     ]
 
 
@@ -655,7 +671,7 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
             [
                 [
                     k.name,
-                    " ".join(fmt(x, 4) for x in k.svd.sigma),
+                    " ".join(fmt(x, 4, max(k.svd.sigma, default=0.0)) for x in k.svd.sigma),
                     str(k.svd.rank),
                     fmt(k.svd.manipulability, 3),
                     ", ".join(k.svd.lost_direction_names()) or "-",
@@ -663,7 +679,11 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
                 ]
                 for k in s.keyframes
             ],
-            "llrrll",
+            "lnrrll",
+        ),
+        key(
+            f"sigma: singular values of the tool's Jacobian; rank: how many exceed "
+            f"{SINGULAR_SIGMA:g}; lost: tool directions lost; held: the actuators hold it"
         ),
     ]
 
@@ -686,6 +706,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
             return "-"
         return "none" if math.isinf(x) else fmt(x, 4)
 
+    need = float(np.max(g.peak, initial=0.0))  # the column's size: below it, rounding is 0
+
     def ratio(i: int) -> str:
         value = float(g.ratio[i])
         if unheld[i]:
@@ -702,8 +724,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
             [
                 [
                     names[i],
-                    fmt(g.low[i], 4),
-                    fmt(g.high[i], 4),
+                    fmt(g.low[i], 4, need),
+                    fmt(g.high[i], 4, need),
                     bound(i, g.limit_lower[i]),
                     bound(i, g.limit_upper[i]),
                     ratio(i),
@@ -712,6 +734,11 @@ def _gravity_lines(r: AuditReport) -> list[str]:
                 for i in range(len(names))
             ],
             "lrrrrrr",
+        ),
+        key(
+            "need: torque gravity asks over the poses; limit: what the actuators can give; "
+            "limit/need: in the binding direction (< 1: some poses not held; -: no load); "
+            "over: poses beyond a limit"
         ),
         f"  poses over a limit: {g.n_over}   (Pinocchio vs MuJoCo gravity: "
         f"{g.engine_diff:.1e} N m)",
@@ -730,6 +757,12 @@ def _collision_lines(r: AuditReport) -> list[str]:
             ["pair", "poses", "contacts", "closest (m)"],
             [[p.pair.label, str(p.poses), str(p.contacts), fmt(p.closest, 4)] for p in ranked],
             "lrrr",
+        )
+        out.append(
+            key(
+                "poses: poses with the pair in contact; contacts: MuJoCo's contact points over "
+                "them; closest: closest approach [m] (< 0: penetration)"
+            )
         )
     for k in c.keyframes:
         near = (
@@ -757,6 +790,9 @@ def _engine_lines(r: AuditReport) -> list[str]:
             ],
             "lrrl",
         ),
+        key(
+            "max error: largest over the poses; tol: its tolerance; DISAGREE: beyond it (a finding)"
+        ),
         "",
         "model equivalence (MuJoCo's compiled model vs Pinocchio's):",
     ]
@@ -768,5 +804,13 @@ def _engine_lines(r: AuditReport) -> list[str]:
         out.append(
             f"  BRIDGED {kind} (from MuJoCo's {source}; Pinocchio's parser does not read it "
             f"as MuJoCo does): {', '.join(vals)}"
+        )
+    if eq.differences or kinds:
+        out.append(
+            key(
+                "DIFFERS: the two compiled models disagree beyond the tolerance; BRIDGED: a "
+                "value Pinocchio's parser does not read as MuJoCo does, copied from MuJoCo's "
+                "compiled model into Pinocchio's (both engines then use MuJoCo's value)"
+            )
         )
     return out
