@@ -75,6 +75,33 @@ def test_the_wheel_carries_license_models_and_types(dist: Path) -> None:
     assert "Provides-Extra: cluster" in metadata
 
 
+def _make_plan(target: str, venv: Path) -> str:
+    make = shutil.which("make")
+    if make is None:
+        pytest.skip("make is not installed")
+    run = subprocess.run(
+        [make, "-n", "--no-print-directory", "-C", str(ROOT), target, f"VENV={venv}"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 0, run.stderr
+    return run.stdout
+
+
+def test_make_audit_installs_the_library_alone_and_make_test_adds_the_tools(
+    tmp_path: Path,
+) -> None:
+    """The main job needs MuJoCo, Pinocchio and coal, not pytest, the lab or a browser."""
+    venv = tmp_path / "fresh"
+    audit = [x for x in _make_plan("audit", venv).splitlines() if "pip install" in x]
+    assert audit[-1].endswith("pip install --quiet -e .")
+    assert not any("[" in x for x in audit)  # no extra
+    test = _make_plan("test", venv)
+    assert test.index("pip install --quiet -e .\n") < test.index('pip install --quiet -e ".[dev]"')
+    assert test.rstrip().endswith("-m pytest")
+
+
 def test_api_reference_builds_without_warnings(tmp_path: Path) -> None:
     mkdocs = _tool("mkdocs")
     run = subprocess.run(
