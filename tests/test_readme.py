@@ -1,6 +1,6 @@
-"""The README and every page of the guide (docs/guide/*.md) run: each document's ```python
-blocks, in order, in one namespace of its own (as one script would: ``__name__`` is
-``"__main__"``), from the repository root; every ``redundancy ...`` command of its ```sh /
+"""The README, every page of the guide (docs/guide/*.md) and the docs site's pages run: each
+document's ```python blocks, in order, in one namespace of its own (as one script would:
+``__name__`` is ``"__main__"``), from the repository root; every ``redundancy ...`` command of its ```sh /
 ```console blocks through the CLI's ``main()``.
 
 A failure names the document and the block's line in it (the test ids are
@@ -32,7 +32,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 GUIDE = ROOT / "docs" / "guide"
-DOCUMENTS = [README, *sorted(GUIDE.glob("*.md"))]
+DOCS = ROOT / "docs"
+DOCUMENTS = [README, *sorted(GUIDE.glob("*.md")), DOCS / "index.md", *sorted(DOCS.glob("api/*.md"))]
 SHELLS = ("sh", "console", "bash", "shell")
 REPO_URL = "https://github.com/redundancy-robotics/redundancy/blob/main/"
 

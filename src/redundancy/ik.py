@@ -1,6 +1,6 @@
 """Inverse kinematics: put the tool at a pose, inside the joint ranges, and use the spare joints.
 
-The solver (:func:`solve`, behind :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>`):
+The solver ([`solve`][redundancy.ik.solve], behind `Arm.solve_ik`):
 
 * **Damped Levenberg-Marquardt** on the tool error e = [p* - p; log(R* R^T)] (world axes,
   [m] and [rad]), with Sugihara's damping lambda = E + w_N, E = e^T e / 2: the step is
@@ -46,7 +46,7 @@ OBJECTIVES = ("joint_limits", "manipulability")
 
 @dataclass(frozen=True)
 class IKResult:
-    """What :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` found.
+    """What `Arm.solve_ik` found.
 
     Attributes:
         q: The pose, inside the joint ranges [rad or m].
@@ -344,7 +344,7 @@ def solve(
             solves need none, and a generator costs tens of microseconds to seed).
         objective: A cost lowered in the null space after convergence, or None.
         position_only: Solve for the position alone (3 rows of J).
-        settings: The knobs (:class:`Settings` defaults if None).
+        settings: The knobs ([`Settings`][redundancy.ik.Settings] defaults if None).
     """
     s = settings or Settings()
     solver = _Solver(engine, lower, upper, p_t, R_t, position_only, s)

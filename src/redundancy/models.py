@@ -40,7 +40,7 @@ def bundled(name: str) -> Path | None:
 
     A name means a bundled model only when it is not a file (so a file called ``panda`` in
     the working directory still wins), has no directory part and names one of
-    :func:`available`.
+    [`available`][redundancy.models.available].
     """
     if not name or Path(name).exists() or Path(name).name != name:
         return None

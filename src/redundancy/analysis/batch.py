@@ -1,11 +1,11 @@
 """Batched evaluation over a stack of poses, at close to the engines' own speed.
 
 Every function takes a stack of joint configurations ``Q`` of shape (n, nq) and returns
-stacked arrays, equal to what the single-pose methods of :class:`~redundancy.Arm` return
+stacked arrays, equal to what the single-pose methods of [`Arm`][redundancy.Arm] return
 pose by pose (bit for bit; the tests hold them to it). What makes them fast:
 
 * **No per-pose Python objects on the hot path.** The engines' stacked evaluation
-  (:meth:`Engine.evaluate <redundancy.engines.contract.Engine.evaluate>`) writes straight
+  (`Engine.evaluate`) writes straight
   into the rows of preallocated output stacks (MuJoCo's ``mj_jacSite``, ``mj_fullM`` and
   ``mj_rne`` take output arrays); Pinocchio's post-processing (symmetrising ``crba``'s upper
   triangle, removing armature, reordering joints) is done once on the whole stack.
@@ -17,11 +17,13 @@ pose by pose (bit for bit; the tests hold them to it). What makes them fast:
   Pinocchio's never do. With ``threads > 1`` MuJoCo loops run on that many threads, each
   with its own ``MjData`` (a 7-dof chain's calls are 0.5-4 us, so the Python glue between
   them, which holds the GIL, limits the gain); NumPy's SVD releases the GIL, so
-  :func:`singular_values` overlaps the SVD of one chunk with the Jacobians of the next.
+  [`singular_values`][redundancy.analysis.batch.singular_values] overlaps the SVD of one chunk with
+  the Jacobians of the next.
   Results do not depend on ``threads``: each pose is computed by one thread, start to end.
 * **Other processes and machines with** ``executor=``. Any
-  :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
-  ``Client(...).get_executor()``) gets the stack in chunks of poses (:func:`scatter`); the
+  `concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
+  ``Client(...).get_executor()``) gets the stack in chunks of poses
+  ([`scatter`][redundancy.analysis.batch.scatter]); the
   arm travels as the loader call that built it and is rebuilt once per worker process, and
   the chunks' results are put back in order. Every pose is computed by the same code as in
   the caller's process, so the results equal the serial ones bit for bit.
@@ -93,7 +95,7 @@ class _Shipped:
 
     In the caller's process (a thread pool) it is the arm itself; pickled (a process pool, a
     Dask worker) it is the arm's loader call, and each worker process rebuilds the arm once
-    (:func:`_arrive`) and keeps it for the next chunks instead of loading it per task.
+    (`_arrive`) and keeps it for the next chunks instead of loading it per task.
     """
 
     __slots__ = ("arm",)
@@ -126,20 +128,21 @@ def map_chunks(
     """``fn(arm, Q[lo:hi], **kwargs)`` for consecutive chunks of ``Q``, run on ``executor``.
 
     Args:
-        executor: Any :class:`concurrent.futures.Executor`; a Dask cluster's
+        executor: Any `concurrent.futures.Executor`; a Dask cluster's
             ``Client(...).get_executor()`` included.
         fn: A module-level function (it is pickled by name for a process or a cluster).
-        arm: The arm (it must pickle: built by :func:`redundancy.load` or ``load_string``).
+        arm: The arm (it must pickle: built by [`redundancy.load`][redundancy.load] or
+            ``load_string``).
         Q: Poses, shape (n, nq).
-        chunk: Poses per task; by default at least :data:`EXECUTOR_MIN_CHUNK` and at most
-            :data:`EXECUTOR_MAX_TASKS` tasks.
+        chunk: Poses per task; by default at least `EXECUTOR_MIN_CHUNK` and at most
+            `EXECUTOR_MAX_TASKS` tasks.
         **kwargs: Passed to ``fn``.
 
     Returns:
         (first pose of the chunk, ``fn``'s result) per chunk, in order.
 
     Raises:
-        ParameterError: ``executor`` is not a :class:`concurrent.futures.Executor`, ``fn`` not
+        ParameterError: ``executor`` is not a `concurrent.futures.Executor`, ``fn`` not
             callable, ``chunk`` not an integer >= 1.
         PoseError: ``Q`` not finite poses of the arm.
     """
@@ -155,7 +158,7 @@ def _map_chunks(
     chunk: int | None,
     kwargs: dict[str, Any],
 ) -> list[tuple[int, R]]:
-    """:func:`map_chunks` with the executor, ``fn`` and ``Q`` checked."""
+    """`map_chunks` with the executor, ``fn`` and ``Q`` checked."""
     n = len(Q)
     if chunk is None:
         chunk = max(EXECUTOR_MIN_CHUNK, -(-n // EXECUTOR_MAX_TASKS))
@@ -227,7 +230,7 @@ def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bo
 def _stack(
     arm: Arm, Q: ArrayLike, engine: str, threads: int, what: str, armature: bool = True
 ) -> Array:
-    """One quantity over a stack: validate the inputs, then :func:`_fill`."""
+    """One quantity over a stack: validate the inputs, then `_fill`."""
     check_choice("engine", engine, ENGINES)
     return _fill(arm, poses(arm, Q), engine, check_threads(threads), what, armature)
 
@@ -239,14 +242,14 @@ def jacobians(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Site Jacobians of a stack of poses, as :meth:`Arm.jacobian <redundancy.Arm.jacobian>`.
+    """Site Jacobians of a stack of poses, as `Arm.jacobian`.
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
             here. The results are the same, bit for bit.
 
@@ -310,7 +313,7 @@ def singular_values(
     """Singular values of the site Jacobian at each pose, descending.
 
     Equal to ``linalg.yoshikawa``'s factors (``np.linalg.svd(J, compute_uv=False)``) bit for
-    bit, and to :meth:`Arm.svd <redundancy.Arm.svd>`'s ``sigma`` to rounding (1e-15
+    bit, and to `Arm.svd`'s ``sigma`` to rounding (1e-15
     relative: that SVD also computes the vectors, by another LAPACK path).
 
     Args:
@@ -318,7 +321,7 @@ def singular_values(
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
             here. The results are the same, bit for bit.
 
@@ -341,10 +344,11 @@ def manipulabilities(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Yoshikawa's manipulability at each pose, as :func:`linalg.manipulability`.
+    """Yoshikawa's manipulability at each pose, as `linalg.manipulability`.
 
     The product of the singular values of the chosen rows of J (sqrt(det(J J^T)) with at
-    least as many joints as rows, sqrt(det(J^T J)) with fewer: :func:`linalg.yoshikawa`).
+    least as many joints as rows, sqrt(det(J^T J)) with fewer:
+    [`linalg.yoshikawa`][redundancy.linalg.yoshikawa]).
 
     Args:
         arm: The arm.
@@ -352,10 +356,11 @@ def manipulabilities(
         engine: ``"mujoco"`` or ``"pinocchio"``.
         kind: ``"full"`` (6 x n J, mixed units), ``"position"`` (linear rows [m^3/rad^3]),
             ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by
-            ``length``, dimensionless); the fields of :class:`~redundancy.Manipulability`.
+            ``length``, dimensionless); the fields of [`Manipulability`][redundancy.Manipulability].
         length: Characteristic length for ``"scaled"`` [m].
-        threads: As in :func:`singular_values` (``"full"`` only).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        threads: As in [`singular_values`][redundancy.analysis.batch.singular_values] (``"full"``
+            only).
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
             here. The results are the same, bit for bit.
 
@@ -393,7 +398,7 @@ def mass_matrices(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Joint-space mass matrices, as :meth:`Arm.mass_matrix <redundancy.Arm.mass_matrix>`.
+    """Joint-space mass matrices, as `Arm.mass_matrix`.
 
     Args:
         arm: The arm.
@@ -401,7 +406,7 @@ def mass_matrices(
         armature: Include armature on the diagonal.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
             here. The results are the same, bit for bit.
 
@@ -423,14 +428,14 @@ def gravities(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Gravity torques to hold each pose, as :meth:`Arm.gravity <redundancy.Arm.gravity>`.
+    """Gravity torques to hold each pose, as `Arm.gravity`.
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"`` (``rneaInParallel`` on ``threads`` threads).
         threads: Worker threads.
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
             here. The results are the same, bit for bit.
 
@@ -451,8 +456,9 @@ def distances(
 ) -> Array:
     """Signed distance of every collision pair at each pose.
 
-    Equal to :meth:`CollisionChecker.distance_values
-    <redundancy.collision.CollisionChecker.distance_values>` pose by pose; the pairs are
+    Equal to
+    [`CollisionChecker.distance_values`][redundancy.collision.CollisionChecker.distance_values]
+    pose by pose; the pairs are
     ``redundancy.collision.checker(arm).pairs``, in that order.
 
     Args:
@@ -460,7 +466,7 @@ def distances(
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
             here. The results are the same, bit for bit.
 
@@ -500,7 +506,7 @@ def operational_inertias(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Lambda at each pose, as :meth:`redundancy.Arm.operational_inertia`.
+    """Lambda at each pose, as `redundancy.Arm.operational_inertia`.
 
     Args:
         arm: The arm.
@@ -509,8 +515,8 @@ def operational_inertias(
         joints: Names of the joints free to move (the others held); None: all.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` in chunks of poses (see
-            :func:`jacobians`); None runs here.
+        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
+            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
 
     Returns:
         Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
@@ -545,7 +551,7 @@ def effective_masses(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Effective mass at the tool at each pose, as :meth:`redundancy.Arm.effective_mass`.
+    """Effective mass at the tool at each pose, as `redundancy.Arm.effective_mass`.
 
     Args:
         arm: The arm.
@@ -555,8 +561,8 @@ def effective_masses(
         joints: Names of the joints free to move (the others held); None: all.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` in chunks of poses (see
-            :func:`jacobians`); None runs here.
+        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
+            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
 
     Returns:
         Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
@@ -594,8 +600,8 @@ def effective_mass_ranges(
 ) -> Array:
     """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
 
-    As :meth:`Arm.effective_mass_range <redundancy.Arm.effective_mass_range>`'s ``min`` and
-    ``max`` (arguments as :func:`effective_masses`).
+    As `Arm.effective_mass_range`'s ``min`` and
+    ``max`` (arguments as [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
     if executor is not None:
         return scatter(
@@ -624,8 +630,8 @@ def dynamic_manipulabilities(
 ) -> Array:
     """Yoshikawa's dynamic manipulability at each pose, shape (n,).
 
-    As :meth:`Arm.dynamic_manipulability <redundancy.Arm.dynamic_manipulability>`
-    (arguments as :func:`effective_masses`).
+    As `Arm.dynamic_manipulability`
+    (arguments as [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
     if executor is not None:
         return scatter(
@@ -658,7 +664,7 @@ def solve_ik(
     engine: EngineName = "mujoco",
     threads: int = 1,
 ) -> tuple[IKResult, ...]:
-    """:meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` for many targets, on ``threads`` threads.
+    """`Arm.solve_ik` for many targets, on ``threads`` threads.
 
     Result ``i`` is ``arm.solve_ik(targets[i], Q0[i], seed=seed + i, ...)`` whatever the
     thread count (each target is solved by one thread, start to end).
@@ -668,18 +674,18 @@ def solve_ik(
         targets: A sequence of targets (each a 4 x 4 pose or a (position, rotation) pair),
             or an array of poses (n, 4, 4).
         Q0: Starts, shape (n, nq) [rad or m]; None: each from the middle of the ranges.
-        objective: As :meth:`Arm.solve_ik`.
-        position_only: As :meth:`Arm.solve_ik`.
-        position_tol: As :meth:`Arm.solve_ik` [m].
-        orientation_tol: As :meth:`Arm.solve_ik` [rad].
-        restarts: As :meth:`Arm.solve_ik`.
+        objective: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
+        position_only: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
+        position_tol: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] [m].
+        orientation_tol: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] [rad].
+        restarts: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
         seed: Target ``i`` uses ``seed + i`` (None: fresh entropy for each).
-        engine: As :meth:`Arm.solve_ik`.
+        engine: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
         threads: Worker threads. The solver is mostly Python, which holds the GIL, so
             threads gain little beyond MuJoCo's own calls.
 
     Returns:
-        One :class:`~redundancy.ik.IKResult` per target.
+        One [`IKResult`][redundancy.IKResult] per target.
 
     Raises:
         ParameterError: A bad target (named by its index), a bad count of starts.

@@ -65,7 +65,8 @@ class KeyframeClearance:
 class CollisionStatistics(Report):
     """Self-collision over random poses, as the lesson's table (4), labelled honestly.
 
-    ``print(stats)`` prints :meth:`lines`; a notebook shows the pairs as an HTML table.
+    ``print(stats)`` prints [`lines`][redundancy.collision.CollisionStatistics.lines]; a notebook
+    shows the pairs as an HTML table.
 
     Attributes:
         n_poses: Number of poses drawn.
@@ -75,7 +76,7 @@ class CollisionStatistics(Report):
         pairs: Per pair, in pair-set order.
         keyframes: Clearance at each keyframe.
         disagreements: Poses where the distance engine's touching pairs differ from MuJoCo's
-            contact pairs, not counting pairs within :data:`AMBIGUITY_BAND` of their threshold
+            contact pairs, not counting pairs within `AMBIGUITY_BAND` of their threshold
             (0 expected; -1 without distances).
         seconds: Wall time of the sweep [s].
     """
@@ -190,7 +191,7 @@ def collision_statistics(
     Contacts are MuJoCo's (``mj_kinematics`` + ``mj_collision`` per pose, as the lesson's
     ``mj_forward`` finds them). With ``distances`` set, every pair's signed distance enters
     the closest approach per pair and a cross-check: the engine's touching pairs must equal
-    MuJoCo's contact pairs at every pose (pairs within :data:`AMBIGUITY_BAND` of their
+    MuJoCo's contact pairs at every pose (pairs within `AMBIGUITY_BAND` of their
     threshold aside).
 
     Far pairs are skipped (``prune``): a pair's distance is at least
@@ -198,7 +199,7 @@ def collision_statistics(
     two geoms projected on the line through their bounding boxes' centres: first with the
     boxes' extent along it (the tighter bound for long links), then with the geoms' own
     (a mesh's hull points; closed forms for primitives), each computed only where the
-    previous one does not decide. A pair whose bound, less :data:`PRUNE_SLACK`, exceeds its
+    previous one does not decide. A pair whose bound, less `PRUNE_SLACK`, exceeds its
     closest approach so far, its contact threshold (plus the ambiguity band) and zero, and
     that MuJoCo does not list, can change neither its closest approach, nor its pose index,
     nor the cross-check, so its distance is not computed. A pair of mesh hulls that MuJoCo
@@ -206,7 +207,7 @@ def collision_statistics(
     coal's collision test (GJK, no penetration depth) against its threshold plus the band
     stands in for its distance (with coal: its EPA never reports an overlap deeper than a
     separating axis allows, which its closed forms for primitives can). Poses go in chunks
-    of :data:`CHUNK`; in each, every pair is first measured at the pose with its smallest
+    of `CHUNK`; in each, every pair is first measured at the pose with its smallest
     bound, so that the closest approach is known early. The cost then grows with the pairs
     that come near, and every count and pose index equals the unpruned sweep's
     (``prune=False``). So does every distance, within coal's tolerances:
@@ -270,7 +271,7 @@ def collision_statistics(
 
 
 class _Sweep:
-    """The running counts of :func:`collision_statistics`, fed one chunk of poses at a time.
+    """The running counts of `collision_statistics`, fed one chunk of poses at a time.
 
     The poses are validated before they get here, so the engines' scenes are called
     directly. Every array is per pair, in pair-set order.
@@ -403,10 +404,10 @@ class _Sweep:
         second's. Every point of the first geom lies at most ``h1(R1^T u)`` beyond its origin
         o1 along u, every point of the second at least ``h2(-R2^T u)`` short of o2 (``h``
         the support function of the geom in its frame, R its rotation), so the geoms are at
-        least ``u . (o2 - o1) - h1 - h2`` apart, less :data:`PRUNE_SLACK`; for overlapping
+        least ``u . (o2 - o1) - h1 - h2`` apart, less `PRUNE_SLACK`; for overlapping
         geoms, that is a lower bound of the signed distance too. Returns the bound with the
         bounding boxes' support functions (a few flops per entry) and a function that gives
-        the bound with the geoms' own (:class:`~redundancy.collision.shapes.Support`: exact
+        the bound with the geoms' own (`Support`: exact
         for every primitive and for a mesh's hull, the solid both engines collide; dearer)
         at the entries a mask selects. NaN (never a skip) where the box centres coincide,
         -inf where a geom is unbounded.

@@ -195,21 +195,22 @@ def load(
 
     The file is read whole by both engines (MuJoCo's and Pinocchio's own parsers): a
     URDF (root element ``<robot>``) through each engine's URDF importer (see
-    :mod:`redundancy.model.urdf`), an MJCF through each engine's MJCF parser. The **arm** is
+    `redundancy.model.urdf`), an MJCF through each engine's MJCF parser. The **arm** is
     every hinge and slide joint on the path from the world (or from ``base``) to the tool
     frame, in chain order; every other joint (a gripper's, a second arm's, a torso's, a
     floating base's) is **held** at a rest configuration (see
-    :mod:`redundancy.model.robot`). ``arm.held`` says which joints and at what values,
+    `redundancy.model.robot`). ``arm.held`` says which joints and at what values,
     ``arm.set_aside`` what in the file does not reach the arm.
 
     Args:
         path: MJCF or URDF file.
         site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
         strict: Refuse features Pinocchio's MJCF parser reads differently (see
-            :func:`check_supported`); MJCF only.
+            `check_supported`); MJCF only.
         frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
             Overrides ``site``. Neither given: the model's one chain end (a leaf with a
-            moving joint above it; see :mod:`redundancy.model.ends`), else its frame named
+            moving joint above it; see [`redundancy.model.ends`][redundancy.model.ends]), else its
+            frame named
             ``"ee"``, else a ModelError listing the chain ends.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
@@ -263,7 +264,7 @@ def load_string(
     base: str | None = None,
     rest: RestSpec = None,
 ) -> Arm:
-    """Load MJCF or URDF text into MuJoCo and Pinocchio (see :func:`load`).
+    """Load MJCF or URDF text into MuJoCo and Pinocchio (see [`load`][redundancy.load]).
 
     Bytes are decoded as XML says. Pinocchio's MJCF parser reads files, so MJCF text is
     written to a temporary file for it and must not refer to other files (meshes, includes)
@@ -529,7 +530,7 @@ def _load_urdf(
     pairs: DisabledPairs | None,
     robot: _Robot,
 ) -> Arm:
-    """Both engines' URDF importers on the whole robot, checked (see :mod:`.urdf`)."""
+    """Both engines' URDF importers on the whole robot, checked (see `urdf`)."""
     source = robot.source
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)

@@ -1,18 +1,18 @@
 """The robot and its arm: the chain from the world to the tool, the rest of the robot held.
 
 A published file describes a robot (a gripper, a second arm, a torso, legs, a floating base);
-the library's arm is the chain to the tool. :func:`select_arm` reads MuJoCo's compiled model
-of the *whole* robot and returns an :class:`ArmSelection`: the hinge and slide joints on the
+the library's arm is the chain to the tool. `select_arm` reads MuJoCo's compiled model
+of the *whole* robot and returns an `ArmSelection`: the hinge and slide joints on the
 path from the world (or from ``base``) to the tool, in chain order, and every other joint held
 at a rest configuration. Both engines then get the robot with the held joints welded at that
 configuration:
 
-* MuJoCo: :func:`reduce_mujoco` edits the robot's :class:`mujoco.MjSpec`: each held joint is
+* MuJoCo: `reduce_mujoco` edits the robot's `mujoco.MjSpec`: each held joint is
   deleted and its body placed where the rest configuration puts it (from MuJoCo's own
   kinematics of the whole robot), and every element that refers to a held joint (actuators,
   tendons, equality constraints, sensors) is set aside, or refused when it reaches an arm
   joint. Bodies, geoms and sites are all kept, in the same order (body ids do not change).
-* Pinocchio: :func:`reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the
+* Pinocchio: `reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the
   same configuration (in Pinocchio's quaternion convention, x y z w, where MuJoCo's is
   w x y z) and carries over what ``buildReducedModel`` drops (armature: pinocchio#2746).
 
@@ -403,7 +403,7 @@ def _check_couplings(
 
 
 def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
-    """Delete what :func:`_check_couplings` set aside, and sensors of deleted elements."""
+    """Delete what `_check_couplings` set aside, and sensors of deleted elements."""
     mjobj = mujoco.mjtObj
     kept_actuators = {
         u
@@ -611,7 +611,7 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
 
 
 def difference_to_whole_robot(arm: object, q: Array) -> float:
-    """Largest difference of the arm (both engines) to :func:`whole_robot_quantities`.
+    """Largest difference of the arm (both engines) to `whole_robot_quantities`.
 
     Relative to each quantity's own scale: ``|arm - whole| / max(1, max |whole|)``, over the
     Jacobian, mass matrix (with armature), gravity and tool position.

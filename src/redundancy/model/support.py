@@ -1,6 +1,6 @@
 """Refusal rules: what the two engines may not agree on, refused with the reason.
 
-:func:`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
+`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
 for spellings MuJoCo compiles away and Pinocchio's parser reads differently.
 """
 
@@ -39,7 +39,7 @@ def check_supported(
     strict: bool = True,
     tool_site: str | None = None,
 ) -> None:
-    """Raise :class:`UnsupportedFeatureError` for anything the engines may not agree on.
+    """Raise `UnsupportedFeatureError` for anything the engines may not agree on.
 
     Supported: one fixed-base serial or branching tree of named hinge and slide joints, one
     joint per body, primitive geoms, sites, actuators on joints (bridged), keyframes.
@@ -50,7 +50,8 @@ def check_supported(
         strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed
             fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle, default
             classes it applies differently, compiler mass bounds). With ``strict=False``
-            such a model loads and :func:`redundancy.compare_models` shows the differences;
+            such a model loads and [`redundancy.compare_models`][redundancy.compare_models] shows
+            the differences;
             what Pinocchio cannot represent at all, and invalid values (non-finite numbers,
             negative armature or damping, inverted ranges), are refused either way.
         tool_site: The site the loader put on a tool body (named after the body, whose
@@ -436,7 +437,7 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     mass; ``inertiagrouprange`` is ignored. ``settotalmass``, ``boundmass`` and
     ``boundinertia`` change MuJoCo's masses beyond what Pinocchio applies. Each such body is
     returned with the causes found (possibly none: the body's inertia still comes from its
-    geoms), for :func:`redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
+    geoms), for `redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
     where Pinocchio's differs.
 
     Args:

@@ -23,14 +23,14 @@ part, this module decides:
   naming it (MuJoCo would raise a mass error, Pinocchio a singular mass matrix).
 * **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside
   when the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
-  (:mod:`redundancy.model.robot`); a mimic on a fixed joint is nothing.
+  (`redundancy.model.robot`); a mimic on a fixed joint is nothing.
 * **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
 * **armature**: URDF cannot express it; both engines read 0.
 * **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
 * **self-collision**: URDF has no filter. MuJoCo's parent filter already skips a link and its
   parent, except where the parent is welded to the world; the library excludes every pair of
   links joined by a joint (with the links welded to each), the base included, plus the pairs
-  of an SRDF's ``<disable_collisions>`` or a list given to :func:`redundancy.load`.
+  of an SRDF's ``<disable_collisions>`` or a list given to [`redundancy.load`][redundancy.load].
 """
 
 from __future__ import annotations
@@ -252,7 +252,7 @@ def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
 
 
 def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
-    """Every mass must be a number >= 0 (a moving link without one: :func:`prepare_urdf`)."""
+    """Every mass must be a number >= 0 (a moving link without one: `prepare_urdf`)."""
     mass: dict[str, float] = {}
     for el in root.findall("link"):
         inertial = el.find("inertial")
@@ -547,7 +547,7 @@ def build_mujoco(
         text: The URDF text.
         base: Directory relative mesh paths are taken from.
         source: File name or ``"<string>"``, for messages.
-        tree: The URDF's tree (from :func:`check_urdf`).
+        tree: The URDF's tree (from `check_urdf`).
         tool_link: Link that carries the tool frame.
         site: Name of the site added at the tool link's origin.
         disabled: Extra link pairs excluded from collision.
@@ -644,7 +644,8 @@ def _name_geoms(spec: mujoco.MjSpec) -> None:
     """Name MuJoCo's unnamed URDF geoms after their link, so reports can say which is which.
 
     A link's only collision geom takes the link's name; several take the names an unnamed
-    MJCF geom gets (:mod:`redundancy.model.names`): ``link geom 0``, ``link geom 1``..., by
+    MJCF geom gets ([`redundancy.model.names`][redundancy.model.names]): ``link geom 0``, ``link
+    geom 1``..., by
     their index in the link, counted from 0 in file order (MuJoCo's URDF import leaves them
     unnamed; names already given are kept).
     """

@@ -1,12 +1,14 @@
 """``redundancy audit``: everything the library knows about an arm, and what to act on.
 
-The audit takes the shared :mod:`~redundancy.reports.sections` (joints and timesteps,
+The audit takes the shared `sections` (joints and timesteps,
 keyframes, gravity against the actuators, self-collision), adds the engines' agreement and
-the model comparison, and *judges* what the file says: a :class:`Finding` only where the
+the model comparison, and *judges* what the file says: a
+[`Finding`][redundancy.reports.audit.Finding] only where the
 model's own numbers show a problem (a keyframe the actuators cannot hold, a timestep above
 the stable bound of the damping the model has, engines that disagree); what the file's
 format cannot express (a URDF's armature, actuators, timestep and integrator) is a
-:class:`Note`, never a finding. Numbers follow what MuJoCo simulates: the integrator and
+[`Note`][redundancy.reports.audit.Note], never a finding. Numbers follow what MuJoCo simulates: the
+integrator and
 its flags, gravity compensation, actuator ranges per direction, servo damping. The
 explicit-damping question (which timestep a controller's kd allows) is asked only with
 ``kd`` or of a model whose servos have damping of their own.
@@ -122,7 +124,8 @@ class RobotPart:
 class AuditReport(Report):
     """All sections of an audit, the engines' agreement, and the findings.
 
-    ``print(report)`` prints the text report (:meth:`lines`); a notebook shows the findings,
+    ``print(report)`` prints the text report
+    ([`lines`][redundancy.reports.audit.AuditReport.lines]); a notebook shows the findings,
     the keyframes and the engines' agreement as tables, with the full text folded below.
 
     Attributes:
@@ -311,8 +314,7 @@ def audit(
             joints' own, a servo's ``kv``) bounds the timestep.
         computed: Sections already computed with these arguments.
         mode: ``"strict"`` or ``"lenient"``: how the arm was loaded (recorded in the report).
-        progress: Called as each sweep advances (see :data:`~redundancy.reports.sections.
-            Progress`).
+        progress: Called as each sweep advances (see `redundancy.reports.sections.Progress`).
 
     Raises:
         ParameterError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
@@ -375,7 +377,7 @@ def _engines(
 
 
 def _worse(kept: Agreement | None, new: Agreement, offset: int) -> Agreement:
-    """The worse of two chunks' agreements, by :func:`redundancy.crosscheck`'s rules."""
+    """The worse of two chunks' agreements, by `redundancy.crosscheck`'s rules."""
     if kept is None:
         return Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset)
     error, pose = merge_worst(
@@ -549,7 +551,7 @@ def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics) -> 
 
 # -- text -----------------------------------------------------------------------------------------
 def format_report(r: AuditReport) -> list[str]:
-    """The audit as text lines of at most :data:`~redundancy.reports.tables.WIDTH` characters.
+    """The audit as text lines of at most `WIDTH` characters.
 
     Tables are sized to their content (a long name folds within its column); a longer
     sentence continues on the next line.

@@ -1,13 +1,14 @@
 """The sections both reports are made of, each computed once: joints, keyframes, gravity, contacts.
 
 The audit judges these and arm7's example tables format them; neither computes them again. The
-numbers come from the :class:`~redundancy.Arm`, :mod:`redundancy.analysis.batch` and
-:mod:`redundancy.collision`; what MuJoCo simulates beyond them (integrator, flags, actuator
-ranges, servo damping, gravity compensation) from :mod:`redundancy.model.actuators`.
+numbers come from the [`Arm`][redundancy.Arm], [`redundancy.analysis.batch`][redundancy.batch] and
+[`redundancy.collision`][redundancy.collision]; what MuJoCo simulates beyond them (integrator,
+flags, actuator
+ranges, servo damping, gravity compensation) from `redundancy.model.actuators`.
 
-Sweeps over random poses run in chunks of at most :data:`CHUNK` poses drawn from one
+Sweeps over random poses run in chunks of at most `CHUNK` poses drawn from one
 generator, so memory stays flat in the number of poses and the chunks are exactly the poses
-of :func:`redundancy.random_poses` ``(arm, n, seed)``.
+of [`redundancy.random_poses`][redundancy.random_poses] ``(arm, n, seed)``.
 """
 
 from __future__ import annotations
@@ -46,13 +47,14 @@ Progress = Callable[[str, int, int], object]
 
 
 def _quiet(label: str, done: int, total: int) -> None:
-    """The default :data:`Progress`: says nothing."""
+    """The default `Progress`: says nothing."""
 
 
 def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> Iterator[Array]:
-    """``n`` random poses in the joint ranges, in chunks of ``size`` (default :data:`CHUNK`) rows.
+    """``n`` random poses in the joint ranges, in chunks of ``size`` (default `CHUNK`) rows.
 
-    Concatenated, the chunks equal :func:`redundancy.random_poses` ``(arm, n, seed)``.
+    Concatenated, the chunks equal [`redundancy.random_poses`][redundancy.random_poses] ``(arm, n,
+    seed)``.
     """
     size = size or CHUNK
     lo, hi = sampling_ranges(arm)
@@ -141,7 +143,7 @@ class JointSection:
         keyframe: The keyframe the rows are taken at (``None``: the model's reference pose,
             qpos0).
         simulation: The model's simulation settings.
-        kd: The explicit kd asked about (``None``: the model's own, see :func:`joints`).
+        kd: The explicit kd asked about (``None``: the model's own, see `joints`).
         note: How the integrator treats damping, in one sentence.
         engine_diff: Largest |Pinocchio - MuJoCo| on M_ii, with and without armature [kg m^2].
     """
@@ -162,7 +164,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: no
             controller is assumed (0): the damping is what the model itself has, the joint's
             own and a servo's ``kv``.
-        key: Reference keyframe (default: :func:`reference_keyframe`).
+        key: Reference keyframe (default: `reference_keyframe`).
     """
     ref: str | None
     if key is None:
@@ -452,7 +454,7 @@ def contacts(
     distances: str | None = "coal",
     progress: Progress | None = None,
 ) -> CollisionStatistics:
-    """Self-collision over random poses (:func:`redundancy.collision_statistics`), in chunks.
+    """Self-collision over random poses (`redundancy.collision_statistics`), in chunks.
 
     Contacts are MuJoCo's; with ``distances`` (coal by default: the other engine, and the
     faster one) every pair's distance gives its closest approach, and the distance engine's
@@ -526,10 +528,10 @@ def compute(
     Args:
         arm: The arm.
         n_poses: Random poses of each sweep.
-        seed: Seed of the random poses (:func:`redundancy.random_poses`).
-        kd: Controller damping written to ctrl (see :func:`joints`) [N m s/rad].
+        seed: Seed of the random poses ([`redundancy.random_poses`][redundancy.random_poses]).
+        kd: Controller damping written to ctrl (see `joints`) [N m s/rad].
         distances: Distance engine of the collision sweep (``None``: contacts only).
-        progress: Called as each sweep advances (see :data:`Progress`).
+        progress: Called as each sweep advances (see `Progress`).
     """
     say = progress or _quiet
     joint_section, keys = joints(arm, kd), keyframes(arm)

@@ -1,6 +1,6 @@
-"""Plain-text report lines: numbers, tables sized by ``rich``, and lines that fit :data:`WIDTH`.
+"""Plain-text report lines: numbers, tables sized by ``rich``, and lines that fit `WIDTH`.
 
-Every report line is at most :data:`WIDTH` characters whatever the names in the model: a
+Every report line is at most `WIDTH` characters whatever the names in the model: a
 table's text columns fold a long name over several lines (``rich`` sizes the columns), and
 a sentence longer than the width continues on the next line, indented. Numbers are never
 cut: a number column, or a column of numbers listed in one cell, keeps each cell whole; a
@@ -143,5 +143,5 @@ def wrap(line: str, width: int = WIDTH) -> list[str]:
 
 
 def fit(lines: Iterable[str], width: int = WIDTH) -> list[str]:
-    """Every line of ``lines`` wrapped to ``width`` (see :func:`wrap`)."""
+    """Every line of ``lines`` wrapped to ``width`` (see `wrap`)."""
     return [part for line in lines for part in wrap(line, width)]
