@@ -535,7 +535,9 @@ def _load_urdf(
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
-    disabled = read_disabled_pairs(pairs, tree)
+    disabled, skipped = read_disabled_pairs(pairs, tree)
+    if skipped is not None:
+        robot.set_aside.append(skipped)
     mended, notes, defects = prepare_urdf(root, tree, tool_link, base_link, source)
     if notes:
         text = ET.tostring(mended, encoding="unicode")

@@ -483,19 +483,29 @@ def resolve_mesh(filename: str, base: Path, source: str) -> Path:
     raise ModelError(f"URDF {source}: mesh file {filename!r} not found (looked for: {shown})")
 
 
-def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tuple[str, str]]:
+def read_disabled_pairs(
+    pairs: DisabledPairs | None, tree: UrdfTree
+) -> tuple[list[tuple[str, str]], SetAside | None]:
     """Link pairs that must never collide: an SRDF file's ``<disable_collisions>``, or pairs.
+
+    An SRDF may describe a whole robot of which the URDF is a part (TALOS's SRDF for its
+    left arm): its pairs naming a link the URDF does not have are skipped, and said so (see
+    `whole_robot_pairs`). Listed pairs are this model's own: each link must exist.
 
     Args:
         pairs: Path of an SRDF file, or an iterable of (link, link) pairs, or None.
         tree: The URDF's tree (link names are checked against it).
 
+    Returns:
+        The pairs, and what was skipped of an SRDF's (None: nothing).
+
     Raises:
         ModelError: Unreadable SRDF, or a pair that is not two names.
-        UnknownNameError: A link the URDF does not have.
+        UnknownNameError: A listed pair's link the URDF does not have, or an SRDF none of
+            whose pairs applies to this URDF (its first unknown link).
     """
     if pairs is None:
-        return []
+        return [], None
     out: list[tuple[str, str]] = []
     if isinstance(pairs, str | os.PathLike):
         p = Path(pairs)
@@ -505,6 +515,7 @@ def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tup
             raise ModelError(f"cannot read the SRDF file {str(p)!r}: {err}") from err
         for el in srdf.iter("disable_collisions"):
             out.append((el.get("link1", ""), el.get("link2", "")))
+        return whole_robot_pairs(out, tree, p.name)
     else:
         for pair in pairs:
             if isinstance(pair, str) or len(pair) != 2:
@@ -514,7 +525,42 @@ def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tup
         for link in (a, b):
             if link not in tree.links:
                 raise UnknownNameError("link", link, tree.links)
-    return out
+    return out, None
+
+
+def whole_robot_pairs(
+    pairs: list[tuple[str, str]], tree: UrdfTree, name: str
+) -> tuple[list[tuple[str, str]], SetAside | None]:
+    """An SRDF's pairs that apply to this URDF, and a note on those skipped.
+
+    A pair naming a link the URDF does not have is another part of the robot's (the SRDF of
+    a whole humanoid given with one arm's URDF): skipped, counted and named in the note. When
+    no pair applies at all, the file is not this robot's, or its names are misspelt: the
+    first unknown link is an error listing the valid names.
+
+    Args:
+        pairs: The SRDF's (link, link) pairs, in file order.
+        tree: The URDF's tree.
+        name: The SRDF file's name, for the note.
+
+    Raises:
+        UnknownNameError: No pair applies and a link is unknown.
+    """
+    known = set(tree.links)
+    kept = [(a, b) for a, b in pairs if a in known and b in known]
+    missing = sorted({link for pair in pairs for link in pair if link not in known})
+    if not missing:
+        return kept, None
+    if not kept:
+        raise UnknownNameError("link", missing[0], tree.links)
+    shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6 else "")
+    note = SetAside(
+        "SRDF pairs",
+        name,
+        f"{len(pairs) - len(kept)} of its {len(pairs)} pairs name links this URDF does not "
+        f"have ({shown}): skipped, the {len(kept)} others applied",
+    )
+    return kept, note
 
 
 def adjacent_pairs(tree: UrdfTree) -> list[tuple[str, str]]:

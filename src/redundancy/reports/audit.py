@@ -33,7 +33,7 @@ from ..analysis.crosscheck import (
 )
 from ..arm import Arm
 from ..checks import check_count, check_number
-from ..collision import CollisionStatistics
+from ..collision import CollisionStatistics, GeomPair
 from ..display import Report, Table, plural
 from ..display import table as html_table
 from ..model.equivalence import EquivalenceReport, compare_models
@@ -161,7 +161,8 @@ class AuditReport(Report):
     def to_dict(self) -> dict[str, Any]:
         """The report as plain data (the ``--json`` document)."""
         s = self.sections
-        j, g, c = s.joints, s.gravity, s.contacts
+        j, g, c, t = s.joints, s.gravity, s.contacts, s.touching
+        urdf = self.model_format == "URDF"
         cc, eq = self.engines.crosscheck, self.engines.equivalence
         gravity = {k: v for k, v in asdict(g).items() if k != "agreement"}  # in "crosscheck"
         doc = {
@@ -195,6 +196,13 @@ class AuditReport(Report):
                 "n_poses": c.n_poses,
                 "seed": c.seed,
                 "share_with_contact": c.share_with_contact,
+                "touching_everywhere": [
+                    {"pair": p.pair.label, "poses": p.poses, **exclusion(p.pair, urdf)}
+                    for p in (t.pairs if t is not None else ())
+                ],
+                "share_with_contact_without_them": (
+                    c.share_with_contact if t is None else t.share_with_contact
+                ),
                 "n_pairs": len(c.pairs),
                 "disagreements": c.disagreements,
                 "pairs": [
@@ -333,6 +341,7 @@ def audit(
     _judge_keyframes(judged, arm, computed)
     _judge_gravity(judged, arm, computed.gravity, computed.joints, urdf)
     _judge_engines(judged, engines, computed.contacts)
+    _judge_touching(judged, computed.touching, urdf)
     for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
         judged.finding("published inertia", defect)
     return AuditReport(
@@ -549,6 +558,40 @@ def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics) -> 
         out.finding("engines", f"models differ: {_one_line(d)}")
 
 
+def exclusion(pair: GeomPair, urdf: bool) -> dict[str, Any]:
+    """What removes a pair from the ones tested: the line for the file, the argument for Python.
+
+    URDF: an SRDF ``<disable_collisions>`` line (``--srdf``) or a ``disabled_collisions=`` entry
+    (its links); MJCF: a ``<contact><exclude>`` of its bodies.
+    """
+    a, b = sorted((pair.body1, pair.body2))  # in the order of the pair's label
+    if urdf:
+        return {
+            "bodies": [a, b],
+            "srdf": f'<disable_collisions link1="{a}" link2="{b}" reason="Always"/>',
+            "disabled_collisions": [a, b],
+        }
+    return {"bodies": [a, b], "mjcf": f'<contact><exclude body1="{a}" body2="{b}"/></contact>'}
+
+
+def _judge_touching(out: _Judged, t: sections.TouchingEverywhere | None, urdf: bool) -> None:
+    for p in t.pairs if t is not None else ():
+        fix = exclusion(p.pair, urdf)
+        remedy = (
+            f"the SRDF line {fix['srdf']} (--srdf), or disabled_collisions="
+            f"[{tuple(fix['disabled_collisions'])!r}] in Python"
+            if urdf
+            else f"{fix['mjcf']} in the MJCF file"
+        )
+        out.note(
+            "collision",
+            f"{p.pair.label} touch in {p.poses} of {t.n_poses} poses: a pair in contact at "
+            "(nearly) every pose is almost always two links whose collision shapes overlap where "
+            "a joint joins them, an exclusion the file lacks rather than a collision to avoid; "
+            f"if so, exclude it with {remedy}",
+        )
+
+
 # -- text -----------------------------------------------------------------------------------------
 def format_report(r: AuditReport) -> list[str]:
     """The audit as text lines of at most `WIDTH` characters.
@@ -750,9 +793,16 @@ def _gravity_lines(r: AuditReport) -> list[str]:
 def _collision_lines(r: AuditReport) -> list[str]:
     c = r.sections.contacts
     ranked = sorted(c.pairs, key=lambda p: (-p.poses, p.closest))[:8]
+    t = r.sections.touching
+    without = (
+        f"; {100 * t.share_with_contact:.1f}% without the "
+        f"{plural(len(t.pairs), 'pair')} in contact at every pose (see the notes)"
+        if t is not None and t.pairs
+        else ""
+    )
     out = [
         f"self-collision over {c.n_poses} random poses (seed {c.seed}), {len(c.pairs)} pairs "
-        f"tested: {100 * c.share_with_contact:.1f}% of poses have a contact",
+        f"tested: {100 * c.share_with_contact:.1f}% of poses have a contact{without}",
     ]
     if ranked:
         out += table(

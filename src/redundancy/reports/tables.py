@@ -117,8 +117,9 @@ def table(
 def wrap(line: str, width: int = WIDTH) -> list[str]:
     """A line as lines of at most ``width`` characters, continuations indented two more.
 
-    A bracketed group (a unit ``[N m s/rad]``, a vector ``[0 0 0.12]``) or a short one in
-    parentheses (``(N m)``, ``(seed 0)``) stays on one line. A
+    A bracketed group (a unit ``[N m s/rad]``, a vector ``[0 0 0.12]``), a short one in
+    parentheses (``(N m)``, ``(seed 0)``) and an XML element to copy into a file stay on one
+    line. A
     word longer than a line is cut, except a file path (a word with a ``/``), which a reader
     copies whole: it stands whole on a line of its own, however long.
     """
@@ -128,7 +129,9 @@ def wrap(line: str, width: int = WIDTH) -> list[str]:
     room = width - len(lead) - len(INDENT)
     # A bracket's spaces are held by a stand-in while textwrap splits at the others.
     held = re.sub(
-        r"\[[^\[\]]{1,40}\]|\([^()]{1,10}\)", lambda m: m.group().replace(" ", _GLUE), line
+        r"\[[^\[\]]{1,40}\]|\([^()]{1,10}\)|<[^<>]{1,90}>",
+        lambda m: m.group().replace(" ", _GLUE),
+        line,
     )
     paths = any("/" in w and len(w) > room for w in held.split())
     parts = textwrap.wrap(
