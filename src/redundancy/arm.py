@@ -1,8 +1,8 @@
 """The [`Arm`][redundancy.Arm]: one arm held by both engines, with joints matched by name.
 
 An Arm is built by [`redundancy.load`][redundancy.load] (see `redundancy.model`), which checks the
-model, bridges what Pinocchio's parser leaves out and hands both compiled models here. The
-Arm itself only dispatches: every number comes from an engine of `redundancy.engines`.
+model, bridges what Pinocchio's parser leaves out and hands both compiled models here. The Arm
+itself only dispatches: every number comes from an engine of `redundancy.engines`.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def check_arm(value: object, name: str = "arm") -> Arm:
     return value
 
 
-#: solve_ik's default tolerances [m, rad] and restarts, which `ik.DEFAULT_SETTINGS` holds.
+#:  solve_ik's default tolerances [m, rad] and restarts, which `ik.DEFAULT_SETTINGS` holds.
 _IK_DEFAULTS = (1e-6, 1e-6, 100)
 
 
@@ -80,9 +80,9 @@ class Arm:
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
 
     Build it with [`redundancy.load`][redundancy.load] or
-    [`redundancy.load_string`][redundancy.load_string]. Joint order is
-    MuJoCo's. An Arm may be shared by threads, copied and pickled (it pickles as its model
-    source and options and is rebuilt, both engines, when loaded).
+    [`redundancy.load_string`][redundancy.load_string]. Joint order is MuJoCo's. An Arm may be
+    shared by threads, copied and pickled (it pickles as its model source and options and is
+    rebuilt, both engines, when loaded).
 
     Attributes:
         mujoco: The MuJoCo engine.
@@ -268,11 +268,10 @@ class Arm:
     ) -> linalg.Manipulability:
         """Yoshikawa's measure of J, its blocks, and J with position rows divided by length [m].
 
-        Each is the product of the singular values of its rows of J (sqrt(det(J J^T)) with
-        6 or more joints, sqrt(det(J^T J)) with fewer; see
-        [`redundancy.linalg.yoshikawa`][redundancy.linalg.yoshikawa]).
-        The measures are computed when read: ``arm.manipulability(q).full`` costs one J and
-        one SVD.
+        Each is the product of the singular values of its rows of J (sqrt(det(J J^T)) with 6 or more
+        joints, sqrt(det(J^T J)) with fewer; see
+        [`redundancy.linalg.yoshikawa`][redundancy.linalg.yoshikawa]). The measures are computed
+        when read: ``arm.manipulability(q).full`` costs one J and one SVD.
         """
         return linalg.manipulability(self.jacobian(q, engine), length)
 
@@ -389,8 +388,7 @@ class Arm:
 
         The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
         [`operational_inertia`][redundancy.arm.Arm.operational_inertia]); the greatest is ``inf``
-        where the tool cannot move
-        along some direction.
+        where the tool cannot move along some direction.
         """
         return linalg._effective_mass_range(*self._mobility(q, armature, joints, engine))
 
@@ -405,8 +403,7 @@ class Arm:
         """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) at ``q``.
 
         Arguments as [`operational_inertia`][redundancy.arm.Arm.operational_inertia]; zero where
-        fewer than six joints are free
-        or at a singular pose [mixed units].
+        fewer than six joints are free or at a singular pose [mixed units].
         """
         return float(linalg._dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
 
@@ -462,9 +459,9 @@ class Arm:
     ) -> ik.IKResult:
         """Joint values that put the tool at ``target``, inside the joint ranges.
 
-        Damped Levenberg-Marquardt with the joints clamped to their ranges and random
-        restarts inside them; the answer is recomputed by the other engine, whose errors
-        decide ``success`` (see [`redundancy.ik`][redundancy.ik]).
+        Damped Levenberg-Marquardt with the joints clamped to their ranges and random restarts
+        inside them; the answer is recomputed by the other engine, whose errors decide ``success``
+        (see [`redundancy.ik`][redundancy.ik]).
 
         Args:
             target: A 4 x 4 homogeneous pose, or a (position [m], rotation) pair as
@@ -482,8 +479,7 @@ class Arm:
 
         Returns:
             The [`IKResult`][redundancy.IKResult]: ``q`` (inside the ranges in every case),
-            ``success``, ``position_error`` [m], ``orientation_error`` [rad],
-            ``iterations``.
+            ``success``, ``position_error`` [m], ``orientation_error`` [rad], ``iterations``.
 
         Raises:
             ParameterError: A bad target, tolerance, count, seed or objective.

@@ -409,8 +409,8 @@ ROTATION_ATOL = 1e-6
 def check_tool_pose(name: str, target: object) -> tuple[Array, Array]:
     """A tool pose as (position (3,) [m], rotation (3, 3)): a 4 x 4 homogeneous matrix or a pair.
 
-    The pair is what `Arm.site_pose` returns. The rotation
-    must be orthonormal with determinant +1 (to `ROTATION_ATOL`).
+    The pair is what `Arm.site_pose` returns. The rotation must be orthonormal with determinant +1
+    (to `ROTATION_ATOL`).
 
     Raises:
         ParameterError: Anything else (the message says what a target is).
@@ -502,9 +502,9 @@ def check_directions(name: str, U: object, n: int) -> Array:
 def _tool_pose_pair(target: object) -> tuple[Array, Array] | None:
     """The common target, a (position, rotation) pair of float64 arrays, checked in floats.
 
-    `check_tool_pose`'s fast path (an inverse-kinematics solve takes ~0.3 ms, of which
-    the NumPy checks of the slow path took a tenth); None sends anything else, and any
-    failure, to the slow path, which names the error.
+    `check_tool_pose`'s fast path (an inverse-kinematics solve takes ~0.3 ms, of which the NumPy
+    checks of the slow path took a tenth); None sends anything else, and any failure, to the slow
+    path, which names the error.
     """
     if not (isinstance(target, tuple | list) and len(target) == 2):
         return None

@@ -1,18 +1,16 @@
 """Random MJCF arms for property tests: models nobody hand-tuned.
 
 [`arms`][redundancy.generate.arms] draws fixed-base serial or branching arms with 1 to 9 hinge or
-slide joints:
-arbitrary joint axes, body poses in every form MJCF allows (``pos``, ``quat``, ``euler``,
-``axisangle``, ``xyaxes``, ``zaxis``), angles in radians or degrees, intrinsic euler
-sequences, default classes and ``childclass``, primitive geoms with ``mass`` or ``density``
-(or ``fromto``), explicit inertials (diagonal or full), armature, damping, joint ranges,
-actuators, gravity and a site ``"tip"`` at the end of the last body. Every model it draws is
-one the loader accepts (``strict=True``), so both engines must agree on it; a failing model
-shrinks to a small one.
+slide joints: arbitrary joint axes, body poses in every form MJCF allows (``pos``, ``quat``,
+``euler``, ``axisangle``, ``xyaxes``, ``zaxis``), angles in radians or degrees, intrinsic euler
+sequences, default classes and ``childclass``, primitive geoms with ``mass`` or ``density`` (or
+``fromto``), explicit inertials (diagonal or full), armature, damping, joint ranges, actuators,
+gravity and a site ``"tip"`` at the end of the last body. Every model it draws is one the loader
+accepts (``strict=True``), so both engines must agree on it; a failing model shrinks to a small one.
 
 [`refused_arms`][redundancy.generate.refused_arms] draws the same arms with one feature the loader
-must refuse (a posed
-fixed root, an extrinsic euler sequence, a ball joint...), with the feature's name.
+must refuse (a posed fixed root, an extrinsic euler sequence, a ball joint...), with the feature's
+name.
 
 Example:
     >>> from hypothesis import given
@@ -41,9 +39,9 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
 EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")
 
-#: Robot features off the arm that the loader holds or sets aside
-#: ([`held_arms`][redundancy.generate.held_arms]): the arm
-#: is the chain to the tool, and these must not change what the engines agree on.
+#:  Robot features off the arm that the loader holds or sets aside
+#: ([`held_arms`][redundancy.generate.held_arms]): the arm is the chain to the tool, and these must
+#: not change what the engines agree on.
 HELD_FEATURES = (
     "several root bodies",
     "several kinematic trees",
@@ -51,7 +49,7 @@ HELD_FEATURES = (
     "free joint",
 )
 
-#: Features [`refused_arms`][redundancy.generate.refused_arms] can add, each the ``feature`` of the
+#:  Features [`refused_arms`][redundancy.generate.refused_arms] can add, each the ``feature`` of the
 #: loader's refusal.
 REFUSED_FEATURES = (
     "extrinsic eulerseq",
@@ -68,9 +66,9 @@ REFUSED_FEATURES = (
     "shell inertia",
 )
 
-#: Features Pinocchio's parser reads differently and the loader bridges (issue 11):
-#: [`arms`][redundancy.generate.arms]
-#: draws up to two of them per model, and both engines must still agree.
+#:  Features Pinocchio's parser reads differently and the loader bridges (issue 11):
+#: [`arms`][redundancy.generate.arms] draws up to two of them per model, and both engines must still
+#: agree.
 BRIDGED_FEATURES = (
     "fixed root body with a pose",
     "mesh geom",

@@ -243,7 +243,7 @@ class Manipulability(Report):
 
 
 ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
-#: The measures of [`Manipulability`][redundancy.Manipulability], each of its own rows of J.
+#:  The measures of [`Manipulability`][redundancy.Manipulability], each of its own rows of J.
 MANIPULABILITY_KINDS: tuple[ManipulabilityKind, ...] = ("full", "position", "orientation", "scaled")
 
 
@@ -263,8 +263,8 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
 
     Args:
         J: Site Jacobian(s), shape (6, n) or (m, 6, n): linear rows first.
-        kind: One of `MANIPULABILITY_KINDS`: all rows, the linear or the angular ones,
-            or all with the linear rows divided by ``length``.
+        kind: One of `MANIPULABILITY_KINDS`: all rows, the linear or the angular ones, or all with
+            the linear rows divided by ``length``.
         length: Characteristic length for ``"scaled"`` [m], > 0.
 
     Raises:
@@ -280,12 +280,11 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
 def yoshikawa(J: Array) -> float:
     """Manipulability of an m x n J: the product of its min(m, n) singular values.
 
-    This is the one definition the library uses, for any joint count: sqrt(det(J J^T))
-    (Yoshikawa's) when n >= m, and sqrt(det(J^T J)) when n < m, where det(J J^T) is
-    identically 0 (an arm of fewer than 6 joints still has a measure of how far it is from
-    losing one of the directions it can move along). The gradient
-    ([`manipulability_gradient`][redundancy.linalg.manipulability_gradient]) and the batch stacks
-    are of this same value.
+    This is the one definition the library uses, for any joint count: sqrt(det(J J^T)) (Yoshikawa's)
+    when n >= m, and sqrt(det(J^T J)) when n < m, where det(J J^T) is identically 0 (an arm of fewer
+    than 6 joints still has a measure of how far it is from losing one of the directions it can move
+    along). The gradient ([`manipulability_gradient`][redundancy.linalg.manipulability_gradient])
+    and the batch stacks are of this same value.
     """
     return _yoshikawa(check_matrix("J", J))
 
@@ -314,11 +313,11 @@ def manipulability(J: Array, length: float = 1.0) -> Manipulability:
 def manipulability_gradient(J: Array, dJ: Array) -> Array:
     """Gradient of w = prod(sigma) (`yoshikawa`, any m and n) with respect to q.
 
-    With the thin SVD J = U diag(sigma) V^T (r = min(m, n) singular values),
-    d w / d q_k = sum_i (prod_{j != i} sigma_j) u_i^T dJ_k v_i: for n >= m the same as
-    w * trace((J J^T)^-1 dJ_k J^T), without inverting J J^T, so it stays accurate near
-    singular poses. At a singular pose (numerical rank below r, see `RANK_RTOL`) the
-    measure has a kink, like |x| at 0, and no gradient: zeros are returned.
+    With the thin SVD J = U diag(sigma) V^T (r = min(m, n) singular values), d w / d q_k = sum_i
+    (prod_{j != i} sigma_j) u_i^T dJ_k v_i: for n >= m the same as w * trace((J J^T)^-1 dJ_k J^T),
+    without inverting J J^T, so it stays accurate near singular poses. At a singular pose (numerical
+    rank below r, see `RANK_RTOL`) the measure has a kink, like |x| at 0, and no gradient: zeros are
+    returned.
 
     Args:
         J: Jacobian, shape (m, n).
@@ -486,8 +485,7 @@ def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL) -> Array:
 
     Raises:
         SingularPoseError: J has rank below 6 (by [`jacobian_svd`][redundancy.linalg.jacobian_svd]'s
-            rule) at some pose:
-            names the tool directions lost (and the pose, for a stack).
+            rule) at some pose: names the tool directions lost (and the pose, for a stack).
     """
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     bad = (s.shape[-1] < J.shape[-2]) | ~(s[..., 0] > 0) | (s[..., -1] <= rtol * s[..., 0])

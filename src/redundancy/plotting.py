@@ -1,11 +1,10 @@
 """Figures of the common plots, and matplotlib for the scripts (the ``plot`` extra).
 
-Nothing here changes the user's matplotlib backend or pyplot's state: the figure helpers
-build a `matplotlib.figure.Figure` directly (object-oriented API), which a notebook
-shows inline when it is a cell's value and which ``fig.savefig(path)`` writes anywhere.
+Nothing here changes the user's matplotlib backend or pyplot's state: the figure helpers build a
+`matplotlib.figure.Figure` directly (object-oriented API), which a notebook shows inline when it is
+a cell's value and which ``fig.savefig(path)`` writes anywhere.
 [`pyplot`][redundancy.plotting.pyplot] returns ``matplotlib.pyplot`` as the user configured it
-(matplotlib itself
-falls back to the non-interactive Agg backend where there is no display).
+(matplotlib itself falls back to the non-interactive Agg backend where there is no display).
 
 Example:
     >>> import redundancy as rd
@@ -32,7 +31,7 @@ from .linalg import MANIPULABILITY_KINDS, ManipulabilityKind
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-#: The velocity ellipsoids
+#:  The velocity ellipsoids
 #: [`velocity_ellipsoid_figure`][redundancy.plotting.velocity_ellipsoid_figure] draws: rows of J and
 #: their unit.
 ELLIPSOID_KINDS = {"position": (slice(0, 3), "m/s"), "orientation": (slice(3, 6), "rad/s")}

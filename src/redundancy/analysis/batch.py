@@ -1,32 +1,31 @@
 """Batched evaluation over a stack of poses, at close to the engines' own speed.
 
-Every function takes a stack of joint configurations ``Q`` of shape (n, nq) and returns
-stacked arrays, equal to what the single-pose methods of [`Arm`][redundancy.Arm] return
-pose by pose (bit for bit; the tests hold them to it). What makes them fast:
+Every function takes a stack of joint configurations ``Q`` of shape (n, nq) and returns stacked
+arrays, equal to what the single-pose methods of [`Arm`][redundancy.Arm] return pose by pose (bit
+for bit; the tests hold them to it). What makes them fast:
 
 * **No per-pose Python objects on the hot path.** The engines' stacked evaluation
-  (`Engine.evaluate`) writes straight
-  into the rows of preallocated output stacks (MuJoCo's ``mj_jacSite``, ``mj_fullM`` and
-  ``mj_rne`` take output arrays); Pinocchio's post-processing (symmetrising ``crba``'s upper
-  triangle, removing armature, reordering joints) is done once on the whole stack.
+  (`Engine.evaluate`) writes straight into the rows of preallocated output stacks (MuJoCo's
+  ``mj_jacSite``, ``mj_fullM`` and ``mj_rne`` take output arrays); Pinocchio's post-processing
+  (symmetrising ``crba``'s upper triangle, removing armature, reordering joints) is done once on the
+  whole stack.
 * **One call where the engine has one.** Pinocchio's gravity comes from
   ``pinocchio.rneaInParallel`` (RNEA with v = a = 0: the same sums as
   ``computeGeneralizedGravity``), one C++ call for the whole stack, on ``threads`` OpenMP
   threads. Singular values come from one ``np.linalg.svd`` call on the (n, 6, nv) stack.
-* **Threads where the GIL allows.** MuJoCo's bindings release the GIL inside ``mj_*``;
-  Pinocchio's never do. With ``threads > 1`` MuJoCo loops run on that many threads, each
-  with its own ``MjData`` (a 7-dof chain's calls are 0.5-4 us, so the Python glue between
-  them, which holds the GIL, limits the gain); NumPy's SVD releases the GIL, so
+* **Threads where the GIL allows.** MuJoCo's bindings release the GIL inside ``mj_*``; Pinocchio's
+  never do. With ``threads > 1`` MuJoCo loops run on that many threads, each with its own ``MjData``
+  (a 7-dof chain's calls are 0.5-4 us, so the Python glue between them, which holds the GIL, limits
+  the gain); NumPy's SVD releases the GIL, so
   [`singular_values`][redundancy.analysis.batch.singular_values] overlaps the SVD of one chunk with
-  the Jacobians of the next.
-  Results do not depend on ``threads``: each pose is computed by one thread, start to end.
-* **Other processes and machines with** ``executor=``. Any
-  `concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
-  ``Client(...).get_executor()``) gets the stack in chunks of poses
-  ([`scatter`][redundancy.analysis.batch.scatter]); the
-  arm travels as the loader call that built it and is rebuilt once per worker process, and
-  the chunks' results are put back in order. Every pose is computed by the same code as in
-  the caller's process, so the results equal the serial ones bit for bit.
+  the Jacobians of the next. Results do not depend on ``threads``: each pose is computed by one
+  thread, start to end.
+* **Other processes and machines with** ``executor=``. Any `concurrent.futures.Executor` (a
+  ``ProcessPoolExecutor``, a Dask cluster's ``Client(...).get_executor()``) gets the stack in chunks
+  of poses ([`scatter`][redundancy.analysis.batch.scatter]); the arm travels as the loader call that
+  built it and is rebuilt once per worker process, and the chunks' results are put back in order.
+  Every pose is computed by the same code as in the caller's process, so the results equal the
+  serial ones bit for bit.
 
 The singular values are NumPy's SVD (LAPACK ``gesdd`` without vectors), not the square roots
 of the eigenvalues of the 6 x 6 Gram matrix J J^T: that closed form is faster but squares
@@ -93,9 +92,9 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
 class _Shipped:
     """An arm on its way to an executor's worker.
 
-    In the caller's process (a thread pool) it is the arm itself; pickled (a process pool, a
-    Dask worker) it is the arm's loader call, and each worker process rebuilds the arm once
-    (`_arrive`) and keeps it for the next chunks instead of loading it per task.
+    In the caller's process (a thread pool) it is the arm itself; pickled (a process pool, a Dask
+    worker) it is the arm's loader call, and each worker process rebuilds the arm once (`_arrive`)
+    and keeps it for the next chunks instead of loading it per task.
     """
 
     __slots__ = ("arm",)
@@ -128,8 +127,8 @@ def map_chunks(
     """``fn(arm, Q[lo:hi], **kwargs)`` for consecutive chunks of ``Q``, run on ``executor``.
 
     Args:
-        executor: Any `concurrent.futures.Executor`; a Dask cluster's
-            ``Client(...).get_executor()`` included.
+        executor: Any `concurrent.futures.Executor`; a Dask cluster's ``Client(...).get_executor()``
+            included.
         fn: A module-level function (it is pickled by name for a process or a cluster).
         arm: The arm (it must pickle: built by [`redundancy.load`][redundancy.load] or
             ``load_string``).
@@ -142,8 +141,8 @@ def map_chunks(
         (first pose of the chunk, ``fn``'s result) per chunk, in order.
 
     Raises:
-        ParameterError: ``executor`` is not a `concurrent.futures.Executor`, ``fn`` not
-            callable, ``chunk`` not an integer >= 1.
+        ParameterError: ``executor`` is not a `concurrent.futures.Executor`, ``fn`` not callable,
+            ``chunk`` not an integer >= 1.
         PoseError: ``Q`` not finite poses of the arm.
     """
     _check_executor(executor, fn, kwargs)
@@ -250,8 +249,8 @@ def jacobians(
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Jacobians, shape (n, 6, nq): linear rows [m/rad] then angular [rad/rad], world axes.
@@ -312,9 +311,9 @@ def singular_values(
 ) -> Array:
     """Singular values of the site Jacobian at each pose, descending.
 
-    Equal to ``linalg.yoshikawa``'s factors (``np.linalg.svd(J, compute_uv=False)``) bit for
-    bit, and to `Arm.svd`'s ``sigma`` to rounding (1e-15
-    relative: that SVD also computes the vectors, by another LAPACK path).
+    Equal to ``linalg.yoshikawa``'s factors (``np.linalg.svd(J, compute_uv=False)``) bit for bit,
+    and to `Arm.svd`'s ``sigma`` to rounding (1e-15 relative: that SVD also computes the vectors, by
+    another LAPACK path).
 
     Args:
         arm: The arm.
@@ -322,8 +321,8 @@ def singular_values(
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Singular values, shape (n, min(6, nq)) [mixed units: m/rad and rad/rad].
@@ -346,8 +345,8 @@ def manipulabilities(
 ) -> Array:
     """Yoshikawa's manipulability at each pose, as `linalg.manipulability`.
 
-    The product of the singular values of the chosen rows of J (sqrt(det(J J^T)) with at
-    least as many joints as rows, sqrt(det(J^T J)) with fewer:
+    The product of the singular values of the chosen rows of J (sqrt(det(J J^T)) with at least as
+    many joints as rows, sqrt(det(J^T J)) with fewer:
     [`linalg.yoshikawa`][redundancy.linalg.yoshikawa]).
 
     Args:
@@ -355,14 +354,14 @@ def manipulabilities(
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         kind: ``"full"`` (6 x n J, mixed units), ``"position"`` (linear rows [m^3/rad^3]),
-            ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by
-            ``length``, dimensionless); the fields of [`Manipulability`][redundancy.Manipulability].
+            ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by ``length``,
+            dimensionless); the fields of [`Manipulability`][redundancy.Manipulability].
         length: Characteristic length for ``"scaled"`` [m].
         threads: As in [`singular_values`][redundancy.analysis.batch.singular_values] (``"full"``
             only).
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Manipulability per pose, shape (n,).
@@ -407,8 +406,8 @@ def mass_matrices(
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
@@ -436,8 +435,8 @@ def gravities(
         engine: ``"mujoco"`` or ``"pinocchio"`` (``rneaInParallel`` on ``threads`` threads).
         threads: Worker threads.
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Torques, shape (n, nq) [N m or N].
@@ -457,9 +456,8 @@ def distances(
     """Signed distance of every collision pair at each pose.
 
     Equal to
-    [`CollisionChecker.distance_values`][redundancy.collision.CollisionChecker.distance_values]
-    pose by pose; the pairs are
-    ``redundancy.collision.checker(arm).pairs``, in that order.
+    [`CollisionChecker.distance_values`][redundancy.collision.CollisionChecker.distance_values] pose
+    by pose; the pairs are ``redundancy.collision.checker(arm).pairs``, in that order.
 
     Args:
         arm: The arm.
@@ -467,8 +465,8 @@ def distances(
         engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         threads: Worker threads (MuJoCo only).
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Distances, shape (n, npairs), negative where the geoms overlap [m].
@@ -600,8 +598,8 @@ def effective_mass_ranges(
 ) -> Array:
     """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
 
-    As `Arm.effective_mass_range`'s ``min`` and
-    ``max`` (arguments as [`effective_masses`][redundancy.analysis.batch.effective_masses]).
+    As `Arm.effective_mass_range`'s ``min`` and ``max`` (arguments as
+    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
     if executor is not None:
         return scatter(
@@ -630,8 +628,8 @@ def dynamic_manipulabilities(
 ) -> Array:
     """Yoshikawa's dynamic manipulability at each pose, shape (n,).
 
-    As `Arm.dynamic_manipulability`
-    (arguments as [`effective_masses`][redundancy.analysis.batch.effective_masses]).
+    As `Arm.dynamic_manipulability` (arguments as
+    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
     if executor is not None:
         return scatter(

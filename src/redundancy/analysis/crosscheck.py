@@ -1,13 +1,12 @@
 """Pose-by-pose agreement of the two engines, with a stated tolerance per quantity.
 
-One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the scale is
-max |mujoco| at that pose, never below FLOOR x the quantity's size on the arm: see
+One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the scale is max
+|mujoco| at that pose, never below FLOOR x the quantity's size on the arm: see
 [`redundancy.model.scales`][redundancy.model.scales]), and its maximum over the poses
 ([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors],
-[`worst`][redundancy.analysis.crosscheck.worst]), serves the single-pose and the
-stacked cross-check alike: [`crosscheck`][redundancy.crosscheck] and
-[`crosscheck_batch`][redundancy.crosscheck_batch] are one
-computation, over stacks of poses taken in chunks so memory stays flat in their number.
+[`worst`][redundancy.analysis.crosscheck.worst]), serves the single-pose and the stacked cross-check
+alike: [`crosscheck`][redundancy.crosscheck] and [`crosscheck_batch`][redundancy.crosscheck_batch]
+are one computation, over stacks of poses taken in chunks so memory stays flat in their number.
 """
 
 from __future__ import annotations
@@ -32,11 +31,10 @@ from .batch import map_chunks
 
 Array = NDArray[np.float64]
 
-#: Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
+#:  Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
 #: [`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]): relative, so an arm of any
-#: size is held to the same 1e-9. Both
-#: engines evaluate the same closed-form rigid-body algorithms in double precision;
-#: differences are rounding.
+#: size is held to the same 1e-9. Both engines evaluate the same closed-form rigid-body algorithms
+#: in double precision; differences are rounding.
 TOLERANCES: dict[str, float] = {
     "site position": 1e-9,
     "site rotation": 1e-9,
@@ -87,8 +85,7 @@ class CrossCheckReport(Report):
 
     ``print(report)`` prints the table of
     [`lines`][redundancy.analysis.crosscheck.CrossCheckReport.lines]; in a notebook the report shows
-    as
-    an HTML table.
+    as an HTML table.
 
     Attributes:
         agreements: One entry per quantity.
@@ -207,12 +204,11 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
 
     max |a - b| / max(max |a|, FLOOR x size) over one pose's value
     ([`scaled_errors`][redundancy.model.scales.scaled_errors]), the size being the quantity's size
-    on
-    the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
-    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and
-    its derivatives are measured per block of rows, linear (size L) and angular (size 1),
-    since their units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and
-    the dynamic manipulability through its factors, the singular values of M^-1 J^T.
+    on the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
+    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and its
+    derivatives are measured per block of rows, linear (size L) and angular (size 1), since their
+    units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and the dynamic
+    manipulability through its factors, the singular values of M^-1 J^T.
 
     Args:
         name: A key of `TOLERANCES`.
@@ -404,10 +400,9 @@ def crosscheck_batch(
             ``threads - 1`` as OpenMP threads.
         chunk: Poses per chunk (>= 1).
         executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool), in chunks of poses each
-            cross-checked on a worker (`redundancy.batch.map_chunks`); None runs here.
-            The report is the same, bit for bit: the worst pose of the chunks is merged as
-            within one process.
+            ``Client(...).get_executor()``, a process pool), in chunks of poses each cross-checked
+            on a worker (`redundancy.batch.map_chunks`); None runs here. The report is the same, bit
+            for bit: the worst pose of the chunks is merged as within one process.
 
     Returns:
         The report; over zero poses it says that nothing was checked and is not ``ok``.

@@ -1,11 +1,9 @@
 """The collision checker of one arm: distances from coal and from MuJoCo, MuJoCo's contacts.
 
 [`CollisionChecker`][redundancy.CollisionChecker] gives, at one pose, the signed distance and
-nearest points of every
-pair of the pair set ([`collision_pairs`][redundancy.collision_pairs]) from coal (geoms placed by
-Pinocchio's forward kinematics, `coal_scene`) or from MuJoCo
-(``mj_geomDistance``, `mujoco_scene`), and MuJoCo's own contact list
-(``mj_collision``).
+nearest points of every pair of the pair set ([`collision_pairs`][redundancy.collision_pairs]) from
+coal (geoms placed by Pinocchio's forward kinematics, `coal_scene`) or from MuJoCo
+(``mj_geomDistance``, `mujoco_scene`), and MuJoCo's own contact list (``mj_collision``).
 
 Sign convention: a distance is positive when the geoms are apart and negative when they
 overlap [m]. MuJoCo lists a contact for a pair when the distance is below the pair's
@@ -123,9 +121,8 @@ class Distances:
 class CollisionChecker:
     """Self-collision queries on one arm: pair set, distances (coal, MuJoCo), contacts.
 
-    Build it once per arm (or let `checker` cache one per arm); it owns private engine
-    data, one set per thread, so the arm's own data is left alone and threads never share a
-    workspace.
+    Build it once per arm (or let `checker` cache one per arm); it owns private engine data, one set
+    per thread, so the arm's own data is left alone and threads never share a workspace.
 
     Args:
         arm: The loaded arm.
@@ -156,8 +153,8 @@ class CollisionChecker:
             raise UnsupportedFeatureError(
                 "flex", f"{m.nflex} in the model", "only rigid geoms are checked"
             )
-        # The cached checker of `checker` lives as long as its arm and must not keep
-        # it alive: it holds the arm weakly (everything else it needs, it holds itself).
+        #  The cached checker of `checker` lives as long as its arm and must not keep it alive: it
+        # holds the arm weakly (everything else it needs, it holds itself).
         self._arm: Arm | None = None if weak else arm
         self._arm_ref = weakref.ref(arm)
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)

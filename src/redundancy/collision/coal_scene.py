@@ -1,15 +1,14 @@
 """coal distances for a pair set, the geoms placed by Pinocchio's forward kinematics.
 
-Each geom becomes a Pinocchio ``GeometryObject`` attached to the BODY frame that Pinocchio's
-MJCF parser creates for the geom's body, at MuJoCo's compiled geom pose in that body
-(``geom_pos``, ``geom_quat``, which for a mesh include MuJoCo's recentring of the mesh). Only
-the shapes and their offsets in their bodies come from MuJoCo; every body pose comes from
-Pinocchio. A mesh geom becomes a coal convex polytope spanned by the vertices MuJoCo's own
-support function searches (`mesh_hull`): both engines
-collide the same convex solid, which for a non-convex mesh is its hull, not the mesh.
+Each geom becomes a Pinocchio ``GeometryObject`` attached to the BODY frame that Pinocchio's MJCF
+parser creates for the geom's body, at MuJoCo's compiled geom pose in that body (``geom_pos``,
+``geom_quat``, which for a mesh include MuJoCo's recentring of the mesh). Only the shapes and their
+offsets in their bodies come from MuJoCo; every body pose comes from Pinocchio. A mesh geom becomes
+a coal convex polytope spanned by the vertices MuJoCo's own support function searches (`mesh_hull`):
+both engines collide the same convex solid, which for a non-convex mesh is its hull, not the mesh.
 
-`CoalPairs` (shapes, ``GeometryModel``) is built once and only read; each thread gets a
-`CoalScene` with its own Pinocchio ``Data`` and ``GeometryData``.
+`CoalPairs` (shapes, ``GeometryModel``) is built once and only read; each thread gets a `CoalScene`
+with its own Pinocchio ``Data`` and ``GeometryData``.
 """
 
 from __future__ import annotations
@@ -54,11 +53,11 @@ _G = mujoco.mjtGeom
 def coal_shape(model: mujoco.MjModel, geom: int) -> coal.CollisionGeometry:
     """A coal shape equal to the solid MuJoCo collides for a geom, in the geom's own frame.
 
-    MuJoCo's compiled ``geom_size`` holds half-sizes: sphere (r), capsule and cylinder
-    (r, half-length along z), box (half-sides), ellipsoid (semi-axes); a plane is the
-    half-space z <= 0 of its frame. coal's constructors take full lengths. A mesh is the
-    convex polytope of `mesh_hull`: MuJoCo's hull graph
-    where MuJoCo climbs it, else the hull of every vertex (computed by coal's qhull).
+    MuJoCo's compiled ``geom_size`` holds half-sizes: sphere (r), capsule and cylinder (r,
+    half-length along z), box (half-sides), ellipsoid (semi-axes); a plane is the half-space z <= 0
+    of its frame. coal's constructors take full lengths. A mesh is the convex polytope of
+    `mesh_hull`: MuJoCo's hull graph where MuJoCo climbs it, else the hull of every vertex (computed
+    by coal's qhull).
 
     Raises:
         UnsupportedFeatureError: Height field or SDF geoms, or a mesh whose vertices span
@@ -321,8 +320,8 @@ class CoalScene:
     def placed_values(self, which: Index, apart: Array | None = None) -> Array:
         """Signed distances of the pairs in ``which`` at the pose last placed [m].
 
-        The same coal call, request and result as `distance_values`, pair by pair
-        (``apart`` is accepted for the MuJoCo scene's signature and not needed).
+        The same coal call, request and result as `distance_values`, pair by pair (``apart`` is
+        accepted for the MuJoCo scene's signature and not needed).
         """
         import pinocchio as pin
 

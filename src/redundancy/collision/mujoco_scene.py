@@ -1,7 +1,7 @@
 """MuJoCo's own answers for a pair set: ``mj_geomDistance`` per pair, ``mj_collision``'s contacts.
 
-A `MujocoScene` owns one ``MjData`` and is used by one thread at a time (the checker
-keeps one per thread); the compiled model is shared and only read.
+A `MujocoScene` owns one ``MjData`` and is used by one thread at a time (the checker keeps one per
+thread); the compiled model is shared and only read.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The engine layer: the only code that asks MuJoCo or Pinocchio for kinematics and dynamics.
 
-Each engine module holds one class implementing `Engine`
-for one arm and tool site, returning arrays in the library's joint order (MuJoCo's):
+Each engine module holds one class implementing `Engine` for one arm and tool site, returning arrays
+in the library's joint order (MuJoCo's):
 
 * `redundancy.engines.mujoco`: `MujocoEngine`;
 * `redundancy.engines.pinocchio`: `PinocchioEngine`.

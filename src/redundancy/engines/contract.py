@@ -1,17 +1,15 @@
 """The engine contract: what every engine computes, for one pose and for stacks of poses.
 
-Both `MujocoEngine` and
-`PinocchioEngine` implement `Engine`; the rest of
-the library is typed against it and never calls an engine library for these quantities.
+Both `MujocoEngine` and `PinocchioEngine` implement `Engine`; the rest of the library is typed
+against it and never calls an engine library for these quantities.
 
-Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); a
-single-pose method takes any array-like pose and validates it with
-`redundancy.checks.pose_key` (so an engine may be called directly, and the Arm only
-dispatches), while stacks are validated by the caller (`redundancy.checks.check_poses`)
-because they are validated once and evaluated in chunks; the site Jacobian is the velocity of the
-site origin along world axes (linear rows first); gravity is the generalised force the
-motors must apply to hold a pose. Every method may be called from any number of threads:
-each thread computes with its own engine data.
+Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); a single-pose
+method takes any array-like pose and validates it with `redundancy.checks.pose_key` (so an engine
+may be called directly, and the Arm only dispatches), while stacks are validated by the caller
+(`redundancy.checks.check_poses`) because they are validated once and evaluated in chunks; the site
+Jacobian is the velocity of the site origin along world axes (linear rows first); gravity is the
+generalised force the motors must apply to hold a pose. Every method may be called from any number
+of threads: each thread computes with its own engine data.
 """
 
 from __future__ import annotations

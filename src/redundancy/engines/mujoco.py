@@ -156,9 +156,8 @@ class MujocoEngine:
     def update(self, q: ArrayLike) -> _Work:
         """Validate pose ``q`` and bring this thread's data to it; return the data.
 
-        Every single-pose query enters here (`site_jacobian` has its own copy of the
-        fast path). The kinematics run once per pose: a query at the pose already held
-        reads them.
+        Every single-pose query enters here (`site_jacobian` has its own copy of the fast path). The
+        kinematics run once per pose: a query at the pose already held reads them.
 
         Raises:
             PoseError: ``q`` is not a real (nv,) vector of finite values (see
@@ -492,10 +491,10 @@ class MujocoEngine:
 
         e = [p* - p; log(R* R^T)] in world axes [m; rad], for the target (``position``,
         ``rotation``). The inverse-kinematics inner loop ([`redundancy.ik`][redundancy.ik]) calls it
-        tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs
-        as much as the kinematics: the caller passes only finite float64 (nv,) poses. The
-        arrays returned are this thread's buffers, valid until the next call; the kernel
-        must stay in the thread that made it.
+        tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs as much
+        as the kinematics: the caller passes only finite float64 (nv,) poses. The arrays returned
+        are this thread's buffers, valid until the next call; the kernel must stay in the thread
+        that made it.
         """
         w = self._work()
         m, d, sid = self.model, w.data, self.site_id

@@ -1,8 +1,8 @@
 """Pinocchio's side of the engine contract: one model, one ``pinocchio.Data`` per thread.
 
-Every Pinocchio call for kinematics and dynamics lives here. Pinocchio orders joints by its
-own tree traversal; the engine maps them to the library's order (MuJoCo's) by joint name, so
-every array it returns is in the same order as `redundancy.engines.mujoco`'s.
+Every Pinocchio call for kinematics and dynamics lives here. Pinocchio orders joints by its own tree
+traversal; the engine maps them to the library's order (MuJoCo's) by joint name, so every array it
+returns is in the same order as `redundancy.engines.mujoco`'s.
 """
 
 from __future__ import annotations
@@ -266,11 +266,11 @@ class PinocchioEngine:
     def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
         """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
 
-        Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread;
-        gravity is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
-        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads (fewer on a small stack,
-        as `spans` splits one; one in a process forked
-        from one that had started OpenMP threads, whose pool does not survive the fork).
+        Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread; gravity
+        is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
+        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads (fewer on a small stack, as
+        `spans` splits one; one in a process forked from one that had started OpenMP threads, whose
+        pool does not survive the fork).
         """
         model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
         X, R, J, M, G = out.X, out.R, out.J, out.M, out.G

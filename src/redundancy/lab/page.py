@@ -1,10 +1,10 @@
 """The lab: lesson 5.2's interactive arm, served as a local web page with viser.
 
-``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its
-geoms (a colour per link), held by `redundancy.lab.sim.LabSim` (PD control with
-gravity compensation, stepped in real time by `redundancy.lab.sim.RealTimeRunner`),
-with sliders for the joint targets and the controller's damping, a choice of armature,
-readouts, the six singular values as bars and three live plots.
+``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its geoms (a
+colour per link), held by `redundancy.lab.sim.LabSim` (PD control with gravity compensation, stepped
+in real time by `redundancy.lab.sim.RealTimeRunner`), with sliders for the joint targets and the
+controller's damping, a choice of armature, readouts, the six singular values as bars and three live
+plots.
 
 Redundancy to touch: a self-motion slider moves the elbow along the null space with the tool
 held; a gizmo at the tool drags it (damped least squares with a null-space posture term);
@@ -479,8 +479,8 @@ class LabPage:
     def camera_view(self, view: str, aspect: float) -> tuple[Array, Array]:
         """Camera position and look-at point framing the arm's reach [m].
 
-        The framed region is the half ball of radius `_reach` above the first joint's
-        anchor; ``aspect`` (width / height of the view) narrows the horizontal field.
+        The framed region is the half ball of radius `_reach` above the first joint's anchor;
+        ``aspect`` (width / height of the view) narrows the horizontal field.
         """
         R = self.reach
         look = self.base + np.array([0.0, 0.0, 0.45 * R])

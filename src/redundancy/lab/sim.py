@@ -1,9 +1,8 @@
 """The lab's simulation: an arm held at target angles by PD control with gravity compensation.
 
-This module is the lab without a browser: `LabSim` steps MuJoCo with the lesson's
-controller and computes the readouts, and `RealTimeRunner` steps it against a clock
-(the wall clock, or a fake one in tests) with pause, single step and slow motion.
-`redundancy.lab.page` draws both in a web page.
+This module is the lab without a browser: `LabSim` steps MuJoCo with the lesson's controller and
+computes the readouts, and `RealTimeRunner` steps it against a clock (the wall clock, or a fake one
+in tests) with pause, single step and slow motion. `redundancy.lab.page` draws both in a web page.
 
 The controller, evaluated at every step of ``h`` (the model's timestep)::
 
@@ -14,17 +13,15 @@ to 10 N m). Like every torque computed outside MuJoCo, its damping ``kd qdot`` i
 on a joint whose inertia is too small for ``h`` (arm7 without armature) it makes the joint
 buzz, which is the lab's third experiment.
 
-Self-contacts are a readout (MuJoCo's contact rules through
-`redundancy.collision.checker`), by default without contact forces so that the arm can
-be posed through itself, as the lesson's second experiment asks; with ``contact_forces=True``
-the links collide and stop each other.
+Self-contacts are a readout (MuJoCo's contact rules through `redundancy.collision.checker`), by
+default without contact forces so that the arm can be posed through itself, as the lesson's second
+experiment asks; with ``contact_forces=True`` the links collide and stop each other.
 
-Redundancy is something to touch here: `LabSim.self_motion_targets` moves the targets
-along the Jacobian's null space with the tool held (the library's
+Redundancy is something to touch here: `LabSim.self_motion_targets` moves the targets along the
+Jacobian's null space with the tool held (the library's
 [`redundancy.analysis.selfmotion.self_motion`][redundancy.analysis.selfmotion.self_motion] with
-drift correction), and
-`solve_ik` takes the targets to a dragged tool pose with the library's inverse
-kinematics (`redundancy.Arm.solve_ik`), pulling toward a rest posture in the null space.
+drift correction), and `solve_ik` takes the targets to a dragged tool pose with the library's
+inverse kinematics (`redundancy.Arm.solve_ik`), pulling toward a rest posture in the null space.
 """
 
 from __future__ import annotations
@@ -91,8 +88,8 @@ class LabReadouts:
         sigma: The six singular values of the site Jacobian, descending [m/rad, rad/rad].
         sigma_min: The smallest of them.
         manipulability: Yoshikawa's measure, the product of the singular values.
-        lost: Tool directions (columns of U) whose singular value is below
-            `LOST_SIGMA`, shape (6, k): translation rows first, then rotation.
+        lost: Tool directions (columns of U) whose singular value is below `LOST_SIGMA`, shape (6,
+            k): translation rows first, then rotation.
         velocity_axes: Principal axes of the tool's translational velocity ellipsoid (left
             singular vectors of J's position block), columns, shape (3, 3).
         velocity_semi_axes: Its semi-axes, the singular values of J's position block
@@ -108,9 +105,9 @@ class LabReadouts:
         watch_peak: Its largest |speed| over the last `PEAK_WINDOW` [rad/s].
         watch_torque: The torque its motor applies, after clamping [N m].
         watch_limit: Its motor's torque limit [N m].
-        contact_mass: Effective mass at the tool along its direction of motion, with the
-            simulated armature: what a contact in the tool's path would feel
-            (`redundancy.Arm.effective_mass`) [kg]; NaN while the tool is at rest.
+        contact_mass: Effective mass at the tool along its direction of motion, with the simulated
+            armature: what a contact in the tool's path would feel (`redundancy.Arm.effective_mass`)
+            [kg]; NaN while the tool is at rest.
     """
 
     time: float
@@ -283,7 +280,7 @@ class LabSim:
         self._path: Array | None = None
         self._path_start = 0.0
         self._steps = 0
-        #: How many times the pose was reset (`reset_pose`, `reset_all`).
+        #:  How many times the pose was reset (`reset_pose`, `reset_all`).
         self.resets = -1
         self._drawn_qpos = b""  # qpos of the frames last computed for drawing
         n_speed = round(SPEED_WINDOW / self.timestep) + 1
@@ -443,8 +440,8 @@ class LabSim:
 
         Positive ``amount`` starts the way that raises the elbow. Uses the library's
         [`self_motion`][redundancy.analysis.selfmotion.self_motion] with drift correction, steps of
-        `SELF_MOTION_STEP`; it stops early at a joint limit or where the null space
-        vanishes (``path.stopped`` says which).
+        `SELF_MOTION_STEP`; it stops early at a joint limit or where the null space vanishes
+        (``path.stopped`` says which).
         """
         q = self.arm.pose(anchor)
         return selfmotion.self_motion(
@@ -642,10 +639,10 @@ class LabSim:
 class RealTimeRunner:
     """Steps a `LabSim` in a background thread, in step with a clock.
 
-    Each frame it steps ``rate * elapsed / timestep`` times (at most ``max_lag`` seconds'
-    worth: when the machine falls behind, simulated time slows down rather than piling up),
-    then calls the frame callbacks with the sim. `frame` is one such frame; the thread
-    calls it ``fps`` times a second, and tests call it with a fake ``clock``.
+    Each frame it steps ``rate * elapsed / timestep`` times (at most ``max_lag`` seconds' worth:
+    when the machine falls behind, simulated time slows down rather than piling up), then calls the
+    frame callbacks with the sim. `frame` is one such frame; the thread calls it ``fps`` times a
+    second, and tests call it with a fake ``clock``.
 
     Args:
         sim: The simulation.

@@ -219,9 +219,9 @@ def _affine(kind: int, prm: Array, length: Array, gain: bool) -> Array:
 def joint_force_limits(model: mujoco.MjModel) -> Array:
     """Largest force or torque the actuators can apply at each dof, either direction.
 
-    ``max(-lower, upper)`` of `effort_range`; ``inf`` where unlimited or without an
-    actuator. This is the symmetric limit Pinocchio's ``effortLimit`` holds; the audit uses
-    `effort_range`, per direction.
+    ``max(-lower, upper)`` of `effort_range`; ``inf`` where unlimited or without an actuator. This
+    is the symmetric limit Pinocchio's ``effortLimit`` holds; the audit uses `effort_range`, per
+    direction.
 
     Args:
         model: Compiled MuJoCo model.
@@ -384,8 +384,8 @@ class DampingSplit:
     Attributes:
         implicit: Damping integrated implicitly.
         explicit: Damping integrated explicitly, the controller's ``kd`` included.
-        factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a
-            joint without a ``ctrl``-written kd `RK4_STABILITY`.
+        factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a joint
+            without a ``ctrl``-written kd `RK4_STABILITY`.
         note: Why, in one sentence.
         stiffness: Explicit stiffness per dof (0 under RK4, whose bound here is damping's
             alone) [N m/rad].

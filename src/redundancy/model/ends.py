@@ -1,12 +1,11 @@
 """The ends of a model's kinematic chains, read from the file: the tool frame by default.
 
-A *chain end* is a leaf of the kinematic tree (a URDF link that is no joint's parent, an
-MJCF body with no child body) with at least one moving joint between it and the root: a
-link welded to the base is no end of the arm. A model with one chain end needs no tool
-frame: [`default_tool_frame`][redundancy.model.ends.default_tool_frame] gives it (the leaf link of a
-URDF; the one site of the leaf
-body of an MJCF, else the body). The file is only parsed (no engine compiles it), so the
-command line can choose the frame before loading.
+A *chain end* is a leaf of the kinematic tree (a URDF link that is no joint's parent, an MJCF body
+with no child body) with at least one moving joint between it and the root: a link welded to the
+base is no end of the arm. A model with one chain end needs no tool frame:
+[`default_tool_frame`][redundancy.model.ends.default_tool_frame] gives it (the leaf link of a URDF;
+the one site of the leaf body of an MJCF, else the body). The file is only parsed (no engine
+compiles it), so the command line can choose the frame before loading.
 """
 
 from __future__ import annotations

@@ -259,8 +259,8 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         arm: The loaded arm.
         q: Reference pose [rad or m]; defaults to zeros clipped into the joint ranges.
         tol: Relative tolerance: each difference is divided by its quantity's scale
-            ([`scaled_error`][redundancy.model.scales.scaled_error]; the arm's length for
-            positions, m L^2 for inertias...) [-].
+            ([`scaled_error`][redundancy.model.scales.scaled_error]; the arm's length for positions,
+            m L^2 for inertias...) [-].
     """
     arm = check_arm(arm)
     if not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol >= 0):

@@ -193,25 +193,23 @@ def load(
 ) -> Arm:
     """Load a robot from an MJCF or URDF file; its arm is the chain to the tool.
 
-    The file is read whole by both engines (MuJoCo's and Pinocchio's own parsers): a
-    URDF (root element ``<robot>``) through each engine's URDF importer (see
-    `redundancy.model.urdf`), an MJCF through each engine's MJCF parser. The **arm** is
-    every hinge and slide joint on the path from the world (or from ``base``) to the tool
-    frame, in chain order; every other joint (a gripper's, a second arm's, a torso's, a
-    floating base's) is **held** at a rest configuration (see
-    `redundancy.model.robot`). ``arm.held`` says which joints and at what values,
-    ``arm.set_aside`` what in the file does not reach the arm.
+    The file is read whole by both engines (MuJoCo's and Pinocchio's own parsers): a URDF (root
+    element ``<robot>``) through each engine's URDF importer (see `redundancy.model.urdf`), an MJCF
+    through each engine's MJCF parser. The **arm** is every hinge and slide joint on the path from
+    the world (or from ``base``) to the tool frame, in chain order; every other joint (a gripper's,
+    a second arm's, a torso's, a floating base's) is **held** at a rest configuration (see
+    `redundancy.model.robot`). ``arm.held`` says which joints and at what values, ``arm.set_aside``
+    what in the file does not reach the arm.
 
     Args:
         path: MJCF or URDF file.
         site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
-        strict: Refuse features Pinocchio's MJCF parser reads differently (see
-            `check_supported`); MJCF only.
-        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
-            Overrides ``site``. Neither given: the model's one chain end (a leaf with a
-            moving joint above it; see [`redundancy.model.ends`][redundancy.model.ends]), else its
-            frame named
-            ``"ee"``, else a ModelError listing the chain ends.
+        strict: Refuse features Pinocchio's MJCF parser reads differently (see `check_supported`);
+            MJCF only.
+        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint. Overrides ``site``.
+            Neither given: the model's one chain end (a leaf with a moving joint above it; see
+            [`redundancy.model.ends`][redundancy.model.ends]), else its frame named ``"ee"``, else a
+            ModelError listing the chain ends.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
             joined by a joint are always excluded.

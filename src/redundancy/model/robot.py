@@ -1,20 +1,19 @@
 """The robot and its arm: the chain from the world to the tool, the rest of the robot held.
 
-A published file describes a robot (a gripper, a second arm, a torso, legs, a floating base);
-the library's arm is the chain to the tool. `select_arm` reads MuJoCo's compiled model
-of the *whole* robot and returns an `ArmSelection`: the hinge and slide joints on the
-path from the world (or from ``base``) to the tool, in chain order, and every other joint held
-at a rest configuration. Both engines then get the robot with the held joints welded at that
-configuration:
+A published file describes a robot (a gripper, a second arm, a torso, legs, a floating base); the
+library's arm is the chain to the tool. `select_arm` reads MuJoCo's compiled model of the *whole*
+robot and returns an `ArmSelection`: the hinge and slide joints on the path from the world (or from
+``base``) to the tool, in chain order, and every other joint held at a rest configuration. Both
+engines then get the robot with the held joints welded at that configuration:
 
-* MuJoCo: `reduce_mujoco` edits the robot's `mujoco.MjSpec`: each held joint is
-  deleted and its body placed where the rest configuration puts it (from MuJoCo's own
-  kinematics of the whole robot), and every element that refers to a held joint (actuators,
-  tendons, equality constraints, sensors) is set aside, or refused when it reaches an arm
-  joint. Bodies, geoms and sites are all kept, in the same order (body ids do not change).
-* Pinocchio: `reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the
-  same configuration (in Pinocchio's quaternion convention, x y z w, where MuJoCo's is
-  w x y z) and carries over what ``buildReducedModel`` drops (armature: pinocchio#2746).
+* MuJoCo: `reduce_mujoco` edits the robot's `mujoco.MjSpec`: each held joint is deleted and its body
+  placed where the rest configuration puts it (from MuJoCo's own kinematics of the whole robot), and
+  every element that refers to a held joint (actuators, tendons, equality constraints, sensors) is
+  set aside, or refused when it reaches an arm joint. Bodies, geoms and sites are all kept, in the
+  same order (body ids do not change).
+* Pinocchio: `reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the same
+  configuration (in Pinocchio's quaternion convention, x y z w, where MuJoCo's is w x y z) and
+  carries over what ``buildReducedModel`` drops (armature: pinocchio#2746).
 
 Nothing of the whole robot is lost for the arm: a held body keeps its mass where the rest
 configuration places it, so the arm's Jacobian, mass matrix and gravity are those of the

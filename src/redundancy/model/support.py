@@ -1,7 +1,7 @@
 """Refusal rules: what the two engines may not agree on, refused with the reason.
 
-`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
-for spellings MuJoCo compiles away and Pinocchio's parser reads differently.
+`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text for spellings
+MuJoCo compiles away and Pinocchio's parser reads differently.
 """
 
 from __future__ import annotations
@@ -47,13 +47,12 @@ def check_supported(
     Args:
         model: MuJoCo's compiled model.
         xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
-        strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed
-            fixed root, ``<frame>``, extrinsic euler sequences, non-unit axisangle, default
-            classes it applies differently, compiler mass bounds). With ``strict=False``
-            such a model loads and [`redundancy.compare_models`][redundancy.compare_models] shows
-            the differences;
-            what Pinocchio cannot represent at all, and invalid values (non-finite numbers,
-            negative armature or damping, inverted ranges), are refused either way.
+        strict: Also refuse what Pinocchio's parser reads *differently* (meshes, a posed fixed root,
+            ``<frame>``, extrinsic euler sequences, non-unit axisangle, default classes it applies
+            differently, compiler mass bounds). With ``strict=False`` such a model loads and
+            [`redundancy.compare_models`][redundancy.compare_models] shows the differences; what
+            Pinocchio cannot represent at all, and invalid values (non-finite numbers, negative
+            armature or damping, inverted ranges), are refused either way.
         tool_site: The site the loader put on a tool body (named after the body, whose
             frame Pinocchio reads instead): exempt from the site-name check.
 
@@ -429,16 +428,15 @@ class _Defaults:
 def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[str, ...]]:
     """Bodies whose inertia Pinocchio's parser derives from what it reads differently.
 
-    Pinocchio's MJCF parser (4.1, ``mjcf-graph.cpp``) takes a body's ``<inertial>`` when it
-    has one (and ``inertiafromgeom`` is not ``true``); otherwise it sums the body's geoms,
-    and there it differs from MuJoCo: a mesh geom gets a placeholder inertia (1 kg, unit
-    inertia); a geom's mass is read from the geom element only, not from its default class;
-    visual geoms (``contype = conaffinity = 0``) are left out although MuJoCo counts their
-    mass; ``inertiagrouprange`` is ignored. ``settotalmass``, ``boundmass`` and
-    ``boundinertia`` change MuJoCo's masses beyond what Pinocchio applies. Each such body is
-    returned with the causes found (possibly none: the body's inertia still comes from its
-    geoms), for `redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
-    where Pinocchio's differs.
+    Pinocchio's MJCF parser (4.1, ``mjcf-graph.cpp``) takes a body's ``<inertial>`` when it has one
+    (and ``inertiafromgeom`` is not ``true``); otherwise it sums the body's geoms, and there it
+    differs from MuJoCo: a mesh geom gets a placeholder inertia (1 kg, unit inertia); a geom's mass
+    is read from the geom element only, not from its default class; visual geoms (``contype =
+    conaffinity = 0``) are left out although MuJoCo counts their mass; ``inertiagrouprange`` is
+    ignored. ``settotalmass``, ``boundmass`` and ``boundinertia`` change MuJoCo's masses beyond what
+    Pinocchio applies. Each such body is returned with the causes found (possibly none: the body's
+    inertia still comes from its geoms), for `redundancy.model.bridges.bridge` to copy MuJoCo's
+    compiled inertia where Pinocchio's differs.
 
     Args:
         root: The parsed MJCF.

@@ -21,16 +21,16 @@ part, this module decides:
   library compiles with ``inertiafromgeom`` false, so both read a missing inertial as no
   mass; a moving link left with no mass at all (with the links fixed to it) is refused,
   naming it (MuJoCo would raise a mass error, Pinocchio a singular mass matrix).
-* **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside
-  when the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
+* **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside when
+  the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
   (`redundancy.model.robot`); a mimic on a fixed joint is nothing.
 * **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
 * **armature**: URDF cannot express it; both engines read 0.
 * **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
 * **self-collision**: URDF has no filter. MuJoCo's parent filter already skips a link and its
-  parent, except where the parent is welded to the world; the library excludes every pair of
-  links joined by a joint (with the links welded to each), the base included, plus the pairs
-  of an SRDF's ``<disable_collisions>`` or a list given to [`redundancy.load`][redundancy.load].
+  parent, except where the parent is welded to the world; the library excludes every pair of links
+  joined by a joint (with the links welded to each), the base included, plus the pairs of an SRDF's
+  ``<disable_collisions>`` or a list given to [`redundancy.load`][redundancy.load].
 """
 
 from __future__ import annotations
@@ -689,10 +689,9 @@ def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
 def _name_geoms(spec: mujoco.MjSpec) -> None:
     """Name MuJoCo's unnamed URDF geoms after their link, so reports can say which is which.
 
-    A link's only collision geom takes the link's name; several take the names an unnamed
-    MJCF geom gets ([`redundancy.model.names`][redundancy.model.names]): ``link geom 0``, ``link
-    geom 1``..., by
-    their index in the link, counted from 0 in file order (MuJoCo's URDF import leaves them
+    A link's only collision geom takes the link's name; several take the names an unnamed MJCF geom
+    gets ([`redundancy.model.names`][redundancy.model.names]): ``link geom 0``, ``link geom 1``...,
+    by their index in the link, counted from 0 in file order (MuJoCo's URDF import leaves them
     unnamed; names already given are kept).
     """
     taken = {g.name for g in spec.geoms if g.name}

@@ -1,17 +1,15 @@
 """``redundancy audit``: everything the library knows about an arm, and what to act on.
 
-The audit takes the shared `sections` (joints and timesteps,
-keyframes, gravity against the actuators, self-collision), adds the engines' agreement and
-the model comparison, and *judges* what the file says: a
-[`Finding`][redundancy.reports.audit.Finding] only where the
-model's own numbers show a problem (a keyframe the actuators cannot hold, a timestep above
-the stable bound of the damping the model has, engines that disagree); what the file's
-format cannot express (a URDF's armature, actuators, timestep and integrator) is a
-[`Note`][redundancy.reports.audit.Note], never a finding. Numbers follow what MuJoCo simulates: the
-integrator and
-its flags, gravity compensation, actuator ranges per direction, servo damping. The
-explicit-damping question (which timestep a controller's kd allows) is asked only with
-``kd`` or of a model whose servos have damping of their own.
+The audit takes the shared `sections` (joints and timesteps, keyframes, gravity against the
+actuators, self-collision), adds the engines' agreement and the model comparison, and *judges* what
+the file says: a [`Finding`][redundancy.reports.audit.Finding] only where the model's own numbers
+show a problem (a keyframe the actuators cannot hold, a timestep above the stable bound of the
+damping the model has, engines that disagree); what the file's format cannot express (a URDF's
+armature, actuators, timestep and integrator) is a [`Note`][redundancy.reports.audit.Note], never a
+finding. Numbers follow what MuJoCo simulates: the integrator and its flags, gravity compensation,
+actuator ranges per direction, servo damping. The explicit-damping question (which timestep a
+controller's kd allows) is asked only with ``kd`` or of a model whose servos have damping of their
+own.
 """
 
 from __future__ import annotations
@@ -125,8 +123,8 @@ class AuditReport(Report):
     """All sections of an audit, the engines' agreement, and the findings.
 
     ``print(report)`` prints the text report
-    ([`lines`][redundancy.reports.audit.AuditReport.lines]); a notebook shows the findings,
-    the keyframes and the engines' agreement as tables, with the full text folded below.
+    ([`lines`][redundancy.reports.audit.AuditReport.lines]); a notebook shows the findings, the
+    keyframes and the engines' agreement as tables, with the full text folded below.
 
     Attributes:
         model: The model file (or ``"<string>"``).

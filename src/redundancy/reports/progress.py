@@ -1,12 +1,11 @@
 """A progress bar for long runs, on a terminal only (``rich.progress``).
 
-`terminal_progress` gives the `Progress` callback
-of a command: a bar per stage on the stream (stderr) once the run has taken `DELAY`
-seconds, cleared when the run ends; nothing at all when the stream is not a terminal (a
-log, a pipe, CI) or the user asked for quiet. A dumb terminal (``$TERM`` dumb or unknown,
-as rich reads it: an editor's shell, some CI consoles) cannot redraw a bar, so it gets a
-plain line per stage instead, at most every `LINE_INTERVAL` seconds and when the
-stage completes.
+`terminal_progress` gives the `Progress` callback of a command: a bar per stage on the stream
+(stderr) once the run has taken `DELAY` seconds, cleared when the run ends; nothing at all when the
+stream is not a terminal (a log, a pipe, CI) or the user asked for quiet. A dumb terminal (``$TERM``
+dumb or unknown, as rich reads it: an editor's shell, some CI consoles) cannot redraw a bar, so it
+gets a plain line per stage instead, at most every `LINE_INTERVAL` seconds and when the stage
+completes.
 """
 
 from __future__ import annotations

@@ -6,9 +6,9 @@ and [`redundancy.collision`][redundancy.collision]; what MuJoCo simulates beyond
 (integrator, flags, actuator ranges, servo damping, gravity compensation) from
 `redundancy.model.actuators`.
 
-Sweeps over random poses run in chunks of at most `CHUNK` poses drawn from one
-generator, so memory stays flat in the number of poses and the chunks are exactly the poses
-of [`redundancy.random_poses`][redundancy.random_poses] ``(arm, n, seed)``.
+Sweeps over random poses run in chunks of at most `CHUNK` poses drawn from one generator, so memory
+stays flat in the number of poses and the chunks are exactly the poses of
+[`redundancy.random_poses`][redundancy.random_poses] ``(arm, n, seed)``.
 """
 
 from __future__ import annotations

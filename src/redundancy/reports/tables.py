@@ -1,10 +1,10 @@
 """Plain-text report lines: numbers, tables sized by ``rich``, and lines that fit `WIDTH`.
 
-Every report line is at most `WIDTH` characters whatever the names in the model: a
-table's text columns fold a long name over several lines (``rich`` sizes the columns), and
-a sentence longer than the width continues on the next line, indented. Numbers are never
-cut: a number column, or a column of numbers listed in one cell, keeps each cell whole; a
-file path longer than a line is kept whole on a line of its own.
+Every report line is at most `WIDTH` characters whatever the names in the model: a table's text
+columns fold a long name over several lines (``rich`` sizes the columns), and a sentence longer than
+the width continues on the next line, indented. Numbers are never cut: a number column, or a column
+of numbers listed in one cell, keeps each cell whole; a file path longer than a line is kept whole
+on a line of its own.
 """
 
 from __future__ import annotations
