@@ -238,3 +238,17 @@ def test_an_srdf_of_which_no_pair_applies_names_the_unknown_link(tmp_path):
                 ("arm_left_5_lnk", "arm_left_7_link"),
             ],
         )
+
+
+def test_the_tool_link_is_never_listed_as_set_aside():
+    # TIAGo's tool link carries a point-mass inertia MuJoCo rejects: mended, and the arm moves it.
+    from redundancy.reports.audit import RobotPart
+
+    tiago = rd.load(
+        published("tiago_description/robots/tiago_no_hand.urdf"), frame="wrist_ft_tool_link"
+    )
+    part = RobotPart.of(tiago)
+    assert not any("wrist_ft_tool_link" in s for s in part.set_aside)
+    assert any(s.startswith("degenerate inertia 'wrist_ft_tool_link'") for s in part.mended)
+    # What the arm does not move stays set aside: the base's antennas.
+    assert any(s.startswith("invalid inertia 'base_antenna_left_link'") for s in part.set_aside)
