@@ -1,8 +1,9 @@
 """Safe under ordinary use: one Arm shared by threads, copied, pickled, sent to processes.
 
-The contract (README, "Threads, copies and processes"): every public method of an Arm may be
-called from any number of threads and returns, bit for bit, what sequential calls return;
-an Arm pickles as its loader call and is rebuilt on arrival; caches never keep an Arm alive.
+The contract (docs/guide/from-python.md, "Threads, copies and processes"): every public method
+of an Arm may be called from any number of threads and returns, bit for bit, what sequential
+calls return; an Arm pickles as its loader call and is rebuilt on arrival; caches never keep an
+Arm alive.
 """
 
 from __future__ import annotations
