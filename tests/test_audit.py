@@ -233,6 +233,8 @@ def test_servo_damping_is_read_from_the_actuators(integrator, stable):
     if stable:  # the damping leaves no bound; the servo's kp 200 leaves one above 10 ms
         assert all(0.01 < r.h_max < np.inf for r in rows)
         assert report.sections.joints.note.startswith("implicitfast integrates joint damping")
+    text = " ".join(line.strip() for line in format_report(report))
+    assert "kv, kp: a servo's velocity and position gains" in text  # the joint table's key
     # MuJoCo: ctrl 0 is the servo's own target, keyframe k; no controller of ours.
     assert moves(arm, kp=0.0, kd=0.0, compensate=False) != stable
 
