@@ -212,7 +212,9 @@ def load(
             ModelError listing the chain ends.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
-            joined by a joint are always excluded.
+            joined by a joint are always excluded. An SRDF of a whole robot serves a part of
+            it: its pairs naming links the URDF lacks are skipped and listed in
+            ``arm.set_aside`` (an error when none applies); listed pairs must all exist.
         base: A body (MJCF) or link (URDF) on the chain to the tool: the arm starts below it,
             its own joints and those above it are held. None: the world.
         rest: The held joints' values: None for the model's reference configuration
