@@ -1,4 +1,4 @@
-"""Screenshot of the lab for the README, and its real-time factor with one browser.
+"""Screenshot of the lab for the guide (docs/lab.png), and its real-time factor with one browser.
 
 ``python scripts/lab_screenshot.py [OUT.png] [--rtf SECONDS]``
 

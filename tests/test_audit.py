@@ -233,6 +233,8 @@ def test_servo_damping_is_read_from_the_actuators(integrator, stable):
     if stable:  # the damping leaves no bound; the servo's kp 200 leaves one above 10 ms
         assert all(0.01 < r.h_max < np.inf for r in rows)
         assert report.sections.joints.note.startswith("implicitfast integrates joint damping")
+    text = " ".join(line.strip() for line in format_report(report))
+    assert "kv, kp: a servo's velocity and position gains" in text  # the joint table's key
     # MuJoCo: ctrl 0 is the servo's own target, keyframe k; no controller of ours.
     assert moves(arm, kp=0.0, kd=0.0, compensate=False) != stable
 
@@ -393,6 +395,7 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
         "base": None,
         "set_aside": [],
         "frozen": {},
+        "mended": [],
     }
     cm = data["contact_mass"]
     assert cm["n_poses"] == 500 and cm["payload"] == 0.0
@@ -609,3 +612,54 @@ def test_an_unlimited_servo_has_effort_none_and_nothing_overflows():
     gravity_a = [x for x in lines if x.startswith("  a ")][1]
     assert gravity_a.split()[3:6] == ["none", "none", "none"]  # limits, limit/need
     assert report.findings == ()
+
+
+# -- a report a newcomer can read ----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def arm7_lines(arm7) -> list[str]:
+    return format_report(audit(arm7, n_poses=300))
+
+
+def test_every_table_is_followed_by_a_key_to_its_columns(arm7_lines):
+    starts = ("  joint ", "  keyframe ", "  pair ", "  quantity ")
+    for start in starts:
+        header = next(i for i, x in enumerate(arm7_lines) if x.startswith(start))
+        after = next(x for x in arm7_lines[header + 1 :] if not x.startswith("  ") or "key:" in x)
+        assert after.startswith("  key: "), (start, after)
+    text = " ".join(x.strip() for x in arm7_lines)
+    for abbreviation in (
+        "b: damping [N m s/rad]",
+        "M_ii: mass matrix diagonal [kg m^2]",
+        "h_max: largest stable timestep",
+        "bare: without armature",
+        "limit/need: in the binding direction",
+        "any: no bound",
+    ):
+        assert abbreviation in text
+
+
+def test_values_at_rounding_level_print_as_0(arm7_lines):
+    # arm7's j7 turns about the axis through its centre of mass: gravity asks 1e-16 N m of it.
+    gravity = next(i for i, x in enumerate(arm7_lines) if "min need" in x)
+    j7 = next(x for x in arm7_lines[gravity:] if x.startswith("  j7 "))
+    assert j7.split()[1:3] == ["0", "0"]
+    assert "e-1" not in " ".join(arm7_lines[gravity : gravity + 9])
+
+
+def test_no_value_is_wrapped_and_units_stay_whole(arm7_lines):
+    home = next(x for x in arm7_lines if x.startswith("  home "))
+    assert home.split()[1:7] == ["1.85", "1.825", "1.068", "0.4078", "0.35", "0.2332"]
+    assert not any(x.rstrip().endswith("[N m") or x.rstrip().endswith("[kg") for x in arm7_lines)
+
+
+def test_a_long_path_is_never_broken():
+    from redundancy.reports.tables import wrap
+
+    path = "/opt/" + "/".join(["site-packages"] * 9) + "/robots/talos_left_arm.urdf"
+    lines = wrap(f"audit of {path}")
+    assert lines == ["audit of", f"  {path}"]
+    units = wrap("  key: b: damping [N m s/rad]; M_ii [kg m^2]" * 4)
+    assert len(units) > 1
+    assert " ".join(units).count("[N m s/rad]") == 4  # no unit cut by a line's end

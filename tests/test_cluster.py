@@ -47,7 +47,7 @@ BATCH_FUNCTIONS = (
 @pytest.fixture(scope="module")
 def dask_executor() -> Iterator[Executor]:
     cluster = distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0"
     )
     client = distributed.Client(cluster)
     try:

@@ -1,7 +1,8 @@
 """Model equivalence: each Pinocchio 4.1 MJCF-parser gap is caught, bridged or refused.
 
-The gaps were found empirically with Pinocchio 4.1.0 and MuJoCo 4.0.0 (see the README's
-"What Pinocchio's MJCF parser misses"); each test below holds a purpose-built model.
+The gaps were found empirically with Pinocchio 4.1.0 and MuJoCo 4.0.0 (see the guide's
+docs/guide/urdf-and-mjcf.md, "What Pinocchio's MJCF parser misses"); each test below holds a
+purpose-built model.
 """
 
 from __future__ import annotations

@@ -3,6 +3,9 @@ the cross-check table, the figures, a self-motion and a Dask sweep equal to the 
 
 from __future__ import annotations
 
+import socket
+import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -17,7 +20,17 @@ NOTEBOOK = Path(__file__).resolve().parents[1] / "examples" / "first_day.ipynb"
 
 
 @pytest.fixture(scope="module")
-def executed() -> list:
+def executed() -> Iterator[list]:
+    with socket.socket() as s:  # Dask's default status port held, as by a running cluster
+        try:
+            s.bind(("127.0.0.1", 8787))
+            s.listen()
+        except OSError:
+            pass  # already taken
+        yield _execute()
+
+
+def _execute() -> list:
     nb = nbformat.read(NOTEBOOK, as_version=4)
     client = nbclient.NotebookClient(
         nb,
@@ -62,6 +75,29 @@ def test_the_notebook_runs_and_shows_its_results(executed: list) -> None:
         assert len(_outputs(by[key], "image/png")) == 1, key
     assert "tool drift" in _stdout(by["selfmotion.self_motion"])
     assert "bit for bit: True" in _stdout(by["LocalCluster"])
+    stderr = [o.get("text", "") for c in executed for o in c.outputs if o.get("name") == "stderr"]
+    assert not any("already in use" in s for s in stderr), stderr
+
+
+def test_the_notebook_extra_installs_what_running_the_notebooks_needs() -> None:
+    extras = tomllib.loads((NOTEBOOK.parents[1] / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"
+    ]
+
+    def names(extra: str) -> set[str]:  # distribution names, through redundancy[...] extras
+        out = set()
+        for req in extras[extra]:
+            name = req.split(">")[0].split("[")[0].split("=")[0].strip()
+            if name == "redundancy":
+                for inner in req.split("[")[1].split("]")[0].split(","):
+                    out |= names(inner.strip())
+            else:
+                out.add(name)
+        return out
+
+    needed = {"nbconvert", "nbclient", "nbformat", "ipykernel"}  # to run one
+    needed |= {"example-robot-data", "matplotlib", "dask", "distributed"}  # what it imports
+    assert needed <= names("notebook")
 
 
 def test_the_committed_notebook_has_no_outputs() -> None:

@@ -22,6 +22,13 @@ def published(relative: str) -> str:
     return str(rd.example_robot_data(relative))
 
 
+def fits(lines: list[str], path: str) -> bool:
+    """Every line at most 100 characters, but the model's path: it is kept whole on a line of
+    its own, however long (a reader copies it)."""
+    assert f"  {path}" in lines or f"audit of {path}" in lines
+    return max(len(line) for line in lines if line.strip() != path) <= 100
+
+
 def audit_cli(capsys, *args: str) -> tuple[int, list[str], dict]:
     status = main(["audit", *args, "--poses", "300", "--json", "-"])
     captured = capsys.readouterr()
@@ -49,12 +56,12 @@ def test_a_sound_published_arm_exits_0(robot, frame, capsys):
         "URDF cannot express actuators",
         "URDF cannot express the timestep or the integrator",
     ]
-    assert max(len(line) for line in lines) <= 100
+    assert fits(lines, args[0])
     text = "\n".join(lines)
     for absent in ("np.float64", "e+308", "keyframe 'qpos0'", "lesson", "no actuator"):
         assert absent not in text
     assert "keyframes: none in the file" in lines
-    assert any(line.startswith("joints at the reference pose (qpos0);") for line in lines)
+    assert "joints at the reference pose (qpos0):" in lines
 
 
 def test_the_effort_limits_of_a_urdf_are_what_the_gravity_budget_uses(capsys):
@@ -100,7 +107,7 @@ def test_kinova_arm_inside_the_robot_exits_0(capsys):
     status, lines, data = audit_cli(capsys, kinova, "--frame", "j2s6s200_end_effector")
     assert status == 0, "\n".join(lines)
     assert data["findings"] == [] and len(data["joints"]) == 6
-    assert max(len(line) for line in lines) <= 100
+    assert fits(lines, kinova)
 
 
 def test_a_published_arm_whose_effort_limits_gravity_exceeds_exits_1(capsys):
@@ -117,4 +124,131 @@ def test_a_published_arm_whose_effort_limits_gravity_exceeds_exits_1(capsys):
         f"in {g['over_low'][i]} of 300 poses; worst: needs {g['worst_low'][i][0]:.3g} N m "
         "where the limit is -50 N m"
     )
-    assert max(len(line) for line in lines) <= 100
+    assert fits(lines, baxter)
+
+
+def test_what_the_arm_moves_is_never_listed_as_set_aside(capsys):
+    # TALOS's force-torque sensor links sit between the wrist and the tool, with a point-mass
+    # inertia MuJoCo rejects: mended on links the arm moves, not "set aside".
+    talos = published("talos_data/robots/talos_left_arm.urdf")
+    status, lines, data = audit_cli(capsys, talos, "--frame", "gripper_left_base_link")
+    assert status in (0, 1)
+    robot = data["robot"]
+    assert [m.split("'")[1] for m in robot["mended"]] == [
+        "wrist_left_ft_link",
+        "wrist_left_ft_tool_link",
+    ]
+    assert robot["set_aside"] == []
+    assert "set aside (does not reach the arm)" not in "\n".join(lines)
+    assert "read or mended for the engines (the arm depends on these): 2" in lines
+    assert fits(lines, talos)
+
+
+# -- collision findings a user can act on ---------------------------------------------------------
+TALOS_ARM = ("talos_data/robots/talos_left_arm.urdf", "gripper_left_base_link")
+SOLO_LEG = ("solo_description/robots/solo12.urdf", "FL_FOOT")
+
+
+@pytest.mark.parametrize(
+    ("robot", "pair"),
+    [
+        (TALOS_ARM, ("arm_left_5_link", "arm_left_7_link")),
+        (SOLO_LEG, ("FL_UPPER_LEG", "base_link")),
+    ],
+    ids=["talos-left-arm", "solo12-front-left-leg"],
+)
+def test_a_pair_touching_at_every_pose_gets_a_note_naming_its_exclusion(
+    robot, pair, capsys, tmp_path
+):
+    urdf, frame = published(robot[0]), robot[1]
+    status, lines, data = audit_cli(capsys, urdf, "--frame", frame)
+    assert status in (0, 1)
+    c = data["collision"]
+    a, b = pair
+    srdf_line = f'<disable_collisions link1="{a}" link2="{b}" reason="Always"/>'
+    assert c["share_with_contact"] == 1.0
+    assert c["touching_everywhere"] == [
+        {
+            "pair": f"{a} / {b}",
+            "poses": 300,
+            "bodies": [a, b],
+            "srdf": srdf_line,
+            "disabled_collisions": [a, b],
+        }
+    ]
+    (note,) = [n["message"] for n in data["notes"] if n["kind"] == "collision"]
+    assert note.startswith(f"{a} / {b} touch in 300 of 300 poses: a pair in contact at (nearly)")
+    assert "overlap where a joint joins them" in note
+    assert srdf_line in note and f"disabled_collisions=[('{a}', '{b}')]" in note
+    text = " ".join(line.strip() for line in lines)
+    without = c["share_with_contact_without_them"]
+    assert 0 < without < 1
+    assert (
+        f"100.0% of poses have a contact; {100 * without:.1f}% without the 1 pair in contact "
+        "at every pose (see the notes)"
+    ) in text
+    assert any(srdf_line in line for line in lines)  # whole on one line, to be copied
+    # The exclusion the note gives, applied: the pair is gone and the rate is the one given.
+    srdf = tmp_path / "fix.srdf"
+    srdf.write_text(f"<robot>{srdf_line}</robot>")
+    _, _, fixed = audit_cli(capsys, urdf, "--frame", frame, "--srdf", str(srdf))
+    assert fixed["collision"]["n_pairs"] == c["n_pairs"] - 1
+    assert fixed["collision"]["share_with_contact"] == without
+    assert fixed["collision"]["touching_everywhere"] == []
+    assert not [n for n in fixed["notes"] if n["kind"] == "collision"]
+
+
+def test_a_whole_robots_srdf_applies_to_one_arm_of_it(capsys):
+    # TALOS's SRDF describes the whole humanoid; 113 of its 459 pairs are the left arm's.
+    urdf, frame = published(TALOS_ARM[0]), TALOS_ARM[1]
+    srdf = published("talos_data/srdf/talos.srdf")
+    arm = rd.load(urdf, frame=frame, disabled_collisions=srdf)
+    (skipped,) = [a for a in arm.set_aside if a.what == "SRDF pairs"]
+    assert skipped.name == "talos.srdf"
+    assert skipped.reason.startswith(
+        "346 of its 459 pairs name links this URDF does not have (arm_right_1_link, "
+    )
+    assert skipped.reason.endswith("and 30 more): skipped, the 113 others applied")
+    status, _, data = audit_cli(capsys, urdf, "--frame", frame, "--srdf", srdf)
+    assert status in (0, 1)
+    assert data["collision"]["touching_everywhere"] == []
+    assert data["collision"]["share_with_contact"] < 0.05  # 100 % without it
+    assert any(s.startswith("SRDF pairs 'talos.srdf': 346 of") for s in data["robot"]["set_aside"])
+
+
+def test_an_srdf_of_which_no_pair_applies_names_the_unknown_link(tmp_path):
+    # A misspelt link that matches nothing: still an error, with the valid names.
+    urdf, frame = published(TALOS_ARM[0]), TALOS_ARM[1]
+    srdf = tmp_path / "typo.srdf"
+    srdf.write_text(
+        '<robot name="talos"><disable_collisions link1="arm_left_5_lnk" '
+        'link2="arm_left_7_link" reason="Always"/></robot>'
+    )
+    with pytest.raises(rd.UnknownNameError) as err:
+        rd.load(urdf, frame=frame, disabled_collisions=srdf)
+    assert str(err.value).startswith("unknown link 'arm_left_5_lnk'; valid link names: [")
+    assert "'arm_left_5_link'" in str(err.value)
+    # Listed pairs are the model's own: every link must exist, whatever the others.
+    with pytest.raises(rd.UnknownNameError, match="unknown link 'arm_left_5_lnk'"):
+        rd.load(
+            urdf,
+            frame=frame,
+            disabled_collisions=[
+                ("arm_left_5_link", "arm_left_7_link"),
+                ("arm_left_5_lnk", "arm_left_7_link"),
+            ],
+        )
+
+
+def test_the_tool_link_is_never_listed_as_set_aside():
+    # TIAGo's tool link carries a point-mass inertia MuJoCo rejects: mended, and the arm moves it.
+    from redundancy.reports.audit import RobotPart
+
+    tiago = rd.load(
+        published("tiago_description/robots/tiago_no_hand.urdf"), frame="wrist_ft_tool_link"
+    )
+    part = RobotPart.of(tiago)
+    assert not any("wrist_ft_tool_link" in s for s in part.set_aside)
+    assert any(s.startswith("degenerate inertia 'wrist_ft_tool_link'") for s in part.mended)
+    # What the arm does not move stays set aside: the base's antennas.
+    assert any(s.startswith("invalid inertia 'base_antenna_left_link'") for s in part.set_aside)

@@ -1,6 +1,6 @@
-"""The README and every page of the guide (docs/guide/*.md) run: each document's ```python
-blocks, in order, in one namespace of its own (as one script would: ``__name__`` is
-``"__main__"``), from the repository root; every ``redundancy ...`` command of its ```sh /
+"""The README, every page of the guide (docs/guide/*.md) and the docs site's pages run: each
+document's ```python blocks, in order, in one namespace of its own (as one script would:
+``__name__`` is ``"__main__"``), from the repository root; every ``redundancy ...`` command of its ```sh /
 ```console blocks through the CLI's ``main()``.
 
 A failure names the document and the block's line in it (the test ids are
@@ -19,8 +19,10 @@ from __future__ import annotations
 import os
 import re
 import shlex
+import socket
 import subprocess
 import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,7 +32,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 GUIDE = ROOT / "docs" / "guide"
-DOCUMENTS = [README, *sorted(GUIDE.glob("*.md"))]
+DOCS = ROOT / "docs"
+DOCUMENTS = [README, *sorted(GUIDE.glob("*.md")), DOCS / "index.md", *sorted(DOCS.glob("api/*.md"))]
 SHELLS = ("sh", "console", "bash", "shell")
 REPO_URL = "https://github.com/redundancy-robotics/redundancy/blob/main/"
 
@@ -98,6 +101,55 @@ def test_python_block(
         raise AssertionError(
             f"{block.doc} line {block.line}: the python block fails: {type(err).__name__}: {err}"
         ) from err
+
+
+def _page(doc: str) -> list[str]:
+    """The python blocks of one document, in order."""
+    return [b.code for b in PYTHON if b.doc == doc]
+
+
+#: Pages whose examples start processes: a script's workers import it again, which the blocks
+#: run in this process (``__name__ == "__main__"``, as in a script) cannot show.
+STARTS_PROCESSES = ["docs/guide/batch-and-clusters.md"]
+
+
+@pytest.fixture
+def dask_port_taken() -> Iterator[None]:
+    """Dask's default status port held, as by a cluster already running (if it is free)."""
+    with socket.socket() as s:
+        try:
+            s.bind(("127.0.0.1", 8787))
+            s.listen()
+        except OSError:
+            pass  # already taken
+        yield
+
+
+@pytest.mark.parametrize("doc", STARTS_PROCESSES)
+def test_a_page_runs_as_a_script(doc: str, tmp_path: Path, dask_port_taken: None) -> None:
+    """``python page.py``: a Dask cluster's workers import the script again, so the page's
+    cluster must start under ``if __name__ == "__main__":``."""
+    script = tmp_path / "page.py"
+    script.write_text("\n\n".join(_page(doc)))
+    run = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, cwd=ROOT, timeout=600
+    )
+    assert run.returncode == 0, f"{doc} as a script:\n{run.stderr[-3000:]}"
+    assert "already in use" not in run.stderr
+
+
+@pytest.mark.parametrize("doc", STARTS_PROCESSES)
+def test_a_page_runs_in_a_notebook(doc: str, dask_port_taken: None) -> None:
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    pytest.importorskip("ipykernel")
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in _page(doc)])
+    client = nbclient.NotebookClient(
+        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(ROOT)}}
+    )
+    client.execute()  # raises CellExecutionError naming the cell on any error
+    stderr = [o.get("text", "") for c in nb.cells for o in c.outputs if o.get("name") == "stderr"]
+    assert not any("already in use" in s for s in stderr), stderr
 
 
 def _commands(block: Block) -> list[tuple[int, str]]:

@@ -1,6 +1,7 @@
 """Safe under ordinary use: one Arm shared by threads, copied, pickled, sent to processes.
 
-The contract (README, "Threads, copies and processes"): every public method of an Arm may be
+The contract (docs/guide/from-python.md, "Threads, copies and
+processes"): every public method of an Arm may be
 called from any number of threads and returns, bit for bit, what sequential calls return;
 an Arm pickles as its recipe and is rebuilt on arrival; caches never keep an Arm alive; MuJoCo's
 warning callback is the user's after any number of threads loaded.

@@ -322,6 +322,23 @@ def test_srdf_and_listed_disabled_pairs(tmp_path: Path) -> None:
     assert pickle.loads(pickle.dumps(listed)).mj_model.nexclude == listed.mj_model.nexclude
 
 
+def test_a_links_several_geoms_are_named_as_unnamed_mjcf_geoms() -> None:
+    """One collision geom: the link's name (the lesson's "link2 / link4"); several: the
+    README's convention for an unnamed geom, "link geom k" counted from 0 in the link."""
+    second = (
+        '<collision><origin xyz="0 0 0.2"/><geometry><sphere radius="0.03"/></geometry></collision>'
+    )
+    text = tiny_urdf().replace(
+        '</link>\n  <joint name="tool_joint"', f'{second}</link>\n  <joint name="tool_joint"'
+    )
+    text = text.replace('<link name="tool"/>', '<link name="tool">' + second + "</link>")
+    arm = rd.load_string(text, frame="tool")
+    m = arm.mj_model
+    names = {m.geom(g).name for g in range(m.ngeom)}
+    assert {"l1 geom 0", "l1 geom 1", "tool"} <= names
+    assert not any("/" in n for n in names)
+
+
 def test_disabled_pairs_bad_input(tmp_path: Path) -> None:
     path = MODELS / "panda.urdf"
     with pytest.raises(rd.UnknownNameError, match="unknown link 'link9'"):

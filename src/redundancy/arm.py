@@ -1,8 +1,8 @@
-"""The :class:`Arm`: one arm held by both engines, with joints matched by name.
+"""The [`Arm`][redundancy.Arm]: one arm held by both engines, with joints matched by name.
 
-An Arm is built by :func:`redundancy.load` (see :mod:`redundancy.model`), which checks the
-model, bridges what Pinocchio's parser leaves out and hands both compiled models here. The
-Arm itself only dispatches: every number comes from an engine of :mod:`redundancy.engines`.
+An Arm is built by [`redundancy.load`][redundancy.load] (see `redundancy.model`), which checks the
+model, bridges what Pinocchio's parser leaves out and hands both compiled models here. The Arm
+itself only dispatches: every number comes from an engine of `redundancy.engines`.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ FROZEN = ("joint on the chain", "joint")
 
 
 def check_arm(value: object, name: str = "arm") -> Arm:
-    """An :class:`Arm`, as every function taking one checks it first.
+    """An [`Arm`][redundancy.Arm], as every function taking one checks it first.
 
     Raises:
         ParameterError: Anything else (a path, a MuJoCo model...): the message says how an
@@ -56,12 +56,12 @@ def check_arm(value: object, name: str = "arm") -> Arm:
     return value
 
 
-#: solve_ik's default tolerances [m, rad] and restarts, which :data:`ik.DEFAULT_SETTINGS` holds.
+#:  solve_ik's default tolerances [m, rad] and restarts, which `ik.DEFAULT_SETTINGS` holds.
 _IK_DEFAULTS = (1e-6, 1e-6, 100)
 
 
 def _ik_settings(position_tol: object, orientation_tol: object, restarts: object) -> ik.Settings:
-    """The solver's settings for :meth:`Arm.solve_ik`'s arguments, checked.
+    """The solver's settings for [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik]'s arguments, checked.
 
     Raises:
         ParameterError: A tolerance not a finite number > 0, ``restarts`` not an integer >= 0.
@@ -85,9 +85,10 @@ def _ik_settings(position_tol: object, orientation_tol: object, restarts: object
 class Arm:
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
 
-    Build it with :func:`redundancy.load` or :func:`redundancy.load_string`. Joint order is
-    MuJoCo's. An Arm may be shared by threads, copied and pickled (it pickles as its model
-    source and options and is rebuilt, both engines, when loaded).
+    Build it with [`redundancy.load`][redundancy.load] or
+    [`redundancy.load_string`][redundancy.load_string]. Joint order is MuJoCo's. An Arm may be
+    shared by threads, copied and pickled (it pickles as its model source and options and is
+    rebuilt, both engines, when loaded).
 
     Attributes:
         mujoco: The MuJoCo engine.
@@ -104,7 +105,7 @@ class Arm:
         held: Joints of the robot that are not the arm's, held still -> their rest value
             [rad or m] (a tuple for a ball or free joint, quaternions w x y z).
         set_aside: What in the robot's file does not reach the arm, with the reason
-            (:class:`redundancy.model.robot.SetAside`).
+            (`redundancy.model.robot.SetAside`).
         defects: Defects of the published file on bodies the arm moves, mended the same way
             in both engines (an invalid inertia); the audit reports each as a finding.
         missing_inertia: Links the arm moves that the file gives no inertia (a URDF link
@@ -326,7 +327,7 @@ class Arm:
         """Validate a joint configuration and return it as a float64 array of shape (nq,).
 
         Args:
-            q: Joint values in the order of :attr:`joint_names` [rad or m].
+            q: Joint values in the order of `joint_names` [rad or m].
             check_range: Also require every value inside its joint's range (within ``tol``).
             tol: Slack on the range check [rad or m].
 
@@ -377,10 +378,10 @@ class Arm:
     ) -> linalg.Manipulability:
         """Yoshikawa's measure of J, its blocks, and J with position rows divided by length [m].
 
-        Each is the product of the singular values of its rows of J (sqrt(det(J J^T)) with
-        6 or more joints, sqrt(det(J^T J)) with fewer; see :func:`redundancy.linalg.yoshikawa`).
-        The measures are computed when read: ``arm.manipulability(q).full`` costs one J and
-        one SVD.
+        Each is the product of the singular values of its rows of J (sqrt(det(J J^T)) with 6 or more
+        joints, sqrt(det(J^T J)) with fewer; see
+        [`redundancy.linalg.yoshikawa`][redundancy.linalg.yoshikawa]). The measures are computed
+        when read: ``arm.manipulability(q).full`` costs one J and one SVD.
         """
         return linalg.manipulability(self.jacobian(q, engine), length)
 
@@ -491,7 +492,8 @@ class Arm:
     ) -> Array:
         """Operational-space inertia Lambda = (J M^-1 J^T)^-1 at the tool, shape (6, 6).
 
-        Rows and axes as :meth:`jacobian`: linear block [kg], angular block [kg m^2].
+        Rows and axes as [`jacobian`][redundancy.arm.Arm.jacobian]: linear block [kg], angular block
+        [kg m^2].
 
         Args:
             q: Pose [rad or m].
@@ -530,9 +532,9 @@ class Arm:
         Args:
             q: Pose [rad or m].
             direction: Direction, world axes, any nonzero length (3,).
-            armature: As :meth:`operational_inertia`.
-            joints: As :meth:`operational_inertia`.
-            engine: As :meth:`operational_inertia`.
+            armature: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
+            joints: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
+            engine: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
 
         Raises:
             ParameterError: ``direction`` zero, non-finite or not a 3-vector.
@@ -570,21 +572,23 @@ class Arm:
     ) -> float:
         """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) at ``q``.
 
-        Arguments as :meth:`operational_inertia`; zero where fewer than six joints are free
-        or at a singular pose [mixed units].
+        Arguments as [`operational_inertia`][redundancy.arm.Arm.operational_inertia]; zero where
+        fewer than six joints are free or at a singular pose [mixed units].
         """
         return float(linalg._dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
 
     # -- inverse kinematics -----------------------------------------------------------------
     def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
-        """The cost function behind an ``objective`` argument of :meth:`solve_ik`.
+        """The cost function behind an ``objective`` argument of `solve_ik`.
 
-        ``"joint_limits"`` is :func:`redundancy.ik.joint_limit_objective` over the joint
+        ``"joint_limits"`` is
+        [`redundancy.ik.joint_limit_objective`][redundancy.ik.joint_limit_objective] over the joint
         ranges; ``"manipulability"`` is minus Yoshikawa's sqrt(det(J J^T)) with its analytic
-        gradient (:meth:`manipulability_gradient`); a callable is taken as the cost itself.
+        gradient ([`manipulability_gradient`][redundancy.arm.Arm.manipulability_gradient]); a
+        callable is taken as the cost itself.
 
         Raises:
-            UnknownNameError: A name that is not one of :data:`redundancy.ik.OBJECTIVES`.
+            UnknownNameError: A name that is not one of `redundancy.ik.OBJECTIVES`.
             ParameterError: Neither None, a name nor a callable.
         """
         if objective is None:
@@ -625,13 +629,13 @@ class Arm:
     ) -> ik.IKResult:
         """Joint values that put the tool at ``target``, inside the joint ranges.
 
-        Damped Levenberg-Marquardt with the joints clamped to their ranges and random
-        restarts inside them; the answer is recomputed by the other engine, whose errors
-        decide ``success`` (see :mod:`redundancy.ik`).
+        Damped Levenberg-Marquardt with the joints clamped to their ranges and random restarts
+        inside them; the answer is recomputed by the other engine, whose errors decide ``success``
+        (see [`redundancy.ik`][redundancy.ik]).
 
         Args:
             target: A 4 x 4 homogeneous pose, or a (position [m], rotation) pair as
-                :meth:`site_pose` returns, world frame.
+                [`site_pose`][redundancy.arm.Arm.site_pose] returns, world frame.
             q0: First start [rad or m]; None: the middle of the joint ranges.
             objective: Pursued in the task's null space once the task is met, never at its
                 expense: ``"joint_limits"`` (away from the limits), ``"manipulability"``
@@ -644,9 +648,8 @@ class Arm:
             engine: The engine that iterates; the other checks.
 
         Returns:
-            The :class:`~redundancy.ik.IKResult`: ``q`` (inside the ranges in every case),
-            ``success``, ``position_error`` [m], ``orientation_error`` [rad],
-            ``iterations``.
+            The [`IKResult`][redundancy.IKResult]: ``q`` (inside the ranges in every case),
+            ``success``, ``position_error`` [m], ``orientation_error`` [rad], ``iterations``.
 
         Raises:
             ParameterError: A bad target, tolerance, count, seed or objective.

@@ -34,7 +34,7 @@ def check_pose(q: ArrayLike, names: Sequence[str]) -> Array:
 
 
 def pose_key(q: ArrayLike, names: Sequence[str]) -> tuple[Array, list[float]]:
-    """:func:`check_pose`, also returning the pose's values as a list of floats.
+    """`check_pose`, also returning the pose's values as a list of floats.
 
     The engines key their per-thread kinematics cache by that list. Building it is also how
     the common pose (a float64 vector of the right length) is checked: a Python ``sum`` of
@@ -42,7 +42,7 @@ def pose_key(q: ArrayLike, names: Sequence[str]) -> tuple[Array, list[float]]:
     through to the exact check), so a single-pose query makes one pass over ``q``.
 
     Raises:
-        PoseError: As :func:`check_pose`.
+        PoseError: As `check_pose`.
     """
     if type(q) is np.ndarray and q.dtype is _F64 and q.shape == (len(names),):
         key = q.tolist()
@@ -114,7 +114,7 @@ def check_in_range(
     """Every value of a checked stack of poses within its joint's range, to ``tol``.
 
     Args:
-        Q: Poses, shape (n, nq), already checked by :func:`check_poses` [rad or m].
+        Q: Poses, shape (n, nq), already checked by `check_poses` [rad or m].
         names: Joint names.
         lower: Lower limits, ``-inf`` where unlimited [rad or m].
         upper: Upper limits, ``inf`` where unlimited [rad or m].
@@ -160,7 +160,7 @@ def check_values(
 ) -> Array:
     """A real number or array of them, every value finite and in [low, high], as float64.
 
-    The array form of :func:`check_number`, for arguments given per joint.
+    The array form of `check_number`, for arguments given per joint.
 
     Raises:
         ParameterError: Not real numbers (strings, objects, complex, booleans), empty, or a
@@ -186,7 +186,7 @@ def check_values(
 
 
 def check_broadcast(**arrays: Array) -> tuple[Array, ...]:
-    """Arrays broadcast to one shape (:func:`numpy.broadcast_arrays`).
+    """Arrays broadcast to one shape (`numpy.broadcast_arrays`).
 
     Raises:
         ParameterError: Their shapes do not broadcast (the message names every argument).
@@ -344,7 +344,7 @@ def max_threads() -> int:
 
 
 def check_threads(threads: object) -> int:
-    """A thread count >= 1, capped at :func:`max_threads` (more cannot run at once).
+    """A thread count >= 1, capped at `max_threads` (more cannot run at once).
 
     Raises:
         ParameterError: Not an integer >= 1.
@@ -409,8 +409,8 @@ ROTATION_ATOL = 1e-6
 def check_tool_pose(name: str, target: object) -> tuple[Array, Array]:
     """A tool pose as (position (3,) [m], rotation (3, 3)): a 4 x 4 homogeneous matrix or a pair.
 
-    The pair is what :meth:`Arm.site_pose <redundancy.Arm.site_pose>` returns. The rotation
-    must be orthonormal with determinant +1 (to :data:`ROTATION_ATOL`).
+    The pair is what `Arm.site_pose` returns. The rotation must be orthonormal with determinant +1
+    (to `ROTATION_ATOL`).
 
     Raises:
         ParameterError: Anything else (the message says what a target is).
@@ -502,9 +502,9 @@ def check_directions(name: str, U: object, n: int) -> Array:
 def _tool_pose_pair(target: object) -> tuple[Array, Array] | None:
     """The common target, a (position, rotation) pair of float64 arrays, checked in floats.
 
-    :func:`check_tool_pose`'s fast path (an inverse-kinematics solve takes ~0.3 ms, of which
-    the NumPy checks of the slow path took a tenth); None sends anything else, and any
-    failure, to the slow path, which names the error.
+    `check_tool_pose`'s fast path (an inverse-kinematics solve takes ~0.3 ms, of which the NumPy
+    checks of the slow path took a tenth); None sends anything else, and any failure, to the slow
+    path, which names the error.
     """
     if not (isinstance(target, tuple | list) and len(target) == 2):
         return None

@@ -1,10 +1,11 @@
 """How results show themselves: in a terminal, with ``print``, and in a notebook.
 
-Every report class mixes in :class:`Report`: ``str(report)`` (and so ``print(report)``) is
-the readable text of its ``lines()``, ``repr(report)`` one short line saying what it is, and
-``_repr_html_`` the HTML tables Jupyter draws (Jupyter calls it when a cell's value is the
-report). The tables come from one place, :meth:`Report.html_tables`, so a report says what
-its columns are once; the HTML is escaped, never built from unescaped names.
+Every report class mixes in [`Report`][redundancy.display.Report]: ``str(report)`` (and so
+``print(report)``) is the readable text of its ``lines()``, ``repr(report)`` one short line saying
+what it is, and ``_repr_html_`` the HTML tables Jupyter draws (Jupyter calls it when a cell's value
+is the report). The tables come from one place,
+[`Report.html_tables`][redundancy.display.Report.html_tables], so a report says what its columns are
+once; the HTML is escaped, never built from unescaped names.
 
 Example:
     >>> import redundancy as rd
@@ -65,7 +66,7 @@ def table(
     rows: Sequence[Sequence[object]],
     numeric: Sequence[bool] = (),
 ) -> Table:
-    """A :class:`Table` with every cell turned into text (``str``)."""
+    """A [`Table`][redundancy.display.Table] with every cell turned into text (``str``)."""
     return Table(
         caption,
         tuple(header),
@@ -92,9 +93,9 @@ def html_document(
 class Report:
     """Mixin: ``str`` is the text of ``lines()``, ``repr`` a summary, HTML for notebooks.
 
-    A subclass defines ``lines()`` (the text), :meth:`summary` (one short line) and
-    :meth:`html_tables`; dataclasses mixing it in are declared with ``repr=False`` so the
-    short ``repr`` is kept.
+    A subclass defines ``lines()`` (the text), [`summary`][redundancy.display.Report.summary] (one
+    short line) and [`html_tables`][redundancy.display.Report.html_tables]; dataclasses mixing it in
+    are declared with ``repr=False`` so the short ``repr`` is kept.
     """
 
     __slots__ = ()

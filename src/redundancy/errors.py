@@ -1,8 +1,8 @@
 """The library's exceptions: one root, subclasses that carry the offending values.
 
-Every error a user can trigger with a model, a name or a pose is a :class:`RedundancyError`,
-so ``except RedundancyError`` is enough; engine exceptions are re-raised as one of these with
-the original kept as ``__cause__``.
+Every error a user can trigger with a model, a name or a pose is a
+[`RedundancyError`][redundancy.RedundancyError], so ``except RedundancyError`` is enough; engine
+exceptions are re-raised as one of these with the original kept as ``__cause__``.
 """
 
 from __future__ import annotations

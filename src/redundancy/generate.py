@@ -1,13 +1,12 @@
 """Random MJCF arms for property tests: models nobody hand-tuned.
 
-:func:`arms` draws fixed-base serial or branching arms with 1 to 9 hinge or slide joints:
-arbitrary joint axes, body poses in every form MJCF allows (``pos``, ``quat``, ``euler``,
-``axisangle``, ``xyaxes``, ``zaxis``), angles in radians or degrees, intrinsic euler
-sequences, default classes and ``childclass``, primitive geoms with ``mass`` or ``density``
-(or ``fromto``), explicit inertials (diagonal or full), armature, damping, joint ranges,
-actuators, gravity and a site ``"tip"`` at the end of the last body. Every model it draws is
-one the loader accepts (``strict=True``), so both engines must agree on it; a failing model
-shrinks to a small one.
+[`arms`][redundancy.generate.arms] draws fixed-base serial or branching arms with 1 to 9 hinge or
+slide joints: arbitrary joint axes, body poses in every form MJCF allows (``pos``, ``quat``,
+``euler``, ``axisangle``, ``xyaxes``, ``zaxis``), angles in radians or degrees, intrinsic euler
+sequences, default classes and ``childclass``, primitive geoms with ``mass`` or ``density`` (or
+``fromto``), explicit inertials (diagonal or full), armature, damping, joint ranges, actuators,
+gravity and a site ``"tip"`` at the end of the last body. Every model it draws is one the loader
+accepts (``strict=True``), so both engines must agree on it; a failing model shrinks to a small one.
 
 :func:`refused_arms` draws the same arms with one feature the loader must refuse (several
 joints in one body, a tendon on an arm joint...), with the feature's name;
@@ -41,8 +40,9 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
 EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")
 
-#: Robot features off the arm that the loader holds or sets aside (:func:`held_arms`): the arm
-#: is the chain to the tool, and these must not change what the engines agree on.
+#:  Robot features off the arm that the loader holds or sets aside
+#: ([`held_arms`][redundancy.generate.held_arms]): the arm is the chain to the tool, and these must
+#: not change what the engines agree on.
 HELD_FEATURES = (
     "several root bodies",
     "several kinematic trees",
@@ -50,7 +50,8 @@ HELD_FEATURES = (
     "free joint",
 )
 
-#: Features :func:`refused_arms` can add, each the ``feature`` of the loader's refusal.
+#:  Features [`refused_arms`][redundancy.generate.refused_arms] can add, each the ``feature`` of the
+#: loader's refusal.
 REFUSED_FEATURES = (
     "several joints in one body",
     "tendon on an arm joint",
@@ -72,8 +73,9 @@ RESOLVED_FEATURES = (
     "<replicate> element",
 )
 
-#: Features Pinocchio's parser reads differently and the loader bridges (issue 11): :func:`arms`
-#: draws up to two of them per model, and both engines must still agree.
+#:  Features Pinocchio's parser reads differently and the loader bridges (issue 11):
+#: [`arms`][redundancy.generate.arms] draws up to two of them per model, and both engines must still
+#: agree.
 BRIDGED_FEATURES = (
     "fixed root body with a pose",
     "mesh geom",
@@ -124,7 +126,8 @@ class GeneratedArm:
         site: Name of the tool site (``"tip"``).
         n_joints: Number of hinge and slide joints.
         features: Short names of the optional features the model uses.
-        refused: For :func:`refused_arms`, the feature the loader must refuse, else None.
+        refused: For [`refused_arms`][redundancy.generate.refused_arms], the feature the loader must
+            refuse, else None.
     """
 
     xml: str
@@ -285,7 +288,7 @@ def _rotation(angles: tuple[float, float, float]) -> np.ndarray:
 def _joint_attrs(draw: st.DrawFn, ctx: _Ctx, kind: str | None, in_default: bool = False) -> str:
     """Joint attributes other than name and class; ``kind`` None leaves the type to defaults.
 
-    A joint ``pos`` is drawn only on joints, not in defaults (see :data:`REFUSED_FEATURES`).
+    A joint ``pos`` is drawn only on joints, not in defaults (see `REFUSED_FEATURES`).
     """
     attrs = ""
     if kind is not None:
@@ -541,10 +544,10 @@ def arms(max_joints: int = 9, branching: bool = True) -> st.SearchStrategy[Gener
 def held_arms(
     features: tuple[str, ...] = HELD_FEATURES, max_joints: int = 4
 ) -> st.SearchStrategy[GeneratedArm]:
-    """Random robots with one feature off the arm (see :data:`HELD_FEATURES`); ``refused`` names it.
+    """Random robots with one feature off the arm (see `HELD_FEATURES`); ``refused`` names it.
 
     Args:
-        features: Which features to draw from (a subset of :data:`HELD_FEATURES`).
+        features: Which features to draw from (a subset of `HELD_FEATURES`).
         max_joints: Largest number of hinge and slide joints.
     """
     return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
@@ -556,7 +559,7 @@ def refused_arms(
     """Random arms with one feature the loader refuses; ``refused`` names it.
 
     Args:
-        features: Which refusals to draw from (a subset of :data:`REFUSED_FEATURES`).
+        features: Which refusals to draw from (a subset of `REFUSED_FEATURES`).
         max_joints: Largest number of hinge and slide joints.
     """
     return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))

@@ -1,6 +1,6 @@
 """Inverse kinematics: put the tool at a pose, inside the joint ranges, and use the spare joints.
 
-The solver (:func:`solve`, behind :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>`):
+The solver ([`solve`][redundancy.ik.solve], behind `Arm.solve_ik`):
 
 * **Damped Levenberg-Marquardt** on the tool error e = [p* - p; log(R* R^T)] (world axes,
   [m] and [rad]), with Sugihara's damping lambda = E + w_N, E = e^T e / 2: the step is
@@ -51,7 +51,7 @@ OBJECTIVES = ("joint_limits", "manipulability")
 
 @dataclass(frozen=True)
 class IKResult:
-    """What :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` found.
+    """What `Arm.solve_ik` found.
 
     Attributes:
         q: The pose, inside the joint ranges [rad or m].

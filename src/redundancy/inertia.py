@@ -36,7 +36,7 @@ def reflected_inertia(rotor_inertia: ArrayLike, gear_ratio: ArrayLike) -> Array:
 
 
 def rotor_inertia(armature: ArrayLike, gear_ratio: ArrayLike) -> Array:
-    """Inverse of :func:`reflected_inertia`: J_rotor = armature / N^2 [kg m^2].
+    """Inverse of `reflected_inertia`: J_rotor = armature / N^2 [kg m^2].
 
     Raises:
         ParameterError: ``armature`` negative, ``gear_ratio`` zero, a value NaN or infinite,

@@ -89,7 +89,7 @@ class JacobianSVD(Report):
 
     @property
     def manipulability(self) -> float:
-        """Yoshikawa's measure, the product of the singular values (see :func:`yoshikawa`)."""
+        """Yoshikawa's measure, the product of the singular values (see `yoshikawa`)."""
         return float(np.prod(self.sigma))
 
     @property
@@ -104,7 +104,7 @@ class JacobianSVD(Report):
         (its projection onto that span has unit norm to ``atol``).
 
         Returns:
-            The names from :data:`TOOL_DIRECTIONS` that are lost, in row order.
+            The names from `TOOL_DIRECTIONS` that are lost, in row order.
 
         Raises:
             ParameterError: ``atol`` not a finite number > 0.
@@ -176,7 +176,7 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
 
 
 class Manipulability(Report):
-    """Yoshikawa's manipulability of the whole Jacobian and of its blocks (see :func:`yoshikawa`).
+    """Yoshikawa's manipulability of the whole Jacobian and of its blocks (see `yoshikawa`).
 
     Singular values of the full J mix m/rad and rad/rad, so ``full`` depends on the unit of
     length; ``position`` and ``orientation`` do not mix units, and ``scaled`` divides the
@@ -264,12 +264,12 @@ class Manipulability(Report):
 
 
 ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
-#: The measures of :class:`Manipulability`, each of its own rows of J.
+#:  The measures of [`Manipulability`][redundancy.Manipulability], each of its own rows of J.
 MANIPULABILITY_KINDS: tuple[ManipulabilityKind, ...] = ("full", "position", "orientation", "scaled")
 
 
 def _manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
-    """:func:`manipulability_rows` on checked input."""
+    """[`manipulability_rows`][redundancy.linalg.manipulability_rows] on checked input."""
     if kind == "position":
         return J[..., :3, :]
     if kind == "orientation":
@@ -284,8 +284,8 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
 
     Args:
         J: Site Jacobian(s), shape (6, n) or (m, 6, n): linear rows first.
-        kind: One of :data:`MANIPULABILITY_KINDS`: all rows, the linear or the angular ones,
-            or all with the linear rows divided by ``length``.
+        kind: One of `MANIPULABILITY_KINDS`: all rows, the linear or the angular ones, or all with
+            the linear rows divided by ``length``.
         length: Characteristic length for ``"scaled"`` [m], > 0.
 
     Raises:
@@ -301,17 +301,17 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
 def yoshikawa(J: Array) -> float:
     """Manipulability of an m x n J: the product of its min(m, n) singular values.
 
-    This is the one definition the library uses, for any joint count: sqrt(det(J J^T))
-    (Yoshikawa's) when n >= m, and sqrt(det(J^T J)) when n < m, where det(J J^T) is
-    identically 0 (an arm of fewer than 6 joints still has a measure of how far it is from
-    losing one of the directions it can move along). The gradient
-    (:func:`manipulability_gradient`) and the batch stacks are of this same value.
+    This is the one definition the library uses, for any joint count: sqrt(det(J J^T)) (Yoshikawa's)
+    when n >= m, and sqrt(det(J^T J)) when n < m, where det(J J^T) is identically 0 (an arm of fewer
+    than 6 joints still has a measure of how far it is from losing one of the directions it can move
+    along). The gradient ([`manipulability_gradient`][redundancy.linalg.manipulability_gradient])
+    and the batch stacks are of this same value.
     """
     return _yoshikawa(check_matrix("J", J))
 
 
 def _yoshikawa(J: Array) -> float:
-    """:func:`yoshikawa` of a checked J (a Manipulability's rows: checked when it was made)."""
+    """`yoshikawa` of a checked J (a Manipulability's rows: checked when it was made)."""
     return float(np.prod(np.linalg.svd(J, compute_uv=False)))
 
 
@@ -332,13 +332,13 @@ def manipulability(J: Array, length: float = 1.0) -> Manipulability:
 
 
 def manipulability_gradient(J: Array, dJ: Array) -> Array:
-    """Gradient of w = prod(sigma) (:func:`yoshikawa`, any m and n) with respect to q.
+    """Gradient of w = prod(sigma) (`yoshikawa`, any m and n) with respect to q.
 
-    With the thin SVD J = U diag(sigma) V^T (r = min(m, n) singular values),
-    d w / d q_k = sum_i (prod_{j != i} sigma_j) u_i^T dJ_k v_i: for n >= m the same as
-    w * trace((J J^T)^-1 dJ_k J^T), without inverting J J^T, so it stays accurate near
-    singular poses. At a singular pose (numerical rank below r, see :data:`RANK_RTOL`) the
-    measure has a kink, like |x| at 0, and no gradient: zeros are returned.
+    With the thin SVD J = U diag(sigma) V^T (r = min(m, n) singular values), d w / d q_k = sum_i
+    (prod_{j != i} sigma_j) u_i^T dJ_k v_i: for n >= m the same as w * trace((J J^T)^-1 dJ_k J^T),
+    without inverting J J^T, so it stays accurate near singular poses. At a singular pose (numerical
+    rank below r, see `RANK_RTOL`) the measure has a kink, like |x| at 0, and no gradient: zeros are
+    returned.
 
     Args:
         J: Jacobian, shape (m, n).
@@ -371,7 +371,7 @@ def nullspace_projector(J: Array, rtol: float = RANK_RTOL) -> Array:
     same matrix as I - pinv(J) J (to rounding) at half the cost.
 
     Raises:
-        ParameterError: As :func:`jacobian_svd`.
+        ParameterError: As [`jacobian_svd`][redundancy.linalg.jacobian_svd].
     """
     B = nullspace_basis(J, rtol)
     return B @ B.T
@@ -381,7 +381,7 @@ def nullspace_basis(J: Array, rtol: float = RANK_RTOL) -> Array:
     """Orthonormal basis of the null space of J, columns, shape (n, n - rank).
 
     Raises:
-        ParameterError: As :func:`jacobian_svd`.
+        ParameterError: As [`jacobian_svd`][redundancy.linalg.jacobian_svd].
     """
     s = jacobian_svd(J, rtol)
     return s.V[:, s.rank :]
@@ -725,7 +725,7 @@ def effective_masses(
     """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,).
 
     Raises:
-        ParameterError: As :func:`effective_mass`, for stacks.
+        ParameterError: As [`effective_mass`][redundancy.linalg.effective_mass], for stacks.
     """
     J, X = _check_jx(J, X, True)
     return _effective_masses(

@@ -38,9 +38,9 @@ def model_path(name: str) -> Path:
 def bundled(name: str) -> Path | None:
     """The bundled model a bare name means (``"panda"``), or None.
 
-    A name means a bundled model only when it is not a file (so a file called ``panda`` in
-    the working directory still wins), has no directory part and names one of
-    :func:`available`.
+    A name means a bundled model only when it is not a file (so a file called ``panda`` in the
+    working directory still wins), has no directory part and names one of
+    [`available`][redundancy.models.available].
     """
     if not name or Path(name).exists() or Path(name).name != name:
         return None

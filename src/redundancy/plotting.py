@@ -1,10 +1,10 @@
 """Figures of the common plots, and matplotlib for the scripts (the ``plot`` extra).
 
-Nothing here changes the user's matplotlib backend or pyplot's state: the figure helpers
-build a :class:`matplotlib.figure.Figure` directly (object-oriented API), which a notebook
-shows inline when it is a cell's value and which ``fig.savefig(path)`` writes anywhere.
-:func:`pyplot` returns ``matplotlib.pyplot`` as the user configured it (matplotlib itself
-falls back to the non-interactive Agg backend where there is no display).
+Nothing here changes the user's matplotlib backend or pyplot's state: the figure helpers build a
+`matplotlib.figure.Figure` directly (object-oriented API), which a notebook shows inline when it is
+a cell's value and which ``fig.savefig(path)`` writes anywhere.
+[`pyplot`][redundancy.plotting.pyplot] returns ``matplotlib.pyplot`` as the user configured it
+(matplotlib itself falls back to the non-interactive Agg backend where there is no display).
 
 Example:
     >>> import redundancy as rd
@@ -31,7 +31,9 @@ from .linalg import MANIPULABILITY_KINDS, ManipulabilityKind
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-#: The velocity ellipsoids :func:`velocity_ellipsoid_figure` draws: rows of J and their unit.
+#:  The velocity ellipsoids
+#: [`velocity_ellipsoid_figure`][redundancy.plotting.velocity_ellipsoid_figure] draws: rows of J and
+#: their unit.
 ELLIPSOID_KINDS = {"position": (slice(0, 3), "m/s"), "orientation": (slice(3, 6), "rad/s")}
 
 
@@ -70,7 +72,7 @@ def manipulability_figure(
     Args:
         arm: The arm.
         path: Poses along the path, shape (n, nq) [rad or m].
-        kind: Which measure (:data:`~redundancy.linalg.MANIPULABILITY_KINDS`).
+        kind: Which measure (`MANIPULABILITY_KINDS`).
         s: Path parameter per pose, shape (n,) (time [s], arc length...); the pose index
             by default.
         engine: ``"mujoco"`` or ``"pinocchio"``.

@@ -34,10 +34,10 @@ PROFILES = {"redundancy-ci": 60, "redundancy-thorough": 1000}
 def register_profiles(default: str | None = None) -> str:
     """Register the library's profiles; load one when $HYPOTHESIS_PROFILE (or ``default``) names it.
 
-    The profiles are registered under the library's own names (:data:`PROFILES`), never
-    Hypothesis's ``"default"``. A profile name of the user's own (``HYPOTHESIS_PROFILE=ci``,
-    registered by their conftest) is left alone: nothing is loaded over it and nothing is
-    refused, so the user's settings stay in force.
+    The profiles are registered under the library's own names (`PROFILES`), never Hypothesis's
+    ``"default"``. A profile name of the user's own (``HYPOTHESIS_PROFILE=ci``, registered by their
+    conftest) is left alone: nothing is loaded over it and nothing is refused, so the user's
+    settings stay in force.
 
     Args:
         default: The library profile to load when $HYPOTHESIS_PROFILE is unset (None:
@@ -47,7 +47,7 @@ def register_profiles(default: str | None = None) -> str:
         The name of the profile in force afterwards (Hypothesis's current profile).
 
     Raises:
-        UnknownNameError: ``default`` is not one of :data:`PROFILES`.
+        UnknownNameError: ``default`` is not one of `PROFILES`.
     """
     if default is not None and default not in PROFILES:
         from .errors import UnknownNameError
@@ -85,8 +85,8 @@ def poses(arm: Arm, margin: float = 0.0, unlimited: float = np.pi) -> st.SearchS
     Args:
         arm: The arm whose ranges to use.
         margin: Keep this far inside each limit [rad or m].
-        unlimited: Half-width of the interval used for unlimited joints [rad or m]
-            (hinges as :func:`~redundancy.arm.sampling_ranges` draws them; slides too).
+        unlimited: Half-width of the interval used for unlimited joints [rad or m] (hinges as
+            [`sampling_ranges`][redundancy.arm.sampling_ranges] draws them; slides too).
     """
     lo, hi = sampling_ranges(arm, unlimited, unlimited_slide=unlimited)
     lo = np.where(np.isfinite(arm.lower), lo + margin, lo)

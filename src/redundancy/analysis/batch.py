@@ -1,14 +1,14 @@
 """Batched evaluation over a stack of poses, at close to the engines' own speed.
 
-Every function takes a stack of joint configurations ``Q`` of shape (n, nq) and returns
-stacked arrays, equal to what the single-pose methods of :class:`~redundancy.Arm` return
-pose by pose (bit for bit; the tests hold them to it). What makes them fast:
+Every function takes a stack of joint configurations ``Q`` of shape (n, nq) and returns stacked
+arrays, equal to what the single-pose methods of [`Arm`][redundancy.Arm] return pose by pose (bit
+for bit; the tests hold them to it). What makes them fast:
 
 * **No per-pose Python objects on the hot path.** The engines' stacked evaluation
-  (:meth:`Engine.evaluate <redundancy.engines.contract.Engine.evaluate>`) writes straight
-  into the rows of preallocated output stacks (MuJoCo's ``mj_jacSite``, ``mj_fullM`` and
-  ``mj_rne`` take output arrays); Pinocchio's post-processing (symmetrising ``crba``'s upper
-  triangle, removing armature, reordering joints) is done once on the whole stack.
+  (`Engine.evaluate`) writes straight into the rows of preallocated output stacks (MuJoCo's
+  ``mj_jacSite``, ``mj_fullM`` and ``mj_rne`` take output arrays); Pinocchio's post-processing
+  (symmetrising ``crba``'s upper triangle, removing armature, reordering joints) is done once on the
+  whole stack.
 * **One call where the engine has one.** Pinocchio's gravity comes from
   ``pinocchio.rneaInParallel`` (RNEA with v = a = 0: the same sums as
   ``computeGeneralizedGravity``), one C++ call for the whole stack, on ``threads`` OpenMP
@@ -165,23 +165,23 @@ def map_chunks(
     """``fn(arm, Q[lo:hi], **kwargs)`` for consecutive chunks of ``Q``, run on ``executor``.
 
     Args:
-        executor: Any :class:`concurrent.futures.Executor`; a Dask cluster's
-            ``Client(...).get_executor()`` included.
+        executor: Any `concurrent.futures.Executor`; a Dask cluster's ``Client(...).get_executor()``
+            included.
         fn: A module-level function (it is pickled by name for a process or a cluster).
         arm: The arm (it must pickle: built by :func:`redundancy.load` or ``load_string``).
             A worker rebuilds it from its files, or from their bytes, which the caller sends
             again with a chunk whose worker lacks them.
         Q: Poses, shape (n, nq).
-        chunk: Poses per task; by default at least :data:`EXECUTOR_MIN_CHUNK` and at most
-            :data:`EXECUTOR_MAX_TASKS` tasks.
+        chunk: Poses per task; by default at least `EXECUTOR_MIN_CHUNK` and at most
+            `EXECUTOR_MAX_TASKS` tasks.
         **kwargs: Passed to ``fn``.
 
     Returns:
         (first pose of the chunk, ``fn``'s result) per chunk, in order.
 
     Raises:
-        ParameterError: ``executor`` is not a :class:`concurrent.futures.Executor`, ``fn`` not
-            callable, ``chunk`` not an integer >= 1.
+        ParameterError: ``executor`` is not a `concurrent.futures.Executor`, ``fn`` not callable,
+            ``chunk`` not an integer >= 1.
         PoseError: ``Q`` not finite poses of the arm.
     """
     _check_executor(executor, fn, kwargs)
@@ -196,7 +196,7 @@ def _map_chunks(
     chunk: int | None,
     kwargs: dict[str, Any],
 ) -> list[tuple[int, R]]:
-    """:func:`map_chunks` with the executor, ``fn`` and ``Q`` checked."""
+    """`map_chunks` with the executor, ``fn`` and ``Q`` checked."""
     n = len(Q)
     if chunk is None:
         chunk = max(EXECUTOR_MIN_CHUNK, -(-n // EXECUTOR_MAX_TASKS))
@@ -280,7 +280,7 @@ def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bo
 def _stack(
     arm: Arm, Q: ArrayLike, engine: str, threads: int, what: str, armature: bool = True
 ) -> Array:
-    """One quantity over a stack: validate the inputs, then :func:`_fill`."""
+    """One quantity over a stack: validate the inputs, then `_fill`."""
     check_choice("engine", engine, ENGINES)
     return _fill(arm, poses(arm, Q), engine, check_threads(threads), what, armature)
 
@@ -292,16 +292,16 @@ def jacobians(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Site Jacobians of a stack of poses, as :meth:`Arm.jacobian <redundancy.Arm.jacobian>`.
+    """Site Jacobians of a stack of poses, as `Arm.jacobian`.
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Jacobians, shape (n, 6, nq): linear rows [m/rad] then angular [rad/rad], world axes.
@@ -362,18 +362,18 @@ def singular_values(
 ) -> Array:
     """Singular values of the site Jacobian at each pose, descending.
 
-    Equal to ``linalg.yoshikawa``'s factors (``np.linalg.svd(J, compute_uv=False)``) bit for
-    bit, and to :meth:`Arm.svd <redundancy.Arm.svd>`'s ``sigma`` to rounding (1e-15
-    relative: that SVD also computes the vectors, by another LAPACK path).
+    Equal to ``linalg.yoshikawa``'s factors (``np.linalg.svd(J, compute_uv=False)``) bit for bit,
+    and to `Arm.svd`'s ``sigma`` to rounding (1e-15 relative: that SVD also computes the vectors, by
+    another LAPACK path).
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Singular values, shape (n, min(6, nq)) [mixed units: m/rad and rad/rad].
@@ -394,23 +394,25 @@ def manipulabilities(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Yoshikawa's manipulability at each pose, as :func:`linalg.manipulability`.
+    """Yoshikawa's manipulability at each pose, as `linalg.manipulability`.
 
-    The product of the singular values of the chosen rows of J (sqrt(det(J J^T)) with at
-    least as many joints as rows, sqrt(det(J^T J)) with fewer: :func:`linalg.yoshikawa`).
+    The product of the singular values of the chosen rows of J (sqrt(det(J J^T)) with at least as
+    many joints as rows, sqrt(det(J^T J)) with fewer:
+    [`linalg.yoshikawa`][redundancy.linalg.yoshikawa]).
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         kind: ``"full"`` (6 x n J, mixed units), ``"position"`` (linear rows [m^3/rad^3]),
-            ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by
-            ``length``, dimensionless); the fields of :class:`~redundancy.Manipulability`.
+            ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by ``length``,
+            dimensionless); the fields of [`Manipulability`][redundancy.Manipulability].
         length: Characteristic length for ``"scaled"`` [m].
-        threads: As in :func:`singular_values` (``"full"`` only).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+        threads: As in [`singular_values`][redundancy.analysis.batch.singular_values] (``"full"``
+            only).
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Manipulability per pose, shape (n,).
@@ -446,7 +448,7 @@ def mass_matrices(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Joint-space mass matrices, as :meth:`Arm.mass_matrix <redundancy.Arm.mass_matrix>`.
+    """Joint-space mass matrices, as `Arm.mass_matrix`.
 
     Args:
         arm: The arm.
@@ -454,9 +456,9 @@ def mass_matrices(
         armature: Include armature on the diagonal.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
@@ -476,16 +478,16 @@ def gravities(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Gravity torques to hold each pose, as :meth:`Arm.gravity <redundancy.Arm.gravity>`.
+    """Gravity torques to hold each pose, as `Arm.gravity`.
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"`` (``rneaInParallel`` on ``threads`` threads).
         threads: Worker threads.
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Torques, shape (n, nq) [N m or N].
@@ -504,18 +506,18 @@ def distances(
 ) -> Array:
     """Signed distance of every collision pair at each pose.
 
-    Equal to :meth:`CollisionChecker.distance_values
-    <redundancy.collision.CollisionChecker.distance_values>` pose by pose; the pairs are
-    ``redundancy.collision.checker(arm).pairs``, in that order.
+    Equal to
+    [`CollisionChecker.distance_values`][redundancy.collision.CollisionChecker.distance_values] pose
+    by pose; the pairs are ``redundancy.collision.checker(arm).pairs``, in that order.
 
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs
-            here. The results are the same, bit for bit.
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
+            results are the same, bit for bit.
 
     Returns:
         Distances, shape (n, npairs), negative where the geoms overlap [m].
@@ -568,7 +570,7 @@ def operational_inertias(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Lambda at each pose, as :meth:`redundancy.Arm.operational_inertia`.
+    """Lambda at each pose, as `redundancy.Arm.operational_inertia`.
 
     Args:
         arm: The arm.
@@ -577,8 +579,8 @@ def operational_inertias(
         joints: Names of the joints free to move (the others held); None: all.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` in chunks of poses (see
-            :func:`jacobians`); None runs here.
+        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
+            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
 
     Returns:
         Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
@@ -617,7 +619,7 @@ def effective_masses(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Effective mass at the tool at each pose, as :meth:`redundancy.Arm.effective_mass`.
+    """Effective mass at the tool at each pose, as `redundancy.Arm.effective_mass`.
 
     Args:
         arm: The arm.
@@ -627,8 +629,8 @@ def effective_masses(
         joints: Names of the joints free to move (the others held); None: all.
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only).
-        executor: Run on this :class:`concurrent.futures.Executor` in chunks of poses (see
-            :func:`jacobians`); None runs here.
+        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
+            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
 
     Returns:
         Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
@@ -669,8 +671,8 @@ def effective_mass_ranges(
 ) -> Array:
     """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
 
-    As :meth:`Arm.effective_mass_range <redundancy.Arm.effective_mass_range>`'s ``min`` and
-    ``max`` (arguments as :func:`effective_masses`).
+    As `Arm.effective_mass_range`'s ``min`` and ``max`` (arguments as
+    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
     Q, armature, joints, engine, threads = _dynamics_inputs(
         arm, Q, armature, joints, engine, threads
@@ -703,8 +705,8 @@ def dynamic_manipulabilities(
 ) -> Array:
     """Yoshikawa's dynamic manipulability at each pose, shape (n,).
 
-    As :meth:`Arm.dynamic_manipulability <redundancy.Arm.dynamic_manipulability>`
-    (arguments as :func:`effective_masses`).
+    As `Arm.dynamic_manipulability` (arguments as
+    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
     Q, armature, joints, engine, threads = _dynamics_inputs(
         arm, Q, armature, joints, engine, threads
@@ -740,7 +742,7 @@ def solve_ik(
     engine: EngineName = "mujoco",
     threads: int = 1,
 ) -> tuple[IKResult, ...]:
-    """:meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` for many targets, on ``threads`` threads.
+    """`Arm.solve_ik` for many targets, on ``threads`` threads.
 
     Result ``i`` is ``arm.solve_ik(targets[i], Q0[i], seed=seed + i, ...)`` whatever the
     thread count (each target is solved by one thread, start to end).
@@ -750,18 +752,18 @@ def solve_ik(
         targets: A sequence of targets (each a 4 x 4 pose or a (position, rotation) pair),
             or an array of poses (n, 4, 4).
         Q0: Starts, shape (n, nq) [rad or m]; None: each from the middle of the ranges.
-        objective: As :meth:`Arm.solve_ik`.
-        position_only: As :meth:`Arm.solve_ik`.
-        position_tol: As :meth:`Arm.solve_ik` [m].
-        orientation_tol: As :meth:`Arm.solve_ik` [rad].
-        restarts: As :meth:`Arm.solve_ik`.
+        objective: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
+        position_only: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
+        position_tol: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] [m].
+        orientation_tol: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] [rad].
+        restarts: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
         seed: Target ``i`` uses ``seed + i`` (None: fresh entropy for each).
-        engine: As :meth:`Arm.solve_ik`.
+        engine: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
         threads: Worker threads. The solver is mostly Python, which holds the GIL, so
             threads gain little beyond MuJoCo's own calls.
 
     Returns:
-        One :class:`~redundancy.ik.IKResult` per target.
+        One [`IKResult`][redundancy.IKResult] per target.
 
     Raises:
         ParameterError: A bad target (named by its index), a bad count of starts.

@@ -1,8 +1,8 @@
 """Two descriptions that claim to be one robot, compared structurally and pose by pose.
 
-A URDF and its MJCF conversion, or two versions of one MJCF: each is loaded into its own two
-engines (and cross-checked there, see :func:`redundancy.crosscheck`); this module compares
-the two arms with each other. Joints are matched by name or by a joint map.
+A URDF and its MJCF conversion, or two versions of one MJCF: each is loaded into its own two engines
+(and cross-checked there, see [`redundancy.crosscheck`][redundancy.crosscheck]); this module
+compares the two arms with each other. Joints are matched by name or by a joint map.
 
 * **Structure**, at a reference pose (zeros clipped into the ranges), in the world frame so
   that each file's choice of body frames does not matter: each joint's parent, type, axis
@@ -169,9 +169,10 @@ class Finding:
 
 @dataclass(frozen=True, repr=False)
 class Comparison(Report):
-    """Result of :func:`compare`.
+    """Result of [`compare`][redundancy.compare].
 
-    ``print(comparison)`` prints :meth:`lines`; a notebook shows the HTML tables.
+    ``print(comparison)`` prints [`lines`][redundancy.analysis.compare.Comparison.lines]; a notebook
+    shows the HTML tables.
 
     Attributes:
         a: Description of A (file and format); b likewise.
@@ -182,8 +183,8 @@ class Comparison(Report):
         not_expressible: What one format cannot express, with the other's values.
         chains_part: Where the kinematic chains first part (a joint, ``"tool frame"``), or
             None when they do not.
-        largest: Largest difference per quantity compared (0 where identical), relative to
-            the quantity's scale on A (:mod:`redundancy.model.scales`) [-].
+        largest: Largest difference per quantity compared (0 where identical), relative to the
+            quantity's scale on A ([`redundancy.model.scales`][redundancy.model.scales]) [-].
         n_poses: Poses compared (random ones and keyframes).
         tol: Relative tolerance [-].
         offsets: The rigid offsets found (base placement, tool mount), relative to which the
@@ -371,18 +372,19 @@ def compare(
     Args:
         a: An Arm, or a model file (MJCF or URDF) loaded with ``frame_a``.
         b: Likewise, with ``frame_b``.
-        frame_a: A's tool frame (an MJCF site or body, a URDF link or fixed joint); default:
-            the file's one chain end, else its frame named ``"ee"``
-            (:func:`redundancy.model.ends.frame_for`).
+        frame_a: A's tool frame (an MJCF site or body, a URDF link or fixed joint); default: the
+            file's one chain end, else its frame named ``"ee"``
+            ([`redundancy.model.ends.frame_for`][redundancy.model.ends.frame_for]).
         frame_b: B's tool frame, likewise.
-        joint_map: A's joint name -> B's, for joints whose names differ (others match by
-            name), or the path of a joint map file (see :func:`read_joint_map`).
+        joint_map: A's joint name -> B's, for joints whose names differ (others match by name), or
+            the path of a joint map file (see
+            [`read_joint_map`][redundancy.analysis.compare.read_joint_map]).
         n_poses: Random poses compared, besides the keyframes (>= 0).
         seed: Seed of the random poses.
-        tol: Relative tolerance, finite and > 0: each difference is divided by its
-            quantity's scale (max |A's value|, never below the quantity's size on A: its
-            length for positions, m L^2 for inertias, m g L for torques; see
-            :mod:`redundancy.model.scales`), as in the cross-check [-].
+        tol: Relative tolerance, finite and > 0: each difference is divided by its quantity's scale
+            (max |A's value|, never below the quantity's size on A: its length for positions, m L^2
+            for inertias, m g L for torques; see
+            [`redundancy.model.scales`][redundancy.model.scales]), as in the cross-check [-].
 
     Raises:
         ModelError: A file that does not load, a bad joint map, bad arguments.
@@ -889,7 +891,7 @@ def _mujoco_stacks(
 
 
 def _joint_bodies(arm: Arm) -> list[str]:
-    """Per joint, the display name of the body it moves (see :mod:`redundancy.model.names`)."""
+    """Per joint, the display name of the body it moves (see `redundancy.model.names`)."""
     import mujoco
 
     m = arm.mj_model

@@ -1,11 +1,12 @@
 """Pose-by-pose agreement of the two engines, with a stated tolerance per quantity.
 
-One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the scale is
-max |mujoco| at that pose, never below FLOOR x the quantity's size on the arm: see
-:mod:`redundancy.model.scales`), and its maximum over the poses (:func:`quantity_errors`,
-:func:`worst`), serves the single-pose and the
-stacked cross-check alike: :func:`crosscheck` and :func:`crosscheck_batch` are one
-computation, over stacks of poses taken in chunks so memory stays flat in their number.
+One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the scale is max
+|mujoco| at that pose, never below FLOOR x the quantity's size on the arm: see
+[`redundancy.model.scales`][redundancy.model.scales]), and its maximum over the poses
+([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors],
+[`worst`][redundancy.analysis.crosscheck.worst]), serves the single-pose and the stacked cross-check
+alike: [`crosscheck`][redundancy.crosscheck] and [`crosscheck_batch`][redundancy.crosscheck_batch]
+are one computation, over stacks of poses taken in chunks so memory stays flat in their number.
 """
 
 from __future__ import annotations
@@ -30,10 +31,10 @@ from .batch import map_chunks
 
 Array = NDArray[np.float64]
 
-#: Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
-#: :func:`quantity_errors`): relative, so an arm of any size is held to the same 1e-9. Both
-#: engines evaluate the same closed-form rigid-body algorithms in double precision;
-#: differences are rounding.
+#:  Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
+#: [`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]): relative, so an arm of any
+#: size is held to the same 1e-9. Both engines evaluate the same closed-form rigid-body algorithms
+#: in double precision; differences are rounding.
 TOLERANCES: dict[str, float] = {
     "site position": 1e-9,
     "site rotation": 1e-9,
@@ -91,8 +92,9 @@ class Agreement:
     """How closely the engines agree on one quantity over the poses checked.
 
     Attributes:
-        quantity: Name, a key of :data:`TOLERANCES`.
-        max_error: Largest max |mujoco - pinocchio| / scale seen (:func:`quantity_errors`).
+        quantity: Name, a key of `TOLERANCES`.
+        max_error: Largest max |mujoco - pinocchio| / scale seen
+            ([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]).
         tol: The tolerance it is held to.
         worst_pose: Index of the pose where ``max_error`` occurred.
     """
@@ -110,10 +112,11 @@ class Agreement:
 
 @dataclass(frozen=True, repr=False)
 class CrossCheckReport(Report):
-    """Result of :func:`crosscheck`.
+    """Result of [`crosscheck`][redundancy.crosscheck].
 
-    ``print(report)`` prints the table of :meth:`lines`; in a notebook the report shows as
-    an HTML table.
+    ``print(report)`` prints the table of
+    [`lines`][redundancy.analysis.crosscheck.CrossCheckReport.lines]; in a notebook the report shows
+    as an HTML table.
 
     Attributes:
         agreements: One entry per quantity.
@@ -206,10 +209,10 @@ class CrossCheckReport(Report):
 
 
 def quantity_names(quantities: Iterable[str] | None) -> tuple[str, ...]:
-    """The quantities to compare: all of :data:`TOLERANCES` by default.
+    """The quantities to compare: all of `TOLERANCES` by default.
 
     Raises:
-        UnknownNameError: A name that is not a key of :data:`TOLERANCES` (lists the valid ones).
+        UnknownNameError: A name that is not a key of `TOLERANCES` (lists the valid ones).
     """
     if isinstance(quantities, str):
         quantities = (quantities,)
@@ -224,7 +227,7 @@ def quantity_names(quantities: Iterable[str] | None) -> tuple[str, ...]:
 
 
 def tolerances_for(names: Iterable[str], overrides: dict[str, float] | None) -> dict[str, float]:
-    """:data:`TOLERANCES` with overrides, each checked to be a finite number >= 0.
+    """`TOLERANCES` with overrides, each checked to be a finite number >= 0.
 
     Raises:
         UnknownNameError: An override for a quantity that does not exist.
@@ -240,21 +243,21 @@ def tolerances_for(names: Iterable[str], overrides: dict[str, float] | None) -> 
 
 
 def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
-    """Per pose, the library's error measure for one quantity of :data:`TOLERANCES`.
+    """Per pose, the library's error measure for one quantity of `TOLERANCES`.
 
     max |a - b| / max(max |a|, FLOOR x size) over one pose's value
-    (:func:`~redundancy.model.scales.scaled_errors`), the size being the quantity's size on
-    the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
-    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and
-    its derivatives are measured per block of rows, linear (size L) and angular (size 1),
-    since their units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and
-    the dynamic manipulability through its factors, the singular values of M^-1 J^T.
+    ([`scaled_errors`][redundancy.model.scales.scaled_errors]), the size being the quantity's size
+    on the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
+    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and its
+    derivatives are measured per block of rows, linear (size L) and angular (size 1), since their
+    units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and the dynamic
+    manipulability through its factors, the singular values of M^-1 J^T.
 
     Args:
-        name: A key of :data:`TOLERANCES`.
+        name: A key of `TOLERANCES`.
         a: MuJoCo's values, stacked (n, ...).
         b: Pinocchio's values, same shape.
-        scales: The arm's scales (:func:`~redundancy.model.scales.arm_scales`).
+        scales: The arm's scales ([`arm_scales`][redundancy.model.scales.arm_scales]).
 
     Returns:
         Errors, shape (n,); NaN or inf where a value is not finite.
@@ -308,7 +311,7 @@ def worst(err: Array) -> tuple[float, int]:
 
 
 def merge_worst(old: tuple[float, int], new: tuple[float, int], offset: int) -> tuple[float, int]:
-    """Combine the worst of an earlier chunk with a later chunk's, by :func:`worst`'s rules.
+    """Combine the worst of an earlier chunk with a later chunk's, by `worst`'s rules.
 
     ``new``'s pose is counted from ``offset``, the later chunk's first pose.
     """
@@ -458,8 +461,8 @@ def crosscheck_batch(
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq), or one pose (nq,) [rad or m].
-        quantities: Subset of :data:`TOLERANCES` keys; all by default.
-        tolerances: Overrides for :data:`TOLERANCES` (finite, >= 0).
+        quantities: Subset of `TOLERANCES` keys; all by default.
+        tolerances: Overrides for `TOLERANCES` (finite, >= 0).
         threads: With 2 or more (and at least ``MIN_POSES_PER_THREAD`` poses in a chunk),
             MuJoCo runs in a worker thread (its ``mj_*`` calls release the GIL) beside
             Pinocchio in the caller's thread, and Pinocchio's gravity uses the other
@@ -477,7 +480,7 @@ def crosscheck_batch(
         The report; over zero poses it says that nothing was checked and is not ``ok``.
 
     Raises:
-        UnknownNameError: A quantity that is not a key of :data:`TOLERANCES`.
+        UnknownNameError: A quantity that is not a key of `TOLERANCES`.
         ParameterError: A bad tolerance, thread count or chunk size.
         PoseError: Bad poses.
     """
@@ -547,7 +550,7 @@ def crosscheck(
     *,
     seed: int = 0,
 ) -> CrossCheckReport:
-    """Compare MuJoCo and Pinocchio at one pose or many (:func:`crosscheck_batch`, 1 thread).
+    """Compare MuJoCo and Pinocchio at one pose or many (`crosscheck_batch`, 1 thread).
 
     Args:
         arm: The loaded arm.

@@ -115,8 +115,8 @@ def pose_error(arm: Arm, q: Array, p0: Array, R0: Array, engine: EngineName = "m
 class Objective:
     """A scalar function of the pose to raise along the self-motion.
 
-    Calling the objective returns its value, so a plain ``Callable[[Array], float]`` can be
-    used wherever an :class:`Objective` is accepted.
+    Calling the objective returns its value, so a plain ``Callable[[Array], float]`` can be used
+    wherever an [`Objective`][redundancy.analysis.selfmotion.Objective] is accepted.
 
     Attributes:
         name: Short description, with its unit.
@@ -340,14 +340,15 @@ def self_motion(
             objective, which picks the rising direction).
         correct: Pull the tool back to its start pose after every step (Newton steps
             ``J^+ e`` until ``|e| <= tol``), removing the drift.
-        objective: Scalar function of q to raise (an :class:`Objective`, or any callable);
-            each step goes along its gradient projected onto the null space; the motion
-            stops where that direction reverses, at the better of the last two poses.
+        objective: Scalar function of q to raise (an
+            [`Objective`][redundancy.analysis.selfmotion.Objective], or any callable); each step
+            goes along its gradient projected onto the null space; the motion stops where that
+            direction reverses, at the better of the last two poses.
         elbow: Joint whose anchor height is reported; default the middle joint (j4 of a
             7-joint arm).
         engine: Engine for J and the site pose.
-        stop: Predicate on q that ends the motion when true, tested before each step and at
-            the end (e.g. :func:`no_contact`).
+        stop: Predicate on q that ends the motion when true, tested before each step and at the end
+            (e.g. [`no_contact`][redundancy.analysis.selfmotion.no_contact]).
         integrator: ``"euler"`` or ``"midpoint"`` (see the module docstring).
         tol: Tool error at which the correction stops [m and rad, as one 6-vector norm].
         max_corrections: Newton corrections per step at most.

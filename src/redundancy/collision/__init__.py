@@ -1,9 +1,9 @@
 """Self-collision under MuJoCo's contact rules, with distances from coal and from MuJoCo.
 
-* :mod:`~redundancy.collision.pairs`: the geom pairs MuJoCo tests;
-* :mod:`~redundancy.collision.checker`: distances and contacts at one pose, from both engines;
-* :mod:`~redundancy.collision.statistics`: statistics over random poses, keyframe clearance;
-* :mod:`~redundancy.collision.pathcheck`: conservative checking of a straight joint path.
+* `pairs`: the geom pairs MuJoCo tests;
+* `checker`: distances and contacts at one pose, from both engines;
+* `statistics`: statistics over random poses, keyframe clearance;
+* `pathcheck`: conservative checking of a straight joint path.
 
 Only this package calls coal.
 """

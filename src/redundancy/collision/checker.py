@@ -1,10 +1,9 @@
 """The collision checker of one arm: distances from coal and from MuJoCo, MuJoCo's contacts.
 
-:class:`CollisionChecker` gives, at one pose, the signed distance and nearest points of every
-pair of the pair set (:func:`~redundancy.collision.collision_pairs`) from coal (geoms placed by
-Pinocchio's forward kinematics, :mod:`~redundancy.collision.coal_scene`) or from MuJoCo
-(``mj_geomDistance``, :mod:`~redundancy.collision.mujoco_scene`), and MuJoCo's own contact list
-(``mj_collision``).
+[`CollisionChecker`][redundancy.CollisionChecker] gives, at one pose, the signed distance and
+nearest points of every pair of the pair set ([`collision_pairs`][redundancy.collision_pairs]) from
+coal (geoms placed by Pinocchio's forward kinematics, `coal_scene`) or from MuJoCo
+(``mj_geomDistance``, `mujoco_scene`), and MuJoCo's own contact list (``mj_collision``).
 
 Sign convention: a distance is positive when the geoms are apart and negative when they
 overlap [m]. MuJoCo lists a contact for a pair when the distance is below the pair's
@@ -122,13 +121,13 @@ class Distances:
 class CollisionChecker:
     """Self-collision queries on one arm: pair set, distances (coal, MuJoCo), contacts.
 
-    Build it once per arm (or let :func:`checker` cache one per arm); it owns private engine
-    data, one set per thread, so the arm's own data is left alone and threads never share a
-    workspace.
+    Build it once per arm (or let `checker` cache one per arm); it owns private engine data, one set
+    per thread, so the arm's own data is left alone and threads never share a workspace.
 
     Args:
         arm: The loaded arm.
-        pairs: The pairs to check; defaults to :func:`collision_pairs` of the arm's model.
+        pairs: The pairs to check; defaults to [`collision_pairs`][redundancy.collision_pairs] of
+            the arm's model.
 
     Keyword Args:
         weak: Hold the arm weakly (for caches kept alongside the arm).
@@ -154,8 +153,8 @@ class CollisionChecker:
             raise UnsupportedFeatureError(
                 "flex", f"{m.nflex} in the model", "only rigid geoms are checked"
             )
-        # The cached checker of :func:`checker` lives as long as its arm and must not keep
-        # it alive: it holds the arm weakly (everything else it needs, it holds itself).
+        #  The cached checker of `checker` lives as long as its arm and must not keep it alive: it
+        # holds the arm weakly (everything else it needs, it holds itself).
         self._arm: Arm | None = None if weak else arm
         self._arm_ref = weakref.ref(arm)
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
@@ -277,7 +276,7 @@ _CHECKERS: PerObject[Arm, CollisionChecker] = PerObject(
 
 
 def checker(arm: Arm) -> CollisionChecker:
-    """The :class:`CollisionChecker` of an arm with its full pair set, built once and cached.
+    """The `CollisionChecker` of an arm with its full pair set, built once and cached.
 
     The cache never keeps an arm alive and is safe to fill from several threads at once.
 
@@ -288,10 +287,10 @@ def checker(arm: Arm) -> CollisionChecker:
 
 
 def distances(arm: Arm, q: ArrayLike, engine: DistanceEngine = "coal") -> Distances:
-    """Signed distance and nearest points of every pair at ``q`` (see :class:`CollisionChecker`)."""
+    """Signed distance and nearest points of every pair at ``q`` (see `CollisionChecker`)."""
     return checker(arm).distances(q, engine)
 
 
 def contacts(arm: Arm, q: ArrayLike) -> tuple[Contact, ...]:
-    """MuJoCo's contact list at ``q`` (see :class:`CollisionChecker`)."""
+    """MuJoCo's contact list at ``q`` (see [`CollisionChecker`][redundancy.CollisionChecker])."""
     return checker(arm).contacts(q)

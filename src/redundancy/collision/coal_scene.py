@@ -1,15 +1,14 @@
 """coal distances for a pair set, the geoms placed by Pinocchio's forward kinematics.
 
-Each geom becomes a Pinocchio ``GeometryObject`` attached to the BODY frame that Pinocchio's
-MJCF parser creates for the geom's body, at MuJoCo's compiled geom pose in that body
-(``geom_pos``, ``geom_quat``, which for a mesh include MuJoCo's recentring of the mesh). Only
-the shapes and their offsets in their bodies come from MuJoCo; every body pose comes from
-Pinocchio. A mesh geom becomes a coal convex polytope spanned by the vertices MuJoCo's own
-support function searches (:func:`~redundancy.collision.shapes.mesh_hull`): both engines
-collide the same convex solid, which for a non-convex mesh is its hull, not the mesh.
+Each geom becomes a Pinocchio ``GeometryObject`` attached to the BODY frame that Pinocchio's MJCF
+parser creates for the geom's body, at MuJoCo's compiled geom pose in that body (``geom_pos``,
+``geom_quat``, which for a mesh include MuJoCo's recentring of the mesh). Only the shapes and their
+offsets in their bodies come from MuJoCo; every body pose comes from Pinocchio. A mesh geom becomes
+a coal convex polytope spanned by the vertices MuJoCo's own support function searches (`mesh_hull`):
+both engines collide the same convex solid, which for a non-convex mesh is its hull, not the mesh.
 
-:class:`CoalPairs` (shapes, ``GeometryModel``) is built once and only read; each thread gets a
-:class:`CoalScene` with its own Pinocchio ``Data`` and ``GeometryData``.
+`CoalPairs` (shapes, ``GeometryModel``) is built once and only read; each thread gets a `CoalScene`
+with its own Pinocchio ``Data`` and ``GeometryData``.
 """
 
 from __future__ import annotations
@@ -53,11 +52,11 @@ _G = mujoco.mjtGeom
 def coal_shape(model: mujoco.MjModel, geom: int) -> coal.CollisionGeometry:
     """A coal shape equal to the solid MuJoCo collides for a geom, in the geom's own frame.
 
-    MuJoCo's compiled ``geom_size`` holds half-sizes: sphere (r), capsule and cylinder
-    (r, half-length along z), box (half-sides), ellipsoid (semi-axes); a plane is the
-    half-space z <= 0 of its frame. coal's constructors take full lengths. A mesh is the
-    convex polytope of :func:`~redundancy.collision.shapes.mesh_hull`: MuJoCo's hull graph
-    where MuJoCo climbs it, else the hull of every vertex (computed by coal's qhull).
+    MuJoCo's compiled ``geom_size`` holds half-sizes: sphere (r), capsule and cylinder (r,
+    half-length along z), box (half-sides), ellipsoid (semi-axes); a plane is the half-space z <= 0
+    of its frame. coal's constructors take full lengths. A mesh is the convex polytope of
+    `mesh_hull`: MuJoCo's hull graph where MuJoCo climbs it, else the hull of every vertex (computed
+    by coal's qhull).
 
     Raises:
         UnsupportedFeatureError: Height field or SDF geoms, or a mesh whose vertices span
@@ -89,7 +88,7 @@ def coal_shape(model: mujoco.MjModel, geom: int) -> coal.CollisionGeometry:
 
 
 def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
-    """The coal polytope of a mesh geom's hull (see :func:`coal_shape`)."""
+    """The coal polytope of a mesh geom's hull (see `coal_shape`)."""
     import coal
 
     hull = mesh_hull(model, geom)
@@ -117,7 +116,7 @@ def _convex(model: mujoco.MjModel, geom: int) -> coal.ConvexBase:
 
 
 def epa_failed(d: ArrayLike) -> NDArray[np.bool_]:
-    """Where coal's distances ``d`` are EPA failures: below :data:`EPA_FAILURE` or not finite."""
+    """Where coal's distances ``d`` are EPA failures: below `EPA_FAILURE` or not finite."""
     d = np.asarray(d)
     return ~np.isfinite(d) | (d < EPA_FAILURE)
 
@@ -234,7 +233,7 @@ def _static_pose(m: mujoco.MjModel, body: int) -> pin.SE3:
 
 
 class CoalScene:
-    """One thread's coal workspace for a pair set (see :class:`CoalPairs`)."""
+    """One thread's coal workspace for a pair set (see `CoalPairs`)."""
 
     def __init__(self, shared: CoalPairs) -> None:
         import pinocchio as pin
@@ -290,7 +289,7 @@ class CoalScene:
         pin.updateGeometryPlacements(s.pin_model, self.pin_data, s.geom_model, self.geom_data)
 
     def geom_pose(self, g: int) -> tuple[Array, Array]:
-        """World position [m] and rotation of geom ``g`` after :meth:`place`."""
+        """World position [m] and rotation of geom ``g`` after `place`."""
         oMg = self.geom_data.oMg[self.shared.slot[g]]
         return oMg.translation.copy(), oMg.rotation.copy()
 
@@ -306,7 +305,7 @@ class CoalScene:
     def pin_values(self, qp: Array) -> list[float]:
         """Signed distance of every pair at ``qp``, in Pinocchio's joint order [m].
 
-        As coal reports them: an EPA failure is not redone (see :func:`epa_failed`).
+        As coal reports them: an EPA failure is not redone (see `epa_failed`).
         """
         import pinocchio as pin
 
@@ -319,8 +318,8 @@ class CoalScene:
     def placed_values(self, which: Index, apart: Array | None = None) -> Array:
         """Signed distances of the pairs in ``which`` at the pose last placed [m].
 
-        The same coal call, request and result as :meth:`distance_values`, pair by pair
-        (``apart`` is accepted for the MuJoCo scene's signature and not needed).
+        The same coal call, request and result as `distance_values`, pair by pair (``apart`` is
+        accepted for the MuJoCo scene's signature and not needed).
         """
         import pinocchio as pin
 

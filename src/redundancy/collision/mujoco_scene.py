@@ -1,7 +1,7 @@
 """MuJoCo's own answers for a pair set: ``mj_geomDistance`` per pair, ``mj_collision``'s contacts.
 
-A :class:`MujocoScene` owns one ``MjData`` and is used by one thread at a time (the checker
-keeps one per thread); the compiled model is shared and only read.
+A `MujocoScene` owns one ``MjData`` and is used by one thread at a time (the checker keeps one per
+thread); the compiled model is shared and only read.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ class MujocoPairs:
 
 
 class MujocoScene:
-    """One thread's MuJoCo workspace for a pair set (see :class:`MujocoPairs`)."""
+    """One thread's MuJoCo workspace for a pair set (see `MujocoPairs`)."""
 
     def __init__(self, shared: MujocoPairs) -> None:
         self.shared = shared
@@ -131,7 +131,7 @@ class MujocoScene:
         return tuple(out)
 
     def caps(self, which: Index | None = None) -> list[float]:
-        """``distmax`` per pair (all, or those in ``which``) after :meth:`place`."""
+        """``distmax`` per pair (all, or those in ``which``) after `place`."""
         s = self.shared
         sel = slice(None) if which is None else which
         xpos = self.data.geom_xpos
@@ -163,7 +163,7 @@ class MujocoScene:
         Args:
             which: Pair indices.
             apart: The geoms' origins' separation per pair in ``which``, if known [m]
-                (``|geom_xpos[g1] - geom_xpos[g2]|``, as :meth:`caps` computes it).
+                (``|geom_xpos[g1] - geom_xpos[g2]|``, as `caps` computes it).
         """
         m, d, ids = self.model, self.data, self.shared.ids
         geom_distance = mujoco.mj_geomDistance

@@ -23,11 +23,10 @@ Array = NDArray[np.float64]
 DistanceEngine = Literal["coal", "mujoco"]
 DISTANCE_ENGINES: tuple[DistanceEngine, ...] = ("coal", "mujoco")
 
-#: Width of the band around a pair's contact threshold inside which the two engines may
-#: legitimately disagree on "touching" [m]: MuJoCo's GJK/EPA stops at ``opt.ccd_tolerance``
-#: (1e-6 m by default), coal's at its own tolerances (see
-#: :mod:`~redundancy.collision.coal_scene`); a pair this close to the threshold is reported as
-#: touching by one engine and not the other without either being wrong.
+#:  Width of the band around a pair's contact threshold inside which the two engines may
+#: legitimately disagree on "touching" [m]: MuJoCo's GJK/EPA stops at ``opt.ccd_tolerance`` (1e-6 m
+#: by default), coal's at its own tolerances (see `coal_scene`); a pair this close to the threshold
+#: is reported as touching by one engine and not the other without either being wrong.
 AMBIGUITY_BAND = 1e-6
 
 _G = mujoco.mjtGeom
@@ -48,8 +47,9 @@ class GeomPair:
     Attributes:
         geom1: Geom id, the smaller of the two.
         geom2: Geom id, the larger.
-        name1: Name of ``geom1``; an unnamed geom is named by its body and its index among
-            the body's geoms, from 0 (``"link3 geom 2"``, :mod:`redundancy.model.names`).
+        name1: Name of ``geom1``; an unnamed geom is named by its body and its index among the
+            body's geoms, from 0 (``"link3 geom 2"``,
+            [`redundancy.model.names`][redundancy.model.names]).
         name2: Name of ``geom2``, likewise.
         body1: Name of the body carrying ``geom1`` (an unnamed body named likewise).
         body2: Name of the body carrying ``geom2``.
@@ -161,7 +161,7 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
     pose, and flex objects.
 
     Args:
-        model: MuJoCo's compiled model, or an :class:`~redundancy.Arm`.
+        model: MuJoCo's compiled model, or an [`Arm`][redundancy.Arm].
 
     Raises:
         UnsupportedFeatureError: A contact-filter callback is installed

@@ -23,14 +23,13 @@ is used instead (it is constant there). So a straight step ``ds`` changes the pa
 by at most ``ds * sum_j w_j |q_b,j - q_a,j|``, with ``w_j = R_j(g1)`` for ``j`` in
 ``J(b1) - J(b2)``, ``R_j(g2)`` for ``j`` in ``J(b2) - J(b1)``, 0 for the shared joints.
 
-**The step.** At ``s``, with every pair's clearance ``c_p`` (distance minus contact threshold)
-known to within ``eps`` (the engines' accuracy, :data:`~redundancy.collision.AMBIGUITY_BAND`),
-no pair can reach contact before ``s + min_p (c_p - eps) / rate_p``; the checker jumps there.
-It stops at the first evaluated point whose smallest clearance is below ``tol``: everything
-before it is free. Since every step is at least ``(tol - eps) / max rate``, it always
-terminates. If that point is a near miss rather than a contact, the checker walks on in steps
-that move no geom by more than ``tol`` to report the contact that usually follows; either way
-the path is not declared free (it errs on the side of reporting).
+**The step.** At ``s``, with every pair's clearance ``c_p`` (distance minus contact threshold) known
+to within ``eps`` (the engines' accuracy, `AMBIGUITY_BAND`), no pair can reach contact before ``s +
+min_p (c_p - eps) / rate_p``; the checker jumps there. It stops at the first evaluated point whose
+smallest clearance is below ``tol``: everything before it is free. Since every step is at least
+``(tol - eps) / max rate``, it always terminates. If that point is a near miss rather than a
+contact, the checker walks on in steps that move no geom by more than ``tol`` to report the contact
+that usually follows; either way the path is not declared free (it errs on the side of reporting).
 """
 
 from __future__ import annotations
@@ -195,7 +194,7 @@ class PathContact(NearPair):
 
 @dataclass(frozen=True)
 class PathCheck:
-    """Result of :func:`check_path`.
+    """Result of [`check_path`][redundancy.check_path].
 
     Attributes:
         free: True when no point of any segment comes within ``tol`` of a contact.
@@ -235,12 +234,12 @@ class PathChecker:
     """Conservative-advancement path checker for one arm (see the module docstring).
 
     Args:
-        arm: The arm, or a :class:`~redundancy.collision.CollisionChecker` of it (whose pair
-            set is then used).
+        arm: The arm, or a [`CollisionChecker`][redundancy.CollisionChecker] of it (whose pair set
+            is then used).
 
     Attributes:
-        weights: Per pair, per dof, the bound on how fast the pair's distance shrinks per unit
-            joint motion, shape (npairs, nq) [m/rad or m/m] (see :func:`motion_weights`).
+        weights: Per pair, per dof, the bound on how fast the pair's distance shrinks per unit joint
+            motion, shape (npairs, nq) [m/rad or m/m] (see `motion_weights`).
     """
 
     def __init__(self, arm: Arm | CollisionChecker) -> None:
@@ -271,8 +270,8 @@ class PathChecker:
 
         Args:
             waypoints: Shape (k, nq), k >= 1 [rad or m].
-            tol: A point whose clearance is below this is reported [m]; must exceed the
-                engines' accuracy, :data:`~redundancy.collision.AMBIGUITY_BAND`.
+            tol: A point whose clearance is below this is reported [m]; must exceed the engines'
+                accuracy, `AMBIGUITY_BAND`.
             engine: Distance engine, ``"coal"`` (fast) or ``"mujoco"``.
             max_evaluations: Give up (PoseError) after this many distance evaluations.
 
@@ -367,11 +366,11 @@ def check_path(
 ) -> PathCheck:
     """Whether the straight joint-space segments between waypoints are free of self-contact.
 
-    Uses the arm's cached pair set (see :class:`PathChecker` for the method and guarantees):
-    a contact anywhere on the path is never missed. When the path is not free,
-    ``contact.clear_until`` is at or before the first real contact (the path is proven free
-    up to there) and ``contact.s`` is the first contact found, or a near miss within ``tol``
-    when none follows closely (``contact.touching`` says which).
+    Uses the arm's cached pair set (see [`PathChecker`][redundancy.collision.PathChecker] for the
+    method and guarantees): a contact anywhere on the path is never missed. When the path is not
+    free, ``contact.clear_until`` is at or before the first real contact (the path is proven free up
+    to there) and ``contact.s`` is the first contact found, or a near miss within ``tol`` when none
+    follows closely (``contact.touching`` says which).
 
     Args:
         arm: The arm.
@@ -386,7 +385,7 @@ _PATH_CHECKERS: PerObject[Arm, PathChecker] = PerObject(lambda arm: PathChecker(
 
 
 def path_checker(arm: Arm) -> PathChecker:
-    """The :class:`PathChecker` of an arm with its full pair set, built once and cached.
+    """The `PathChecker` of an arm with its full pair set, built once and cached.
 
     The cache never keeps an arm alive (the cached checker holds its arm weakly).
     """

@@ -6,10 +6,10 @@ single precision) and folds that offset into the geom's compiled ``geom_pos``/``
 so the hull below, placed at the geom's compiled pose, is the solid MuJoCo collides.
 
 Which vertices span that hull is MuJoCo's support-function rule (``mjc_initCCDObj`` in
-engine_collision_convex.c): a mesh with a convex-hull graph (``mesh_graphadr >= 0``) and at
-least :data:`HILLCLIMB_MIN` vertices is searched by hill climbing over the graph's vertices;
-otherwise every vertex is searched. A support function determines a convex solid, so a
-polytope spanned by the same vertices is the same solid whatever its faces.
+engine_collision_convex.c): a mesh with a convex-hull graph (``mesh_graphadr >= 0``) and at least
+`HILLCLIMB_MIN` vertices is searched by hill climbing over the graph's vertices; otherwise every
+vertex is searched. A support function determines a convex solid, so a polytope spanned by the same
+vertices is the same solid whatever its faces.
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ class Hull:
 
     Attributes:
         points: Vertices that span it, shape (n, 3) [m] (MuJoCo's single-precision values).
-        faces: Triangles over ``points`` from MuJoCo's hull graph, shape (f, 3); None where
-            MuJoCo searches every vertex (no graph, or fewer than :data:`HILLCLIMB_MIN`).
+        faces: Triangles over ``points`` from MuJoCo's hull graph, shape (f, 3); None where MuJoCo
+            searches every vertex (no graph, or fewer than `HILLCLIMB_MIN`).
         mesh: Name of the mesh asset.
         vertices: Number of vertices of the mesh as written (the hull may use fewer).
     """

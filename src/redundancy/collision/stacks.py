@@ -24,7 +24,7 @@ def distance_stack(
     """Signed distances of ``ch.pairs`` at each pose of a stack, shape (n, npairs) [m].
 
     Args:
-        ch: The arm's collision checker (:func:`~redundancy.collision.checker`).
+        ch: The arm's collision checker (`checker`).
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"coal"`` or ``"mujoco"``.
         threads: Worker threads (MuJoCo only), >= 1.
@@ -43,7 +43,7 @@ def distance_stack(
 
 
 def _distance_stack(ch: CollisionChecker, Q: Array, engine: DistanceEngine, threads: int) -> Array:
-    """:func:`distance_stack` on checked input: Q C-contiguous float64 (n, nq)."""
+    """`distance_stack` on checked input: Q C-contiguous float64 (n, nq)."""
     out = np.empty((len(Q), len(ch.pairs)))
     if engine == "coal":
         _coal_distances(ch, Q, out)

@@ -69,7 +69,8 @@ class KeyframeClearance:
 class CollisionStatistics(Report):
     """Self-collision over random poses, as the lesson's table (4), labelled honestly.
 
-    ``print(stats)`` prints :meth:`lines`; a notebook shows the pairs as an HTML table.
+    ``print(stats)`` prints [`lines`][redundancy.collision.CollisionStatistics.lines]; a notebook
+    shows the pairs as an HTML table.
 
     Attributes:
         n_poses: Number of poses drawn.
@@ -78,9 +79,9 @@ class CollisionStatistics(Report):
         poses_with_contact: Poses in which MuJoCo lists at least one contact.
         pairs: Per pair, in pair-set order.
         keyframes: Clearance at each keyframe.
-        disagreements: Poses where the distance engine's touching pairs differ from MuJoCo's
-            contact pairs, not counting pairs within :data:`AMBIGUITY_BAND` of their threshold
-            (0 expected; -1 without distances).
+        disagreements: Poses where the distance engine's touching pairs differ from MuJoCo's contact
+            pairs, not counting pairs within `AMBIGUITY_BAND` of their threshold (0 expected; -1
+            without distances).
         seconds: Wall time of the sweep [s].
     """
 
@@ -192,31 +193,28 @@ def collision_statistics(
     """Self-collision over random poses: contacts by MuJoCo, closest approach by an engine.
 
     Contacts are MuJoCo's (``mj_kinematics`` + ``mj_collision`` per pose, as the lesson's
-    ``mj_forward`` finds them). With ``distances`` set, every pair's signed distance enters
-    the closest approach per pair and a cross-check: the engine's touching pairs must equal
-    MuJoCo's contact pairs at every pose (pairs within :data:`AMBIGUITY_BAND` of their
-    threshold aside).
+    ``mj_forward`` finds them). With ``distances`` set, every pair's signed distance enters the
+    closest approach per pair and a cross-check: the engine's touching pairs must equal MuJoCo's
+    contact pairs at every pose (pairs within `AMBIGUITY_BAND` of their threshold aside).
 
-    Far pairs are skipped (``prune``): a pair's distance is at least
-    ``|c1 - c2| - r1 - r2`` (geom origins, bounding radii), and at least the gap between the
-    two geoms projected on the line through their bounding boxes' centres: first with the
-    boxes' extent along it (the tighter bound for long links), then with the geoms' own
-    (a mesh's hull points; closed forms for primitives), each computed only where the
-    previous one does not decide. A pair whose bound, less :data:`PRUNE_SLACK`, exceeds its
-    closest approach so far, its contact threshold (plus the ambiguity band) and zero, and
-    that MuJoCo does not list, can change neither its closest approach, nor its pose index,
-    nor the cross-check, so its distance is not computed. A pair of mesh hulls that MuJoCo
-    lists, whose bound exceeds its closest approach so far, can change only the cross-check:
-    coal's collision test (GJK, no penetration depth) against its threshold plus the band
-    stands in for its distance (with coal: its EPA never reports an overlap deeper than a
-    separating axis allows, which its closed forms for primitives can). Poses go in chunks
-    of :data:`CHUNK`; in each, every pair is first measured at the pose with its smallest
-    bound, so that the closest approach is known early. The cost then grows with the pairs
-    that come near, and every count and pose index equals the unpruned sweep's
-    (``prune=False``). So does every distance, within coal's tolerances:
-    coal's result for a pair of mesh hulls at a pose can depend on the calls made on that
-    pair before (seen on the G1's interpenetrating hulls: up to 1.9e-7 m between the two
-    sweeps over 2000 poses; coal's EPA tolerance is 1e-6 m).
+    Far pairs are skipped (``prune``): a pair's distance is at least ``|c1 - c2| - r1 - r2`` (geom
+    origins, bounding radii), and at least the gap between the two geoms projected on the line
+    through their bounding boxes' centres: first with the boxes' extent along it (the tighter bound
+    for long links), then with the geoms' own (a mesh's hull points; closed forms for primitives),
+    each computed only where the previous one does not decide. A pair whose bound, less
+    `PRUNE_SLACK`, exceeds its closest approach so far, its contact threshold (plus the ambiguity
+    band) and zero, and that MuJoCo does not list, can change neither its closest approach, nor its
+    pose index, nor the cross-check, so its distance is not computed. A pair of mesh hulls that
+    MuJoCo lists, whose bound exceeds its closest approach so far, can change only the cross-check:
+    coal's collision test (GJK, no penetration depth) against its threshold plus the band stands in
+    for its distance (with coal: its EPA never reports an overlap deeper than a separating axis
+    allows, which its closed forms for primitives can). Poses go in chunks of `CHUNK`; in each,
+    every pair is first measured at the pose with its smallest bound, so that the closest approach
+    is known early. The cost then grows with the pairs that come near, and every count and pose
+    index equals the unpruned sweep's (``prune=False``). So does every distance, within coal's
+    tolerances: coal's result for a pair of mesh hulls at a pose can depend on the calls made on
+    that pair before (seen on the G1's interpenetrating hulls: up to 1.9e-7 m between the two sweeps
+    over 2000 poses; coal's EPA tolerance is 1e-6 m).
 
     Args:
         arm: The arm.
@@ -274,7 +272,7 @@ def collision_statistics(
 
 
 class _Sweep:
-    """The running counts of :func:`collision_statistics`, fed one chunk of poses at a time.
+    """The running counts of `collision_statistics`, fed one chunk of poses at a time.
 
     The poses are validated before they get here, so the engines' scenes are called
     directly. Every array is per pair, in pair-set order.
@@ -403,17 +401,16 @@ class _Sweep:
     ) -> tuple[Array, Callable[[NDArray[np.bool_]], Array]]:
         """Lower bounds of pairs ``cols`` at poses ``rows`` along one separating axis [m].
 
-        The axis is the unit vector u from the first geom's bounding-box centre to the
-        second's. Every point of the first geom lies at most ``h1(R1^T u)`` beyond its origin
-        o1 along u, every point of the second at least ``h2(-R2^T u)`` short of o2 (``h``
-        the support function of the geom in its frame, R its rotation), so the geoms are at
-        least ``u . (o2 - o1) - h1 - h2`` apart, less :data:`PRUNE_SLACK`; for overlapping
-        geoms, that is a lower bound of the signed distance too. Returns the bound with the
-        bounding boxes' support functions (a few flops per entry) and a function that gives
-        the bound with the geoms' own (:class:`~redundancy.collision.shapes.Support`: exact
-        for every primitive and for a mesh's hull, the solid both engines collide; dearer)
-        at the entries a mask selects. NaN (never a skip) where the box centres coincide,
-        -inf where a geom is unbounded.
+        The axis is the unit vector u from the first geom's bounding-box centre to the second's.
+        Every point of the first geom lies at most ``h1(R1^T u)`` beyond its origin o1 along u,
+        every point of the second at least ``h2(-R2^T u)`` short of o2 (``h`` the support function
+        of the geom in its frame, R its rotation), so the geoms are at least ``u . (o2 - o1) - h1 -
+        h2`` apart, less `PRUNE_SLACK`; for overlapping geoms, that is a lower bound of the signed
+        distance too. Returns the bound with the bounding boxes' support functions (a few flops per
+        entry) and a function that gives the bound with the geoms' own (`Support`: exact for every
+        primitive and for a mesh's hull, the solid both engines collide; dearer) at the entries a
+        mask selects. NaN (never a skip) where the box centres coincide, -inf where a geom is
+        unbounded.
         """
         centre, half = self.box_centre, self.box_half
         g1, g2 = self.c1[cols], self.c2[cols]

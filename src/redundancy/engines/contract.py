@@ -1,17 +1,15 @@
 """The engine contract: what every engine computes, for one pose and for stacks of poses.
 
-Both :class:`~redundancy.engines.mujoco.MujocoEngine` and
-:class:`~redundancy.engines.pinocchio.PinocchioEngine` implement :class:`Engine`; the rest of
-the library is typed against it and never calls an engine library for these quantities.
+Both `MujocoEngine` and `PinocchioEngine` implement `Engine`; the rest of the library is typed
+against it and never calls an engine library for these quantities.
 
-Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); a
-single-pose method takes any array-like pose and validates it with
-:func:`redundancy.checks.pose_key` (so an engine may be called directly, and the Arm only
-dispatches), while stacks are validated by the caller (:func:`redundancy.checks.check_poses`)
-because they are validated once and evaluated in chunks; the site Jacobian is the velocity of the
-site origin along world axes (linear rows first); gravity is the generalised force the
-motors must apply to hold a pose. Every method may be called from any number of threads:
-each thread computes with its own engine data.
+Conventions shared by both: joint order is the library's (MuJoCo's ``jnt`` order); a single-pose
+method takes any array-like pose and validates it with `redundancy.checks.pose_key` (so an engine
+may be called directly, and the Arm only dispatches), while stacks are validated by the caller
+(`redundancy.checks.check_poses`) because they are validated once and evaluated in chunks; the site
+Jacobian is the velocity of the site origin along world axes (linear rows first); gravity is the
+generalised force the motors must apply to hold a pose. Every method may be called from any number
+of threads: each thread computes with its own engine data.
 """
 
 from __future__ import annotations
@@ -30,7 +28,7 @@ Array = NDArray[np.float64]
 
 @dataclass
 class Stacks:
-    """Output stacks that :meth:`Engine.evaluate` fills in place; None where not wanted.
+    """Output stacks that `Engine.evaluate` fills in place; None where not wanted.
 
     Attributes:
         X: Site positions (n, 3) [m].
@@ -154,7 +152,7 @@ class Engine(Protocol):
     def tool_mobilities(
         self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
     ) -> tuple[Array, Array]:
-        """:meth:`tool_mobility` over a validated stack: (n, 6, k) and (n, k, 6)."""
+        """`tool_mobility` over a validated stack: (n, 6, k) and (n, k, 6)."""
         ...
 
     def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:

@@ -207,13 +207,12 @@ class MujocoEngine:
     def update(self, q: ArrayLike) -> _Work:
         """Validate pose ``q`` and bring this thread's data to it; return the data.
 
-        Every single-pose query enters here (:meth:`site_jacobian` has its own copy of the
-        fast path). The kinematics run once per pose: a query at the pose already held
-        reads them.
+        Every single-pose query enters here (`site_jacobian` has its own copy of the fast path). The
+        kinematics run once per pose: a query at the pose already held reads them.
 
         Raises:
             PoseError: ``q`` is not a real (nv,) vector of finite values (see
-                :func:`redundancy.checks.pose_key`).
+                `redundancy.checks.pose_key`).
         """
         q, key = pose_key(q, self.joint_names)
         w = self._work()
@@ -247,7 +246,7 @@ class MujocoEngine:
         """Site Jacobian, shape (6, nv): linear rows [m/rad], then angular [rad/rad], world axes.
 
         Raises:
-            PoseError: As :meth:`update`.
+            PoseError: As `update`.
         """
         # A controller's inner loop (arm.jacobian: at most 1.5x the bare MuJoCo calls), where
         # a Python call costs as much as the pose check: update(), pose_key's fast path and
@@ -533,7 +532,7 @@ class MujocoEngine:
     def tool_mobilities(
         self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
     ) -> tuple[Array, Array]:
-        """:meth:`tool_mobility` over a stack of poses: (n, 6, k) and (n, k, 6) stacks.
+        """`tool_mobility` over a stack of poses: (n, 6, k) and (n, k, 6) stacks.
 
         One kinematics pass, ``mj_jacSite``, ``mj_crb``, ``mj_factorM`` and ``mj_solveM`` per
         pose, writing into the stacks' rows, on ``threads`` threads (MuJoCo releases the GIL).
@@ -575,11 +574,11 @@ class MujocoEngine:
         """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.
 
         e = [p* - p; log(R* R^T)] in world axes [m; rad], for the target (``position``,
-        ``rotation``). The inverse-kinematics inner loop (:mod:`redundancy.ik`) calls it
-        tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs
-        as much as the kinematics: the caller passes only finite float64 (nv,) poses. The
-        arrays returned are this thread's buffers, valid until the next call; the kernel
-        must stay in the thread that made it.
+        ``rotation``). The inverse-kinematics inner loop ([`redundancy.ik`][redundancy.ik]) calls it
+        tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs as much
+        as the kinematics: the caller passes only finite float64 (nv,) poses. The arrays returned
+        are this thread's buffers, valid until the next call; the kernel must stay in the thread
+        that made it.
         """
         w = self._work()
         m, d, sid = self.model, w.data, self.site_id

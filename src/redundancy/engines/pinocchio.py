@@ -1,8 +1,8 @@
 """Pinocchio's side of the engine contract: one model, one ``pinocchio.Data`` per thread.
 
-Every Pinocchio call for kinematics and dynamics lives here. Pinocchio orders joints by its
-own tree traversal; the engine maps them to the library's order (MuJoCo's) by joint name, so
-every array it returns is in the same order as :mod:`redundancy.engines.mujoco`'s.
+Every Pinocchio call for kinematics and dynamics lives here. Pinocchio orders joints by its own tree
+traversal; the engine maps them to the library's order (MuJoCo's) by joint name, so every array it
+returns is in the same order as `redundancy.engines.mujoco`'s.
 """
 
 from __future__ import annotations
@@ -156,7 +156,7 @@ class PinocchioEngine:
         They are computed once per pose; site queries at the pose already held read them.
 
         Raises:
-            PoseError: As :func:`redundancy.checks.pose_key`.
+            PoseError: As `redundancy.checks.pose_key`.
         """
         q, key = pose_key(q, self.joint_names)
         w = self._work()
@@ -271,11 +271,11 @@ class PinocchioEngine:
     def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
         """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
 
-        Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread;
-        gravity is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
-        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads (fewer on a small stack,
-        as :func:`~redundancy.engines.threads.spans` splits one; one in a process forked
-        from one that had started OpenMP threads, whose pool does not survive the fork).
+        Pinocchio's bindings hold the GIL, so the per-pose loops run in the caller's thread; gravity
+        is one ``rneaInParallel`` call (RNEA with v = a = 0, the same sums as
+        ``computeGeneralizedGravity``) on ``threads`` OpenMP threads (fewer on a small stack, as
+        `spans` splits one; one in a process forked from one that had started OpenMP threads, whose
+        pool does not survive the fork).
         """
         if out.M is not None or out.G is not None:
             check_dynamics(self, "mass matrix" if out.M is not None else "gravity")
@@ -465,7 +465,7 @@ class PinocchioEngine:
     def tool_mobilities(
         self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
     ) -> tuple[Array, Array]:
-        """:meth:`tool_mobility` over a stack: (n, 6, k) and (n, k, 6) stacks.
+        """`tool_mobility` over a stack: (n, 6, k) and (n, k, 6) stacks.
 
         Pinocchio's bindings hold the GIL: the loop runs in the caller's thread
         (``threads`` is accepted for the contract's sake).

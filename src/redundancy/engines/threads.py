@@ -53,10 +53,10 @@ def _mark_worker() -> None:
 def _workers() -> ThreadPoolExecutor:
     """The process's worker threads, one per usable CPU, started on first use.
 
-    They live as long as the process, so their per-thread engine data (:class:`PerThread`)
-    stays warm from one call to the next: a fresh thread with a fresh ``MjData`` cost 6 ms
-    per call on a 10 000-pose stack (first touches of its memory), a pooled one nothing.
-    The data itself belongs to the engine and is freed with it.
+    They live as long as the process, so their per-thread engine data (`PerThread`) stays warm from
+    one call to the next: a fresh thread with a fresh ``MjData`` cost 6 ms per call on a 10 000-pose
+    stack (first touches of its memory), a pooled one nothing. The data itself belongs to the engine
+    and is freed with it.
     """
     global _pool
     with _pool_lock:

@@ -4,7 +4,7 @@ Used by the lab's browser test and by ``scripts/lab_screenshot.py``. Playwright'
 download is not needed: the browser is the system's Chromium (Debian's ``chromium``
 package), found at ``$REDUNDANCY_CHROMIUM``, ``/usr/bin/chromium`` or on ``PATH``.
 
-Controls are found by their labels (:mod:`redundancy.lab.page` exports them), readouts by their
+Controls are found by their labels (`redundancy.lab.page` exports them), readouts by their
 ``data-readout`` keys.
 """
 
@@ -65,7 +65,7 @@ def project(
         wxyz: Camera orientation: R in p_world = R p_camera + position, with viser's
             OpenCV-style camera axes (+z forward, +y down).
         fov: Vertical field of view [rad].
-        box: The canvas on the page (:meth:`LabBrowser.scene_box`).
+        box: The canvas on the page (`LabBrowser.scene_box`).
     """
     import numpy as np
 
@@ -88,7 +88,7 @@ class LabBrowser:
 
     Args:
         url: The lab's address.
-        executable: Chromium binary (default: :func:`find_chromium`).
+        executable: Chromium binary (default: `find_chromium`).
         viewport: Page size (width, height) [CSS px].
         timeout: Default wait for page elements [s].
 
@@ -221,7 +221,7 @@ class LabBrowser:
 
     # -- readouts --------------------------------------------------------------------------
     def readout(self, key: str) -> str:
-        """The text of the readout ``key`` (see :data:`redundancy.lab.READOUT_KEYS`)."""
+        """The text of the readout ``key`` (see `redundancy.lab.READOUT_KEYS`)."""
         return self.page.locator(f'[data-readout="{key}"]').inner_text().strip()
 
     def readout_float(self, key: str) -> float:

@@ -1,10 +1,10 @@
 """The lab: lesson 5.2's interactive arm, served as a local web page with viser.
 
-``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its
-geoms (a colour per link), held by :class:`redundancy.lab.sim.LabSim` (PD control with
-gravity compensation, stepped in real time by :class:`redundancy.lab.sim.RealTimeRunner`),
-with sliders for the joint targets and the controller's damping, a choice of armature,
-readouts, the six singular values as bars and three live plots.
+``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its geoms (a
+colour per link), held by `redundancy.lab.sim.LabSim` (PD control with gravity compensation, stepped
+in real time by `redundancy.lab.sim.RealTimeRunner`), with sliders for the joint targets and the
+controller's damping, a choice of armature, readouts, the six singular values as bars and three live
+plots.
 
 Redundancy to touch: a self-motion slider moves the elbow along the null space with the tool
 held; a gizmo at the tool drags it (damped least squares with a null-space posture term);
@@ -23,7 +23,7 @@ ranges and tick labels computed here: symmetric speed and torque axes with the l
 as dashed lines, and sigma_min on a log axis from 1e-6 up.
 
 Readouts are rendered as an HTML table whose value cells carry ``data-readout`` attributes
-(:data:`READOUT_KEYS`), so tests and scripts can read them from the DOM.
+(`READOUT_KEYS`), so tests and scripts can read them from the DOM.
 """
 
 from __future__ import annotations
@@ -311,7 +311,7 @@ def _mat_to_quat(R: Array) -> Array:
 
 
 class LabPage:
-    """The viser page of a :class:`LabSim`: scene, controls, readouts, plots.
+    """The viser page of a `LabSim`: scene, controls, readouts, plots.
 
     Args:
         server: The viser server to draw into.
@@ -485,8 +485,8 @@ class LabPage:
     def camera_view(self, view: str, aspect: float) -> tuple[Array, Array]:
         """Camera position and look-at point framing the arm's reach [m].
 
-        The framed region is the half ball of radius :meth:`_reach` above the first joint's
-        anchor; ``aspect`` (width / height of the view) narrows the horizontal field.
+        The framed region is the half ball of radius `_reach` above the first joint's anchor;
+        ``aspect`` (width / height of the view) narrows the horizontal field.
         """
         R = self.reach
         look = self.base + np.array([0.0, 0.0, 0.45 * R])
@@ -948,7 +948,7 @@ class LabPage:
         )
 
     def set_view(self, view: str) -> None:
-        """Point every connected browser's camera at the arm from ``view`` (see :data:`VIEWS`)."""
+        """Point every connected browser's camera at the arm from ``view`` (see `VIEWS`)."""
         for client in self.server.get_clients().values():
             aspect = float(client.camera.aspect) if client.camera.aspect else 1.0
             position, look_at = self.camera_view(view, aspect)
@@ -1024,7 +1024,7 @@ class LabPage:
 
     # -- per frame ------------------------------------------------------------------------
     def plot_data(self, sim: LabSim) -> dict[str, tuple[Array, Array]]:
-        """The plotted series, times relative to now [s] (see :meth:`LabSim.csv`)."""
+        """The plotted series, times relative to now [s] (see `LabSim.csv`)."""
         # One read of the time and the series: a step between separate reads put samples
         # after "now" (issue 21: the browser test saw them right after a reset).
         now, (t, v), (_, tau), (ts, s) = sim.histories()
@@ -1175,7 +1175,7 @@ class LabPage:
 
 
 class LabServer:
-    """The lab: a :class:`LabSim`, its real-time runner and its page on a viser server.
+    """The lab: a `LabSim`, its real-time runner and its page on a viser server.
 
     Args:
         arm: The arm.

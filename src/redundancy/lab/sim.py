@@ -1,9 +1,8 @@
 """The lab's simulation: an arm held at target angles by PD control with gravity compensation.
 
-This module is the lab without a browser: :class:`LabSim` steps MuJoCo with the lesson's
-controller and computes the readouts, and :class:`RealTimeRunner` steps it against a clock
-(the wall clock, or a fake one in tests) with pause, single step and slow motion.
-:mod:`redundancy.lab.page` draws both in a web page.
+This module is the lab without a browser: `LabSim` steps MuJoCo with the lesson's controller and
+computes the readouts, and `RealTimeRunner` steps it against a clock (the wall clock, or a fake one
+in tests) with pause, single step and slow motion. `redundancy.lab.page` draws both in a web page.
 
 The controller, evaluated at every step of ``h`` (the model's timestep)::
 
@@ -14,16 +13,15 @@ to 10 N m). Like every torque computed outside MuJoCo, its damping ``kd qdot`` i
 on a joint whose inertia is too small for ``h`` (arm7 without armature) it makes the joint
 buzz, which is the lab's third experiment.
 
-Self-contacts are a readout (MuJoCo's contact rules through
-:func:`redundancy.collision.checker`), by default without contact forces so that the arm can
-be posed through itself, as the lesson's second experiment asks; with ``contact_forces=True``
-the links collide and stop each other.
+Self-contacts are a readout (MuJoCo's contact rules through `redundancy.collision.checker`), by
+default without contact forces so that the arm can be posed through itself, as the lesson's second
+experiment asks; with ``contact_forces=True`` the links collide and stop each other.
 
-Redundancy is something to touch here: :meth:`LabSim.self_motion_targets` moves the targets
-along the Jacobian's null space with the tool held (the library's
-:func:`redundancy.analysis.selfmotion.self_motion` with drift correction), and
-:func:`solve_ik` takes the targets to a dragged tool pose with the library's inverse
-kinematics (:meth:`redundancy.Arm.solve_ik`), pulling toward a rest posture in the null space.
+Redundancy is something to touch here: `LabSim.self_motion_targets` moves the targets along the
+Jacobian's null space with the tool held (the library's
+[`redundancy.analysis.selfmotion.self_motion`][redundancy.analysis.selfmotion.self_motion] with
+drift correction), and `solve_ik` takes the targets to a dragged tool pose with the library's
+inverse kinematics (`redundancy.Arm.solve_ik`), pulling toward a rest posture in the null space.
 """
 
 from __future__ import annotations
@@ -96,8 +94,8 @@ class LabReadouts:
         sigma: The six singular values of the site Jacobian, descending [m/rad, rad/rad].
         sigma_min: The smallest of them.
         manipulability: Yoshikawa's measure, the product of the singular values.
-        lost: Tool directions (columns of U) whose singular value is below
-            :data:`LOST_SIGMA`, shape (6, k): translation rows first, then rotation.
+        lost: Tool directions (columns of U) whose singular value is below `LOST_SIGMA`, shape (6,
+            k): translation rows first, then rotation.
         velocity_axes: Principal axes of the tool's translational velocity ellipsoid (left
             singular vectors of J's position block), columns, shape (3, 3).
         velocity_semi_axes: Its semi-axes, the singular values of J's position block
@@ -110,12 +108,12 @@ class LabReadouts:
             shape (len(contact_pairs), 3) [m].
         watch_joint: Name of the joint whose speed is watched (the last one: j7 for arm7).
         watch_speed: Its speed [rad/s].
-        watch_peak: Its largest |speed| over the last :data:`PEAK_WINDOW` [rad/s].
+        watch_peak: Its largest |speed| over the last `PEAK_WINDOW` [rad/s].
         watch_torque: The torque its motor applies, after clamping [N m].
         watch_limit: Its motor's torque limit [N m].
-        contact_mass: Effective mass at the tool along its direction of motion, with the
-            simulated armature: what a contact in the tool's path would feel
-            (:meth:`redundancy.Arm.effective_mass`) [kg]; NaN while the tool is at rest.
+        contact_mass: Effective mass at the tool along its direction of motion, with the simulated
+            armature: what a contact in the tool's path would feel (`redundancy.Arm.effective_mass`)
+            [kg]; NaN while the tool is at rest.
     """
 
     time: float
@@ -188,7 +186,7 @@ def solve_ik(
     rotation: ArrayLike | None = None,
     rest: ArrayLike | None = None,
 ) -> tuple[Array, float]:
-    """The lab's drag: :meth:`Arm.solve_ik <redundancy.Arm.solve_ik>` from the current targets.
+    """The lab's drag: `Arm.solve_ik` from the current targets.
 
     No random restarts (a drag must not make the arm jump to another branch), and the
     posture pulled toward ``rest`` in the task's null space (the objective
@@ -294,7 +292,7 @@ class LabSim:
         self._path: Array | None = None
         self._path_start = 0.0
         self._steps = 0
-        #: How many times the pose was reset (:meth:`reset_pose`, :meth:`reset_all`).
+        #:  How many times the pose was reset (`reset_pose`, `reset_all`).
         self.resets = -1
         self._drawn_qpos = b""  # qpos of the frames last computed for drawing
         n_speed = round(SPEED_WINDOW / self.timestep) + 1
@@ -321,7 +319,7 @@ class LabSim:
         """Lower and upper slider bounds per joint: the sampling ranges [rad or m].
 
         The joint range; an unlimited joint gets [-pi, pi], by the library's one rule
-        (:func:`redundancy.arm.sampling_ranges`).
+        ([`redundancy.arm.sampling_ranges`][redundancy.arm.sampling_ranges]).
         """
         return sampling_ranges(arm, unlimited_slide=np.pi)
 
@@ -329,7 +327,7 @@ class LabSim:
     def reset_pose(self) -> None:
         """Back to the keyframe at rest, with the keyframe as target; history cleared.
 
-        The settings (kd, armature, contact forces) are kept: see :meth:`reset_all`.
+        The settings (kd, armature, contact forces) are kept: see `reset_all`.
         """
         with self._lock:
             mujoco.mj_resetData(self.model, self.data)
@@ -410,7 +408,7 @@ class LabSim:
 
     @property
     def following(self) -> bool:
-        """Whether the targets are still travelling along a path (:meth:`follow`)."""
+        """Whether the targets are still travelling along a path (`follow`)."""
         return self._path is not None
 
     def _advance_path(self) -> None:
@@ -477,9 +475,9 @@ class LabSim:
         """The self-motion from ``anchor`` over ``|amount|`` of joint motion, tool held.
 
         Positive ``amount`` starts the way that raises the elbow. Uses the library's
-        :func:`~redundancy.analysis.selfmotion.self_motion` with drift correction, steps of
-        :data:`SELF_MOTION_STEP`; it stops early at a joint limit or where the null space
-        vanishes (``path.stopped`` says which).
+        [`self_motion`][redundancy.analysis.selfmotion.self_motion] with drift correction, steps of
+        `SELF_MOTION_STEP`; it stops early at a joint limit or where the null space vanishes
+        (``path.stopped`` says which).
         """
         q = self.arm.pose(anchor)
         return selfmotion.self_motion(
@@ -617,7 +615,7 @@ class LabSim:
         return tt[keep], vv[keep]
 
     def speed_history(self) -> tuple[Array, Array]:
-        """Times [s] and speeds [rad/s] of the watched joint over the last :data:`SPEED_WINDOW`."""
+        """Times [s] and speeds [rad/s] of the watched joint over the last `SPEED_WINDOW`."""
         with self._lock:
             return self._window(self._speed_t, self._speed_v, SPEED_WINDOW)
 
@@ -639,7 +637,7 @@ class LabSim:
             return self.time, est, true
 
     def sigma_history(self) -> tuple[Array, Array]:
-        """Times [s] and sigma_min over the last :data:`SIGMA_WINDOW`, one per ten steps."""
+        """Times [s] and sigma_min over the last `SIGMA_WINDOW`, one per ten steps."""
         with self._lock:
             return self._window(self._sigma_t, self._sigma_v, SIGMA_WINDOW)
 
@@ -719,22 +717,22 @@ class LabSim:
 
 
 class RealTimeRunner:
-    """Steps a :class:`LabSim` in a background thread, in step with a clock.
+    """Steps a `LabSim` in a background thread, in step with a clock.
 
-    Each frame it steps ``rate * elapsed / timestep`` times (at most ``max_lag`` seconds'
-    worth: when the machine falls behind, simulated time slows down rather than piling up),
-    then calls the frame callbacks with the sim. :meth:`frame` is one such frame; the thread
-    calls it ``fps`` times a second, and tests call it with a fake ``clock``.
+    Each frame it steps ``rate * elapsed / timestep`` times (at most ``max_lag`` seconds' worth:
+    when the machine falls behind, simulated time slows down rather than piling up), then calls the
+    frame callbacks with the sim. `frame` is one such frame; the thread calls it ``fps`` times a
+    second, and tests call it with a fake ``clock``.
 
     Args:
         sim: The simulation.
         fps: Frames per second (callback rate) [1/s].
         max_lag: Largest simulated time stepped in one frame [s].
-        clock: Seconds from an arbitrary origin (default :func:`time.perf_counter`).
+        clock: Seconds from an arbitrary origin (default `time.perf_counter`).
 
     Attributes:
-        paused: No steps while set (frames and callbacks go on); see :meth:`step_once`.
-        rate: Simulated seconds per clock second (1: real time; see :data:`RATES`).
+        paused: No steps while set (frames and callbacks go on); see `step_once`.
+        rate: Simulated seconds per clock second (1: real time; see `RATES`).
         real_time_factor: Simulated time over clock time across the last ~2 s of frames
             (``nan`` until two frames have run).
     """

@@ -1,4 +1,4 @@
-"""From a model file to an :class:`~redundancy.Arm`: loading, support rules, bridges, equivalence.
+"""From a model file to an [`Arm`][redundancy.Arm]: loading, support rules, bridges, equivalence.
 
 * :mod:`~redundancy.model.loading`: read a file or text into both engines and build the Arm;
 * :mod:`~redundancy.model.support`: what is refused, and why (the engines would disagree);

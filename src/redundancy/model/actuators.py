@@ -80,7 +80,7 @@ def _joint_actuators(model: mujoco.MjModel) -> list[tuple[int, int, int, float]]
     """(actuator, dof, qpos address, gear) for every actuator with a joint transmission.
 
     Raises:
-        UnsupportedFeatureError: As :func:`check_transmissions`.
+        UnsupportedFeatureError: As `check_transmissions`.
     """
     check_transmissions(model)
     out = []
@@ -219,9 +219,9 @@ def _affine(kind: int, prm: Array, length: Array, gain: bool) -> Array:
 def joint_force_limits(model: mujoco.MjModel) -> Array:
     """Largest force or torque the actuators can apply at each dof, either direction.
 
-    ``max(-lower, upper)`` of :func:`effort_range`; ``inf`` where unlimited or without an
-    actuator. This is the symmetric limit Pinocchio's ``effortLimit`` holds; the audit uses
-    :func:`effort_range`, per direction.
+    ``max(-lower, upper)`` of `effort_range`; ``inf`` where unlimited or without an actuator. This
+    is the symmetric limit Pinocchio's ``effortLimit`` holds; the audit uses `effort_range`, per
+    direction.
 
     Args:
         model: Compiled MuJoCo model.
@@ -384,8 +384,8 @@ class DampingSplit:
     Attributes:
         implicit: Damping integrated implicitly.
         explicit: Damping integrated explicitly, the controller's ``kd`` included.
-        factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a
-            joint without a ``ctrl``-written kd :data:`RK4_STABILITY`.
+        factor: Per dof, the stable ``h D / I``: 2 for the Euler family, and for RK4 on a joint
+            without a ``ctrl``-written kd `RK4_STABILITY`.
         note: Why, in one sentence.
         stiffness: Explicit stiffness per dof (0 under RK4, whose bound here is damping's
             alone) [N m/rad].
@@ -416,9 +416,9 @@ def damping_split(
     Args:
         sim: The model's simulation settings.
         joint_damping: Joint plus actuator damping per dof, b [N m s/rad].
-        servo: Servo velocity feedback per dof, kv (:func:`servo_damping`) [N m s/rad].
+        servo: Servo velocity feedback per dof, kv (`servo_damping`) [N m s/rad].
         kd: Controller damping written to ``ctrl`` per dof [N m s/rad].
-        stiffness: Explicit stiffness per dof (:func:`servo_stiffness`) [N m/rad].
+        stiffness: Explicit stiffness per dof (`servo_stiffness`) [N m/rad].
     """
     split = _split(sim, joint_damping, servo, kd)
     k = np.broadcast_to(np.asarray(stiffness, dtype=float), split.implicit.shape)
@@ -467,7 +467,7 @@ def max_stable_timestep(inertia: ArrayLike, split: DampingSplit) -> Array:
 
     Args:
         inertia: Joint inertia, e.g. the diagonal of M [kg m^2].
-        split: The damping split (:func:`damping_split`).
+        split: The damping split (`damping_split`).
     """
     bound = inertia_bound(inertia, split.explicit, split.implicit)  # 2 I / (D_e - D_i)
     bound = bound * (split.factor / 2.0)

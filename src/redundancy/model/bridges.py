@@ -1,8 +1,7 @@
 """Bridges: values Pinocchio's MJCF parser does not read, copied from MuJoCo's compiled model.
 
-Each value is compared first and copied only when Pinocchio's differs, and each copy is
-recorded as a :class:`Bridge`, so reports say exactly where the engines would otherwise have
-seen different arms.
+Each value is compared first and copied only when Pinocchio's differs, and each copy is recorded as
+a `Bridge`, so reports say exactly where the engines would otherwise have seen different arms.
 """
 
 from __future__ import annotations
@@ -107,12 +106,11 @@ def bridge_robot(
 ) -> tuple[Bridge, ...]:
     """Copy into Pinocchio's model of the whole robot what its MJCF parser reads differently.
 
-    Done before the held joints are locked (the values are the robot's, not the arm's): the
-    pose of a fixed root body; the mass, centre of mass and inertia of bodies whose inertia
-    Pinocchio derives from what it reads differently (see
-    :func:`redundancy.model.support.inertia_causes`, which needs ``xml_root``); a tool site
-    placed by site defaults. Each value is compared first and copied only when Pinocchio's
-    differs.
+    Done before the held joints are locked (the values are the robot's, not the arm's): the pose of
+    a fixed root body; the mass, centre of mass and inertia of bodies whose inertia Pinocchio
+    derives from what it reads differently (see `redundancy.model.support.inertia_causes`, which
+    needs ``xml_root``); a tool site placed by site defaults. Each value is compared first and
+    copied only when Pinocchio's differs.
     """
     bridges: list[Bridge] = []
     rest = _rest_kinematics(mm)  # MuJoCo's world placements at qpos0, for the bridges below
@@ -229,10 +227,10 @@ def _bridge_site(
 ) -> list[Bridge]:
     """Fix the site frame's placement when only the site itself is misplaced.
 
-    Pinocchio's parser ignores site defaults (``<default><site pos=.../>``). When the
-    site's body sits where MuJoCo puts it but the site does not, the site's placement in
-    its body is copied from MuJoCo; a misplaced body is left alone, for the equivalence
-    report to show. ``data`` is MuJoCo's at ``qpos0`` (:func:`_rest_kinematics`).
+    Pinocchio's parser ignores site defaults (``<default><site pos=.../>``). When the site's body
+    sits where MuJoCo puts it but the site does not, the site's placement in its body is copied from
+    MuJoCo; a misplaced body is left alone, for the equivalence report to show. ``data`` is MuJoCo's
+    at ``qpos0`` (`_rest_kinematics`).
     """
     pd = pm.createData()
     pin.framesForwardKinematics(pm, pd, pinocchio_configuration(pm, mm, mm.qpos0))
@@ -323,10 +321,10 @@ def _mujoco_joint_inertias(
 ) -> dict[int, pin.Inertia]:
     """MuJoCo's compiled inertia of each joint's bodies, in Pinocchio's joint frame.
 
-    A joint moves its body and every body welded to it; Pinocchio's joint frame is the body
-    frame shifted to the joint's ``pos`` (MJCF joints have no orientation). Computed at
-    ``qpos0`` from MuJoCo's world poses (``data``, :func:`_rest_kinematics` when None): the
-    relative placements do not depend on the pose.
+    A joint moves its body and every body welded to it; Pinocchio's joint frame is the body frame
+    shifted to the joint's ``pos`` (MJCF joints have no orientation). Computed at ``qpos0`` from
+    MuJoCo's world poses (``data``, `_rest_kinematics` when None): the relative placements do not
+    depend on the pose.
     """
     if data is None:
         data = _rest_kinematics(mm)
@@ -364,10 +362,10 @@ def _bridge_inertia(
 ) -> list[Bridge]:
     """Copy MuJoCo's mass, centre of mass and inertia where Pinocchio computed its own.
 
-    Only joints carrying a body of ``causes`` (inertia summed from geoms, or changed by a
-    compiler option) are considered, and each is copied only when Pinocchio's value differs;
-    a body read from an explicit ``<inertial>`` is never overwritten, so an unexplained
-    difference there stays a difference in :func:`redundancy.compare_models`.
+    Only joints carrying a body of ``causes`` (inertia summed from geoms, or changed by a compiler
+    option) are considered, and each is copied only when Pinocchio's value differs; a body read from
+    an explicit ``<inertial>`` is never overwritten, so an unexplained difference there stays a
+    difference in [`redundancy.compare_models`][redundancy.compare_models].
     """
     if not causes:
         return []

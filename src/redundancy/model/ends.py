@@ -1,11 +1,11 @@
 """The ends of a model's kinematic chains, read from the file: the tool frame by default.
 
-A *chain end* is a leaf of the kinematic tree (a URDF link that is no joint's parent, an
-MJCF body with no child body) with at least one moving joint between it and the root: a
-link welded to the base is no end of the arm. A model with one chain end needs no tool
-frame: :func:`default_tool_frame` gives it (the leaf link of a URDF; the one site of the leaf
-body of an MJCF, else the body). The file is only parsed (no engine compiles it), so the
-command line can choose the frame before loading.
+A *chain end* is a leaf of the kinematic tree (a URDF link that is no joint's parent, an MJCF body
+with no child body) with at least one moving joint between it and the root: a link welded to the
+base is no end of the arm. A model with one chain end needs no tool frame:
+[`default_tool_frame`][redundancy.model.ends.default_tool_frame] gives it (the leaf link of a URDF;
+the one site of the leaf body of an MJCF, else the body). The file is only parsed (no engine
+compiles it), so the command line can choose the frame before loading.
 """
 
 from __future__ import annotations
@@ -94,15 +94,15 @@ def frame_for(root: ET.Element, source: str) -> str:
 
 
 def single_chain_end(path: str | os.PathLike[str]) -> str | None:
-    """The model's chain end when it has exactly one, else None (see :func:`chain_ends`)."""
+    """The model's chain end when it has exactly one, else None (see `chain_ends`)."""
     ends = chain_ends(path)
     return ends[0] if len(ends) == 1 else None
 
 
 def default_tool_frame(path: str | os.PathLike[str]) -> str:
-    """The tool frame of a file loaded without one, as :func:`redundancy.load` takes it.
+    """The tool frame of a file loaded without one, as `redundancy.load` takes it.
 
-    See :func:`frame_for`; an MJCF's ``<include>`` files are read too.
+    See [`frame_for`][redundancy.model.ends.frame_for]; an MJCF's ``<include>`` files are read too.
 
     Raises:
         ModelError: The file is missing or not XML; no chain end, or several and no frame

@@ -87,9 +87,10 @@ class SimulatedOnly:
 
 @dataclass(frozen=True, repr=False)
 class EquivalenceReport(Report):
-    """Result of :func:`compare_models`.
+    """Result of [`compare_models`][redundancy.compare_models].
 
-    ``print(report)`` prints :meth:`lines`; a notebook shows the HTML tables.
+    ``print(report)`` prints [`lines`][redundancy.model.equivalence.EquivalenceReport.lines]; a
+    notebook shows the HTML tables.
 
     Attributes:
         differences: Every mismatch, with both values.
@@ -258,8 +259,8 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         arm: The loaded arm.
         q: Reference pose [rad or m]; defaults to zeros clipped into the joint ranges.
         tol: Relative tolerance: each difference is divided by its quantity's scale
-            (:func:`~redundancy.model.scales.scaled_error`; the arm's length for
-            positions, m L^2 for inertias...) [-].
+            ([`scaled_error`][redundancy.model.scales.scaled_error]; the arm's length for positions,
+            m L^2 for inertias...) [-].
     """
     arm = check_arm(arm)
     if not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol >= 0):

@@ -208,14 +208,13 @@ def load(
 ) -> Arm:
     """Load a robot from an MJCF or URDF file; its arm is the chain to the tool.
 
-    The file is read whole by both engines (MuJoCo's and Pinocchio's own parsers): a
-    URDF (root element ``<robot>``) through each engine's URDF importer (see
-    :mod:`redundancy.model.urdf`), an MJCF through each engine's MJCF parser. The **arm** is
-    every hinge and slide joint on the path from the world (or from ``base``) to the tool
-    frame, in chain order; every other joint (a gripper's, a second arm's, a torso's, a
-    floating base's) is **held** at a rest configuration (see
-    :mod:`redundancy.model.robot`). ``arm.held`` says which joints and at what values,
-    ``arm.set_aside`` what in the file does not reach the arm.
+    The file is read whole by both engines (MuJoCo's and Pinocchio's own parsers): a URDF (root
+    element ``<robot>``) through each engine's URDF importer (see `redundancy.model.urdf`), an MJCF
+    through each engine's MJCF parser. The **arm** is every hinge and slide joint on the path from
+    the world (or from ``base``) to the tool frame, in chain order; every other joint (a gripper's,
+    a second arm's, a torso's, a floating base's) is **held** at a rest configuration (see
+    `redundancy.model.robot`). ``arm.held`` says which joints and at what values, ``arm.set_aside``
+    what in the file does not reach the arm.
 
     Args:
         path: MJCF or URDF file.
@@ -232,7 +231,9 @@ def load(
             ``"ee"``, else a ModelError listing the chain ends.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
-            joined by a joint are always excluded.
+            joined by a joint are always excluded. An SRDF of a whole robot serves a part of
+            it: its pairs naming links the URDF lacks are skipped and listed in
+            ``arm.set_aside`` (an error when none applies); listed pairs must all exist.
         base: A body (MJCF) or link (URDF) on the chain to the tool: the arm starts below it,
             its own joints and those above it are held. None: the world.
         rest: The held joints' values: None for the model's reference configuration
@@ -331,7 +332,7 @@ def load_string(
     base: str | None = None,
     rest: RestSpec = None,
 ) -> Arm:
-    """Load MJCF or URDF text into MuJoCo and Pinocchio (see :func:`load`).
+    """Load MJCF or URDF text into MuJoCo and Pinocchio (see [`load`][redundancy.load]).
 
     Bytes are decoded as XML says. Pinocchio's MJCF parser reads files, so MJCF text is
     written to a temporary file for it and must not refer to other files (meshes, includes)
@@ -459,7 +460,9 @@ def _expand_includes(
             parent.remove(child)
             for k, el in enumerate(list(inner)):
                 parent.insert(i + k, el)
-            edits.append(SetAside("include", name, "expanded in place for Pinocchio's parser"))
+            edits.append(
+                SetAside("include", name, "expanded in place for Pinocchio's parser", True)
+            )
     return root
 
 
@@ -486,6 +489,7 @@ def _merge_worldbodies(root: ET.Element, edits: list[SetAside]) -> ET.Element:
             "worldbody",
             f"{len(worlds)} <worldbody> sections",
             "merged into one for Pinocchio's parser, in order (MuJoCo reads them as one)",
+            reaches_arm=True,
         )
     )
     return root
@@ -643,12 +647,14 @@ def _load_urdf(
     pairs: DisabledPairs | None,
     robot: _Robot,
 ) -> Arm:
-    """Both engines' URDF importers on the whole robot, checked (see :mod:`.urdf`)."""
+    """Both engines' URDF importers on the whole robot, checked (see `urdf`)."""
     source = robot.source
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
-    disabled = read_disabled_pairs(pairs, tree)
+    disabled, skipped = read_disabled_pairs(pairs, tree)
+    if skipped is not None:
+        robot.set_aside.append(skipped)
     mended, notes, defects, missing = prepare_urdf(root, tree, tool_link, base_link, source)
     robot.missing_inertia += missing
     if notes:

@@ -1,20 +1,19 @@
 """The robot and its arm: the chain from the world to the tool, the rest of the robot held.
 
-A published file describes a robot (a gripper, a second arm, a torso, legs, a floating base);
-the library's arm is the chain to the tool. :func:`select_arm` reads MuJoCo's compiled model
-of the *whole* robot and returns an :class:`ArmSelection`: the hinge and slide joints on the
-path from the world (or from ``base``) to the tool, in chain order, and every other joint held
-at a rest configuration. Both engines then get the robot with the held joints welded at that
-configuration:
+A published file describes a robot (a gripper, a second arm, a torso, legs, a floating base); the
+library's arm is the chain to the tool. `select_arm` reads MuJoCo's compiled model of the *whole*
+robot and returns an `ArmSelection`: the hinge and slide joints on the path from the world (or from
+``base``) to the tool, in chain order, and every other joint held at a rest configuration. Both
+engines then get the robot with the held joints welded at that configuration:
 
-* MuJoCo: :func:`reduce_mujoco` edits the robot's :class:`mujoco.MjSpec`: each held joint is
-  deleted and its body placed where the rest configuration puts it (from MuJoCo's own
-  kinematics of the whole robot), and every element that refers to a held joint (actuators,
-  tendons, equality constraints, sensors) is set aside, or refused when it reaches an arm
-  joint. Bodies, geoms and sites are all kept, in the same order (body ids do not change).
-* Pinocchio: :func:`reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the
-  same configuration (in Pinocchio's quaternion convention, x y z w, where MuJoCo's is
-  w x y z) and carries over what ``buildReducedModel`` drops (armature: pinocchio#2746).
+* MuJoCo: `reduce_mujoco` edits the robot's `mujoco.MjSpec`: each held joint is deleted and its body
+  placed where the rest configuration puts it (from MuJoCo's own kinematics of the whole robot), and
+  every element that refers to a held joint (actuators, tendons, equality constraints, sensors) is
+  set aside, or refused when it reaches an arm joint. Bodies, geoms and sites are all kept, in the
+  same order (body ids do not change).
+* Pinocchio: `reduce_pinocchio` locks the held joints with ``buildReducedModel`` at the same
+  configuration (in Pinocchio's quaternion convention, x y z w, where MuJoCo's is w x y z) and
+  carries over what ``buildReducedModel`` drops (armature: pinocchio#2746).
 
 Nothing of the whole robot is lost for the arm: a held body keeps its mass where the rest
 configuration places it, so the arm's Jacobian, mass matrix and gravity are those of the
@@ -48,15 +47,20 @@ RestSpec = str | Mapping[str, float | Sequence[float]] | None
 class SetAside:
     """Something in the robot's file that does not reach the arm, and why it does not matter.
 
+    With ``reaches_arm``: something the loader read or mended on the way to both engines.
+
     Attributes:
         what: The element, e.g. ``"equality constraint"``.
         name: Its name (or display name).
-        reason: Why the arm's numbers do not depend on it.
+        reason: Why the arm's numbers do not depend on it (or what was done with it).
+        reaches_arm: The arm does depend on it (a link the arm moves, a file read in place):
+            the audit lists it as read or mended, never as set aside.
     """
 
     what: str
     name: str
     reason: str
+    reaches_arm: bool = False
 
     def __str__(self) -> str:
         return f"{self.what} {self.name!r}: {self.reason}"
@@ -682,7 +686,7 @@ def _joints_between(full: mujoco.MjModel, a: int, b: int) -> list[int]:
 
 
 def _delete_couplings(spec: mujoco.MjSpec, full: mujoco.MjModel, arm: set[int]) -> None:
-    """Delete what :func:`_check_couplings` set aside, and sensors of deleted elements."""
+    """Delete what `_check_couplings` set aside, and sensors of deleted elements."""
     mjobj = mujoco.mjtObj
     kept_actuators = {
         u
@@ -915,7 +919,7 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
 
 
 def difference_to_whole_robot(arm: object, q: Array) -> float:
-    """Largest difference of the arm (both engines) to :func:`whole_robot_quantities`.
+    """Largest difference of the arm (both engines) to `whole_robot_quantities`.
 
     Relative to each quantity's own scale: ``|arm - whole| / max(1, max |whole|)``, over the
     Jacobian, mass matrix (with armature), gravity and tool position.

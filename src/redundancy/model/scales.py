@@ -1,20 +1,19 @@
 """The scale of each quantity on one arm, and the one error measure relative to it.
 
-Every comparison of two numbers the library makes (MuJoCo against Pinocchio in the
-cross-check, one file against another in ``compare`` and :func:`compare_models`) divides the
+Every comparison of two numbers the library makes (MuJoCo against Pinocchio in the cross-check, one
+file against another in ``compare`` and [`compare_models`][redundancy.compare_models]) divides the
 difference by the quantity's own scale:
 
     error = max |a - b| / max(max |a|, FLOOR x size)
 
-``max |a|`` is the size of the reference value itself (the mass matrix's largest entry, the
-largest gravity torque at that pose...), and ``size`` the size that quantity has on this
-arm (its length ``L`` for positions, ``m L^2`` for inertias, ``m g L`` for gravity torques).
-The floor, :data:`FLOOR` of that size, keeps a value that happens to be near zero (gravity
-torque with the arm upright, whose rounding noise is ~1e-16 of the size) from turning
-rounding noise into a large relative error (1e-13 at most), while any value above it is
-compared to itself. A 2.5 mm arm and a 150 m crane are so
-held to the same relative tolerance: an absolute 1e-9 (or 1e-9 x max(1, |value|)) passes any
-difference on an arm whose inertias are 1e-11 kg m^2, and fails a crane's rounding.
+``max |a|`` is the size of the reference value itself (the mass matrix's largest entry, the largest
+gravity torque at that pose...), and ``size`` the size that quantity has on this arm (its length
+``L`` for positions, ``m L^2`` for inertias, ``m g L`` for gravity torques). The floor, `FLOOR` of
+that size, keeps a value that happens to be near zero (gravity torque with the arm upright, whose
+rounding noise is ~1e-16 of the size) from turning rounding noise into a large relative error (1e-13
+at most), while any value above it is compared to itself. A 2.5 mm arm and a 150 m crane are so held
+to the same relative tolerance: an absolute 1e-9 (or 1e-9 x max(1, |value|)) passes any difference
+on an arm whose inertias are 1e-11 kg m^2, and fails a crane's rounding.
 """
 
 from __future__ import annotations
@@ -63,7 +62,7 @@ class Scales:
 
 
 def arm_scales(arm: Arm) -> Scales:
-    """The :class:`Scales` of an arm, from MuJoCo's compiled model (arrays only).
+    """The `Scales` of an arm, from MuJoCo's compiled model (arrays only).
 
     Over the bodies the arm moves (an arm inside a robot: not the held rest of it): their
     offsets and the tool's make the length (the engine's
@@ -99,7 +98,7 @@ def scaled_errors(a: Array, b: Array, size: float) -> Array:
 
 
 def scaled_error(a: object, b: object, size: float) -> float:
-    """One value's error, as :func:`scaled_errors`, with infinities allowed.
+    """One value's error, as `scaled_errors`, with infinities allowed.
 
     Equal infinities count as equal; an infinity against a finite value, or a NaN, is an
     infinite error. The scale is the largest finite ``|a|`` (or ``FLOOR x size``).

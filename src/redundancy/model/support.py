@@ -40,7 +40,7 @@ def check_supported(
     strict: bool = True,
     tool_site: str | None = None,
 ) -> None:
-    """Raise :class:`UnsupportedFeatureError` for anything the engines may not agree on.
+    """Raise `UnsupportedFeatureError` for anything the engines may not agree on.
 
     Supported: one fixed-base serial or branching tree of named hinge and slide joints, one
     joint per body, primitive geoms, sites, actuators on joints (bridged), keyframes.

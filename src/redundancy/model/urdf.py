@@ -30,9 +30,9 @@ part, this module decides:
 * **armature**: URDF cannot express it; both engines read 0.
 * **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
 * **self-collision**: URDF has no filter. MuJoCo's parent filter already skips a link and its
-  parent, except where the parent is welded to the world; the library excludes every pair of
-  links joined by a joint (with the links welded to each), the base included, plus the pairs
-  of an SRDF's ``<disable_collisions>`` or a list given to :func:`redundancy.load`.
+  parent, except where the parent is welded to the world; the library excludes every pair of links
+  joined by a joint (with the links welded to each), the base included, plus the pairs of an SRDF's
+  ``<disable_collisions>`` or a list given to [`redundancy.load`][redundancy.load].
 """
 
 from __future__ import annotations
@@ -269,7 +269,7 @@ def _weld_groups(tree: UrdfTree) -> dict[str, frozenset[str]]:
 
 
 def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
-    """Every mass must be a number >= 0 (a moving link without one: :func:`prepare_urdf`)."""
+    """Every mass must be a number >= 0 (a moving link without one: `prepare_urdf`)."""
     mass: dict[str, float] = {}
     for el in root.findall("link"):
         inertial = el.find("inertial")
@@ -422,6 +422,7 @@ def prepare_urdf(
                     name,
                     f"principal moments {eig[0]:.3g}, {eig[1]:.3g}, {eig[2]:.3g} [kg m^2] "
                     f"(a point mass or a rod): {eps:.3g} added about each axis for MuJoCo",
+                    reaches_arm=name in moved,
                 )
             )
             continue
@@ -438,7 +439,9 @@ def prepare_urdf(
         what = f"{violated} [kg m^2]; replaced by {mean:.3g} about each axis (balanceinertia)"
         if name in moved:
             defects.append(f"link {name!r}: published inertia invalid, {what}")
-            notes.append(SetAside("invalid inertia", name, f"the arm moves it: {what}"))
+            notes.append(
+                SetAside("invalid inertia", name, f"the arm moves it: {what}", reaches_arm=True)
+            )
         else:
             notes.append(SetAside("invalid inertia", name, f"the arm does not move it: {what}"))
     if missing:
@@ -507,19 +510,29 @@ def resolve_mesh(filename: str, base: Path, source: str) -> Path:
     raise ModelError(f"URDF {source}: mesh file {filename!r} not found (looked for: {shown})")
 
 
-def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tuple[str, str]]:
+def read_disabled_pairs(
+    pairs: DisabledPairs | None, tree: UrdfTree
+) -> tuple[list[tuple[str, str]], SetAside | None]:
     """Link pairs that must never collide: an SRDF file's ``<disable_collisions>``, or pairs.
+
+    An SRDF may describe a whole robot of which the URDF is a part (TALOS's SRDF for its
+    left arm): its pairs naming a link the URDF does not have are skipped, and said so (see
+    `whole_robot_pairs`). Listed pairs are this model's own: each link must exist.
 
     Args:
         pairs: Path of an SRDF file, or an iterable of (link, link) pairs, or None.
         tree: The URDF's tree (link names are checked against it).
 
+    Returns:
+        The pairs, and what was skipped of an SRDF's (None: nothing).
+
     Raises:
         ModelError: Unreadable SRDF, or a pair that is not two names.
-        UnknownNameError: A link the URDF does not have.
+        UnknownNameError: A listed pair's link the URDF does not have, or an SRDF none of
+            whose pairs applies to this URDF (its first unknown link).
     """
     if pairs is None:
-        return []
+        return [], None
     out: list[tuple[str, str]] = []
     if isinstance(pairs, str | os.PathLike):
         p = Path(pairs)
@@ -531,6 +544,7 @@ def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tup
         record(p, data)
         for el in srdf.iter("disable_collisions"):
             out.append((el.get("link1", ""), el.get("link2", "")))
+        return whole_robot_pairs(out, tree, p.name)
     else:
         for pair in pairs:
             if isinstance(pair, str) or len(pair) != 2:
@@ -540,7 +554,42 @@ def read_disabled_pairs(pairs: DisabledPairs | None, tree: UrdfTree) -> list[tup
         for link in (a, b):
             if link not in tree.links:
                 raise UnknownNameError("link", link, tree.links)
-    return out
+    return out, None
+
+
+def whole_robot_pairs(
+    pairs: list[tuple[str, str]], tree: UrdfTree, name: str
+) -> tuple[list[tuple[str, str]], SetAside | None]:
+    """An SRDF's pairs that apply to this URDF, and a note on those skipped.
+
+    A pair naming a link the URDF does not have is another part of the robot's (the SRDF of
+    a whole humanoid given with one arm's URDF): skipped, counted and named in the note. When
+    no pair applies at all, the file is not this robot's, or its names are misspelt: the
+    first unknown link is an error listing the valid names.
+
+    Args:
+        pairs: The SRDF's (link, link) pairs, in file order.
+        tree: The URDF's tree.
+        name: The SRDF file's name, for the note.
+
+    Raises:
+        UnknownNameError: No pair applies and a link is unknown.
+    """
+    known = set(tree.links)
+    kept = [(a, b) for a, b in pairs if a in known and b in known]
+    missing = sorted({link for pair in pairs for link in pair if link not in known})
+    if not missing:
+        return kept, None
+    if not kept:
+        raise UnknownNameError("link", missing[0], tree.links)
+    shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6 else "")
+    note = SetAside(
+        "SRDF pairs",
+        name,
+        f"{len(pairs) - len(kept)} of its {len(pairs)} pairs name links this URDF does not "
+        f"have ({shown}): skipped, the {len(kept)} others applied",
+    )
+    return kept, note
 
 
 def adjacent_pairs(tree: UrdfTree) -> list[tuple[str, str]]:
@@ -573,7 +622,7 @@ def build_mujoco(
         text: The URDF text.
         base: Directory relative mesh paths are taken from.
         source: File name or ``"<string>"``, for messages.
-        tree: The URDF's tree (from :func:`check_urdf`).
+        tree: The URDF's tree (from `check_urdf`).
         tool_link: Link that carries the tool frame.
         site: Name of the site added at the tool link's origin.
         disabled: Extra link pairs excluded from collision.
@@ -605,6 +654,7 @@ def build_mujoco(
                             "Collada mesh",
                             path.name,
                             "read with trimesh; MuJoCo and coal get the same vertices",
+                            reaches_arm=True,
                         )
                     )
                 else:
@@ -670,14 +720,16 @@ def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
 def _name_geoms(spec: mujoco.MjSpec) -> None:
     """Name MuJoCo's unnamed URDF geoms after their link, so reports can say which is which.
 
-    A link's only collision geom takes the link's name, several take ``link/1``, ``link/2``...
-    (MuJoCo's URDF import leaves them unnamed; names already given are kept).
+    A link's only collision geom takes the link's name; several take the names an unnamed MJCF geom
+    gets ([`redundancy.model.names`][redundancy.model.names]): ``link geom 0``, ``link geom 1``...,
+    by their index in the link, counted from 0 in file order (MuJoCo's URDF import leaves them
+    unnamed; names already given are kept).
     """
     taken = {g.name for g in spec.geoms if g.name}
     for body in spec.bodies:
-        unnamed = [g for g in body.geoms if not g.name]
-        for k, geom in enumerate(unnamed, 1):
-            name = body.name if len(unnamed) == 1 else f"{body.name}/{k}"
+        unnamed = [(k, g) for k, g in enumerate(body.geoms) if not g.name]
+        for k, geom in unnamed:
+            name = body.name if len(body.geoms) == 1 else f"{body.name} geom {k}"
             while name in taken:
                 name += "'"
             geom.name = name

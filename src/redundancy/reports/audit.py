@@ -1,15 +1,15 @@
 """``redundancy audit``: everything the library knows about an arm, and what to act on.
 
-The audit takes the shared :mod:`~redundancy.reports.sections` (joints and timesteps,
-keyframes, gravity against the actuators, self-collision), adds the engines' agreement and
-the model comparison, and *judges* what the file says: a :class:`Finding` only where the
-model's own numbers show a problem (a keyframe the actuators cannot hold, a timestep above
-the stable bound of the damping the model has, engines that disagree); what the file's
-format cannot express (a URDF's armature, actuators, timestep and integrator) is a
-:class:`Note`, never a finding. Numbers follow what MuJoCo simulates: the integrator and
-its flags, gravity compensation, actuator ranges per direction, servo damping. The
-explicit-damping question (which timestep a controller's kd allows) is asked only with
-``kd`` or of a model whose servos have damping of their own.
+The audit takes the shared `sections` (joints and timesteps, keyframes, gravity against the
+actuators, self-collision), adds the engines' agreement and the model comparison, and *judges* what
+the file says: a [`Finding`][redundancy.reports.audit.Finding] only where the model's own numbers
+show a problem (a keyframe the actuators cannot hold, a timestep above the stable bound of the
+damping the model has, engines that disagree); what the file's format cannot express (a URDF's
+armature, actuators, timestep and integrator) is a [`Note`][redundancy.reports.audit.Note], never a
+finding. Numbers follow what MuJoCo simulates: the integrator and its flags, gravity compensation,
+actuator ranges per direction, servo damping. The explicit-damping question (which timestep a
+controller's kd allows) is asked only with ``kd`` or of a model whose servos have damping of their
+own.
 """
 
 from __future__ import annotations
@@ -31,13 +31,13 @@ from ..analysis.crosscheck import (
 )
 from ..arm import FROZEN, Arm
 from ..checks import check_count, check_number
-from ..collision import CollisionStatistics
+from ..collision import CollisionStatistics, GeomPair
 from ..display import Report, Table, json_ready, plural, to_json
 from ..display import table as html_table
 from ..model.equivalence import EquivalenceReport, compare_models
 from . import sections
 from .sections import GravityBudget, JointSection, KeyframeRow, Progress, Sections
-from .tables import fit, fmt, limit, ms, table
+from .tables import fit, fmt, key, limit, ms, table
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
@@ -102,6 +102,9 @@ class RobotPart:
         base: The body the arm's chain starts below, or None (the world).
         set_aside: What in the file does not reach the arm, each with the reason.
         frozen: Joints the file lets move that never move here -> why (``arm.frozen``).
+        mended: What the loader read or mended that the arm does depend on (a link the arm
+            moves whose published inertia MuJoCo rejects, a mesh read with trimesh), each
+            with what was done.
     """
 
     held: dict[str, float | tuple[float, ...]]
@@ -109,20 +112,26 @@ class RobotPart:
     base: str | None
     set_aside: tuple[str, ...]
     frozen: dict[str, str] = field(default_factory=dict)
+    mended: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, arm: Arm) -> RobotPart:
         """The arm's robot part."""
-        aside = tuple(str(a) for a in arm.set_aside if a.what not in FROZEN)
-        return cls(dict(arm.held), arm.rest, arm.base, aside, arm.frozen)
+        items = arm.set_aside
+        aside = tuple(
+            str(a) for a in items if a.what not in FROZEN and not getattr(a, "reaches_arm", False)
+        )
+        mended = tuple(str(a) for a in items if getattr(a, "reaches_arm", False))
+        return cls(dict(arm.held), arm.rest, arm.base, aside, arm.frozen, mended)
 
 
 @dataclass(frozen=True, repr=False)
 class AuditReport(Report):
     """All sections of an audit, the engines' agreement, and the findings.
 
-    ``print(report)`` prints the text report (:meth:`lines`); a notebook shows the findings,
-    the keyframes and the engines' agreement as tables, with the full text folded below.
+    ``print(report)`` prints the text report
+    ([`lines`][redundancy.reports.audit.AuditReport.lines]); a notebook shows the findings, the
+    keyframes and the engines' agreement as tables, with the full text folded below.
 
     Attributes:
         model: The model file (or ``"<string>"``).
@@ -157,7 +166,8 @@ class AuditReport(Report):
     def to_dict(self) -> dict[str, Any]:
         """The report as plain data (the ``--json`` document)."""
         s = self.sections
-        j, g, c = s.joints, s.gravity, s.contacts
+        j, g, c, t = s.joints, s.gravity, s.contacts, s.touching
+        urdf = self.model_format == "URDF"
         cc, eq = self.engines.crosscheck, self.engines.equivalence
         gravity = (
             None
@@ -200,6 +210,13 @@ class AuditReport(Report):
                 "n_poses": c.n_poses,
                 "seed": c.seed,
                 "share_with_contact": c.share_with_contact,
+                "touching_everywhere": [
+                    {"pair": p.pair.label, "poses": p.poses, **exclusion(p.pair, urdf)}
+                    for p in (t.pairs if t is not None else ())
+                ],
+                "share_with_contact_without_them": (
+                    c.share_with_contact if t is None else t.share_with_contact
+                ),
                 "n_pairs": len(c.pairs),
                 "disagreements": c.disagreements,
                 "pairs": [
@@ -308,8 +325,7 @@ def audit(
             joints' own, a servo's ``kv``) bounds the timestep.
         computed: Sections already computed with these arguments.
         mode: ``"strict"`` or ``"lenient"``: how the arm was loaded (recorded in the report).
-        progress: Called as each sweep advances (see :data:`~redundancy.reports.sections.
-            Progress`).
+        progress: Called as each sweep advances (see `redundancy.reports.sections.Progress`).
 
     Raises:
         ParameterError: ``n_poses`` or ``seed`` out of range, ``kd`` negative or not finite.
@@ -331,6 +347,7 @@ def audit(
     if g is not None:
         _judge_gravity(judged, arm, g, computed.joints, urdf)
     _judge_engines(judged, engines, computed.contacts)
+    _judge_touching(judged, computed.touching, urdf)
     for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
         judged.finding("published inertia", defect)
     return AuditReport(
@@ -388,7 +405,7 @@ def _engines(
 
 
 def _worse(kept: Agreement | None, new: Agreement, offset: int) -> Agreement:
-    """The worse of two chunks' agreements, by :func:`redundancy.crosscheck`'s rules."""
+    """The worse of two chunks' agreements, by `redundancy.crosscheck`'s rules."""
     if kept is None:
         return Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset)
     error, pose = merge_worst(
@@ -583,9 +600,43 @@ def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics) -> 
         out.finding("engines", f"models differ: {_one_line(d)}")
 
 
+def exclusion(pair: GeomPair, urdf: bool) -> dict[str, Any]:
+    """What removes a pair from the ones tested: the line for the file, the argument for Python.
+
+    URDF: an SRDF ``<disable_collisions>`` line (``--srdf``) or a ``disabled_collisions=`` entry
+    (its links); MJCF: a ``<contact><exclude>`` of its bodies.
+    """
+    a, b = sorted((pair.body1, pair.body2))  # in the order of the pair's label
+    if urdf:
+        return {
+            "bodies": [a, b],
+            "srdf": f'<disable_collisions link1="{a}" link2="{b}" reason="Always"/>',
+            "disabled_collisions": [a, b],
+        }
+    return {"bodies": [a, b], "mjcf": f'<contact><exclude body1="{a}" body2="{b}"/></contact>'}
+
+
+def _judge_touching(out: _Judged, t: sections.TouchingEverywhere | None, urdf: bool) -> None:
+    for p in t.pairs if t is not None else ():
+        fix = exclusion(p.pair, urdf)
+        remedy = (
+            f"the SRDF line {fix['srdf']} (--srdf), or disabled_collisions="
+            f"[{tuple(fix['disabled_collisions'])!r}] in Python"
+            if urdf
+            else f"{fix['mjcf']} in the MJCF file"
+        )
+        out.note(
+            "collision",
+            f"{p.pair.label} touch in {p.poses} of {t.n_poses} poses: a pair in contact at "
+            "(nearly) every pose is almost always two links whose collision shapes overlap where "
+            "a joint joins them, an exclusion the file lacks rather than a collision to avoid; "
+            f"if so, exclude it with {remedy}",
+        )
+
+
 # -- text -----------------------------------------------------------------------------------------
 def format_report(r: AuditReport) -> list[str]:
-    """The audit as text lines of at most :data:`~redundancy.reports.tables.WIDTH` characters.
+    """The audit as text lines of at most `WIDTH` characters.
 
     Tables are sized to their content (a long name folds within its column); a longer
     sentence continues on the next line.
@@ -624,13 +675,13 @@ def format_report(r: AuditReport) -> list[str]:
 def _robot_lines(r: AuditReport) -> list[str]:
     """The rest of the robot: which joints are held, at what, and what was set aside."""
     rp = r.robot
-    if rp is None or not (rp.held or rp.set_aside or rp.frozen):
+    if rp is None or not (rp.held or rp.set_aside or rp.frozen or rp.mended):
         return []
     out = [""]
     if rp.held:
         rest = "the reference pose (qpos0)" if rp.rest == "qpos0" else rp.rest
         base = f"; the arm starts below {rp.base!r}" if rp.base else ""
-        out.append(f"the rest of the robot: {len(rp.held)} joints held at {rest}{base}")
+        out.append(f"the rest of the robot: {plural(len(rp.held), 'joint')} held at {rest}{base}")
         out.append("  held: " + ", ".join(f"{k} {_held_value(v)}" for k, v in rp.held.items()))
     if rp.frozen:
         out.append(f"frozen (the file lets them move, the arm does not): {len(rp.frozen)}")
@@ -638,6 +689,9 @@ def _robot_lines(r: AuditReport) -> list[str]:
     if rp.set_aside:
         out.append(f"set aside (does not reach the arm): {len(rp.set_aside)}")
         out += [f"  {a}" for a in rp.set_aside]
+    if rp.mended:
+        out.append(f"read or mended for the engines (the arm depends on these): {len(rp.mended)}")
+        out += [f"  {a}" for a in rp.mended]
     return out
 
 
@@ -682,10 +736,16 @@ def _joint_lines(r: AuditReport) -> list[str]:
         row += [fmt(x.servo_kv, 3), fmt(x.stiffness, 3)] if servos else []
         row += [fmt(x.m_ii), ms(x.h_max), ms(x.h_max_bare)]
         rows.append(row)
+    gains = "; kv, kp: a servo's velocity and position gains" if servos else ""
     return [
-        f"joints at the {_reference(j.keyframe)}; h_max, the largest stable timestep, for "
-        f"{kd}; {j.note}:",
+        f"joints at the {_reference(j.keyframe)}:",
         *table(header, rows, "ll" + "r" * (len(header) - 2)),
+        key(
+            "range [rad or m]; effort: what the actuators can apply; armature [kg m^2]; b: "
+            f"damping [N m s/rad]{gains}; M_ii: mass matrix diagonal [kg m^2]; h_max: largest "
+            f"stable timestep for {kd}, bare: without armature (any: no bound)"
+        ),
+        f"  {j.note}: implicit damping cannot make a step unstable, explicit damping can",
     ]
 
 
@@ -701,7 +761,7 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
             [
                 [
                     k.name,
-                    " ".join(fmt(x, 4) for x in k.svd.sigma),
+                    " ".join(fmt(x, 4, max(k.svd.sigma, default=0.0)) for x in k.svd.sigma),
                     str(k.svd.rank),
                     fmt(k.svd.manipulability, 3),
                     ", ".join(k.svd.lost_direction_names()) or "-",
@@ -713,7 +773,11 @@ def _keyframe_lines(r: AuditReport) -> list[str]:
                 ]
                 for k in s.keyframes
             ],
-            "llrrll",
+            "lnrrll",
+        ),
+        key(
+            f"sigma: singular values of the tool's Jacobian; rank: how many exceed "
+            f"{SINGULAR_SIGMA:g}; lost: tool directions lost; held: the actuators hold it"
         ),
         *(
             f"  keyframe {k.name!r} is judged where it puts held joints: {_moved(k.moves_held, r)}"
@@ -752,6 +816,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
             return "-"
         return "none" if math.isinf(x) else fmt(x, 4)
 
+    need = float(np.max(g.peak, initial=0.0))  # the column's size: below it, rounding is 0
+
     def ratio(i: int) -> str:
         value = float(g.ratio[i])
         if unheld[i]:
@@ -768,8 +834,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
             [
                 [
                     names[i],
-                    fmt(g.low[i], 4),
-                    fmt(g.high[i], 4),
+                    fmt(g.low[i], 4, need),
+                    fmt(g.high[i], 4, need),
                     bound(i, g.limit_lower[i]),
                     bound(i, g.limit_upper[i]),
                     ratio(i),
@@ -779,6 +845,11 @@ def _gravity_lines(r: AuditReport) -> list[str]:
             ],
             "lrrrrrr",
         ),
+        key(
+            "need: torque gravity asks over the poses; limit: what the actuators can give; "
+            "limit/need: in the binding direction (< 1: some poses not held; -: no load); "
+            "over: poses beyond a limit"
+        ),
         f"  poses over a limit: {g.n_over}   (Pinocchio vs MuJoCo gravity: "
         f"{g.engine_diff:.1e} N m)",
     ]
@@ -787,15 +858,28 @@ def _gravity_lines(r: AuditReport) -> list[str]:
 def _collision_lines(r: AuditReport) -> list[str]:
     c = r.sections.contacts
     ranked = sorted(c.pairs, key=lambda p: (-p.poses, p.closest))[:8]
+    t = r.sections.touching
+    without = (
+        f"; {100 * t.share_with_contact:.1f}% without the "
+        f"{plural(len(t.pairs), 'pair')} in contact at every pose (see the notes)"
+        if t is not None and t.pairs
+        else ""
+    )
     out = [
         f"self-collision over {c.n_poses} random poses (seed {c.seed}), {len(c.pairs)} pairs "
-        f"tested: {100 * c.share_with_contact:.1f}% of poses have a contact",
+        f"tested: {100 * c.share_with_contact:.1f}% of poses have a contact{without}",
     ]
     if ranked:
         out += table(
             ["pair", "poses", "contacts", "closest (m)"],
             [[p.pair.label, str(p.poses), str(p.contacts), fmt(p.closest, 4)] for p in ranked],
             "lrrr",
+        )
+        out.append(
+            key(
+                "poses: poses with the pair in contact; contacts: MuJoCo's contact points over "
+                "them; closest: closest approach [m] (< 0: penetration)"
+            )
         )
     for k in c.keyframes:
         near = (
@@ -824,6 +908,9 @@ def _engine_lines(r: AuditReport) -> list[str]:
             ],
             "lrrl",
         ),
+        key(
+            "max error: largest over the poses; tol: its tolerance; DISAGREE: beyond it (a finding)"
+        ),
         "",
         "model equivalence (MuJoCo's compiled model vs Pinocchio's):",
     ]
@@ -835,5 +922,13 @@ def _engine_lines(r: AuditReport) -> list[str]:
         out.append(
             f"  BRIDGED {kind} (from MuJoCo's {source}; Pinocchio's parser does not read it "
             f"as MuJoCo does): {', '.join(vals)}"
+        )
+    if eq.differences or kinds:
+        out.append(
+            key(
+                "DIFFERS: the two compiled models disagree beyond the tolerance; BRIDGED: a "
+                "value Pinocchio's parser does not read as MuJoCo does, copied from MuJoCo's "
+                "compiled model into Pinocchio's (both engines then use MuJoCo's value)"
+            )
         )
     return out

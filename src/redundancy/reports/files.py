@@ -1,6 +1,6 @@
 """Writing a report file: only where the user pointed, only a regular file, atomically.
 
-Rules (checked by :func:`check_target` before any work, so a bad path fails at once):
+Rules (checked by `check_target` before any work, so a bad path fails at once):
 
 * the path must name a regular file or nothing yet, in an existing directory; a directory,
   a device, a FIFO or a socket is refused;

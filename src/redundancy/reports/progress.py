@@ -1,12 +1,11 @@
 """A progress bar for long runs, on a terminal only (``rich.progress``).
 
-:func:`terminal_progress` gives the :data:`~redundancy.reports.sections.Progress` callback
-of a command: a bar per stage on the stream (stderr) once the run has taken :data:`DELAY`
-seconds, cleared when the run ends; nothing at all when the stream is not a terminal (a
-log, a pipe, CI) or the user asked for quiet. A dumb terminal (``$TERM`` dumb or unknown,
-as rich reads it: an editor's shell, some CI consoles) cannot redraw a bar, so it gets a
-plain line per stage instead, at most every :data:`LINE_INTERVAL` seconds and when the
-stage completes.
+`terminal_progress` gives the `Progress` callback of a command: a bar per stage on the stream
+(stderr) once the run has taken `DELAY` seconds, cleared when the run ends; nothing at all when the
+stream is not a terminal (a log, a pipe, CI) or the user asked for quiet. A dumb terminal (``$TERM``
+dumb or unknown, as rich reads it: an editor's shell, some CI consoles) cannot redraw a bar, so it
+gets a plain line per stage instead, at most every `LINE_INTERVAL` seconds and when the stage
+completes.
 """
 
 from __future__ import annotations
@@ -28,7 +27,7 @@ LINE_INTERVAL = 10.0
 
 
 class _Bars:
-    """One bar per stage, started after :data:`DELAY` seconds (see :func:`terminal_progress`)."""
+    """One bar per stage, started after `DELAY` seconds (see `terminal_progress`)."""
 
     def __init__(self, console: Console, delay: float) -> None:
         self.start = time.monotonic()
@@ -90,7 +89,7 @@ def terminal_progress(
     Args:
         stream: Where the bar is drawn (a command's stderr).
         quiet: No bar whatever the stream.
-        delay: Seconds before the bar appears (default :data:`DELAY`).
+        delay: Seconds before the bar appears (default `DELAY`).
 
     Yields:
         The callback, or ``None`` when ``stream`` is not a terminal or ``quiet`` is set.

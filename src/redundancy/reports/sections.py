@@ -1,13 +1,14 @@
 """The sections both reports are made of, each computed once: joints, keyframes, gravity, contacts.
 
 The audit judges these and arm7's example tables format them; neither computes them again. The
-numbers come from the :class:`~redundancy.Arm`, :mod:`redundancy.analysis.batch` and
-:mod:`redundancy.collision`; what MuJoCo simulates beyond them (integrator, flags, actuator
-ranges, servo damping, gravity compensation) from :mod:`redundancy.model.actuators`.
+numbers come from the [`Arm`][redundancy.Arm], [`redundancy.analysis.batch`][redundancy.batch]
+and [`redundancy.collision`][redundancy.collision]; what MuJoCo simulates beyond them
+(integrator, flags, actuator ranges, servo damping, gravity compensation) from
+`redundancy.model.actuators`.
 
-Sweeps over random poses run in chunks of at most :data:`CHUNK` poses drawn from one
-generator, so memory stays flat in the number of poses and the chunks are exactly the poses
-of :func:`redundancy.random_poses` ``(arm, n, seed)``.
+Sweeps over random poses run in chunks of at most `CHUNK` poses drawn from one generator, so memory
+stays flat in the number of poses and the chunks are exactly the poses of
+[`redundancy.random_poses`][redundancy.random_poses] ``(arm, n, seed)``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from ..arm import Arm, sampling_ranges
 from ..collision import (
     CollisionStatistics,
     DistanceEngine,
+    PairStatistics,
+    checker,
     collision_statistics,
     keyframe_clearance,
 )
@@ -46,13 +49,14 @@ Progress = Callable[[str, int, int], object]
 
 
 def _quiet(label: str, done: int, total: int) -> None:
-    """The default :data:`Progress`: says nothing."""
+    """The default `Progress`: says nothing."""
 
 
 def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> Iterator[Array]:
-    """``n`` random poses in the joint ranges, in chunks of ``size`` (default :data:`CHUNK`) rows.
+    """``n`` random poses in the joint ranges, in chunks of ``size`` (default `CHUNK`) rows.
 
-    Concatenated, the chunks equal :func:`redundancy.random_poses` ``(arm, n, seed)``.
+    Concatenated, the chunks equal [`redundancy.random_poses`][redundancy.random_poses]
+    ``(arm, n, seed)``.
     """
     size = size or CHUNK
     lo, hi = sampling_ranges(arm)
@@ -141,7 +145,7 @@ class JointSection:
         keyframe: The keyframe the rows are taken at (``None``: the model's reference pose,
             qpos0).
         simulation: The model's simulation settings.
-        kd: The explicit kd asked about (``None``: the model's own, see :func:`joints`).
+        kd: The explicit kd asked about (``None``: the model's own, see `joints`).
         note: How the integrator treats damping, in one sentence.
         engine_diff: Largest |Pinocchio - MuJoCo| on M_ii, with and without armature [kg m^2].
     """
@@ -162,7 +166,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: no
             controller is assumed (0): the damping is what the model itself has, the joint's
             own and a servo's ``kv``.
-        key: Reference keyframe (default: :func:`reference_keyframe`).
+        key: Reference keyframe (default: `reference_keyframe`).
     """
     ref: str | None
     if key is None:
@@ -470,7 +474,7 @@ def contacts(
     distances: str | None = "coal",
     progress: Progress | None = None,
 ) -> CollisionStatistics:
-    """Self-collision over random poses (:func:`redundancy.collision_statistics`), in chunks.
+    """Self-collision over random poses (`redundancy.collision_statistics`), in chunks.
 
     Contacts are MuJoCo's; with ``distances`` (coal by default: the other engine, and the
     faster one) every pair's distance gives its closest approach, and the distance engine's
@@ -520,15 +524,74 @@ def _merge(a: CollisionStatistics, b: CollisionStatistics, offset: int) -> Colli
     )
 
 
+#: A pair in contact at this share of the poses or more touches "everywhere": almost always
+#: two links whose collision shapes overlap where a joint joins them, an exclusion the file
+#: lacks rather than a collision the arm can avoid [-].
+ALWAYS_TOUCHING = 0.99
+
+
+@dataclass(frozen=True)
+class TouchingEverywhere:
+    """Pairs in contact at (nearly) every pose, and how often the others touch.
+
+    Attributes:
+        pairs: The pairs in contact at `ALWAYS_TOUCHING` of the poses or more, most first.
+        poses_with_contact: Poses in which some other pair is in contact.
+        n_poses: Poses swept.
+    """
+
+    pairs: tuple[PairStatistics, ...]
+    poses_with_contact: int
+    n_poses: int
+
+    @property
+    def share_with_contact(self) -> float:
+        """Fraction of the poses with a contact of another pair, in [0, 1]."""
+        return self.poses_with_contact / self.n_poses if self.n_poses else 0.0
+
+
+def touching_everywhere(
+    arm: Arm, stats: CollisionStatistics, seed: int | None
+) -> TouchingEverywhere:
+    """The pairs of a sweep in contact at (nearly) every pose, and the contact rate without them.
+
+    The rate is counted again over the sweep's poses (the same ``seed``), with MuJoCo's
+    collision pipeline alone: a pose counts when a pair other than these is in contact.
+
+    Args:
+        arm: The arm the sweep was made on.
+        stats: The sweep (`contacts`), its pairs in the checker's order.
+        seed: The sweep's seed.
+    """
+    n = stats.n_poses
+    hit = [k for k, p in enumerate(stats.pairs) if n and p.poses >= ALWAYS_TOUCHING * n]
+    if not hit:
+        return TouchingEverywhere((), stats.poses_with_contact, n)
+    ch = checker(arm)
+    excluded = np.zeros(len(ch.pairs), dtype=bool)
+    excluded[hit] = True
+    scene, others = ch.mujoco_scene(), 0
+    for Q in pose_chunks(arm, n, seed):
+        for q in Q:
+            idx, _ = scene.collide(q)
+            others += bool(len(idx)) and not excluded[idx].all()
+    ranked = sorted((stats.pairs[k] for k in hit), key=lambda p: (-p.poses, p.pair.label))
+    return TouchingEverywhere(tuple(ranked), int(others), n)
+
+
 # -- all four -------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Sections:
-    """The four sections, computed once for a report (the audit, arm7's example tables)."""
+    """The four sections, computed once for a report (the audit, arm7's example tables).
+
+    ``touching`` is the self-collision sweep's pairs in contact at (nearly) every pose.
+    """
 
     joints: JointSection
     keyframes: tuple[KeyframeRow, ...]
     gravity: GravityBudget | None  # None: the arm's links lack inertias (arm.missing_inertia)
     contacts: CollisionStatistics
+    touching: TouchingEverywhere | None = None
 
 
 def compute(
@@ -547,16 +610,17 @@ def compute(
     Args:
         arm: The arm.
         n_poses: Random poses of each sweep.
-        seed: Seed of the random poses (:func:`redundancy.random_poses`).
-        kd: Controller damping written to ctrl (see :func:`joints`) [N m s/rad].
+        seed: Seed of the random poses ([`redundancy.random_poses`][redundancy.random_poses]).
+        kd: Controller damping written to ctrl (see `joints`) [N m s/rad].
         distances: Distance engine of the collision sweep (``None``: contacts only).
-        progress: Called as each sweep advances (see :data:`Progress`).
+        progress: Called as each sweep advances (see `Progress`).
     """
     say = progress or _quiet
     joint_section, keys = joints(arm, kd), keyframes(arm)
     gravity = None if arm.missing_inertia else gravity_budget(arm, n_poses, seed, say)
     collisions = contacts(arm, n_poses, seed, distances, say)
-    return Sections(joint_section, keys, gravity, collisions)
+    touching = touching_everywhere(arm, collisions, seed)
+    return Sections(joint_section, keys, gravity, collisions, touching)
 
 
 # -- the mass a contact at the tool feels ---------------------------------------------------------

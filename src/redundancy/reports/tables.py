@@ -1,14 +1,17 @@
-"""Plain-text report lines: numbers, tables sized by ``rich``, and lines that fit :data:`WIDTH`.
+"""Plain-text report lines: numbers, tables sized by ``rich``, and lines that fit `WIDTH`.
 
-Every report line is at most :data:`WIDTH` characters whatever the names in the model: a
-table's text columns fold a long name over several lines (``rich`` sizes the columns), and
-a sentence longer than the width continues on the next line, indented.
+Every report line is at most `WIDTH` characters whatever the names in the model: a table's text
+columns fold a long name over several lines (``rich`` sizes the columns), and a sentence longer than
+the width continues on the next line, indented. Numbers are never cut: a number column, or a column
+of numbers listed in one cell, keeps each cell whole; a file path longer than a line is kept whole
+on a line of its own.
 """
 
 from __future__ import annotations
 
 import io
 import math
+import re
 import textwrap
 from collections.abc import Iterable, Sequence
 
@@ -16,20 +19,38 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
+_GLUE = "\x00"  # stands for a space that must not end a line (never in a report's text)
 #: Longest report line [characters].
 WIDTH = 100
 #: Indent of a table's rows, and the extra indent of a sentence's continuation lines.
 INDENT = "  "
+#: A value this small against the size of what it is printed beside is rounding (the
+#: engines' float64 sums leave 1e-16 to 1e-13 of the scale): it prints as 0 [-].
+ROUNDING = 1e-12
 
 
-def fmt(x: float, digits: int = 4) -> str:
-    """A number in ``digits`` significant digits; ``inf``, ``-inf``; ``-`` for NaN."""
+def fmt(x: float, digits: int = 4, scale: float | None = None) -> str:
+    """A number in ``digits`` significant digits; ``inf``, ``-inf``; ``-`` for NaN.
+
+    Args:
+        x: The number.
+        digits: Significant digits.
+        scale: The size of the numbers it is printed beside (a table column's largest
+            magnitude): ``|x| <= ROUNDING * scale`` prints as ``0``. None: printed as it is.
+    """
     x = float(x)
     if math.isnan(x):
         return "-"
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
+    if scale is not None and abs(x) <= ROUNDING * abs(scale):
+        return "0"
     return f"{x:.{digits}g}"
+
+
+def key(text: str) -> str:
+    """The line after a table that says what its abbreviations and columns mean."""
+    return f"{INDENT}key: {text}"
 
 
 def limit(lower: float, upper: float, digits: int = 4) -> str:
@@ -61,19 +82,20 @@ def table(
 
     Columns are two spaces apart and sized to their content by ``rich``; when the table is
     wider than ``width``, text columns (``l``) fold their cells over several lines and
-    number columns (``r``) keep theirs whole.
+    number columns (``r``, ``n``) keep theirs whole.
 
     Args:
         header: Column titles.
         rows: Cells, one sequence per row, as many as titles.
-        align: One letter per column: ``l`` (left, text) or ``r`` (right, numbers).
+        align: One letter per column: ``l`` (left, text), ``r`` (right, a number) or ``n``
+            (left, several numbers in one cell, never folded).
         width: Longest line [characters].
     """
     t = Table(box=None, pad_edge=False, padding=(0, 1), show_edge=False, header_style="")
     for title, a in zip(header, align, strict=True):
         t.add_column(
             Text(title),
-            justify="left" if a == "l" else "right",
+            justify="right" if a == "r" else "left",
             no_wrap=a != "l",
             overflow="fold",
         )
@@ -95,20 +117,36 @@ def table(
 
 
 def wrap(line: str, width: int = WIDTH) -> list[str]:
-    """A line as lines of at most ``width`` characters, continuations indented two more."""
+    """A line as lines of at most ``width`` characters, continuations indented two more.
+
+    A bracketed group (a unit ``[N m s/rad]``, a vector ``[0 0 0.12]``), a short one in
+    parentheses (``(N m)``, ``(seed 0)``) and an XML element to copy into a file stay on one
+    line. A
+    word longer than a line is cut, except a file path (a word with a ``/``), which a reader
+    copies whole: it stands whole on a line of its own, however long.
+    """
     if len(line) <= width:
         return [line]
     lead = line[: len(line) - len(line.lstrip(" "))]
-    return textwrap.wrap(
+    room = width - len(lead) - len(INDENT)
+    # A bracket's spaces are held by a stand-in while textwrap splits at the others.
+    held = re.sub(
+        r"\[[^\[\]]{1,40}\]|\([^()]{1,10}\)|<[^<>]{1,90}>",
+        lambda m: m.group().replace(" ", _GLUE),
         line,
+    )
+    paths = any("/" in w and len(w) > room for w in held.split())
+    parts = textwrap.wrap(
+        held,
         width,
         initial_indent="",
         subsequent_indent=lead + INDENT,
-        break_long_words=True,
+        break_long_words=not paths,
         break_on_hyphens=False,
     )
+    return [p.replace(_GLUE, " ") for p in parts]
 
 
 def fit(lines: Iterable[str], width: int = WIDTH) -> list[str]:
-    """Every line of ``lines`` wrapped to ``width`` (see :func:`wrap`)."""
+    """Every line of ``lines`` wrapped to ``width`` (see `wrap`)."""
     return [part for line in lines for part in wrap(line, width)]
