@@ -110,16 +110,16 @@ class Arm:
             in both engines (an invalid inertia); the audit reports each as a finding.
         missing_inertia: Links the arm moves that the file gives no inertia (a URDF link
             without ``<inertial>``): kinematic quantities are served, dynamic ones raise
-            :class:`~redundancy.errors.MissingInertiaError` naming them.
+            `MissingInertiaError` naming them.
         robot_model: MuJoCo's compiled model of the whole robot (all joints).
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
         rest: Where the held values come from: ``"qpos0"``, ``"keyframe 'name'"``, ``"given"``.
         length: The arm's size: its moving bodies' offsets and the tool's, summed [m]. The
             unit the inverse kinematics measures positions in, and the scale of the floor
-            below which the tool counts as not moving (:meth:`effective_mass`).
+            below which the tool counts as not moving (`effective_mass`).
         key_moves: Per keyframe, in file order: the held joints it puts elsewhere than
-            ``held`` -> its value (see :meth:`keyframe_moves`); empty: none.
+            ``held`` -> its value (see `keyframe_moves`); empty: none.
     """
 
     def __init__(
@@ -195,7 +195,7 @@ class Arm:
 
         A ball or free joint on the chain to the tool (held at rest: the arm's joints are
         hinges and slides), and a joint the loader made fixed (a URDF joint whose child link
-        has no mass). The other held joints are in :attr:`held`.
+        has no mass). The other held joints are in `held`.
         """
         return {a.name: a.reason for a in self.set_aside if a.what in FROZEN}
 
@@ -233,8 +233,8 @@ class Arm:
         """Keyframe name -> joint configuration [rad or m], for the keyframes of this arm.
 
         A keyframe is the whole robot's: one that puts a held joint elsewhere than this arm
-        holds it (:meth:`keyframe_moves`) is a pose of another arm, :meth:`at_keyframe`, and
-        is not listed here (:attr:`keyframe_names` lists every keyframe).
+        holds it (`keyframe_moves`) is a pose of another arm, `at_keyframe`, and
+        is not listed here (`keyframe_names` lists every keyframe).
         """
         m = self.mj_model
         return {
@@ -248,7 +248,7 @@ class Arm:
 
         Raises:
             UnknownNameError: No keyframe of that name.
-            PoseError: The keyframe moves held joints: it is a pose of :meth:`at_keyframe`.
+            PoseError: The keyframe moves held joints: it is a pose of `at_keyframe`.
         """
         moved = self.keyframe_moves(name)
         if moved:
@@ -287,7 +287,7 @@ class Arm:
         Raises:
             UnknownNameError: No keyframe of that name.
             TypeError: The keyframe moves held joints and this Arm was not built by
-                :func:`redundancy.load` (it cannot be loaded again).
+                `redundancy.load` (it cannot be loaded again).
         """
         if not self.keyframe_moves(name):
             return self
@@ -445,7 +445,7 @@ class Arm:
     ) -> Array:
         """dM/dt along the joint velocity ``v``, shape (nq, nq) [kg m^2/s]: C + C^T.
 
-        Arguments as :meth:`coriolis`. Armature is constant: it does not appear.
+        Arguments as `coriolis`. Armature is constant: it does not appear.
         """
         C = self.engine(engine).coriolis(q, v)
         return C + C.T
@@ -460,14 +460,14 @@ class Arm:
         return self.engine(engine).com(q)
 
     def com_jacobian(self, q: ArrayLike, *, engine: EngineName = "mujoco") -> Array:
-        """Jacobian of :meth:`com` for the arm's joints, shape (3, nq) [m/rad or m/m]."""
+        """Jacobian of `com` for the arm's joints, shape (3, nq) [m/rad or m/m]."""
         return self.engine(engine).com_jacobian(q)
 
     def centroidal_momentum_matrix(self, q: ArrayLike, *, engine: EngineName = "mujoco") -> Array:
         """The whole robot's momentum per unit joint velocity, shape (6, nq), world axes.
 
         Rows 0-2: linear momentum [kg m/s per rad/s]; rows 3-5: angular momentum about
-        the whole robot's centre of mass (:meth:`com`) [kg m^2/s per rad/s]. Times a joint
+        the whole robot's centre of mass (`com`) [kg m^2/s per rad/s]. Times a joint
         velocity it is the robot's momentum; bodies that do not move contribute their mass
         to the centre of mass only.
         """
@@ -505,7 +505,7 @@ class Arm:
 
         Raises:
             SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6, or
-                moves the tool by no more than :func:`~redundancy.linalg.motion_floor` along
+                moves the tool by no more than `motion_floor` along
                 some direction); names the lost tool directions.
             UnknownNameError: A joint or engine name the arm does not have.
             ParameterError: ``joints`` empty, repeated or not names.
@@ -526,7 +526,7 @@ class Arm:
 
         1 / (u^T J_v M^-1 J_v^T u), u the unit direction in world axes; ``inf`` along a
         direction the tool cannot move: |J_v^T u| below 1e-9 of |J_v| or at most
-        :func:`~redundancy.linalg.motion_floor` of :attr:`length` (rounding noise, as at a
+        `motion_floor` of `length` (rounding noise, as at a
         point on every free joint's axis). Defined at singular poses too.
 
         Args:
@@ -555,9 +555,9 @@ class Arm:
         """Least and greatest effective mass over all directions at ``q``, with directions.
 
         The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
-        :meth:`operational_inertia`); the greatest is ``inf`` where the tool cannot move
+        `operational_inertia`); the greatest is ``inf`` where the tool cannot move
         along some direction, the least too where it cannot move at all (the floor as
-        :meth:`effective_mass`'s).
+        `effective_mass`'s).
         """
         J, X = self._mobility(q, armature, joints, engine)
         return linalg._effective_mass_range(J, X, atol=self._floor)

@@ -15,7 +15,7 @@ Every error is one line on stderr (a multi-line engine message is joined with ";
 stderr closed the status alone says what happened. Text goes out in whatever encoding the
 terminal has: a character it cannot show (a Cyrillic joint name on a Latin-1 terminal) is
 written as a backslash escape (``\u043b``). JSON documents are ASCII, with infinities and
-NaN as ``null`` (:func:`redundancy.display.json_ready`).
+NaN as ``null`` (`redundancy.display.json_ready`).
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ class _Stdout:
 
 @contextlib.contextmanager
 def _terminal_output() -> Iterator[None]:
-    """While a command runs: stdout guarded (:class:`_Stdout`), unencodable text escaped.
+    """While a command runs: stdout guarded (`_Stdout`), unencodable text escaped.
 
     The streams are put back as they were afterwards (``main`` is also called in-process).
     """

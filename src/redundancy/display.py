@@ -157,5 +157,5 @@ def json_ready(x: Any) -> Any:
 
 
 def to_json(document: Any) -> str:
-    """``document`` as indented, ASCII JSON after :func:`json_ready` (never Infinity or NaN)."""
+    """``document`` as indented, ASCII JSON after `json_ready` (never Infinity or NaN)."""
     return json.dumps(json_ready(document), indent=2, allow_nan=False)

@@ -8,9 +8,9 @@ sequences, default classes and ``childclass``, primitive geoms with ``mass`` or 
 gravity and a site ``"tip"`` at the end of the last body. Every model it draws is one the loader
 accepts (``strict=True``), so both engines must agree on it; a failing model shrinks to a small one.
 
-:func:`refused_arms` draws the same arms with one feature the loader must refuse (several
+`refused_arms` draws the same arms with one feature the loader must refuse (several
 joints in one body, a tendon on an arm joint...), with the feature's name;
-:func:`resolved_arms` with one feature Pinocchio's parser reads differently (``<frame>``, an
+`resolved_arms` with one feature Pinocchio's parser reads differently (``<frame>``, an
 extrinsic euler sequence...), which the loader serves through MuJoCo's compiled model.
 
 Example:
@@ -62,7 +62,7 @@ REFUSED_FEATURES = (
 )
 
 #: Features Pinocchio's parser reads differently, for which the loader gives Pinocchio the
-#: model as MuJoCo compiled it (:mod:`redundancy.model.resolved`); :func:`resolved_arms` draws
+#: model as MuJoCo compiled it (`redundancy.model.resolved`); `resolved_arms` draws
 #: one per model, and both engines must agree with MuJoCo's model of the file.
 RESOLVED_FEATURES = (
     "extrinsic eulerseq",
@@ -573,7 +573,7 @@ def resolved_arms(
     The loader serves such an arm through MuJoCo's compiled model.
 
     Args:
-        features: Which features to draw from (a subset of :data:`RESOLVED_FEATURES`).
+        features: Which features to draw from (a subset of `RESOLVED_FEATURES`).
         max_joints: Largest number of hinge and slide joints.
     """
     return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))

@@ -212,7 +212,7 @@ def _checked(returned: object, nq: int) -> tuple[float, Array]:
 class _Solver:
     """One solve's state: the kernel, the target, the ranges, the arm's size and the counters.
 
-    Positions are measured in L = :data:`_UNIT` x ``length`` (the arm's length [m]): E =
+    Positions are measured in L = `_UNIT` x ``length`` (the arm's length [m]): E =
     (|e_p|^2 / L^2 + |e_r|^2) / 2, the position rows damped by lambda L^2 (the step of J and
     e with those rows divided by L), and a slide joint's column and step scaled by L (its
     value in units of L). A hinge-only arm scaled by any factor takes exactly the steps of
@@ -389,9 +389,9 @@ def solve(
             solves need none, and a generator costs tens of microseconds to seed).
         objective: A cost lowered in the null space after convergence, or None.
         position_only: Solve for the position alone (3 rows of J).
-        settings: The knobs (:class:`Settings` defaults if None).
+        settings: The knobs (`Settings` defaults if None).
         length: The arm's length, which sets the unit of the iterations' positions [m] (see
-            :class:`_Solver`).
+            `_Solver`).
         slide: True for each slide joint (their values are lengths), None: all hinges.
     """
     s = settings or Settings()

@@ -39,7 +39,7 @@ _MOTION_EPS = 1024 * _EPS
 def motion_floor(length: float) -> float:
     """Below this, a column or direction of J's linear rows is rounding noise [m/rad].
 
-    1024 eps x ``length`` (2.3e-13 of the arm's length, :attr:`Arm.length
+    1024 eps x ``length`` (2.3e-13 of the arm's length, `Arm.length
     <redundancy.Arm.length>`): far below any lever arm a real joint has, far above the noise
     of a point the joints cannot move. The effective mass, its range and the operational
     inertia count a direction whose motion is below it as one the tool cannot move along.
@@ -512,9 +512,9 @@ def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: floa
     only J's condition number of accuracy. C is formed as V^T (X U S^-1) = V^T M^-1 V.
 
     Raises:
-        SingularPoseError: J has rank below 6 (by :func:`jacobian_svd`'s rule), or its
+        SingularPoseError: J has rank below 6 (by `jacobian_svd`'s rule), or its
             linear rows move the tool by at most ``atol`` [m/rad] along some direction
-            (:func:`motion_floor`), at some pose: names the tool directions lost (and the
+            (`motion_floor`), at some pose: names the tool directions lost (and the
             pose, for a stack).
     """
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
@@ -550,7 +550,7 @@ def _effective_mass(
         u: Unit direction, world axes (3,).
         rtol: Below ``rtol`` times the Frobenius norm of J_v, |J_v^T u| counts as zero: the
             tool cannot move along ``u`` and the mass is ``inf``.
-        atol: Likewise at or below this [m/rad] (:func:`motion_floor`): a J_v made of
+        atol: Likewise at or below this [m/rad] (`motion_floor`): a J_v made of
             rounding noise, relative to which ``rtol`` would pass the noise.
     """
     # ndarray.dot: on arrays this small, @ costs several times more (numpy's matmul setup).
@@ -566,7 +566,7 @@ def _effective_mass(
 def _effective_masses(
     J: Array, X: Array, U: Array, rtol: float = RANK_RTOL, atol: float = 0.0
 ) -> Array:
-    """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,)."""
+    """`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,)."""
     U = np.broadcast_to(U, (len(J), 3))
     g = np.einsum("ni,nik->nk", U, J[:, :3])
     a = np.einsum("nk,nki,ni->n", g, X[:, :, :3], U)
@@ -583,7 +583,7 @@ def _extremes_stuck(J: Array, w: Array, rtol: float, atol: float) -> tuple[Array
     From J (…, 6, k) and the eigenvalues w (…, 3) of J_v M^-1 J_v^T, ascending.
     The greatest is ``inf`` where the tool cannot move along some direction: fewer than three
     joints free, J_v's least singular value below ``rtol`` of its largest or at most ``atol``
-    (:func:`motion_floor`), or w's least at most 64 eps times its largest (inside eigh's
+    (`motion_floor`), or w's least at most 64 eps times its largest (inside eigh's
     rounding). The least is ``inf`` where it cannot move at all: J_v's largest at most ``atol``.
     """
     s = np.linalg.svd(J[..., :3, :], compute_uv=False)
@@ -684,7 +684,7 @@ def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float
     """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
 
     Through J's SVD, not by inverting J M^-1 J^T: it loses only J's condition number of
-    accuracy near a singular pose, not its square. ``atol`` as :func:`effective_mass`.
+    accuracy near a singular pose, not its square. ``atol`` as `effective_mass`.
 
     Raises:
         SingularPoseError: J has rank below 6 at some pose, or J_v moves the tool by at
@@ -708,7 +708,7 @@ def effective_mass(
         rtol: Relative tolerance in (0, 1) below which the tool cannot move along ``u``
             (the mass is then ``inf``).
         atol: Motion |J_v^T u| at or below this [m/rad] counts as none, ``inf``:
-            :func:`motion_floor` of the arm's length (0: the relative test alone, which a
+            `motion_floor` of the arm's length (0: the relative test alone, which a
             J_v of rounding noise passes).
 
     Raises:
@@ -722,7 +722,7 @@ def effective_mass(
 def effective_masses(
     J: Array, X: Array, U: Array, rtol: float = RANK_RTOL, atol: float = 0.0
 ) -> Array:
-    """:func:`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,).
+    """`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,).
 
     Raises:
         ParameterError: As [`effective_mass`][redundancy.linalg.effective_mass], for stacks.
@@ -738,7 +738,7 @@ def effective_mass_range(
 ) -> EffectiveMassRange:
     """The extremes of the effective mass over directions at one pose (see the class).
 
-    ``atol`` as :func:`effective_mass`: the greatest is ``inf`` where J_v moves the tool by at
+    ``atol`` as `effective_mass`: the greatest is ``inf`` where J_v moves the tool by at
     most ``atol`` along some direction, the least too where along every direction.
 
     Raises:
@@ -751,7 +751,7 @@ def effective_mass_range(
 def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
     """Least and greatest effective mass over a stack, shape (n, 2) [kg].
 
-    As :func:`effective_mass_range` pose by pose.
+    As `effective_mass_range` pose by pose.
 
     Raises:
         ParameterError: J (n, 6, k) or X (n, k, 6) not finite real arrays, ``rtol`` not in

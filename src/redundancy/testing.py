@@ -113,7 +113,7 @@ def velocities(arm: Arm, speed: float = 2.0) -> st.SearchStrategy[np.ndarray]:
 def states(
     arm: Arm, margin: float = 0.0, unlimited: float = np.pi, speed: float = 2.0
 ) -> st.SearchStrategy[tuple[np.ndarray, np.ndarray]]:
-    """(pose, velocity) pairs: :func:`poses` and :func:`velocities` drawn together."""
+    """(pose, velocity) pairs: `poses` and `velocities` drawn together."""
     return st.tuples(poses(arm, margin, unlimited), velocities(arm, speed))
 
 

@@ -17,12 +17,12 @@ for bit; the tests hold them to it). What makes them fast:
   Pinocchio's never do. With ``threads > 1`` MuJoCo loops run on that many threads, each
   with its own ``MjData`` (a 7-dof chain's calls are 0.5-4 us, so the Python glue between
   them, which holds the GIL, limits the gain); NumPy's SVD releases the GIL, so
-  :func:`singular_values` overlaps the SVD of one chunk with the Jacobians of the next.
+  `singular_values` overlaps the SVD of one chunk with the Jacobians of the next.
   Results do not depend on ``threads``: each pose is computed by one thread, start to end.
 * **Other processes and machines with** ``executor=``. Any
-  :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
-  ``Client(...).get_executor()``) gets the stack in chunks of poses (:func:`scatter`); the
-  arm travels as its recipe (:mod:`redundancy.model.content`) and is rebuilt once per worker
+  `concurrent.futures.Executor` (a ``ProcessPoolExecutor``, a Dask cluster's
+  ``Client(...).get_executor()``) gets the stack in chunks of poses (`scatter`); the
+  arm travels as its recipe (`redundancy.model.content`) and is rebuilt once per worker
   process and identity, and the chunks' results are put back in order. The arguments are
   checked and made plain values first, so what crosses is what the serial path uses. Every
   pose is computed by the same code as in the caller's process, so the results equal the
@@ -98,9 +98,9 @@ class _Shipped:
     """An arm on its way to an executor's worker.
 
     In the caller's process (a thread pool) it is the arm itself. Pickled (a process pool, a
-    Dask worker) it is the arm's recipe (:mod:`redundancy.model.content`): lean (the files'
+    Dask worker) it is the arm's recipe (`redundancy.model.content`): lean (the files'
     paths and digests, not their bytes) unless ``recipe`` is given. Each worker process
-    rebuilds the arm once per identity (:func:`_arrive`) and keeps it for the next chunks. A
+    rebuilds the arm once per identity (`_arrive`) and keeps it for the next chunks. A
     worker that cannot rebuild it keeps the error, which the task raises: unpickling never
     fails, and the object pickles again as it came (Dask may move a task between workers).
     """
@@ -168,7 +168,7 @@ def map_chunks(
         executor: Any `concurrent.futures.Executor`; a Dask cluster's ``Client(...).get_executor()``
             included.
         fn: A module-level function (it is pickled by name for a process or a cluster).
-        arm: The arm (it must pickle: built by :func:`redundancy.load` or ``load_string``).
+        arm: The arm (it must pickle: built by `redundancy.load` or ``load_string``).
             A worker rebuilds it from its files, or from their bytes, which the caller sends
             again with a chunk whose worker lacks them.
         Q: Poses, shape (n, nq).
@@ -653,7 +653,7 @@ def effective_masses(
 def _effective_masses_of_rows(
     arm: Arm, QU: Array, armature: bool, joints: tuple[str, ...] | None, engine: str, threads: int
 ) -> Array:
-    """:func:`effective_masses` of a chunk of rows (pose, unit direction), on a worker."""
+    """`effective_masses` of a chunk of rows (pose, unit direction), on a worker."""
     Q, U = np.ascontiguousarray(QU[:, : arm.nq]), np.ascontiguousarray(QU[:, arm.nq :])
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     return linalg._effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
@@ -823,7 +823,7 @@ def coriolis(
     threads: int = 1,
     executor: Executor | None = None,
 ) -> Array:
-    """Coriolis matrices of a stack of states, as :meth:`Arm.coriolis <redundancy.Arm.coriolis>`.
+    """Coriolis matrices of a stack of states, as `Arm.coriolis <redundancy.Arm.coriolis>`.
 
     Equal to the single calls bit for bit: each pose runs the same engine calls in the
     same order.
@@ -834,8 +834,8 @@ def coriolis(
         V: Joint velocities, one per pose, shape (n, nq) [rad/s or m/s].
         engine: ``"mujoco"`` or ``"pinocchio"``.
         threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
-        executor: Run on this :class:`concurrent.futures.Executor` in chunks of states (see
-            :func:`jacobians`); None runs here.
+        executor: Run on this `concurrent.futures.Executor` in chunks of states (see
+            `jacobians`); None runs here.
 
     Returns:
         Coriolis matrices in the Christoffel form, shape (n, nq, nq) [N m s/rad].
@@ -861,7 +861,7 @@ def coriolis(
 
 
 def _coriolis_of_states(arm: Arm, QV: Array, engine: EngineName, threads: int) -> Array:
-    """:func:`coriolis` of a chunk of states laid side by side, (n, 2 nq), on a worker."""
+    """`coriolis` of a chunk of states laid side by side, (n, 2 nq), on a worker."""
     nq = arm.nq
     return coriolis(arm, QV[:, :nq], QV[:, nq:], engine=engine, threads=threads)
 
@@ -876,7 +876,7 @@ def external_torques(
     *,
     executor: Executor | None = None,
 ) -> Array:
-    """A recorded trajectory through a :class:`~redundancy.MomentumObserver`, step by step.
+    """A recorded trajectory through a `MomentumObserver`, step by step.
 
     Equal to ``obs = MomentumObserver(arm, gain)`` and ``obs.update(Q[k], V[k], TAU[k],
     dt[k])`` for every k, bit for bit: the model's terms of every step (M v, C^T v - g and
@@ -892,8 +892,8 @@ def external_torques(
         dt: Time from each step to the next [s], one number or one per step (n,), in
             (0, 2 / gain).
         gain: The observer's gain K [1/s], a number or one per joint.
-        executor: Compute the model's terms on this :class:`concurrent.futures.Executor`
-            in chunks of steps (see :func:`jacobians`); None: here.
+        executor: Compute the model's terms on this `concurrent.futures.Executor`
+            in chunks of steps (see `jacobians`); None: here.
 
     Returns:
         The estimated external joint torque at each step, shape (n, nq) [N m or N].
@@ -929,7 +929,7 @@ def external_torques(
 def _momentum_terms_of_states(arm: Arm, QV: Array) -> Array:
     """The observer's terms of states laid side by side, (n, 2 nq) -> (n, 2 nq).
 
-    Each row [q, v] gives [p, beta] (:meth:`MujocoEngine.momentum_terms
+    Each row [q, v] gives [p, beta] (`MujocoEngine.momentum_terms
     <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`).
     """
     nq = arm.nq

@@ -54,13 +54,13 @@ TOLERANCES: dict[str, float] = {
     "operational inertia^-1": 1e-8,
     "dynamic manipulability": 1e-8,
     # C(q, v) in the Christoffel form at a velocity drawn from the seed
-    # (:func:`crosscheck_velocities`): MuJoCo's exact polarization of its bias against
+    # (`crosscheck_velocities`): MuJoCo's exact polarization of its bias against
     # Pinocchio's computeCoriolisMatrix; differences are rounding.
     "coriolis": 1e-9,
 }
 
 #: Quantities computed through M^-1: their tolerance holds for cond(M) up to
-#: :data:`CALIBRATED_CONDITION` and grows with it beyond (:func:`conditioned_tolerance`).
+#: `CALIBRATED_CONDITION` and grows with it beyond (`conditioned_tolerance`).
 M_INVERSE_QUANTITIES = ("operational inertia^-1", "dynamic manipulability")
 #: The conditioning at which the M^-1 tolerances were set (a generated arm, cond(M) ~ 1e7).
 CALIBRATED_CONDITION = 1e7
@@ -468,13 +468,13 @@ def crosscheck_batch(
             Pinocchio in the caller's thread, and Pinocchio's gravity uses the other
             ``threads - 1`` as OpenMP threads.
         chunk: Poses per chunk (>= 1).
-        executor: Run on this :class:`concurrent.futures.Executor` (a Dask cluster's
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
             ``Client(...).get_executor()``, a process pool), in chunks of poses each
-            cross-checked on a worker (:func:`redundancy.batch.map_chunks`); None runs here.
+            cross-checked on a worker (`redundancy.batch.map_chunks`); None runs here.
             The report is the same, bit for bit: the worst pose of the chunks is merged as
             within one process.
         seed: Seed of the joint velocities paired with the poses for ``"coriolis"``
-            (:func:`crosscheck_velocities`), an integer >= 0.
+            (`crosscheck_velocities`), an integer >= 0.
 
     Returns:
         The report; over zero poses it says that nothing was checked and is not ``ok``.
@@ -555,8 +555,8 @@ def crosscheck(
     Args:
         arm: The loaded arm.
         poses: One pose, shape (nq,), or many, shape (n, nq) [rad or m].
-        quantities: Subset of :data:`TOLERANCES` keys; all by default.
-        tolerances: Overrides for :data:`TOLERANCES`.
-        seed: Seed of the velocities for ``"coriolis"`` (see :func:`crosscheck_batch`).
+        quantities: Subset of `TOLERANCES` keys; all by default.
+        tolerances: Overrides for `TOLERANCES`.
+        seed: Seed of the velocities for ``"coriolis"`` (see `crosscheck_batch`).
     """
     return crosscheck_batch(arm, poses, quantities, tolerances, seed=seed)

@@ -7,7 +7,7 @@ dp/dt = tau + tau_ext + C(q, v)^T v - g(q) + tau_passive, so the residual
 
 follows tau_ext as a first-order filter of gain K [1/s]: r(s) = K / (s + K) tau_ext(s). No
 acceleration is measured or differentiated. The model's terms come from MuJoCo
-(:meth:`MujocoEngine.momentum_terms <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`):
+(`MujocoEngine.momentum_terms <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`):
 M with armature, C^T v, gravity, and ``qfrc_passive`` (joint damping and springs, gravity
 compensation, fluid forces), so ``tau`` is the actuators' torque alone (MuJoCo's
 ``qfrc_actuator``). What the model's smooth dynamics leave out shows in r as external:
@@ -64,7 +64,7 @@ class MomentumObserver:
 
     One observer follows one trajectory: its state is the momentum at the first update and
     the running integral. Give each thread or stream its own observer (an arm may be
-    shared). The first :meth:`update` starts the observer and returns zeros.
+    shared). The first `update` starts the observer and returns zeros.
 
     Args:
         arm: The arm.
@@ -94,7 +94,7 @@ class MomentumObserver:
         self.reset()
 
     def reset(self) -> None:
-        """Forget the trajectory: the next :meth:`update` starts again from zero."""
+        """Forget the trajectory: the next `update` starts again from zero."""
         self._p0: Array | None = None
         self._integral = np.zeros(self.arm.nq)
         self._r = np.zeros(self.arm.nq)
@@ -112,7 +112,7 @@ class MomentumObserver:
             v: Joint velocity at this step [rad/s or m/s].
             tau: The actuators' torque applied from this step to the next (MuJoCo's
                 ``qfrc_actuator``) [N m or N].
-            dt: Time to the next step [s], in (0, :attr:`max_dt`): 2 / gain, beyond which
+            dt: Time to the next step [s], in (0, `max_dt`): 2 / gain, beyond which
                 the observer's filter diverges.
 
         Returns:
@@ -133,18 +133,18 @@ class MomentumObserver:
         return self.advance(p, beta, tau, dt)
 
     def advance(self, p: Array, beta: Array, tau: Array, dt: float) -> Array:
-        """:meth:`update` from the model's terms at the step, unchecked.
+        """`update` from the model's terms at the step, unchecked.
 
         For a recorded trajectory whose terms were computed apart (on workers, see
-        :func:`redundancy.batch.external_torques`): the same arithmetic as :meth:`update`.
+        `redundancy.batch.external_torques`): the same arithmetic as `update`.
 
         Args:
             p: The momentum M v at the step (nq,) [N m s].
             beta: C^T v - g + the passive force at the step (nq,) [N m]
-                (:meth:`MujocoEngine.momentum_terms
+                (`MujocoEngine.momentum_terms
                 <redundancy.engines.mujoco.MujocoEngine.momentum_terms>` gives both).
             tau: The actuators' torque (nq,) [N m], finite float64.
-            dt: Time to the next step [s], a float in (0, :attr:`max_dt`).
+            dt: Time to the next step [s], a float in (0, `max_dt`).
         """
         if self._p0 is None:
             self._p0 = p

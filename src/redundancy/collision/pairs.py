@@ -154,7 +154,7 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
     * never plane or height field against plane or height field (MuJoCo has no collider).
 
     An arm inside a robot: its model carries the whole robot's rules (see
-    :func:`~redundancy.model.robot.reduce_mujoco`), so these are the pairs MuJoCo tests on the
+    `reduce_mujoco`), so these are the pairs MuJoCo tests on the
     whole robot with the held joints at rest, less those whose distance the arm cannot change.
 
     Not modelled: sleeping bodies (``<flag sleep="enable"/>``), which MuJoCo skips pose by

@@ -140,7 +140,7 @@ def bounding_box(model: mujoco.MjModel, geom: int) -> tuple[Array, Array]:
     return zero, np.full(3, np.inf)
 
 
-#: Directions per block in :class:`Support` for a mesh.
+#: Directions per block in `Support` for a mesh.
 _BLOCK = 64
 
 

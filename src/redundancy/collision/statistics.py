@@ -55,7 +55,7 @@ class KeyframeClearance:
         closest: The pair with the smallest clearance, with its distance (None: no pairs).
         moves_held: Held joints the keyframe puts elsewhere than the arm holds them -> the
             keyframe's value [rad or m]; the clearance is measured there
-            (:meth:`~redundancy.Arm.at_keyframe`).
+            (`at_keyframe`).
     """
 
     keyframe: str
@@ -508,7 +508,7 @@ def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[Keyfr
     """Contacts and the closest pair at every keyframe of the model.
 
     A keyframe that moves held joints is measured on the arm at it
-    (:meth:`~redundancy.Arm.at_keyframe`): the robot's real pose under the keyframe's name.
+    (`at_keyframe`): the robot's real pose under the keyframe's name.
     """
     checker(arm)  # the arm checked, its checker built
     out = []

@@ -164,7 +164,7 @@ class Engine(Protocol):
         ...
 
     def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
-        """:meth:`coriolis` over validated stacks (n, nv), into ``out`` (n, nv, nv)."""
+        """`coriolis` over validated stacks (n, nv), into ``out`` (n, nv, nv)."""
         ...
 
     def com(self, q: ArrayLike) -> Array:
@@ -172,7 +172,7 @@ class Engine(Protocol):
         ...
 
     def com_jacobian(self, q: ArrayLike) -> Array:
-        """Jacobian of :meth:`com`, (3, nv) [m/rad]."""
+        """Jacobian of `com`, (3, nv) [m/rad]."""
         ...
 
     def centroidal_momentum_matrix(self, q: ArrayLike) -> Array:

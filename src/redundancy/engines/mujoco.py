@@ -163,7 +163,7 @@ class MujocoEngine:
             [N m s/rad or N s/m].
 
     Attributes:
-        length: The arm's size (:func:`model_length`) [m].
+        length: The arm's size (`model_length`) [m].
     """
 
     name = "mujoco"
@@ -656,7 +656,7 @@ class MujocoEngine:
     def coriolis(self, q: ArrayLike, v: ArrayLike) -> Array:
         """Coriolis matrix C(q, v) in the Christoffel form, (nv, nv) [N m s/rad].
 
-        C v is the bias minus gravity, and dM/dt = C + C^T (see :meth:`_coriolis_at`).
+        C v is the bias minus gravity, and dM/dt = C + C^T (see `_coriolis_at`).
 
         Raises:
             PoseError: ``q`` or ``v`` not a finite real (nv,) vector.
@@ -674,7 +674,7 @@ class MujocoEngine:
         return C
 
     def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
-        """:meth:`coriolis` for every pose and velocity of validated stacks, into ``out``.
+        """`coriolis` for every pose and velocity of validated stacks, into ``out``.
 
         The same calls in the same order as one pose at a time (bit-equal results); MuJoCo
         releases the GIL inside ``mj_*``, so ``threads`` > 1 runs spans of poses in parallel.
@@ -708,7 +708,7 @@ class MujocoEngine:
         return self.update(q).data.subtree_com[0].copy()
 
     def com_jacobian(self, q: ArrayLike) -> Array:
-        """Jacobian of :meth:`com` with respect to the joints, (3, nv) [m/rad]."""
+        """Jacobian of `com` with respect to the joints, (3, nv) [m/rad]."""
         check_dynamics(self, "centre of mass")
         w = self.update(q)
         J = np.empty((3, self.nv))
@@ -719,7 +719,7 @@ class MujocoEngine:
     def centroidal_momentum_matrix(self, q: ArrayLike) -> Array:
         """Whole-model momentum per unit joint velocity, (6, nv), world-aligned.
 
-        Rows 0-2: linear momentum [kg m/rad] (total mass times :meth:`com_jacobian`);
+        Rows 0-2: linear momentum [kg m/rad] (total mass times `com_jacobian`);
         rows 3-5: angular momentum about the centre of mass [kg m^2/rad], from
         ``mj_angmomMat`` of the world body (its subtree centre of mass is the whole one).
         """
@@ -739,7 +739,7 @@ class MujocoEngine:
         tendon damping and springs, gravity compensation, fluid: ``qfrc_passive``), the
         terms a momentum observer integrates. One state load: ``mj_fwdVelocity`` gives the
         passive force and the bias C v + g at v, ``mj_rne`` of the gravity-free copy C v
-        alone, and C^T v comes from :meth:`_coriolis_transpose_times_v`.
+        alone, and C^T v comes from `_coriolis_transpose_times_v`.
 
         Returns:
             p (nv,) [N m s], beta (nv,) [N m].

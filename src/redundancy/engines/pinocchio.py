@@ -357,7 +357,7 @@ class PinocchioEngine:
         return C.copy() if self.identity else C[np.ix_(self.perm, self.perm)]
 
     def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
-        """:meth:`coriolis` over validated stacks, into ``out`` (the bindings hold the GIL)."""
+        """`coriolis` over validated stacks, into ``out`` (the bindings hold the GIL)."""
         check_dynamics(self, "Coriolis matrix")
         for q, v, C in zip(Q, V, out, strict=True):
             C[:] = self.coriolis(q, v)
@@ -388,7 +388,7 @@ class PinocchioEngine:
         return self._subtree_com(check_pose(q, self.joint_names))[2]
 
     def com_jacobian(self, q: ArrayLike) -> Array:
-        """Jacobian of :meth:`com`, (3, nv) [m/rad].
+        """Jacobian of `com`, (3, nv) [m/rad].
 
         ``jacobianCenterOfMass`` is the moving bodies' centre of mass; the fixed mass does
         not move, so the whole's is that times moving mass / total mass.

@@ -302,7 +302,7 @@ class LabSim:
         self._torque_v: collections.deque[float] = collections.deque(maxlen=n_speed)
         self._sigma_t: collections.deque[float] = collections.deque(maxlen=n_sigma)
         self._sigma_v: collections.deque[float] = collections.deque(maxlen=n_sigma)
-        #: The force pushing at the tool, world axes [N] (:meth:`set_push`).
+        #: The force pushing at the tool, world axes [N] (`set_push`).
         self.push = np.zeros(3)
         # The external torque on the joints from q, qdot and the motors' torque alone
         # (the arm's model, as loaded: a changed armature shows as an external torque).
@@ -351,7 +351,7 @@ class LabSim:
             self._record_sigma()
 
     def reset_all(self) -> None:
-        """:meth:`reset_pose`, and kd, armature, contact forces and the push to their defaults."""
+        """`reset_pose`, and kd, armature, contact forces and the push to their defaults."""
         with self._lock:
             self.set_push(np.zeros(3))
             self.set_kd(self.defaults["kd"])
@@ -450,7 +450,7 @@ class LabSim:
             self.contact_forces = bool(on)
 
     def set_push(self, force: ArrayLike) -> None:
-        """Push at the tool with ``force`` (3,), world axes [N], each in +-:data:`PUSH_MAX`.
+        """Push at the tool with ``force`` (3,), world axes [N], each in +-`PUSH_MAX`.
 
         Raises:
             RedundancyError: Not three finite numbers.
@@ -625,7 +625,7 @@ class LabSim:
             return self._window(self._speed_t, self._torque_v, SPEED_WINDOW)
 
     def external_torque_history(self) -> tuple[float, tuple[Array, Array], tuple[Array, Array]]:
-        """The external torque on the joints over the last :data:`SPEED_WINDOW`, one lock.
+        """The external torque on the joints over the last `SPEED_WINDOW`, one lock.
 
         Returns:
             The simulated time [s]; times [s] and |r|, the observer's estimate [N m]; times

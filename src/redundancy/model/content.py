@@ -1,7 +1,7 @@
 """What an Arm was loaded from: the bytes of every file a load read, the options, a digest.
 
 A load records each file it reads (the model file, its ``<include>`` files, the meshes,
-textures and height fields MuJoCo reads, a URDF's meshes, an SRDF) in a :class:`Recipe`
+textures and height fields MuJoCo reads, a URDF's meshes, an SRDF) in a `Recipe`
 with the load's options. The recipe is what an Arm pickles as, and what copies and
 executor workers rebuild it from:
 
@@ -13,8 +13,8 @@ executor workers rebuild it from:
   folder is removed once the engines have compiled them.
 
 Either way the files the rebuild read are checked against the recipe's: a rebuilt arm is
-the robot that was loaded, or the library's :class:`~redundancy.ModelError` names the file
-that differs. The :attr:`Recipe.digest` (SHA-256 of the options and of every file's bytes)
+the robot that was loaded, or the library's `ModelError` names the file
+that differs. The `Recipe.digest` (SHA-256 of the options and of every file's bytes)
 is the arm's identity: executor workers keep rebuilt arms by it.
 """
 
@@ -210,7 +210,7 @@ def rebuild(recipe: Recipe, loader: Loader) -> tuple[Any, Recipe]:
 
     Raises:
         ModelError: A file the rebuild read differs from the recipe's (a file outside the
-            model's folders that changed), naming it; :class:`ContentUnavailable` when the
+            model's folders that changed), naming it; `ContentUnavailable` when the
             recipe carries no bytes and the files on disk are not the recorded ones.
     """
     why = _changed(recipe.files)

@@ -221,13 +221,13 @@ def load(
         site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
         strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
             (``<frame>``, ``<replicate>``, a class inside another childclass...: see
-            :func:`redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
+            `redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
             compiled model instead, reported in ``arm.bridges``. False: Pinocchio reads the
-            file itself and :func:`redundancy.compare_models` shows the differences. MJCF
+            file itself and `redundancy.compare_models` shows the differences. MJCF
             only.
         frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
             Overrides ``site``. Neither given: the model's one chain end (a leaf with a
-            moving joint above it; see :mod:`redundancy.model.ends`), else its frame named
+            moving joint above it; see `redundancy.model.ends`), else its frame named
             ``"ee"``, else a ModelError listing the chain ends.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
@@ -270,7 +270,7 @@ def _options(
 
 
 def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) -> Arm:
-    """:func:`load` of the file ``p`` (bytes ``data``), named ``shown`` in messages."""
+    """`load` of the file ``p`` (bytes ``data``), named ``shown`` in messages."""
     site, strict, frame, pairs, base, rest = options
     with recording() as reading:
         record(p.resolve(), data)
@@ -349,7 +349,7 @@ def load_string(
 
 
 def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
-    """:func:`load_string` of decoded text; relative paths in it count from ``folder``."""
+    """`load_string` of decoded text; relative paths in it count from ``folder``."""
     site, strict, frame, pairs, base, rest = options
     with recording() as reading:
         root = _xml_root(xml)
@@ -601,7 +601,7 @@ def _load_mjcf(
 def _read_resolved(
     full: mujoco.MjModel, tree_root: int, causes: list[str]
 ) -> tuple[object, tuple[Bridge, ...]]:
-    """Pinocchio's model of MuJoCo's compiled tree (:mod:`.resolved`), and the note saying so."""
+    """Pinocchio's model of MuJoCo's compiled tree (`.resolved`), and the note saying so."""
     text = resolved_mjcf(full, tree_root)
     try:
         pm = _pinocchio_from_text(text)

@@ -3,7 +3,7 @@
 Pinocchio's MJCF parser reads some valid MJCF differently from MuJoCo or not at all
 (``<frame>``, ``<replicate>``, an element's ``class`` inside another ``childclass``,
 ``<attach>``, a joint ``pos`` in a default class); on such a file the loader gives Pinocchio
-:func:`resolved_mjcf` instead: MuJoCo's compiled model of the same tree, written with no
+`resolved_mjcf` instead: MuJoCo's compiled model of the same tree, written with no
 defaults, frames or orientation conventions left to interpret, every number in full
 precision. What Pinocchio's model needs is written (bodies, joints, explicit inertials,
 sites); geoms are not (Pinocchio's kinematic and dynamic model does not read them once every

@@ -295,7 +295,7 @@ def follow_couplings(
     ``x = q2 - ref2`` (``x = 0`` without a second joint); a URDF mimic is ``c0 = offset``,
     ``c1 = multiplier``. Each held follower (joint1) whose leader is held too is set from its
     leader, in ``qpos`` (in place), a follower of a follower after its leader. Couplings that
-    reach an arm joint are left to :func:`reduce_mujoco` (refused there).
+    reach an arm joint are left to `reduce_mujoco` (refused there).
 
     Args:
         model: MuJoCo's compiled model of the whole robot.

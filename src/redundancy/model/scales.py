@@ -66,7 +66,7 @@ def arm_scales(arm: Arm) -> Scales:
 
     Over the bodies the arm moves (an arm inside a robot: not the held rest of it): their
     offsets and the tool's make the length (the engine's
-    :func:`~redundancy.engines.mujoco.model_length`); their masses make the mass. Zero falls back
+    `model_length`); their masses make the mass. Zero falls back
     to 1 (an absolute scale) rather than to nothing.
     """
     m = arm.mj_model

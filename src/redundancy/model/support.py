@@ -1,8 +1,8 @@
 """Refusal rules: what the two engines may not agree on, refused with the reason.
 
-:func:`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
+`check_supported` reads MuJoCo's compiled model and, given the parsed MJCF, its text
 for values no engine should be given and names Pinocchio cannot tell apart;
-:func:`check_robot_values` the whole robot's joints for values Pinocchio's parser fails on.
+`check_robot_values` the whole robot's joints for values Pinocchio's parser fails on.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def check_supported(
         xml_root: The parsed MJCF, for features MuJoCo compiles away (``<frame>``).
         strict: The load's mode, checked to be a bool. What Pinocchio's parser reads
             differently is not refused in either mode: the loader gives Pinocchio MuJoCo's
-            compiled model in strict mode (:mod:`redundancy.model.resolved`) and reports
+            compiled model in strict mode (`redundancy.model.resolved`) and reports
             the differences otherwise; what Pinocchio cannot represent at all, and invalid
             values (non-finite numbers, negative armature or damping, inverted ranges), are
             refused either way.
@@ -360,7 +360,7 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
     ``settotalmass``, ``boundmass`` and
     ``boundinertia`` change MuJoCo's masses beyond what Pinocchio applies. Each such body is
     returned with the causes found (possibly none: the body's inertia still comes from its
-    geoms), for :func:`redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
+    geoms), for `redundancy.model.bridges.bridge` to copy MuJoCo's compiled inertia
     where Pinocchio's differs.
 
     Args:

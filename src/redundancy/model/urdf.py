@@ -22,10 +22,10 @@ part, this module decides:
   mass. A link the arm moves left with no mass at all (with the links fixed to it; the
   ROS-Industrial arms give none) gets a placeholder inertia so that MuJoCo compiles it, and
   the arm serves kinematics only: every dynamic quantity refuses, naming the links
-  (:class:`~redundancy.errors.MissingInertiaError`). Off the arm, such a joint is held fixed.
+  (`MissingInertiaError`). Off the arm, such a joint is held fixed.
 * **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside
   when the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
-  (:mod:`redundancy.model.robot`); a mimic on a fixed joint is nothing.
+  (`redundancy.model.robot`); a mimic on a fixed joint is nothing.
 * **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
 * **armature**: URDF cannot express it; both engines read 0.
 * **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
@@ -349,7 +349,7 @@ def prepare_urdf(
       body without mass; it is held anyway) becomes fixed at 0, the URDF's reference. On the
       chain, its link gets a placeholder inertial (1 kg, 1e-3 kg m^2) and is returned as
       missing: the arm serves kinematics and refuses dynamics
-      (:class:`~redundancy.errors.MissingInertiaError`).
+      (`MissingInertiaError`).
     * A published inertia MuJoCo rejects: a point mass or a rod (moments 0 up to rounding)
       gets a tiny isotropic moment added; an invalid one (a moment below 0, A + B < C) is
       replaced by MuJoCo's ``balanceinertia`` rule (all three moments their mean, about the

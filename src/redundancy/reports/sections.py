@@ -240,7 +240,7 @@ class KeyframeRow:
         effort_upper: Most positive [N m or N].
         moves_held: Held joints the keyframe puts elsewhere than the arm holds them -> the
             keyframe's value [rad or m]; the row is computed there
-            (:meth:`~redundancy.Arm.at_keyframe`).
+            (`at_keyframe`).
     """
 
     name: str
@@ -263,7 +263,7 @@ def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeR
     """Singular values and holding torque at each keyframe (all by default).
 
     A keyframe that moves held joints is computed on the arm at it
-    (:meth:`~redundancy.Arm.at_keyframe`): the robot's real pose under the keyframe's name.
+    (`at_keyframe`): the robot's real pose under the keyframe's name.
     """
     rows = []
     loads = {id(arm): _Load(arm)}
