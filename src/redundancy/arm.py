@@ -298,12 +298,12 @@ class Arm:
                         "this Arm was not built by redundancy.load and cannot be loaded again "
                         f"at keyframe {name!r}"
                     )
-                fn, args = self._recipe
-                # The loader's last argument is rest=: a keyframe by name, or (unnamed) its
+                fn, (recipe,) = self._recipe
+                # The same files loaded with rest=: the keyframe by name, or (unnamed) its
                 # held values.
                 named = name in object_names(self.robot_model, mujoco.mjtObj.mjOBJ_KEY)
                 rest = name if named else self._key_held(name)
-                self._at_keys[name] = fn(*args[:-1], rest)
+                self._at_keys[name] = fn(recipe.with_rest(rest))
             return self._at_keys[name]
 
     def _key_held(self, name: str) -> dict[str, float | tuple[float, ...]]:

@@ -426,6 +426,12 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
     ]
     if any(p != i - 1 for i, p in enumerate(parents) if i):
         ctx.features.add("branching")
+    chain, k = [], n - 1  # the tool's body and its ancestors: the arm
+    while k >= 0:
+        chain.append(k)
+        k = parents[k]
+    if refuse != "no joints" and not any(jointed[k] for k in chain):
+        jointed[-1] = True  # a branch carried every joint: the tool's body gets one
     children: list[list[int]] = [[] for _ in range(n)]
     for i, p in enumerate(parents[1:], start=1):
         children[p].append(i)

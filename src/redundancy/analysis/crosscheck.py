@@ -11,6 +11,7 @@ are one computation, over stacks of poses taken in chunks so memory stays flat i
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
@@ -130,8 +131,14 @@ class CrossCheckReport(Report):
     agreements: tuple[Agreement, ...]
     bridges: tuple[Bridge, ...]
     n_poses: int
-    mass_condition: float = float("nan")
+    mass_condition: float = math.nan
     skipped: str = ""
+
+    def __post_init__(self) -> None:
+        # One NaN object for "not compared", so that equal reports compare equal (a NaN is
+        # equal only to itself, and a report merged from a worker's chunks has its own).
+        if math.isnan(self.mass_condition):
+            object.__setattr__(self, "mass_condition", math.nan)
 
     @property
     def checked(self) -> bool:

@@ -164,8 +164,18 @@ class Recipe:
     ) -> Recipe:
         """The recipe of a load that read ``files`` (path -> bytes)."""
         listed = tuple((p, _sha(b)) for p, b in files.items())
-        key = repr((loader, model, folder, options, shown, listed)).encode("utf-8", "surrogatepass")
-        return cls(loader, model, folder, options, shown, listed, tuple(files.values()), _sha(key))
+        made = cls(loader, model, folder, options, shown, listed, tuple(files.values()))
+        return dataclasses.replace(made, digest=made._identity())
+
+    def _identity(self) -> str:
+        """SHA-256 of everything but the files' bytes (see ``digest``)."""
+        fields = (self.loader, self.model, self.folder, self.options, self.shown, self.files)
+        return _sha(repr(fields).encode("utf-8", "surrogatepass"))
+
+    def with_rest(self, rest: Any) -> Recipe:
+        """This recipe with another ``rest=`` (the same files): the robot held elsewhere."""
+        other = dataclasses.replace(self, options=(*self.options[:-1], rest))
+        return dataclasses.replace(other, digest=other._identity())
 
     def lean(self) -> Recipe:
         """This recipe without the files' bytes (a worker reads them at their paths)."""
