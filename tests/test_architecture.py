@@ -182,7 +182,7 @@ def test_the_scanner_sees_calls(tmp_path: Path) -> None:
 LAYERS = [
     {"errors", "checks", "caching", "display"},
     {"engines"},
-    {"linalg", "inertia", "ik"},
+    {"linalg", "inertia", "ik", "quantities"},
     {"arm"},
     {"model", "models"},
     {"collision"},

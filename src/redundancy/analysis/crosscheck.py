@@ -22,57 +22,29 @@ from numpy.typing import ArrayLike, NDArray
 from ..arm import Arm, check_arm
 from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
 from ..display import Report, Table, plural, table
-from ..engines.contract import Engine, Stacks, remove_armature
+from ..engines.contract import Engine, Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ParameterError
-from ..linalg import _mobility, manipulability_gradient
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
+from ..quantities import QUANTITIES, QUANTITY, Evaluation
+from ..quantities import crosscheck_velocities as crosscheck_velocities  # its old home
 from .batch import map_chunks
 
 Array = NDArray[np.float64]
 
-#:  Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
-#: [`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]): relative, so an arm of any
-#: size is held to the same 1e-9. Both engines evaluate the same closed-form rigid-body algorithms
-#: in double precision; differences are rounding.
-TOLERANCES: dict[str, float] = {
-    "site position": 1e-9,
-    "site rotation": 1e-9,
-    "jacobian": 1e-9,
-    "jacobian derivative": 1e-9,
-    "mass matrix": 1e-9,
-    "mass matrix (bare)": 1e-9,
-    "gravity": 1e-9,
-    "manipulability gradient": 1e-8,
-    # J M^-1 J^T (the inverse of the operational-space inertia, defined at singular poses
-    # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse) and Yoshikawa's
-    # dynamic manipulability, the product of the singular values of M^-1 J^T (compared through
-    # those factors, see quantity_errors). M^-1 multiplies
-    # the engines' rounding of M by M's condition number: the bundled arms agree to 1e-13,
-    # but a generated arm with a 4 g tip body on a 1 kg chain (cond(M) ~ 1e7) differed by
-    # 1.3e-9, hence 1e-8.
-    "operational inertia^-1": 1e-8,
-    "dynamic manipulability": 1e-8,
-    # C(q, v) in the Christoffel form at a velocity drawn from the seed
-    # (`crosscheck_velocities`): MuJoCo's exact polarization of its bias against
-    # Pinocchio's computeCoriolisMatrix; differences are rounding.
-    "coriolis": 1e-9,
-}
+#: Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
+#: [`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]), from the registry
+#: ([`redundancy.quantities`][redundancy.quantities], where each is declared and explained).
+TOLERANCES: dict[str, float] = {q.name: q.tol for q in QUANTITIES}
 
 #: Quantities computed through M^-1: their tolerance holds for cond(M) up to
 #: `CALIBRATED_CONDITION` and grows with it beyond (`conditioned_tolerance`).
-M_INVERSE_QUANTITIES = ("operational inertia^-1", "dynamic manipulability")
+M_INVERSE_QUANTITIES = tuple(q.name for q in QUANTITIES if q.m_inverse)
 #: The conditioning at which the M^-1 tolerances were set (a generated arm, cond(M) ~ 1e7).
 CALIBRATED_CONDITION = 1e7
 #: Quantities that need the links' inertias; an arm without them is checked on the others.
-DYNAMIC_QUANTITIES = (
-    "mass matrix",
-    "mass matrix (bare)",
-    "gravity",
-    "coriolis",
-    *M_INVERSE_QUANTITIES,
-)
+DYNAMIC_QUANTITIES = tuple(q.name for q in QUANTITIES if q.dynamic)
 
 
 def conditioned_tolerance(name: str, tol: float, condition: float) -> float:
@@ -269,34 +241,11 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
     Returns:
         Errors, shape (n,); NaN or inf where a value is not finite.
     """
-    L = scales.length
-    if name in ("jacobian", "jacobian derivative"):
-        lin = scaled_errors(a[..., :3, :], b[..., :3, :], L)
-        ang = scaled_errors(a[..., 3:, :], b[..., 3:, :], 1.0)
-        return np.maximum(lin, ang)  # a NaN in either block stays NaN
-    if name == "operational inertia^-1":
-        # J M^-1 J^T per block: [1/kg] linear, [1/(kg m^2)] angular, [1/(kg m)] between.
-        m = scales.mass
-        blocks = (
-            (a[..., :3, :3], b[..., :3, :3], 1.0 / m),
-            (a[..., 3:, 3:], b[..., 3:, 3:], 1.0 / (m * L * L)),
-            (a[..., :3, 3:], b[..., :3, 3:], 1.0 / (m * L)),
-        )
-        return np.maximum.reduce([scaled_errors(x, y, size) for x, y, size in blocks])
-    size = {
-        "site position": L,
-        "site rotation": 1.0,
-        "mass matrix": scales.inertia,
-        "mass matrix (bare)": scales.inertia,
-        "gravity": scales.torque,
-        "manipulability gradient": L**3,
-        # [N m s/rad]: an inertia times the drawn velocities' size, 1 rad/s.
-        "coriolis": scales.inertia,
-        # Its factors, the singular values of M^-1 J^T, against the largest; a linear
-        # column of M^-1 J^T is [1/(kg m)].
-        "dynamic manipulability": 1.0 / (scales.mass * L),
-    }[name]
-    return scaled_errors(a, b, size)
+    blocks = QUANTITY[name].blocks(scales)
+    if len(blocks) == 1 and blocks[0][0] == ():
+        return scaled_errors(a, b, blocks[0][1])
+    # A NaN in any block stays NaN.
+    return np.maximum.reduce([scaled_errors(a[(..., *i)], b[(..., *i)], s) for i, s in blocks])
 
 
 def worst(err: Array) -> tuple[float, int]:
@@ -332,93 +281,18 @@ def merge_worst(old: tuple[float, int], new: tuple[float, int], offset: int) -> 
 
 #: Quantities computed by the engines' stacked evaluation (one kinematics pass per pose);
 #: the others (second-order kinematics) are computed pose by pose.
-BATCH_QUANTITIES: tuple[str, ...] = (
-    "site position",
-    "site rotation",
-    "jacobian",
-    "mass matrix",
-    "mass matrix (bare)",
-    "gravity",
-)
+BATCH_QUANTITIES: tuple[str, ...] = tuple(q.name for q in QUANTITIES if q.batched)
 
 #: Poses per chunk: the stacks of one chunk take about 4 KB per pose for a 7-dof arm.
 CHUNK = 2048
 
 
-def crosscheck_velocities(Q: Array, seed: int) -> Array:
-    """The joint velocities the cross-check pairs with poses ``Q`` (n, nq), each in -1..1 rad/s.
-
-    Drawn from ``seed`` as a function of each pose, v = sin(q A + b) with A and b drawn
-    from the seed: the same pose gets the same velocity in any chunk, thread or worker, so
-    a report does not depend on how the poses were split. Elementwise (no matrix product,
-    whose rounding may depend on the stack's size).
-    """
-    rng = np.random.default_rng(seed)
-    nq = Q.shape[1]
-    A, b = rng.standard_normal((nq, nq)), rng.uniform(-np.pi, np.pi, nq)
-    phase = np.broadcast_to(b, Q.shape).copy()
-    for k in range(nq):
-        phase += Q[:, k : k + 1] * A[k]
-    return np.sin(phase)
-
-
 def _evaluate(
     engine: Engine, Q: Array, names: tuple[str, ...], threads: int, seed: int = 0
 ) -> dict[str, Array]:
-    """Every requested quantity over the stack ``Q`` from one engine."""
-    n, nv = len(Q), engine.nv
-    want = set(names)
-    need_m = bool(want & {"mass matrix", "mass matrix (bare)"})
-    out: dict[str, Array] = {}
-    stacks = Stacks(
-        X=np.empty((n, 3)) if "site position" in want else None,
-        R=np.empty((n, 3, 3)) if "site rotation" in want else None,
-        J=np.empty((n, 6, nv)) if "jacobian" in want else None,
-        M=np.empty((n, nv, nv)) if need_m else None,
-        G=np.empty((n, nv)) if "gravity" in want else None,
-    )
-    engine.evaluate(Q, stacks, threads)
-    for name, value in (
-        ("site position", stacks.X),
-        ("site rotation", stacks.R),
-        ("jacobian", stacks.J),
-        ("mass matrix", stacks.M),
-        ("gravity", stacks.G),
-    ):
-        if value is not None:
-            out[name] = value
-    if "mass matrix (bare)" in want:
-        bare = stacks.M.copy()  # type: ignore[union-attr]
-        remove_armature(bare, engine.armature)
-        out["mass matrix (bare)"] = bare
-    # The tool's mobility: one stacked J and M^-1 J^T serve both quantities.
-    if want & {"operational inertia^-1", "dynamic manipulability"}:
-        J, X = engine.tool_mobilities(Q, True, None, threads)
-        if "operational inertia^-1" in want:
-            out["operational inertia^-1"] = _mobility(J, X)
-        if "dynamic manipulability" in want:
-            # Compared through its factors, the singular values of M^-1 J^T, each against the
-            # largest: the product itself near a singular pose is the tiny factor times
-            # others, and carries that factor's rounding (eps sigma_max) as a relative error.
-            out["dynamic manipulability"] = np.linalg.svd(X, compute_uv=False)
-    if "coriolis" in want:
-        out["coriolis"] = np.empty((n, nv, nv))
-        engine.coriolis_stack(Q, crosscheck_velocities(Q, seed), out["coriolis"], threads)
-    # Second-order kinematics, pose by pose: dJ/dq once per pose serves both quantities.
-    if "jacobian derivative" in want:
-        out["jacobian derivative"] = np.empty((n, nv, 6, nv))
-    if "manipulability gradient" in want:
-        out["manipulability gradient"] = np.empty((n, nv))
-    if want & {"jacobian derivative", "manipulability gradient"}:
-        for i, q in enumerate(Q):
-            dJ = engine.jacobian_derivatives(q)
-            if "jacobian derivative" in want:
-                out["jacobian derivative"][i] = dJ
-            if "manipulability gradient" in want:
-                out["manipulability gradient"][i] = manipulability_gradient(
-                    engine.site_jacobian(q), dJ
-                )
-    return out
+    """Every requested quantity over the stack ``Q`` from one engine (the registry's stacks)."""
+    work = Evaluation(engine, Q, names, threads, seed)
+    return {name: QUANTITY[name].stack(work) for name in names}
 
 
 def _both_engines(
