@@ -26,7 +26,7 @@ from .checks import (
     check_tool_pose,
     describe,
 )
-from .engines import ENGINES, EngineName
+from .engines import ENGINES, REFERENCE, EngineName
 from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
 from .engines.pinocchio import PinocchioEngine
@@ -91,8 +91,8 @@ class Arm:
     rebuilt, both engines, when loaded).
 
     Attributes:
-        mujoco: The MuJoCo engine.
-        pinocchio: The Pinocchio engine (with the bridged values).
+        engines: The engines by name, the reference first; ``mujoco`` and ``pinocchio``
+            name each.
         site: Name of the tool site.
         joint_names: Joint names, in order.
         joint_types: ``"hinge"`` or ``"slide"`` per joint.
@@ -154,14 +154,15 @@ class Arm:
         self.nq: int = mj_model.nq
         self.effort_limit: Array = np.asarray(effort_limit, dtype=float)
         self.bridges: tuple[Any, ...] = tuple(bridges)
-        self.mujoco: MujocoEngine = MujocoEngine(mj_model, site, armature, damping)
-        self.pinocchio: PinocchioEngine = PinocchioEngine(
-            pin_model, site, self.joint_names, frame_type
-        )
+        #: The engines by name, the reference first (`redundancy.engines.REFERENCE`): the
+        #: cross-check compares it with each other one, IK confirms in every other one.
+        self.engines: dict[str, Engine] = {
+            "mujoco": MujocoEngine(mj_model, site, armature, damping),
+            "pinocchio": PinocchioEngine(pin_model, site, self.joint_names, frame_type),
+        }
         limits: tuple[Array, Array] = self.mujoco.limits
         self.lower: Array = limits[0]
         self.upper: Array = limits[1]
-        self._engines: dict[str, Engine] = {"mujoco": self.mujoco, "pinocchio": self.pinocchio}
         self.length: float = self.mujoco.length
         self._floor = linalg.motion_floor(self.length)
         self._slides: Array = np.array([t == "slide" for t in self.joint_types])
@@ -171,7 +172,7 @@ class Arm:
         self.set_aside: tuple[Any, ...] = tuple(set_aside)
         self.defects: tuple[str, ...] = tuple(defects)
         self.missing_inertia: tuple[str, ...] = tuple(missing_inertia)
-        for engine in (self.mujoco, self.pinocchio):
+        for engine in self.engines.values():
             engine.missing_inertia = self.missing_inertia  # their dynamic quantities refuse
         self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
         self.frame_type: str = frame_type
@@ -204,6 +205,25 @@ class Arm:
     def frame(self) -> str:
         """Name of the tool frame (``site`` is its older name)."""
         return self.site
+
+    @property
+    def mujoco(self) -> MujocoEngine:
+        """The MuJoCo engine (``engines["mujoco"]``)."""
+        return self.engines["mujoco"]  # type: ignore[return-value]
+
+    @property
+    def pinocchio(self) -> PinocchioEngine:
+        """The Pinocchio engine, with the bridged values (``engines["pinocchio"]``)."""
+        return self.engines["pinocchio"]  # type: ignore[return-value]
+
+    @property
+    def reference(self) -> Engine:
+        """The engine the others are checked against (`redundancy.engines.REFERENCE`)."""
+        return self.engines[REFERENCE]
+
+    def others(self, name: str) -> tuple[Engine, ...]:
+        """Every engine but ``name``, in order (those that confirm ``name``'s answers)."""
+        return tuple(e for n, e in self.engines.items() if n != name)
 
     @property
     def mj_model(self) -> mujoco.MjModel:
@@ -319,7 +339,7 @@ class Arm:
     def engine(self, name: EngineName) -> Engine:
         """One engine, by name (``"mujoco"`` or ``"pinocchio"``)."""
         try:
-            return self._engines[name]
+            return self.engines[name]
         except (KeyError, TypeError):
             raise UnknownNameError("engine", str(name), ENGINES) from None
 
@@ -356,7 +376,7 @@ class Arm:
     def jacobian(self, q: ArrayLike, engine: EngineName = "mujoco") -> Array:
         """Site Jacobian, shape (6, nq): linear rows [m/rad] then angular [rad/rad], world axes."""
         try:  # the engine table read inline: arm.jacobian is a controller's inner loop
-            eng = self._engines[engine]
+            eng = self.engines[engine]
         except (KeyError, TypeError):
             raise UnknownNameError("engine", str(engine), ENGINES) from None
         return eng.site_jacobian(q)
@@ -630,7 +650,7 @@ class Arm:
         """Joint values that put the tool at ``target``, inside the joint ranges.
 
         Damped Levenberg-Marquardt with the joints clamped to their ranges and random restarts
-        inside them; the answer is recomputed by the other engine, whose errors decide ``success``
+        inside them; the answer is recomputed by every other engine, whose errors decide ``success``
         (see [`redundancy.ik`][redundancy.ik]).
 
         Args:
@@ -645,7 +665,7 @@ class Arm:
             orientation_tol: Orientation tolerance [rad], > 0.
             restarts: Random restarts at most, >= 0.
             seed: Seed of the restarts' random starts (None: fresh entropy).
-            engine: The engine that iterates; the other checks.
+            engine: The engine that iterates; every other one checks.
 
         Returns:
             The [`IKResult`][redundancy.IKResult]: ``q`` (inside the ranges in every case),
@@ -657,7 +677,6 @@ class Arm:
         """
         p_t, R_t = check_tool_pose("target", target)
         eng = self.engine(engine)
-        other = self.engine("pinocchio" if engine == "mujoco" else "mujoco")
         settings = _ik_settings(position_tol, orientation_tol, restarts)
         if seed is not None:
             seed = check_count("seed", seed, 0)
@@ -668,7 +687,7 @@ class Arm:
         start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
         return ik.solve(
             eng,
-            other,
+            self.others(engine),
             self.lower,
             self.upper,
             lo,

@@ -12,10 +12,10 @@ The solver ([`solve`][redundancy.ik.solve], behind `Arm.solve_ik`):
   and a 0.3 mm arm, a 1 m arm and a 100 m arm take the same steps towards the same
   (scaled) targets.
 * **Random restarts** inside the ranges when an attempt stalls, up to a budget.
-* **The answer checked in the other engine**: the iterations use one engine's kinematics
-  (MuJoCo's by default, the fastest); when they meet the tolerances, the other engine
-  recomputes the tool pose, and only its errors decide ``success`` and are reported. A
-  success is a success in both.
+* **The answer checked in every other engine**: the iterations use one engine's kinematics
+  (MuJoCo's by default, the fastest); when they meet the tolerances, every other engine
+  recomputes the tool pose, and only their (worst) errors decide ``success`` and are
+  reported. A success is a success in every engine.
 * **Objectives in the null space**, after the task has converged: steps -N grad(f) with
   N = I - J^+ J, each followed by a few Levenberg-Marquardt corrections that remove the
   second-order drift, kept only when f decreases and the task still holds; the objective
@@ -64,7 +64,8 @@ class IKResult:
         restarts: Random restarts taken (0: the first start converged).
         objective: The objective's value at ``q`` (None without an objective).
         engine: The engine whose kinematics the iterations used.
-        checked_by: The engine that recomputed the answer and decided ``success``.
+        checked_by: The engines that recomputed the answer and decided ``success``, by
+            name, comma-separated.
 
     ``success`` and the errors are those of this ``q``, the array returned (a copy of the
     solver's own: changing it changes nothing else).
@@ -358,7 +359,7 @@ class _Solver:
 
 def solve(
     engine: Engine,
-    check: Engine,
+    checks: tuple[Engine, ...],
     lower: Array,
     upper: Array,
     sample_lower: Array,
@@ -377,7 +378,8 @@ def solve(
 
     Args:
         engine: The engine whose kinematics the iterations use.
-        check: The engine that recomputes the answer and decides success.
+        checks: The engines that recompute the answer; the worst of their errors decides
+            success.
         lower: Lower joint limits (``-inf`` where unlimited) [rad or m].
         upper: Upper joint limits (``inf`` where unlimited) [rad or m].
         sample_lower: Lower bounds of the random restarts [rad or m].
@@ -403,15 +405,15 @@ def solve(
     while True:
         q, ok, E = solver.descend(q, s.iterations)
         if ok:
-            errors = _checked_errors(solver, check, q)
+            errors = _checked_errors(solver, checks, q)
             if errors[2]:
                 if objective is not None:
                     better = solver.pursue(q, objective)
                     if better is not q:
-                        better_errors = _checked_errors(solver, check, better)
+                        better_errors = _checked_errors(solver, checks, better)
                         if better_errors[2]:
                             q, errors = better, better_errors
-                return _result(solver, check, q, errors, restarts, objective, engine)
+                return _result(solver, checks, q, errors, restarts, objective, engine)
         if best is None or E < best[0] or not math.isfinite(best[0]):
             best = (E, q)
         if restarts >= s.restarts:
@@ -421,13 +423,17 @@ def solve(
             generator = rng()
         q = generator.uniform(sample_lower, sample_upper)
     q = best[1]
-    return _result(solver, check, q, _checked_errors(solver, check, q), restarts, objective, engine)
+    return _result(
+        solver, checks, q, _checked_errors(solver, checks, q), restarts, objective, engine
+    )
 
 
-def _checked_errors(solver: _Solver, check: Engine, q: Array) -> tuple[float, float, bool]:
-    """Position and orientation errors by the checking engine, and whether they pass."""
-    p, R = check.site_pose(q)
-    npos, nrot = tool_errors(solver.p_t, solver.R_t, p, R)
+def _checked_errors(
+    solver: _Solver, checks: tuple[Engine, ...], q: Array
+) -> tuple[float, float, bool]:
+    """Position and orientation errors, the worst over the checkers (NaN wins); both pass?"""
+    found = [tool_errors(solver.p_t, solver.R_t, *check.site_pose(q)) for check in checks]
+    npos, nrot = (float(x) for x in np.max(found, axis=0))
     s = solver.s
     ok = npos <= s.position_tol and (solver.position_only or nrot <= s.orientation_tol)
     return npos, nrot, ok
@@ -435,7 +441,7 @@ def _checked_errors(solver: _Solver, check: Engine, q: Array) -> tuple[float, fl
 
 def _result(
     solver: _Solver,
-    check: Engine,
+    checks: tuple[Engine, ...],
     q: Array,
     errors: tuple[float, float, bool],
     restarts: int,
@@ -453,5 +459,5 @@ def _result(
         restarts=restarts,
         objective=value,
         engine=engine.name,
-        checked_by=check.name,
+        checked_by=", ".join(c.name for c in checks),
     )

@@ -295,32 +295,48 @@ def _evaluate(
     return {name: QUANTITY[name].stack(work) for name in names}
 
 
-def _both_engines(
+def _all_engines(
     arm: Arm, Q: Array, names: tuple[str, ...], threads: int, seed: int = 0
 ) -> dict[str, dict[str, Array]]:
-    """Both engines' stacks for ``Q``, keyed by engine name.
+    """Every engine's stacks for ``Q``, keyed by engine name.
 
-    With threads, MuJoCo (whose ``mj_*`` calls release the GIL) runs in one worker thread
-    beside Pinocchio in the caller's, and Pinocchio's gravity gets the ``threads - 1``
-    threads left: never more threads busy than ``threads``.
+    With threads, the reference engine (MuJoCo, whose ``mj_*`` calls release the GIL) runs
+    in one worker thread beside the others in the caller's, which get the ``threads - 1``
+    threads left (Pinocchio's gravity): never more threads busy than ``threads``.
     """
     out: dict[str, dict[str, Array]] = {}
 
     def fill(engine: Engine, k: int) -> None:
         out[engine.name] = _evaluate(engine, Q, names, k, seed)
 
-    # Pinocchio gets no more OpenMP threads than MuJoCo leaves free: rneaInParallel's
-    # workers busy-wait ~5 ms after each call (libgomp's default), once per chunk, on the
-    # CPU that MuJoCo's thread and the next chunk's Pinocchio loops need. With gravity on
-    # all ``threads`` beside MuJoCo, 2 threads took 118 ms against 72 ms for 1 (arm7,
-    # 10 000 poses). Below MIN_POSES_PER_THREAD poses no thread pays, OpenMP's included.
+    def others(k: int) -> None:
+        for engine in arm.others(arm.reference.name):
+            fill(engine, k)
+
+    # The others get no more OpenMP threads than the reference leaves free: Pinocchio's
+    # rneaInParallel workers busy-wait ~5 ms after each call (libgomp's default), once per
+    # chunk, on the CPU that MuJoCo's thread and the next chunk's Pinocchio loops need. With
+    # gravity on all ``threads`` beside MuJoCo, 2 threads took 118 ms against 72 ms for 1
+    # (arm7, 10 000 poses). Below MIN_POSES_PER_THREAD poses no thread pays, OpenMP's included.
     if threads > 1 and len(Q) >= MIN_POSES_PER_THREAD:
-        # MuJoCo runs on one thread: run_split in a worker runs its spans one after another.
-        run_beside(lambda: fill(arm.pinocchio, threads - 1), lambda: fill(arm.mujoco, 1))
+        # The reference runs on one thread: run_split in a worker runs its spans one after another.
+        run_beside(lambda: others(threads - 1), lambda: fill(arm.reference, 1))
     else:
-        fill(arm.pinocchio, 1)
-        fill(arm.mujoco, 1)
+        others(1)
+        fill(arm.reference, 1)
     return out
+
+
+def _agreement_errors(
+    arm: Arm, name: str, out: dict[str, dict[str, Array]], scales: Scales
+) -> Array:
+    """Per pose, the largest error of any engine against the reference on ``name``."""
+    ref = out[arm.reference.name][name]
+    errors = [
+        quantity_errors(name, ref, out[e.name][name], scales)
+        for e in arm.others(arm.reference.name)
+    ]
+    return errors[0] if len(errors) == 1 else np.maximum.reduce(errors)  # a NaN stays NaN
 
 
 def crosscheck_batch(
@@ -396,12 +412,13 @@ def crosscheck_batch(
         scales = arm_scales(arm)
         for lo in range(0, len(Q), chunk):
             part = Q[lo : lo + chunk]
-            out = _both_engines(arm, part, names, threads, seed)
+            out = _all_engines(arm, part, names, threads, seed)
             for name in names:
-                errors = quantity_errors(name, out["mujoco"][name], out["pinocchio"][name], scales)
+                errors = _agreement_errors(arm, name, out, scales)
                 found[name] = merge_worst(found[name], worst(errors), lo)
             if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
-                M = out["mujoco"].get("mass matrix")  # MuJoCo's M with armature, when compared
+                # The reference's M with armature, when compared.
+                M = out[arm.reference.name].get("mass matrix")
                 condition = np.fmax(condition, mass_condition(arm, part, M))
     agreements = tuple(
         Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
@@ -411,14 +428,14 @@ def crosscheck_batch(
 
 
 def mass_condition(arm: Arm, Q: Array, M: Array | None = None) -> float:
-    """Largest condition number of MuJoCo's mass matrix (armature in) over the poses ``Q``.
+    """Largest condition number of the reference's mass matrix (armature in) over ``Q``.
 
     ``M``: those mass matrices when already computed, shape (n, nq, nq).
     """
     if M is None:
         n, nv = len(Q), arm.nq
         stacks = Stacks(M=np.empty((n, nv, nv)))
-        arm.mujoco.evaluate(Q, stacks)
+        arm.reference.evaluate(Q, stacks)
         M = stacks.M
     return float(np.max(np.linalg.cond(M)))
 

@@ -13,3 +13,5 @@ from typing import Literal
 
 EngineName = Literal["mujoco", "pinocchio"]
 ENGINES: tuple[EngineName, ...] = ("mujoco", "pinocchio")
+#: The engine every other one is checked against (the cross-check's first column).
+REFERENCE: EngineName = ENGINES[0]
