@@ -243,3 +243,37 @@ def test_import_graph_runs_one_way() -> None:
 def test_each_package_says_what_it_owns(package: str) -> None:
     doc = ast.get_docstring(ast.parse((SRC / package / "__init__.py").read_text()))
     assert doc and len(doc) > 40
+
+
+#: The functions that may write an engine's per-thread pose key: the one loader of each
+#: engine and the hand-over of the data to code that writes its own states.
+KEY_WRITERS = {
+    "engines/mujoco.py": {"__init__", "load", "forget", "stop"},
+    "engines/pinocchio.py": {"__init__", "_load", "forget"},
+}
+
+
+def _key_writes(path: Path) -> set[str]:
+    """Names of the functions that assign an attribute called ``key``."""
+    tree = ast.parse(path.read_text(), str(path))
+    found = set()
+    for fn in ast.walk(tree):
+        if isinstance(fn, ast.FunctionDef):
+            for node in ast.walk(fn):
+                targets = (
+                    node.targets
+                    if isinstance(node, ast.Assign)
+                    else [node.target]
+                    if isinstance(node, ast.AnnAssign | ast.AugAssign)
+                    else []
+                )
+                for t in targets:
+                    for el in t.elts if isinstance(t, ast.Tuple) else [t]:
+                        if isinstance(el, ast.Attribute) and el.attr == "key":
+                            found.add(fn.name)
+    return found
+
+
+def test_one_writer_of_each_engines_pose_key() -> None:
+    writers = {_rel(p): _key_writes(p) for p in sorted((SRC / "engines").glob("*.py"))}
+    assert {k: v for k, v in writers.items() if v} == KEY_WRITERS

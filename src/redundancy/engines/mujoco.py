@@ -139,12 +139,44 @@ class _Work:
         # qvel (and so cvel) may be nonzero: jacobian_derivatives was interrupted mid-loop.
         self.moving: bool = False
 
+    # The three methods below are the only writers of ``key``: `load` brings the data to a
+    # pose, `forget` hands it to code that writes its own states, `stop` returns from a
+    # velocity to the pose loaded.
+    def load(self, model: mujoco.MjModel, q: Array, key: list[float] | None) -> None:
+        """Bring the data to pose ``q`` (kinematics and com-based quantities, at rest).
 
-def _stop(model: mujoco.MjModel, w: _Work) -> None:
-    """Zero the velocity and the quantities derived from it (cvel, cdof_dot: mj_rne reads them)."""
-    w.qvel[:] = 0.0
-    mujoco.mj_comVel(model, w.data)
-    w.moving = False
+        ``key`` is the pose's cache key (`redundancy.checks.pose_key`), or None for a loop
+        that loads poses the queries must not read. The key is cleared before the data changes
+        and set only once every call has returned: an exception in between (a
+        KeyboardInterrupt caught by the user) leaves no key that would let the next query
+        read half-updated data.
+        """
+        self.key = None
+        self.have_M = self.have_J = False
+        self.qpos[:] = q
+        # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
+        # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read. qvel stays 0.
+        _kinematics(model, self.data)
+        _com_pos(model, self.data)
+        if self.moving:
+            self.stop(model)
+        self.key = key
+
+    def forget(self) -> None:
+        """No pose is held from here: the data is about to hold other states."""
+        self.key = None
+        self.have_M = self.have_J = False
+
+    def stop(self, model: mujoco.MjModel, key: list[float] | None = None) -> None:
+        """Zero the velocity and what derives from it (cvel, cdof_dot: mj_rne reads them).
+
+        ``key``: the pose whose kinematics the data still holds (a velocity changes none of
+        them), held again once the velocity is zero.
+        """
+        self.qvel[:] = 0.0
+        mujoco.mj_comVel(model, self.data)
+        self.moving = False
+        self.key = key
 
 
 class MujocoEngine:
@@ -207,8 +239,9 @@ class MujocoEngine:
     def update(self, q: ArrayLike) -> _Work:
         """Validate pose ``q`` and bring this thread's data to it; return the data.
 
-        Every single-pose query enters here (`site_jacobian` has its own copy of the fast path). The
-        kinematics run once per pose: a query at the pose already held reads them.
+        Every single-pose query enters here (`site_jacobian` writes out the check and the
+        thread lookup, then loads through the same `_Work.load`). The kinematics run once
+        per pose: a query at the pose already held reads them.
 
         Raises:
             PoseError: ``q`` is not a real (nv,) vector of finite values (see
@@ -217,23 +250,8 @@ class MujocoEngine:
         q, key = pose_key(q, self.joint_names)
         w = self._work()
         if key != w.key:
-            self._load(w, q, key)
+            w.load(self.model, q, key)
         return w
-
-    def _load(self, w: _Work, q: Array, key: list[float]) -> None:
-        # The key is cleared before the data changes and set only once every call has
-        # returned: an exception in between (a KeyboardInterrupt caught by the user) leaves
-        # no key that would let the next query read half-updated data.
-        w.key = None
-        w.have_M = w.have_J = False
-        w.qpos[:] = q
-        # mj_kinematics gives body, geom and site poses; mj_comPos adds the com-based
-        # quantities (cdof, cinert) that Jacobians, mj_crb and mj_rne read. qvel stays 0.
-        _kinematics(self.model, w.data)
-        _com_pos(self.model, w.data)
-        if w.moving:
-            _stop(self.model, w)
-        w.key = key
 
     # -- one pose ---------------------------------------------------------------------------
     def site_pose(self, q: ArrayLike) -> tuple[Array, Array]:
@@ -266,14 +284,7 @@ class MujocoEngine:
         if not plain:
             q, key = pose_key(q, self.joint_names)  # converts, or refuses naming the cause
         if key != w.key:
-            w.key = None  # as in _load: no key while the data changes
-            w.have_M = w.have_J = False
-            w.qpos[:] = q
-            _kinematics(self.model, w.data)
-            _com_pos(self.model, w.data)
-            if w.moving:
-                _stop(self.model, w)
-            w.key = key
+            w.load(self.model, q, key)
         elif w.have_J:
             return w.jac.copy()
         _jac_site(self.model, w.data, w.jacp, w.jacr, self.site_id)
@@ -315,10 +326,12 @@ class MujocoEngine:
         d = w.data
         point = d.site_xpos[self.site_id].copy()
         out = np.zeros((self.nv, 6, self.nv))
-        w.have_J = False  # mj_jacDot writes into the Jacobian buffers below
         # Until the velocity is zero again the data is not the pose's: an interrupt in the
-        # loop leaves no key, and the next query zeroes the velocity (_load, _stop).
-        key, w.key, w.moving = w.key, None, True
+        # loop leaves no key, and the next query zeroes the velocity (_Work.load, stop).
+        # mj_jacDot writes into the Jacobian buffers below.
+        key = w.key
+        w.forget()
+        w.moving = True
         for k in range(self.nv):
             w.qvel[:] = 0.0
             w.qvel[k] = 1.0
@@ -327,8 +340,7 @@ class MujocoEngine:
             mujoco.mj_jacDot(m, d, w.jacp, w.jacr, point, self.site_body)
             out[k] = w.jac
         # Leave no velocity behind: mj_rne (gravity) reads cvel and cdof_dot.
-        _stop(m, w)
-        w.key = key
+        w.stop(m, key)
         return out
 
     def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
@@ -420,9 +432,9 @@ class MujocoEngine:
 
         def data() -> tuple[mujoco.MjData, Array]:
             w = self._work()
-            w.key = None  # this thread's data is about to hold other poses
+            w.forget()  # this thread's data is about to hold other poses
             if w.moving:  # an interrupted jacobian_derivatives left a velocity (mj_rne)
-                _stop(m, w)
+                w.stop(m)
             return w.data, w.qpos
 
         def one_stack(lo: int, hi: int) -> None:
@@ -553,7 +565,7 @@ class MujocoEngine:
 
         def span(lo: int, hi: int) -> None:
             w = self._work()
-            w.key = None  # this thread's data is about to hold other poses
+            w.forget()  # this thread's data is about to hold other poses
             d, qpos = w.data, w.qpos
             Md = d.M
             for q, Ji, Xi in zip(Q[lo:hi], J[lo:hi], X[lo:hi], strict=True):
@@ -590,11 +602,11 @@ class MujocoEngine:
         quat, local = np.empty(4), np.empty(3)
         e = np.empty(6)
         ep, er = e[:3], e[3:]
-        kin, com, jsite, sub = _kinematics, _com_pos, _jac_site, np.subtract
+        kin, com, jsite, sub, forget = _kinematics, _com_pos, _jac_site, np.subtract, w.forget
         to_quat, sub_quat, rotate = mujoco.mju_mat2Quat, mujoco.mju_subQuat, mujoco.mju_mulMatVec3
 
         def kernel(q: Array) -> tuple[Array, Array]:
-            w.key = None  # the data no longer holds the pose cached for the checked methods
+            forget()  # the data no longer holds the pose cached for the checked methods
             qpos[:] = q
             kin(m, d)
             com(m, d)  # cdof, which mj_jacSite reads
@@ -640,7 +652,8 @@ class MujocoEngine:
             C[:] = 0.0
             return
         u = v / s
-        w.key, w.moving = None, True  # until the velocity is zero again (see _stop)
+        w.forget()  # until the velocity is zero again (see _Work.stop)
+        w.moving = True
         vel, rne = mujoco.mj_comVel, mujoco.mj_rne
         for j in range(n):
             qvel[:] = u
@@ -669,8 +682,7 @@ class MujocoEngine:
         key = w.key
         self._coriolis_at(w, v, C, H[0], H[1])
         if w.moving:
-            _stop(self.model, w)
-            w.key = key  # mj_comVel and mj_rne leave the kinematics of the pose as they were
+            w.stop(self.model, key)  # mj_comVel and mj_rne leave the pose's kinematics as they were
         return C
 
     def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
@@ -684,7 +696,7 @@ class MujocoEngine:
 
         def span(lo: int, hi: int) -> None:
             w = self._work()
-            w.key = None  # this thread's data is about to hold other poses
+            w.forget()  # this thread's data is about to hold other poses
             d, qpos = w.data, w.qpos
             H = np.empty((2, n, n))
             for q, v, C in zip(Q[lo:hi], V[lo:hi], out[lo:hi], strict=True):
@@ -692,9 +704,8 @@ class MujocoEngine:
                 _kinematics(m, d)
                 _com_pos(m, d)
                 self._coriolis_at(w, v, C, H[0], H[1])
-                w.key = None
             if w.moving:
-                _stop(m, w)
+                w.stop(m)
 
         run_split(len(Q), threads, span)
 
@@ -753,8 +764,9 @@ class MujocoEngine:
         w = self._work()
         m, d, n = self.model, w.data, self.nv
         # The data holds a velocity from here on: no pose key (the next pose query reloads
-        # the kinematics and stops it, see _load).
-        w.key, w.have_M, w.have_J, w.moving = None, False, False, True
+        # the kinematics and stops it, see _Work.load).
+        w.forget()
+        w.moving = True
         w.qpos[:] = q
         w.qvel[:] = v
         _kinematics(m, d)

@@ -78,6 +78,13 @@ class _Work:
         self.key: list[float] | None = None  # pose of the kinematics, J and site frame held
         self.pools: dict[int, pin.ModelPool] = {}  # rneaInParallel's data, per thread count
 
+    def forget(self) -> None:
+        """No pose is held from here: the data is about to hold other states.
+
+        With `PinocchioEngine._load`, the only writer of ``key``.
+        """
+        self.key = None
+
 
 class PinocchioEngine:
     """Pinocchio model for one tool frame, evaluated at joint configurations.
@@ -161,18 +168,30 @@ class PinocchioEngine:
         q, key = pose_key(q, self.joint_names)
         w = self._work()
         if key != w.key:
-            # No key while the data changes, the key only once every call returned: an
-            # exception in between (a KeyboardInterrupt caught by the user) leaves nothing
-            # that would let the next query read half-updated data.
-            w.key = None
-            # computeFrameJacobian runs the forward kinematics (oMi) and returns the site's
-            # Jacobian; LOCAL_WORLD_ALIGNED is MuJoCo's convention: velocity of the site
-            # origin, along world axes. updateFramePlacement then places the site from oMi.
-            J = pin.computeFrameJacobian(self.model, w.data, self._pin_q(w, q), self.frame_id, _LWA)
-            # eigenpy returns a 6 x 1 matrix as a vector of shape (6,): keep it a matrix.
-            w.J[:] = np.reshape(J, (6, self.nv))
-            pin.updateFramePlacement(self.model, w.data, self.frame_id)
-            w.key = key
+            self._load(w, q, key)
+        return w
+
+    def _load(self, w: _Work, q: Array, key: list[float]) -> None:
+        """Bring this thread's data to pose ``q``: joints, site frame and site J (the one loader).
+
+        No key while the data changes, the key only once every call returned: an exception in
+        between (a KeyboardInterrupt caught by the user) leaves nothing that would let the
+        next query read half-updated data.
+        """
+        w.key = None
+        # computeFrameJacobian runs the forward kinematics (oMi) and returns the site's
+        # Jacobian; LOCAL_WORLD_ALIGNED is MuJoCo's convention: velocity of the site origin,
+        # along world axes. updateFramePlacement then places the site from oMi.
+        J = pin.computeFrameJacobian(self.model, w.data, self._pin_q(w, q), self.frame_id, _LWA)
+        # eigenpy returns a 6 x 1 matrix as a vector of shape (6,): keep it a matrix.
+        w.J[:] = np.reshape(J, (6, self.nv))
+        pin.updateFramePlacement(self.model, w.data, self.frame_id)
+        w.key = key
+
+    def _lend(self) -> _Work:
+        """This thread's data for a computation that writes its own states (no pose held after)."""
+        w = self._work()
+        w.forget()
         return w
 
     # -- one pose ---------------------------------------------------------------------------
@@ -190,8 +209,7 @@ class PinocchioEngine:
         """Joint-space mass matrix [kg m^2], with or without armature on the diagonal."""
         check_dynamics(self, "mass matrix")
         q = check_pose(q, self.joint_names)
-        w = self._work()
-        w.key = None  # crba overwrites the kinematics the key stands for
+        w = self._lend()  # crba overwrites the kinematics the key stands for
         # crba adds model.armature to the diagonal and fills the upper triangle only.
         M = np.array(pin.crba(self.model, w.data, self._pin_q(w, q)))
         _mirror_upper(M)
@@ -203,8 +221,7 @@ class PinocchioEngine:
         """Generalised gravity force [N m]: what the motors must apply to hold ``q`` still."""
         check_dynamics(self, "gravity")
         q = check_pose(q, self.joint_names)
-        w = self._work()
-        w.key = None  # the RNEA pass overwrites the kinematics the key stands for
+        w = self._lend()  # the RNEA pass overwrites the kinematics the key stands for
         return self._vec(pin.computeGeneralizedGravity(self.model, w.data, self._pin_q(w, q)))
 
     def jacobian_derivatives(self, q: ArrayLike) -> Array:
@@ -214,8 +231,7 @@ class PinocchioEngine:
         that dof's partial derivative: second-order kinematics, no finite differences.
         """
         q = check_pose(q, self.joint_names)
-        w = self._work()
-        w.key = None
+        w = self._lend()
         out = np.zeros((self.nv, 6, self.nv))
         qp = self._pin_q(w, q).copy()
         v = np.zeros(self.nv)
@@ -253,8 +269,7 @@ class PinocchioEngine:
     def joint_axes(self, q: ArrayLike) -> tuple[Array, Array]:
         """World joint axes (unit) and anchor points [m], shape (nv, 3) each."""
         q = check_pose(q, self.joint_names)
-        w = self._work()
-        w.key = None
+        w = self._lend()
         data = w.data
         # Every joint's Jacobian, not only the site's: computeJointJacobians stores them all.
         pin.computeJointJacobians(self.model, data, self._pin_q(w, q))
@@ -281,8 +296,7 @@ class PinocchioEngine:
             check_dynamics(self, "mass matrix" if out.M is not None else "gravity")
         model, fid, nv, n = self.model, self.frame_id, self.nv, len(Q)
         X, R, J, M, G = out.X, out.R, out.J, out.M, out.G
-        w = self._work()
-        w.key = None
+        w = self._lend()
         data = w.data
         Qp = self._order(Q)
         if X is not None or R is not None:
@@ -350,8 +364,7 @@ class PinocchioEngine:
         check_dynamics(self, "Coriolis matrix")
         q = check_pose(q, self.joint_names)
         v = check_joint_vector("velocity", v, self.joint_names)
-        w = self._work()
-        w.key = None  # its forward pass overwrites the kinematics the key stands for
+        w = self._lend()  # its forward pass overwrites the kinematics the key stands for
         C = pin.computeCoriolisMatrix(self.model, w.data, self._pin_q(w, q), self._pin_v(v))
         C = np.reshape(C, (self.nv, self.nv))  # eigenpy gives a 1 x 1 matrix as (1,)
         return C.copy() if self.identity else C[np.ix_(self.perm, self.perm)]
@@ -373,8 +386,7 @@ class PinocchioEngine:
 
     def _subtree_com(self, q: Array) -> tuple[Array, float, Array, float]:
         """Centre of mass and mass of the moving bodies (joints 1 and up), and the whole's."""
-        w = self._work()
-        w.key = None
+        w = self._lend()
         com = np.array(pin.centerOfMass(self.model, w.data, self._pin_q(w, q)))
         moving = float(w.data.mass[0])
         fixed = self._fixed_inertia()
@@ -395,8 +407,7 @@ class PinocchioEngine:
         """
         check_dynamics(self, "centre of mass")
         q = check_pose(q, self.joint_names)
-        w = self._work()
-        w.key = None
+        w = self._lend()
         J = pin.jacobianCenterOfMass(self.model, w.data, self._pin_q(w, q))
         J = np.reshape(J, (3, self.nv)) * (
             w.data.mass[0] / (w.data.mass[0] + self._fixed_inertia().mass)
@@ -412,8 +423,7 @@ class PinocchioEngine:
         """
         check_dynamics(self, "centroidal momentum")
         q = check_pose(q, self.joint_names)
-        w = self._work()
-        w.key = None
+        w = self._lend()
         A = np.array(
             np.reshape(
                 pin.computeCentroidalMap(self.model, w.data, self._pin_q(w, q)), (6, self.nv)
@@ -474,8 +484,7 @@ class PinocchioEngine:
         n, nv = len(Q), self.nv
         J = np.empty((n, 6, nv))
         if free is None and armature:
-            w = self._work()
-            w.key = None
+            w = self._lend()
             Minv = np.empty((n, nv, nv))
             cfj, minv = pin.computeFrameJacobian, pin.computeMinverse
             model, data, fid = self.model, w.data, self.frame_id
@@ -510,8 +519,10 @@ class PinocchioEngine:
         R_t = np.array(rotation, dtype=np.float64)
         e = np.empty(6)
 
+        forget = w.forget
+
         def kernel(q: Array) -> tuple[Array, Array]:
-            w.key = None
+            forget()  # the data no longer holds the pose cached for the checked methods
             J = np.reshape(cfj(model, data, self._pin_q(w, q), fid, _LWA), (6, nv))
             oMf = place(model, data, fid)
             e[:3] = p_t - oMf.translation
