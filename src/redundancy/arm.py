@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import ik, linalg
+from . import ik, kernels, linalg
 from .checks import (
     check_count,
     check_direction,
@@ -221,7 +221,7 @@ class Arm:
         """The engine the others are checked against (`redundancy.engines.REFERENCE`)."""
         return self.engines[REFERENCE]
 
-    def others(self, name: str) -> tuple[Engine, ...]:
+    def _others(self, name: str) -> tuple[Engine, ...]:
         """Every engine but ``name``, in order (those that confirm ``name``'s answers)."""
         return tuple(e for n, e in self.engines.items() if n != name)
 
@@ -531,7 +531,7 @@ class Arm:
             ParameterError: ``joints`` empty, repeated or not names.
         """
         J, X = self._mobility(q, armature, joints, engine)
-        return linalg._operational_inertia(J, X, atol=self._floor)
+        return kernels.operational_inertia(J, X, atol=self._floor)
 
     def effective_mass(
         self,
@@ -560,7 +560,7 @@ class Arm:
             ParameterError: ``direction`` zero, non-finite or not a 3-vector.
         """
         u = check_direction("direction", direction)
-        return linalg._effective_mass(
+        return kernels.effective_mass(
             *self._mobility(q, armature, joints, engine), u, atol=self._floor
         )
 
@@ -580,7 +580,7 @@ class Arm:
         `effective_mass`'s).
         """
         J, X = self._mobility(q, armature, joints, engine)
-        return linalg._effective_mass_range(J, X, atol=self._floor)
+        return kernels.effective_mass_range(J, X, atol=self._floor)
 
     def dynamic_manipulability(
         self,
@@ -595,7 +595,7 @@ class Arm:
         Arguments as [`operational_inertia`][redundancy.arm.Arm.operational_inertia]; zero where
         fewer than six joints are free or at a singular pose [mixed units].
         """
-        return float(linalg._dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
+        return float(kernels.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
 
     # -- inverse kinematics -----------------------------------------------------------------
     def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
@@ -687,7 +687,7 @@ class Arm:
         start = 0.5 * (lo + hi) if q0 is None else self.pose(q0)
         return ik.solve(
             eng,
-            self.others(engine),
+            self._others(engine),
             self.lower,
             self.upper,
             lo,

@@ -39,6 +39,7 @@ from .checks import describe
 from .engines.contract import Engine
 from .engines.mujoco import damped_stepper
 from .errors import ParameterError
+from .kernels import rotation_vector
 
 Array = NDArray[np.float64]
 
@@ -127,31 +128,7 @@ _UNIT = 0.5
 _CORRECTIONS = 8
 
 
-def rotation_error(Rt: Array, R: Array) -> tuple[float, float, float]:
-    """Rotation vector of Rt R^T (world axes) [rad]: the axis times the angle in [0, pi].
-
-    Written out in floats: the solver calls it every iteration, where NumPy's per-call cost
-    on 3 x 3 arrays would dominate.
-    """
-    e00, e01, e02, e10, e11, e12, e20, e21, e22 = Rt.dot(R.T).ravel().tolist()
-    x, y, z = e21 - e12, e02 - e20, e10 - e01  # 2 sin(theta) times the axis
-    s2 = math.sqrt(x * x + y * y + z * z)
-    c = 0.5 * (e00 + e11 + e22 - 1.0)
-    theta = math.atan2(0.5 * s2, c)
-    if s2 > 1e-6:
-        k = theta / s2
-        return k * x, k * y, k * z
-    if c > 0.0:  # theta ~ 0: theta / (2 sin theta) -> 1/2
-        return 0.5 * x, 0.5 * y, 0.5 * z
-    # theta ~ pi: the axis from the symmetric part, (S - c I) / (1 - c) = a a^T.
-    S = ((e00, e01, e02), (e10, e11, e12), (e20, e21, e22))
-    i = max(range(3), key=lambda j: S[j][j])
-    col = [0.5 * (S[j][i] + S[i][j]) - (c if i == j else 0.0) for j in range(3)]
-    n = math.sqrt(sum(v * v for v in col)) or 1.0
-    a = [v / n for v in col]
-    if a[0] * x + a[1] * y + a[2] * z < 0.0:
-        a = [-v for v in a]
-    return theta * a[0], theta * a[1], theta * a[2]
+rotation_error = rotation_vector  # its name in the solver's API
 
 
 def tool_errors(p_t: Array, R_t: Array, p: Array, R: Array) -> tuple[float, float]:

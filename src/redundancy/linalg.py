@@ -12,6 +12,7 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from . import kernels
 from .checks import (
     check_choice,
     check_direction,
@@ -22,18 +23,17 @@ from .checks import (
     one_line,
 )
 from .display import Report, Table, table
-from .errors import ParameterError, SingularPoseError
+from .errors import ParameterError
+from .kernels import RANK_RTOL as RANK_RTOL
+from .kernels import TOOL_DIRECTIONS as TOOL_DIRECTIONS
+from .kernels import EffectiveMassRange as EffectiveMassRange
 
 Array = NDArray[np.float64]
-
-#: Relative tolerance for the numerical rank: sigma_i counts when sigma_i > RANK_RTOL * sigma_max.
-RANK_RTOL = 1e-9
 
 #: Rounding noise of a position on an arm of length 1 m, as a multiple of the double's
 #: resolution: J's linear rows come from differences of positions up to the arm's length, so
 #: their noise is a few eps x L (arm7's, with the tool on the wrist axes: 1e-17 m/rad).
-_EPS = float(np.finfo(np.float64).eps)
-_MOTION_EPS = 1024 * _EPS
+_MOTION_EPS = 1024 * kernels.EPS
 
 
 def motion_floor(length: float) -> float:
@@ -48,17 +48,6 @@ def motion_floor(length: float) -> float:
         ParameterError: ``length`` not a finite number > 0 [m].
     """
     return _MOTION_EPS * check_number("length", length, 0.0, low_open=True, unit="m")
-
-
-#: Names of the six rows of a site Jacobian (linear, then angular, world axes).
-TOOL_DIRECTIONS = (
-    "translation x",
-    "translation y",
-    "translation z",
-    "rotation x",
-    "rotation y",
-    "rotation z",
-)
 
 
 @dataclass(frozen=True, repr=False)
@@ -109,13 +98,9 @@ class JacobianSVD(Report):
         Raises:
             ParameterError: ``atol`` not a finite number > 0.
         """
-        atol = check_number("atol", atol, 0.0, low_open=True)
-        lost = self.lost_directions
-        return [
-            TOOL_DIRECTIONS[i]
-            for i in range(lost.shape[0])
-            if abs(np.linalg.norm(lost[i]) - 1.0) < atol
-        ]
+        return kernels.axis_names(
+            self.lost_directions, check_number("atol", atol, 0.0, low_open=True)
+        )
 
     def summary(self) -> str:
         """Rank, manipulability and condition number on one line."""
@@ -202,8 +187,8 @@ class Manipulability(Report):
     def _get(self, kind: str) -> float:
         value = self._values.get(kind)
         if value is None:
-            value = self._values[kind] = _yoshikawa(
-                _manipulability_rows(self._J, kind, self.length)
+            value = self._values[kind] = kernels.yoshikawa(
+                kernels.manipulability_rows(self._J, kind, self.length)
             )
         return value
 
@@ -268,17 +253,6 @@ ManipulabilityKind = Literal["full", "position", "orientation", "scaled"]
 MANIPULABILITY_KINDS: tuple[ManipulabilityKind, ...] = ("full", "position", "orientation", "scaled")
 
 
-def _manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
-    """[`manipulability_rows`][redundancy.linalg.manipulability_rows] on checked input."""
-    if kind == "position":
-        return J[..., :3, :]
-    if kind == "orientation":
-        return J[..., 3:, :]
-    if kind == "scaled":
-        return np.concatenate([J[..., :3, :] / length, J[..., 3:, :]], axis=-2)
-    return J
-
-
 def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
     """The rows of J one manipulability measure is taken of, for one J (6, n) or a stack.
 
@@ -295,7 +269,7 @@ def manipulability_rows(J: Array, kind: str, length: float = 1.0) -> Array:
     J = _check_stackable("J", J, (6, None))
     kind = check_choice("manipulability kind", kind, MANIPULABILITY_KINDS)
     length = check_number("length", length, 0.0, low_open=True, unit="m")
-    return _manipulability_rows(J, kind, length)
+    return kernels.manipulability_rows(J, kind, length)
 
 
 def yoshikawa(J: Array) -> float:
@@ -307,12 +281,7 @@ def yoshikawa(J: Array) -> float:
     along). The gradient ([`manipulability_gradient`][redundancy.linalg.manipulability_gradient])
     and the batch stacks are of this same value.
     """
-    return _yoshikawa(check_matrix("J", J))
-
-
-def _yoshikawa(J: Array) -> float:
-    """`yoshikawa` of a checked J (a Manipulability's rows: checked when it was made)."""
-    return float(np.prod(np.linalg.svd(J, compute_uv=False)))
+    return kernels.yoshikawa(check_matrix("J", J))
 
 
 def manipulability(J: Array, length: float = 1.0) -> Manipulability:
@@ -457,177 +426,6 @@ def dynamic_nullspace_projector(J: Array, M: Array) -> Array:
 # ------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class EffectiveMassRange:
-    """The least and greatest effective mass at the tool over all directions, at one pose.
-
-    They are the reciprocals of the extreme eigenvalues of the 3 x 3 linear block of
-    Lambda^-1 = J M^-1 J^T, and the directions are its eigenvectors.
-
-    Attributes:
-        min: Least effective mass [kg].
-        max: Greatest effective mass [kg] (``inf`` where the tool cannot move along some
-            direction).
-        min_direction: Unit direction of the least, world axes.
-        max_direction: Unit direction of the greatest, world axes.
-    """
-
-    min: float
-    max: float
-    min_direction: Array
-    max_direction: Array
-
-
-def _mobility(J: Array, X: Array) -> Array:
-    """Lambda^-1 = J M^-1 J^T from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetrised.
-
-    Its linear block is [1/kg], its angular block [1/(kg m^2)].
-    """
-    A = J @ X
-    return 0.5 * (A + np.swapaxes(A, -1, -2))
-
-
-def _lost_names(J: Array, rtol: float, atol: float = 0.0) -> list[str]:
-    """The tool directions J cannot produce: axis names, or the unit 6-vectors written out.
-
-    Linear directions whose motion is at most ``atol`` [m/rad] count as lost.
-    """
-    if atol > 0 and J.shape[1]:
-        U, s, Vt = np.linalg.svd(J[:3], full_matrices=False)
-        J = J.copy()
-        J[:3] = (U * np.where(s > atol, s, 0.0)) @ Vt  # the noise directions set to zero
-    svd = jacobian_svd(J, rtol)  # U is 6 x 6 whatever the number of joints
-    names = svd.lost_direction_names()
-    if len(names) == svd.lost_directions.shape[1]:
-        return names
-    return [np.array2string(u, precision=3, suppress_small=True) for u in svd.lost_directions.T]
-
-
-def _operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
-    """Lambda = (J M^-1 J^T)^-1 from J (…, 6, k) and X = M^-1 J^T (…, k, 6), symmetric.
-
-    Not by inverting J M^-1 J^T, whose condition number is J's squared (near a singular pose
-    the inverse would be noise), but through J's SVD J = U S V^T: J M^-1 J^T = U S C S U^T
-    with C = V^T M^-1 V, as well conditioned as M, so Lambda = U S^-1 C^-1 S^-1 U^T loses
-    only J's condition number of accuracy. C is formed as V^T (X U S^-1) = V^T M^-1 V.
-
-    Raises:
-        SingularPoseError: J has rank below 6 (by `jacobian_svd`'s rule), or its
-            linear rows move the tool by at most ``atol`` [m/rad] along some direction
-            (`motion_floor`), at some pose: names the tool directions lost (and the
-            pose, for a stack).
-    """
-    U, s, Vt = np.linalg.svd(J, full_matrices=False)
-    bad = (s.shape[-1] < J.shape[-2]) | ~(s[..., 0] > 0) | (s[..., -1] <= rtol * s[..., 0])
-    if atol > 0 and not np.all(bad):
-        bad = bad | (np.linalg.svd(J[..., :3, :], compute_uv=False)[..., -1] <= atol)
-    if np.any(bad):
-        if J.ndim == 2:
-            raise SingularPoseError("operational inertia", _lost_names(J, rtol, atol))
-        i = int(np.flatnonzero(bad)[0])
-        lost = _lost_names(J[i], rtol, atol)
-        raise SingularPoseError("operational inertia", lost, f" (pose {i})")
-    inv_s = 1.0 / s
-    C = Vt @ ((X @ U) * inv_s[..., None, :])
-    C = 0.5 * (C + np.swapaxes(C, -1, -2))
-    W = U * inv_s[..., None, :]
-    L = W @ np.linalg.inv(C) @ np.swapaxes(W, -1, -2)
-    return 0.5 * (L + np.swapaxes(L, -1, -2))
-
-
-def _effective_mass(
-    J: Array, X: Array, u: Array, rtol: float = RANK_RTOL, atol: float = 0.0
-) -> float:
-    """Effective mass 1 / (u^T J_v M^-1 J_v^T u) [kg] along the unit direction ``u``.
-
-    Written as 1 / (g^T M^-1 g) with g = J_v^T u: a product of g with M^-1 g, which stays
-    accurate relative to |g|^2 near a singular pose (a product J M^-1 J^T formed first
-    carries an absolute rounding error of eps times its largest entry).
-
-    Args:
-        J: Site Jacobian (6, k) (linear rows first).
-        X: M^-1 J^T, shape (k, 6).
-        u: Unit direction, world axes (3,).
-        rtol: Below ``rtol`` times the Frobenius norm of J_v, |J_v^T u| counts as zero: the
-            tool cannot move along ``u`` and the mass is ``inf``.
-        atol: Likewise at or below this [m/rad] (`motion_floor`): a J_v made of
-            rounding noise, relative to which ``rtol`` would pass the noise.
-    """
-    # ndarray.dot: on arrays this small, @ costs several times more (numpy's matmul setup).
-    Jv = J[:3]
-    g = u.dot(Jv)
-    gg = g.dot(g)
-    if not (gg > rtol * rtol * np.vdot(Jv, Jv) and gg > atol * atol):
-        return float("inf")
-    a = g.dot(X[:, :3].dot(u))
-    return float(1.0 / a) if a > 0 else float("inf")
-
-
-def _effective_masses(
-    J: Array, X: Array, U: Array, rtol: float = RANK_RTOL, atol: float = 0.0
-) -> Array:
-    """`effective_mass` over stacks: J (n, 6, k), X (n, k, 6), U (n, 3) or (3,) -> (n,)."""
-    U = np.broadcast_to(U, (len(J), 3))
-    g = np.einsum("ni,nik->nk", U, J[:, :3])
-    a = np.einsum("nk,nki,ni->n", g, X[:, :, :3], U)
-    size = np.linalg.norm(g, axis=1)
-    moving = (size > rtol * np.linalg.norm(J[:, :3], axis=(1, 2))) & (size > atol) & (a > 0)
-    out = np.full(len(J), np.inf)
-    np.divide(1.0, a, out=out, where=moving)
-    return out
-
-
-def _extremes_stuck(J: Array, w: Array, rtol: float, atol: float) -> tuple[Array, Array]:
-    """Where the least and the greatest effective mass are ``inf``.
-
-    From J (…, 6, k) and the eigenvalues w (…, 3) of J_v M^-1 J_v^T, ascending.
-    The greatest is ``inf`` where the tool cannot move along some direction: fewer than three
-    joints free, J_v's least singular value below ``rtol`` of its largest or at most ``atol``
-    (`motion_floor`), or w's least at most 64 eps times its largest (inside eigh's
-    rounding). The least is ``inf`` where it cannot move at all: J_v's largest at most ``atol``.
-    """
-    s = np.linalg.svd(J[..., :3, :], compute_uv=False)
-    if s.shape[-1] < 3:  # two joints or fewer: a direction is lost, whatever J is
-        s = np.concatenate([s, np.zeros((*s.shape[:-1], 3 - s.shape[-1]))], axis=-1)
-    floor = np.maximum(rtol * s[..., 0], atol)
-    none = ~(s[..., 0] > atol) | ~(w[..., -1] > 0)
-    some = none | (s[..., -1] <= floor) | (w[..., 0] <= 64 * _EPS * w[..., -1])
-    return none, some
-
-
-def _effective_mass_range(
-    J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0
-) -> EffectiveMassRange:
-    """The extremes of the effective mass over directions at one pose (see the class)."""
-    w, V = np.linalg.eigh(_mobility(J[:3], X[:, :3]))
-    none, some = _extremes_stuck(J, w, rtol, atol)
-    low = float("inf") if none else float(1.0 / w[-1])
-    top = float("inf") if some else float(1.0 / w[0])
-    return EffectiveMassRange(low, top, V[:, -1].copy(), V[:, 0].copy())
-
-
-def _effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
-    """Least and greatest effective mass over a stack, shape (n, 2) [kg]."""
-    w = np.linalg.eigvalsh(_mobility(J[:, :3], X[:, :, :3]))
-    none, some = _extremes_stuck(J, w, rtol, atol)
-    out = np.full((len(J), 2), np.inf)
-    np.divide(1.0, w[:, -1], out=out[:, 0], where=~none)
-    np.divide(1.0, w[:, 0], out=out[:, 1], where=~some)
-    return out
-
-
-def _dynamic_manipulability(X: Array) -> Array | float:
-    """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) from X = M^-1 J^T.
-
-    J M^-1 = X^T, so the measure is the product of X's singular values (zero when fewer
-    than six joints are free). Takes one X (k, 6) or a stack (n, k, 6).
-    """
-    if X.shape[-2] < X.shape[-1]:
-        return np.zeros(X.shape[:-2]) if X.ndim > 2 else 0.0
-    s = np.linalg.svd(X, compute_uv=False)
-    return np.prod(s, axis=-1) if X.ndim > 2 else float(np.prod(s))
-
-
 # ------------------------------------------------------------------------------------------
 # The tool's mobility: checked entry points (the kernels above take checked input and are
 # what the engines and the batch functions call on their own, already checked, arrays)
@@ -677,7 +475,7 @@ def mobility(J: Array, X: Array) -> Array:
     Raises:
         ParameterError: J or X not finite real arrays of matching shapes.
     """
-    return _mobility(*_check_jx(J, X, None))
+    return kernels.mobility(*_check_jx(J, X, None))
 
 
 def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
@@ -693,7 +491,7 @@ def operational_inertia(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float
             (0, 1).
     """
     J, X = _check_jx(J, X, None)
-    return _operational_inertia(J, X, _check_rtol(rtol), _check_atol(atol))
+    return kernels.operational_inertia(J, X, _check_rtol(rtol), _check_atol(atol))
 
 
 def effective_mass(
@@ -716,7 +514,9 @@ def effective_mass(
             a finite (3,) vector, ``rtol`` not in (0, 1).
     """
     J, X = _check_jx(J, X, False)
-    return _effective_mass(J, X, check_direction("u", u), _check_rtol(rtol), _check_atol(atol))
+    return kernels.effective_mass(
+        J, X, check_direction("u", u), _check_rtol(rtol), _check_atol(atol)
+    )
 
 
 def effective_masses(
@@ -728,7 +528,7 @@ def effective_masses(
         ParameterError: As [`effective_mass`][redundancy.linalg.effective_mass], for stacks.
     """
     J, X = _check_jx(J, X, True)
-    return _effective_masses(
+    return kernels.effective_masses(
         J, X, check_directions("U", U, len(J)), _check_rtol(rtol), _check_atol(atol)
     )
 
@@ -745,7 +545,7 @@ def effective_mass_range(
         ParameterError: J (6, k) or X (k, 6) not finite real arrays, ``rtol`` not in (0, 1).
     """
     J, X = _check_jx(J, X, False)
-    return _effective_mass_range(J, X, _check_rtol(rtol), _check_atol(atol))
+    return kernels.effective_mass_range(J, X, _check_rtol(rtol), _check_atol(atol))
 
 
 def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL, atol: float = 0.0) -> Array:
@@ -758,7 +558,7 @@ def effective_mass_ranges(J: Array, X: Array, rtol: float = RANK_RTOL, atol: flo
             (0, 1).
     """
     J, X = _check_jx(J, X, True)
-    return _effective_mass_ranges(J, X, _check_rtol(rtol), _check_atol(atol))
+    return kernels.effective_mass_ranges(J, X, _check_rtol(rtol), _check_atol(atol))
 
 
 def dynamic_manipulability(X: Array) -> Array | float:
@@ -770,4 +570,4 @@ def dynamic_manipulability(X: Array) -> Array | float:
     Raises:
         ParameterError: X not a finite real (k, 6) or (n, k, 6) array.
     """
-    return _dynamic_manipulability(_check_stackable("X", X, (None, 6)))
+    return kernels.dynamic_manipulability(_check_stackable("X", X, (None, 6)))

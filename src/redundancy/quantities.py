@@ -22,7 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .engines.contract import Engine, Stacks, remove_armature
-from .linalg import _mobility, manipulability_gradient
+from .kernels import mobility
+from .linalg import manipulability_gradient
 
 Array = NDArray[np.float64]
 
@@ -274,7 +275,7 @@ QUANTITIES: tuple[Quantity, ...] = (
         "1/kg; 1/(kg m^2); 1/(kg m)",
         1e-8,
         "tool_mobility",
-        lambda e: _mobility(*e.mobilities),
+        lambda e: mobility(*e.mobilities),
         lambda s: (
             ((slice(None, 3), slice(None, 3)), 1.0 / s.mass),
             ((slice(3, None), slice(3, None)), 1.0 / (s.mass * s.length * s.length)),

@@ -49,7 +49,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import linalg  # its unchecked kernels: the batch functions check their input once
+from .. import kernels, linalg  # its unchecked kernels: the batch functions check their input once
 from ..arm import ENGINES, Arm, EngineName, _ik_settings, check_arm
 from ..checks import (
     check_callable,
@@ -437,7 +437,7 @@ def manipulabilities(
         S = _jacobians_and_singular_values(arm, Q, engine, threads)[1]
         return np.prod(S, axis=1)
     J = _fill(arm, Q, engine, 1, "J")
-    return np.prod(_svd_values(linalg._manipulability_rows(J, kind, length)), axis=1)
+    return np.prod(_svd_values(kernels.manipulability_rows(J, kind, length)), axis=1)
 
 
 def mass_matrices(
@@ -605,7 +605,7 @@ def operational_inertias(
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     floor = linalg.motion_floor(arm.length)
-    return linalg._operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
+    return kernels.operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
 
 
 def effective_masses(
@@ -647,7 +647,7 @@ def effective_masses(
         parts = _map_chunks(executor, _effective_masses_of_rows, arm, QU, None, kwargs)
         return np.concatenate([r for _, r in parts]) if parts else np.empty(0)
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
+    return kernels.effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
 
 def _effective_masses_of_rows(
@@ -656,7 +656,7 @@ def _effective_masses_of_rows(
     """`effective_masses` of a chunk of rows (pose, unit direction), on a worker."""
     Q, U = np.ascontiguousarray(QU[:, : arm.nq]), np.ascontiguousarray(QU[:, arm.nq :])
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return linalg._effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
+    return kernels.effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
 
 def effective_mass_ranges(
@@ -690,7 +690,7 @@ def effective_mass_ranges(
         )
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     floor = linalg.motion_floor(arm.length)
-    return linalg._effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
+    return kernels.effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
 
 
 def dynamic_manipulabilities(
@@ -725,7 +725,7 @@ def dynamic_manipulabilities(
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     if not len(J):
         return np.zeros(0)
-    return np.asarray(linalg._dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
+    return np.asarray(kernels.dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
 
 
 def solve_ik(

@@ -295,6 +295,11 @@ def _evaluate(
     return {name: QUANTITY[name].stack(work) for name in names}
 
 
+def _compared(arm: Arm) -> list[Engine]:
+    """The engines compared with the reference: every other one."""
+    return [e for e in arm.engines.values() if e is not arm.reference]
+
+
 def _all_engines(
     arm: Arm, Q: Array, names: tuple[str, ...], threads: int, seed: int = 0
 ) -> dict[str, dict[str, Array]]:
@@ -310,7 +315,7 @@ def _all_engines(
         out[engine.name] = _evaluate(engine, Q, names, k, seed)
 
     def others(k: int) -> None:
-        for engine in arm.others(arm.reference.name):
+        for engine in _compared(arm):
             fill(engine, k)
 
     # The others get no more OpenMP threads than the reference leaves free: Pinocchio's
@@ -332,10 +337,7 @@ def _agreement_errors(
 ) -> Array:
     """Per pose, the largest error of any engine against the reference on ``name``."""
     ref = out[arm.reference.name][name]
-    errors = [
-        quantity_errors(name, ref, out[e.name][name], scales)
-        for e in arm.others(arm.reference.name)
-    ]
+    errors = [quantity_errors(name, ref, out[e.name][name], scales) for e in _compared(arm)]
     return errors[0] if len(errors) == 1 else np.maximum.reduce(errors)  # a NaN stays NaN
 
 

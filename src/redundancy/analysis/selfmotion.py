@@ -44,6 +44,7 @@ from ..checks import (
     check_returned,
 )
 from ..errors import ParameterError
+from ..kernels import rotation_vector
 
 if TYPE_CHECKING:
     from ..collision import DistanceEngine, GeomPair
@@ -66,27 +67,12 @@ STOP_LIMIT = "joint limit"  # followed by ": <joint name>"
 def rotation_log(R: Array) -> Array:
     """Rotation vector (unit axis times angle in [0, pi]) of a rotation matrix [rad].
 
-    Accurate at every angle: near 0 from the skew part, near pi from the symmetric part
-    (whose largest diagonal entry gives the axis without cancellation).
+    The library's one rotation log (`redundancy.kernels.rotation_vector`), checked.
 
     Raises:
         ParameterError: ``R`` not a finite real 3 x 3 matrix.
     """
-    R = check_matrix("R", R, (3, 3))
-    cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
-    angle = float(np.arccos(cos))
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    if angle < 1e-6:
-        return 0.5 * w  # sin(angle) ~ angle: w = 2 sin(angle) axis
-    if angle < np.pi - 1e-3:
-        return angle / (2.0 * np.sin(angle)) * w
-    # Near pi: R + I = 2 a a^T + O(pi - angle); take the column with the largest diagonal.
-    S = R + R.T + (1.0 - np.trace(R)) * np.eye(3)  # = 2 (1 - cos) a a^T
-    k = int(np.argmax(np.diag(S)))
-    axis = S[:, k] / np.linalg.norm(S[:, k])
-    if axis @ w < 0:  # w = 2 sin(angle) axis fixes the sign while sin(angle) > 0
-        axis = -axis
-    return angle * axis
+    return np.array(rotation_vector(check_matrix("R", R, (3, 3)), np.eye(3)))
 
 
 def pose_error(arm: Arm, q: Array, p0: Array, R0: Array, engine: EngineName = "mujoco") -> Array:

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_joint_vector, check_pose, pose_key
+from ..kernels import cholesky_solve
 from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, run_split
 
@@ -539,7 +540,7 @@ class MujocoEngine:
             return J, X.T.copy()
         M = self.mass_matrix(q, armature)[np.ix_(free, free)]
         Jf = J[:, free]
-        return Jf, _cholesky_solve(M, Jf.T)
+        return Jf, cholesky_solve(M, Jf.T)
 
     def tool_mobilities(
         self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
@@ -557,7 +558,7 @@ class MujocoEngine:
             self.evaluate(Q, Stacks(J=J, M=M, armature=armature), threads)
             ix = np.asarray(free)
             Jf = np.ascontiguousarray(J[:, :, ix])
-            return Jf, _cholesky_solve(M[:, ix][:, :, ix], Jf.transpose(0, 2, 1))
+            return Jf, cholesky_solve(M[:, ix][:, :, ix], Jf.transpose(0, 2, 1))
         X = np.empty((n, 6, nv))
         kin, com, jac = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_jacSite
         crb, factor, solve = mujoco.mj_crb, mujoco.mj_factorM, mujoco.mj_solveM
@@ -864,12 +865,6 @@ _mul_mat_mat_t, _add_to_scl, _mul_mat_t_vec = (
 )
 #: Flattened identities for damped_stepper, by size (read only).
 _EYES = {r: np.eye(r).reshape(-1) for r in range(1, 7)}
-
-
-def _cholesky_solve(M: Array, B: Array) -> Array:
-    """M^-1 B for symmetric positive definite M (one matrix or a stack), by Cholesky."""
-    L = np.linalg.cholesky(M)
-    return np.linalg.solve(L.swapaxes(-1, -2), np.linalg.solve(L, B))
 
 
 class _WarningRelay:

@@ -15,6 +15,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_joint_vector, check_pose, pose_key
+from ..kernels import cholesky_solve
 from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, spans
 
@@ -469,8 +470,7 @@ class PinocchioEngine:
         M = self.mass_matrix(q, armature)
         ix = np.arange(self.nv) if free is None else np.asarray(free)
         Jf = J[:, ix]
-        L = np.linalg.cholesky(M[np.ix_(ix, ix)])
-        return Jf, np.linalg.solve(L.T, np.linalg.solve(L, Jf.T))
+        return Jf, cholesky_solve(M[np.ix_(ix, ix)], Jf.T)
 
     def tool_mobilities(
         self, Q: Array, armature: bool = True, free: Array | None = None, threads: int = 1
@@ -500,9 +500,7 @@ class PinocchioEngine:
         self.evaluate(Q, Stacks(J=J, M=M, armature=armature), 1)
         ix = np.arange(nv) if free is None else np.asarray(free)
         Jf = np.ascontiguousarray(J[:, :, ix])
-        L = np.linalg.cholesky(M[:, ix][:, :, ix])
-        X = np.linalg.solve(L.transpose(0, 2, 1), np.linalg.solve(L, Jf.transpose(0, 2, 1)))
-        return Jf, X
+        return Jf, cholesky_solve(M[:, ix][:, :, ix], Jf.transpose(0, 2, 1))
 
     def ik_kernel(self, position: Array, rotation: Array) -> Callable[[Array], tuple[Array, Array]]:
         """A function q -> (tool error e (6,), site Jacobian (6, nv)) for this thread, unchecked.

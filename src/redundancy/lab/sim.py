@@ -38,7 +38,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import collision, linalg
+from .. import collision, kernels, linalg
 from ..analysis import selfmotion
 from ..analysis.observer import MomentumObserver
 from ..arm import Arm, sampling_ranges
@@ -604,7 +604,7 @@ class LabSim:
         M = self.arm.mass_matrix(q, armature=False) + np.diag(self.model.dof_armature)
         u = v / np.linalg.norm(v)
         floor = linalg.motion_floor(self.arm.length)
-        return linalg._effective_mass(J, np.linalg.solve(M, J.T), u, atol=floor)
+        return kernels.effective_mass(J, np.linalg.solve(M, J.T), u, atol=floor)
 
     def _window(
         self, t: collections.deque[float], v: collections.deque[float], span: float

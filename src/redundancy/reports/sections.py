@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import linalg
+from .. import kernels, linalg
 from ..analysis import batch
 from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, quantity_errors, worst
 from ..arm import Arm, sampling_ranges
@@ -694,7 +694,7 @@ def contact_mass(arm: Arm, n_poses: int, seed: int | None = 0) -> ContactMass:
         for armature in (True, False):
             J, X = engine.tool_mobilities(Q, armature)
             masses[armature] += [
-                linalg._effective_masses(J, X, u, atol=linalg.motion_floor(arm.length))
+                kernels.effective_masses(J, X, u, atol=linalg.motion_floor(arm.length))
                 for u in np.eye(3)
             ]
     stats = {}
