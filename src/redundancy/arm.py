@@ -57,7 +57,11 @@ def check_arm(value: object, name: str = "arm") -> Arm:
 
 
 #:  solve_ik's default tolerances [m, rad] and restarts, which `ik.DEFAULT_SETTINGS` holds.
-_IK_DEFAULTS = (1e-6, 1e-6, 100)
+_IK_DEFAULTS = (
+    ik.DEFAULT_SETTINGS.position_tol,
+    ik.DEFAULT_SETTINGS.orientation_tol,
+    ik.DEFAULT_SETTINGS.restarts,
+)
 
 
 def _ik_settings(position_tol: object, orientation_tol: object, restarts: object) -> ik.Settings:
@@ -641,9 +645,9 @@ class Arm:
         *,
         objective: object = None,
         position_only: bool = False,
-        position_tol: float = 1e-6,
-        orientation_tol: float = 1e-6,
-        restarts: int = 100,
+        position_tol: float = ik.DEFAULT_SETTINGS.position_tol,
+        orientation_tol: float = ik.DEFAULT_SETTINGS.orientation_tol,
+        restarts: int = ik.DEFAULT_SETTINGS.restarts,
         seed: int | None = 0,
         engine: EngineName = "mujoco",
     ) -> ik.IKResult:

@@ -49,7 +49,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import kernels, linalg  # its unchecked kernels: the batch functions check their input once
+from .. import kernels, linalg  # the unchecked kernels: the batch functions check input once
 from ..arm import ENGINES, Arm, EngineName, _ik_settings, check_arm
 from ..checks import (
     check_callable,
@@ -68,7 +68,7 @@ from ..collision import DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
 from ..errors import ModelError, ParameterError, RedundancyError
-from ..ik import IKResult
+from ..ik import DEFAULT_SETTINGS, IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
 from ..model.content import ContentUnavailable, Recipe
 from ..model.loading import rebuild_arm
@@ -735,9 +735,9 @@ def solve_ik(
     *,
     objective: object = None,
     position_only: bool = False,
-    position_tol: float = 1e-6,
-    orientation_tol: float = 1e-6,
-    restarts: int = 100,
+    position_tol: float = DEFAULT_SETTINGS.position_tol,
+    orientation_tol: float = DEFAULT_SETTINGS.orientation_tol,
+    restarts: int = DEFAULT_SETTINGS.restarts,
     seed: int | None = 0,
     engine: EngineName = "mujoco",
     threads: int = 1,

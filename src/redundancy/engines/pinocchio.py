@@ -15,6 +15,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_joint_vector, check_pose, pose_key
+from ..errors import UnknownNameError
 from ..kernels import cholesky_solve
 from .contract import Stacks, check_dynamics, remove_armature
 from .threads import PerThread, spans
@@ -67,6 +68,20 @@ def _mirror_upper(M: Array) -> None:
     M[..., j, i] = M[..., i, j]
 
 
+def tool_frame_id(pm: pin.Model, name: str, frame_type: str = "site") -> int | None:
+    """Pinocchio's frame for the tool: an MJCF site's ``OP_FRAME``, a body's or link's ``BODY``.
+
+    A URDF link and a fixed joint of the same name (one frame, same placement) resolve to
+    the link's BODY frame; a frame of another type is taken only when it is the one frame of
+    that name. None when Pinocchio has no such frame.
+    """
+    wanted = pin.FrameType.BODY if frame_type == "body" else pin.FrameType.OP_FRAME
+    if pm.existFrame(name, wanted):
+        return int(pm.getFrameId(name, wanted))
+    matches = [i for i, f in enumerate(pm.frames) if f.name == name]
+    return matches[0] if len(matches) == 1 else None
+
+
 class _Work:
     """One thread's ``pinocchio.Data``, its configuration buffer and the pose it holds."""
 
@@ -110,11 +125,11 @@ class PinocchioEngine:
     ) -> None:
         self.model = model
         # An MJCF site is an OP_FRAME, an MJCF body or a URDF link a BODY frame; a joint or
-        # another kind of frame may share the name.
-        kind = pin.FrameType.BODY if frame_type == "body" else pin.FrameType.OP_FRAME
-        self.frame_id: int = (
-            model.getFrameId(site, kind) if model.existFrame(site, kind) else model.getFrameId(site)
-        )
+        # another kind of frame may share the name (the loader refuses a name it cannot resolve).
+        frame_id = tool_frame_id(model, site, frame_type)
+        if frame_id is None:
+            raise UnknownNameError(f"tool {frame_type}", site, [f.name for f in model.frames])
+        self.frame_id: int = frame_id
         self.nv: int = model.nv
         # perm[i] is Pinocchio's index of the library's joint i (nq == nv: 1-dof joints only).
         self.perm: NDArray[np.intp] = np.array(

@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ..engines.pinocchio import joint_kind
+from ..engines.pinocchio import joint_kind, tool_frame_id
 from ..errors import UnsupportedFeatureError
 from .names import body_name, display_names
 from .robot import pinocchio_configuration
@@ -81,20 +81,6 @@ def check_pinocchio(
                 f"joint {n!r}",
                 "expected a 1-dof revolute or prismatic joint",
             )
-
-
-def tool_frame_id(pm: pin.Model, name: str, frame_type: str = "site") -> int | None:
-    """Pinocchio's frame for the tool: an MJCF site's ``OP_FRAME``, a body's or link's ``BODY``.
-
-    A URDF link and a fixed joint of the same name (one frame, same placement) resolve to
-    the link's BODY frame; a frame of another type is taken only when it is the one frame of
-    that name. None when Pinocchio has no such frame.
-    """
-    wanted = pin.FrameType.BODY if frame_type == "body" else pin.FrameType.OP_FRAME
-    if pm.existFrame(name, wanted):
-        return int(pm.getFrameId(name, wanted))
-    matches = [i for i, f in enumerate(pm.frames) if f.name == name]
-    return matches[0] if len(matches) == 1 else None
 
 
 def bridge_robot(
