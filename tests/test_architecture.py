@@ -89,10 +89,6 @@ ALLOWED = {
     "lab/control.py": "simulation: the lesson's controller stepping MuJoCo (mj_step1/2)",
     "lab/sim.py": "simulation: the lab's live MuJoCo run",
     "lab/page.py": "drawing: geom poses of the running simulation for the browser",
-    "model/bridges.py": "bridging: compares the site's placement in both parsers' models "
-    "before the engines exist",
-    "model/robot.py": "holding joints: places each held body where MuJoCo's kinematics of the "
-    "whole robot at rest put it, before the engines exist",
 }
 
 

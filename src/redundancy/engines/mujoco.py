@@ -815,6 +815,40 @@ class MujocoEngine:
         return (d.cdof_dot * (self._subtrees @ h)).sum(axis=1)
 
 
+def rest_data(model: mujoco.MjModel, qpos: ArrayLike | None = None) -> mujoco.MjData:
+    """MuJoCo's data at ``qpos`` (``qpos0`` by default) after ``mj_kinematics``.
+
+    Body, inertial and site frames only: what the loader reads the rest placements of held
+    bodies and of the tool site from, before any engine exists.
+    """
+    data = mujoco.MjData(model)
+    if qpos is not None:
+        data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    return data
+
+
+def whole_model_quantities(
+    model: mujoco.MjModel, qpos: ArrayLike, site: str
+) -> tuple[Array, Array, Array, Array]:
+    """Site Jacobian (6, nv), mass matrix, gravity (nv,) and site position of a whole model.
+
+    At ``qpos``, every dof of ``model`` (no joint held): the reference an arm inside a robot is
+    held to (`redundancy.model.robot.whole_robot_quantities`).
+    """
+    d = mujoco.MjData(model)
+    d.qpos[:] = qpos
+    # mj_forward with qvel = 0: kinematics, M (mj_crb) and the bias force, which is then
+    # gravity alone.
+    mujoco.mj_forward(model, d)
+    jac = np.zeros((6, model.nv))
+    sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+    mujoco.mj_jacSite(model, d, jac[:3], jac[3:], sid)
+    M = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, d, M)
+    return jac, M, d.qfrc_bias.copy(), d.site_xpos[sid].copy()
+
+
 def damped_stepper(
     r: int, n: int, weights: Array | None = None
 ) -> Callable[[Array, Array, float], Array]:

@@ -82,6 +82,17 @@ def tool_frame_id(pm: pin.Model, name: str, frame_type: str = "site") -> int | N
     return matches[0] if len(matches) == 1 else None
 
 
+def frame_placements(model: pin.Model, q: Array) -> pin.Data:
+    """Pinocchio's data with every frame placed at ``q`` (Pinocchio's joint order).
+
+    What the loader compares the tool's placement in both parsers' models with, before any
+    engine exists.
+    """
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    return data
+
+
 class _Work:
     """One thread's ``pinocchio.Data``, its configuration buffer and the pose it holds."""
 

@@ -15,7 +15,8 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ..engines.pinocchio import joint_kind, tool_frame_id
+from ..engines.mujoco import rest_data
+from ..engines.pinocchio import frame_placements, joint_kind, tool_frame_id
 from ..errors import UnsupportedFeatureError
 from .names import body_name, display_names
 from .robot import pinocchio_configuration
@@ -99,7 +100,7 @@ def bridge_robot(
     copied only when Pinocchio's differs.
     """
     bridges: list[Bridge] = []
-    rest = _rest_kinematics(mm)  # MuJoCo's world placements at qpos0, for the bridges below
+    rest = rest_data(mm)  # MuJoCo's world placements at qpos0, for the bridges below
     # The root pose first: the site bridge below compares frames placed from the root.
     sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
     bridges += _bridge_root_pose(pm, mm, sid)
@@ -175,7 +176,7 @@ def _bridge_world_mass(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
     when its mass or centre differs from MuJoCo's bodies welded to the world (held ones
     included), MuJoCo's is copied.
     """
-    data = _rest_kinematics(mm)
+    data = rest_data(mm)
     welded = [b for b in range(1, mm.nbody) if mm.body_weldid[b] == 0 and mm.body_mass[b] > 0]
     ours = pin.Inertia.Zero()
     for b in welded:
@@ -197,13 +198,6 @@ def _bridge_world_mass(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
     ]
 
 
-def _rest_kinematics(mm: mujoco.MjModel) -> mujoco.MjData:
-    """MuJoCo's data at ``qpos0`` after ``mj_kinematics`` (body, inertial and site frames)."""
-    data = mujoco.MjData(mm)
-    mujoco.mj_kinematics(mm, data)
-    return data
-
-
 def _bridge_site(
     pm: pin.Model,
     mm: mujoco.MjModel,
@@ -216,10 +210,9 @@ def _bridge_site(
     Pinocchio's parser ignores site defaults (``<default><site pos=.../>``). When the site's body
     sits where MuJoCo puts it but the site does not, the site's placement in its body is copied from
     MuJoCo; a misplaced body is left alone, for the equivalence report to show. ``data`` is MuJoCo's
-    at ``qpos0`` (`_rest_kinematics`).
+    at ``qpos0`` (`redundancy.engines.mujoco.rest_data`).
     """
-    pd = pm.createData()
-    pin.framesForwardKinematics(pm, pd, pinocchio_configuration(pm, mm, mm.qpos0))
+    pd = frame_placements(pm, pinocchio_configuration(pm, mm, mm.qpos0))
     sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
     fid = tool_frame_id(pm, site, frame_type)
     if fid is None:
@@ -313,7 +306,7 @@ def _mujoco_joint_inertias(
     depend on the pose.
     """
     if data is None:
-        data = _rest_kinematics(mm)
+        data = rest_data(mm)
     out: dict[int, pin.Inertia] = {}
     for j in range(mm.njnt):
         b = int(mm.jnt_bodyid[j])

@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from ..engines.mujoco import JOINT_TYPES, object_names
+from ..engines.mujoco import JOINT_TYPES, object_names, rest_data, whole_model_quantities
 from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
 from .actuators import transmission_refusal
 from .names import display_names
@@ -448,9 +448,7 @@ def reduce_mujoco(
     if not sel.held and not set_aside:
         return full, ()
     # The whole robot at rest: each held body is placed relative to its parent from here.
-    data = mujoco.MjData(full)
-    data.qpos[:] = sel.qpos
-    mujoco.mj_kinematics(full, data)
+    data = rest_data(full, sel.qpos)
     spec_bodies = list(spec.bodies)  # depth-first, as MuJoCo numbers them; 0 is the world
     spec_joints = list(spec.joints)
     if len(spec_bodies) != full.nbody or len(spec_joints) != full.njnt:
@@ -890,31 +888,23 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
         position"`` (3) [SI units].
     """
     m: mujoco.MjModel = arm.robot_model  # type: ignore[attr-defined]
-    d = mujoco.MjData(m)
+    qpos = m.qpos0.copy()
     names = object_names(m, mujoco.mjtObj.mjOBJ_JOINT)
     shown = display_names(m, mujoco.mjtObj.mjOBJ_JOINT)
-    d.qpos[:] = m.qpos0
     for name, value in arm.held.items():  # type: ignore[attr-defined]
         j = names.index(name) if name in names else shown.index(name)
         adr = int(m.jnt_qposadr[j])
-        d.qpos[adr : adr + np.size(value)] = value
+        qpos[adr : adr + np.size(value)] = value
     ids = [names.index(n) for n in arm.joint_names]  # type: ignore[attr-defined]
     for j, value in zip(ids, np.asarray(q, dtype=float), strict=True):
-        d.qpos[m.jnt_qposadr[j]] = value
+        qpos[m.jnt_qposadr[j]] = value
     dofs = [int(m.jnt_dofadr[j]) for j in ids]
-    # mj_forward with qvel = 0: kinematics, M (mj_crb) and the bias force, which is then
-    # gravity alone.
-    mujoco.mj_forward(m, d)
-    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.site)  # type: ignore[attr-defined]
-    mujoco.mj_jacSite(m, d, jp, jr, sid)
-    M = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, d, M)
+    J, M, G, x = whole_model_quantities(m, qpos, arm.site)  # type: ignore[attr-defined]
     return {
-        "jacobian": np.vstack([jp, jr])[:, dofs],
+        "jacobian": J[:, dofs],
         "mass matrix": M[np.ix_(dofs, dofs)],
-        "gravity": d.qfrc_bias[dofs].copy(),
-        "site position": d.site_xpos[sid].copy(),
+        "gravity": G[dofs],
+        "site position": x,
     }
 
 
