@@ -160,6 +160,15 @@ def _motion_rows(s: Sizes) -> tuple[tuple[Index, float], ...]:
     return (((slice(None, 3), slice(None)), s.length), ((slice(3, None), slice(None)), 1.0))
 
 
+def _inertia_blocks(s: Sizes) -> tuple[tuple[Index, float], ...]:
+    """J M^-1 J^T's blocks: [1/kg] linear, [1/(kg m^2)] angular, [1/(kg m)] between."""
+    return (
+        ((slice(None, 3), slice(None, 3)), 1.0 / s.mass),
+        ((slice(3, None), slice(3, None)), 1.0 / (s.mass * s.length * s.length)),
+        ((slice(None, 3), slice(3, None)), 1.0 / (s.mass * s.length)),
+    )
+
+
 def _bare_mass(e: Evaluation) -> Array:
     bare = e.stacks.M.copy()  # type: ignore[union-attr]
     remove_armature(bare, e.engine.armature)
@@ -182,139 +191,46 @@ def _coriolis(e: Evaluation) -> Array:
 #: Every cross-checked quantity, in report order. The tolerances are relative to each
 #: quantity's scale, so an arm of any size is held to the same number; both engines evaluate
 #: the same closed-form rigid-body algorithms in double precision, differences are rounding.
+# fmt: off
 QUANTITIES: tuple[Quantity, ...] = (
-    Quantity(
-        "site position",
-        "(3,)",
-        "m",
-        1e-9,
-        "site_pose",
-        lambda e: e.stacks.X,
-        _whole(lambda s: s.length),
-        field="X",
-    ),
-    Quantity(
-        "site rotation",
-        "(3, 3)",
-        "-",
-        1e-9,
-        "site_pose",
-        lambda e: e.stacks.R,
-        _whole(lambda s: 1.0),
-        field="R",
-    ),
-    Quantity(
-        "jacobian",
-        "(6, nv)",
-        "m/rad; rad/rad",
-        1e-9,
-        "site_jacobian",
-        lambda e: e.stacks.J,
-        _motion_rows,
-        field="J",
-    ),
-    Quantity(
-        "jacobian derivative",
-        "(nv, 6, nv)",
-        "m/rad^2; rad/rad^2",
-        1e-9,
-        "jacobian_derivatives",
-        lambda e: e.derivatives,
-        _motion_rows,
-    ),
-    Quantity(
-        "mass matrix",
-        "(nv, nv)",
-        "kg m^2",
-        1e-9,
-        "mass_matrix",
-        lambda e: e.stacks.M,
-        _whole(lambda s: s.inertia),
-        field="M",
-        dynamic=True,
-    ),
-    Quantity(
-        "mass matrix (bare)",
-        "(nv, nv)",
-        "kg m^2",
-        1e-9,
-        "mass_matrix",
-        _bare_mass,
-        _whole(lambda s: s.inertia),
-        field="M",
-        dynamic=True,
-    ),
-    Quantity(
-        "gravity",
-        "(nv,)",
-        "N m",
-        1e-9,
-        "gravity",
-        lambda e: e.stacks.G,
-        _whole(lambda s: s.torque),
-        field="G",
-        dynamic=True,
-    ),
-    Quantity(
-        "manipulability gradient",
-        "(nv,)",
-        "m^3",
-        1e-8,
-        "jacobian_derivatives",
-        _gradient,
-        _whole(lambda s: s.length**3),
-    ),
+    Quantity("site position", "(3,)", "m", 1e-9, "site_pose",
+             lambda e: e.stacks.X, _whole(lambda s: s.length), field="X"),
+    Quantity("site rotation", "(3, 3)", "-", 1e-9, "site_pose",
+             lambda e: e.stacks.R, _whole(lambda s: 1.0), field="R"),
+    Quantity("jacobian", "(6, nv)", "m/rad; rad/rad", 1e-9, "site_jacobian",
+             lambda e: e.stacks.J, _motion_rows, field="J"),
+    Quantity("jacobian derivative", "(nv, 6, nv)", "m/rad^2; rad/rad^2", 1e-9,
+             "jacobian_derivatives", lambda e: e.derivatives, _motion_rows),
+    Quantity("mass matrix", "(nv, nv)", "kg m^2", 1e-9, "mass_matrix",
+             lambda e: e.stacks.M, _whole(lambda s: s.inertia), field="M", dynamic=True),
+    Quantity("mass matrix (bare)", "(nv, nv)", "kg m^2", 1e-9, "mass_matrix",
+             _bare_mass, _whole(lambda s: s.inertia), field="M", dynamic=True),
+    Quantity("gravity", "(nv,)", "N m", 1e-9, "gravity",
+             lambda e: e.stacks.G, _whole(lambda s: s.torque), field="G", dynamic=True),
+    Quantity("manipulability gradient", "(nv,)", "m^3", 1e-8, "jacobian_derivatives",
+             _gradient, _whole(lambda s: s.length**3)),
     # J M^-1 J^T (the inverse of the operational-space inertia, defined at singular poses
     # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse), per block: [1/kg]
     # linear, [1/(kg m^2)] angular, [1/(kg m)] between. M^-1 multiplies the engines' rounding
     # of M by M's condition number: the bundled arms agree to 1e-13, but a generated arm with
     # a 4 g tip body on a 1 kg chain (cond(M) ~ 1e7) differed by 1.3e-9, hence 1e-8.
-    Quantity(
-        "operational inertia^-1",
-        "(6, 6)",
-        "1/kg; 1/(kg m^2); 1/(kg m)",
-        1e-8,
-        "tool_mobility",
-        lambda e: mobility(*e.mobilities),
-        lambda s: (
-            ((slice(None, 3), slice(None, 3)), 1.0 / s.mass),
-            ((slice(3, None), slice(3, None)), 1.0 / (s.mass * s.length * s.length)),
-            ((slice(None, 3), slice(3, None)), 1.0 / (s.mass * s.length)),
-        ),
-        dynamic=True,
-        m_inverse=True,
-    ),
+    Quantity("operational inertia^-1", "(6, 6)", "1/kg; 1/(kg m^2); 1/(kg m)", 1e-8,
+             "tool_mobility", lambda e: mobility(*e.mobilities), _inertia_blocks,
+             dynamic=True, m_inverse=True),
     # Yoshikawa's dynamic manipulability, compared through its factors, the singular values
     # of M^-1 J^T, each against the largest: the product itself near a singular pose is the
     # tiny factor times others, and carries that factor's rounding (eps sigma_max) as a
     # relative error. A linear column of M^-1 J^T is [1/(kg m)].
-    Quantity(
-        "dynamic manipulability",
-        "(min(6, nv),)",
-        "1/(kg m)",
-        1e-8,
-        "tool_mobility",
-        lambda e: np.linalg.svd(e.mobilities[1], compute_uv=False),
-        _whole(lambda s: 1.0 / (s.mass * s.length)),
-        dynamic=True,
-        m_inverse=True,
-    ),
+    Quantity("dynamic manipulability", "(min(6, nv),)", "1/(kg m)", 1e-8, "tool_mobility",
+             lambda e: np.linalg.svd(e.mobilities[1], compute_uv=False),
+             _whole(lambda s: 1.0 / (s.mass * s.length)), dynamic=True, m_inverse=True),
     # C(q, v) in the Christoffel form at a velocity drawn from the seed
-    # (`crosscheck_velocities`): MuJoCo's exact polarization of its bias against
-    # Pinocchio's computeCoriolisMatrix. [N m s/rad]: an inertia times the drawn
-    # velocities' size, 1 rad/s.
-    Quantity(
-        "coriolis",
-        "(nv, nv)",
-        "N m s/rad",
-        1e-9,
-        "coriolis",
-        _coriolis,
-        _whole(lambda s: s.inertia),
-        dynamic=True,
-        velocity=True,
-    ),
+    # (`crosscheck_velocities`): MuJoCo's exact polarization of its bias against Pinocchio's
+    # computeCoriolisMatrix. [N m s/rad]: an inertia times the drawn velocities' size, 1 rad/s.
+    Quantity("coriolis", "(nv, nv)", "N m s/rad", 1e-9, "coriolis",
+             _coriolis, _whole(lambda s: s.inertia), dynamic=True, velocity=True),
 )
+# fmt: on
 
 #: The quantities by name.
 QUANTITY: dict[str, Quantity] = {q.name: q for q in QUANTITIES}

@@ -560,6 +560,40 @@ def _mobilities(
     return arm.engine(engine).tool_mobilities(Q, armature, free, threads)
 
 
+def _mobility_stack(
+    fn: Callable[..., Array],
+    kernel: Callable[[Array, Array, float], Array],
+    arm: Arm,
+    Q: ArrayLike,
+    armature: object,
+    joints: object,
+    engine: object,
+    threads: object,
+    executor: Executor | None,
+) -> Array:
+    """A stack from the tool's mobilities: check, run ``fn`` on the executor's chunks, or here.
+
+    ``kernel`` maps the stacks J, M^-1 J^T and the arm's motion floor (`linalg.motion_floor`)
+    to the result.
+    """
+    Q, armature, joints, engine, threads = _dynamics_inputs(
+        arm, Q, armature, joints, engine, threads
+    )
+    if executor is not None:
+        return scatter(
+            executor,
+            fn,
+            arm,
+            Q,
+            armature=armature,
+            joints=joints,
+            engine=engine,
+            threads=threads,
+        )
+    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
+    return kernel(J, X, linalg.motion_floor(arm.length))
+
+
 def operational_inertias(
     arm: Arm,
     Q: ArrayLike,
@@ -589,23 +623,13 @@ def operational_inertias(
         SingularPoseError: At the first singular pose (the message names it and the lost
             tool directions).
     """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
+
+    def kernel(J: Array, X: Array, floor: float) -> Array:
+        return kernels.operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
+
+    return _mobility_stack(
+        operational_inertias, kernel, arm, Q, armature, joints, engine, threads, executor
     )
-    if executor is not None:
-        return scatter(
-            executor,
-            operational_inertias,
-            arm,
-            Q,
-            armature=armature,
-            joints=joints,
-            engine=engine,
-            threads=threads,
-        )
-    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    floor = linalg.motion_floor(arm.length)
-    return kernels.operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
 
 
 def effective_masses(
@@ -674,23 +698,13 @@ def effective_mass_ranges(
     As `Arm.effective_mass_range`'s ``min`` and ``max`` (arguments as
     [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
+
+    def kernel(J: Array, X: Array, floor: float) -> Array:
+        return kernels.effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
+
+    return _mobility_stack(
+        effective_mass_ranges, kernel, arm, Q, armature, joints, engine, threads, executor
     )
-    if executor is not None:
-        return scatter(
-            executor,
-            effective_mass_ranges,
-            arm,
-            Q,
-            armature=armature,
-            joints=joints,
-            engine=engine,
-            threads=threads,
-        )
-    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    floor = linalg.motion_floor(arm.length)
-    return kernels.effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
 
 
 def dynamic_manipulabilities(
@@ -708,24 +722,15 @@ def dynamic_manipulabilities(
     As `Arm.dynamic_manipulability` (arguments as
     [`effective_masses`][redundancy.analysis.batch.effective_masses]).
     """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
+
+    def kernel(J: Array, X: Array, floor: float) -> Array:
+        if not len(J):
+            return np.zeros(0)
+        return np.asarray(kernels.dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
+
+    return _mobility_stack(
+        dynamic_manipulabilities, kernel, arm, Q, armature, joints, engine, threads, executor
     )
-    if executor is not None:
-        return scatter(
-            executor,
-            dynamic_manipulabilities,
-            arm,
-            Q,
-            armature=armature,
-            joints=joints,
-            engine=engine,
-            threads=threads,
-        )
-    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    if not len(J):
-        return np.zeros(0)
-    return np.asarray(kernels.dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
 
 
 def solve_ik(
