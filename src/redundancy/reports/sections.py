@@ -33,6 +33,7 @@ from ..collision import (
     collision_statistics,
     keyframe_clearance,
 )
+from ..engines import REFERENCE
 from ..engines.mujoco import MujocoEngine
 from ..model import actuators
 from ..model.actuators import Simulation
@@ -182,8 +183,9 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         M = np.diag(arm.mass_matrix(q))
         bare = np.diag(arm.mass_matrix(q, armature=False))
         diff = max(
-            float(np.max(np.abs(np.diag(arm.mass_matrix(q, a, "pinocchio")) - (M if a else bare))))
+            float(np.max(np.abs(np.diag(arm.mass_matrix(q, a, other)) - (M if a else bare))))
             for a in (True, False)
+            for other in _compared(arm)
         )
     b = arm.damping()
     kv = actuators.servo_damping(m)
@@ -426,10 +428,12 @@ def gravity_budget(
     found, offset = (0.0, 0), 0
     scales = arm_scales(arm)
     for Q in pose_chunks(arm, n_poses, seed):
-        tau = batch.gravities(arm, Q, "mujoco")
-        tau_p = batch.gravities(arm, Q, "pinocchio")
-        diff = max(diff, float(np.max(np.abs(tau - tau_p))))
-        found = merge_worst(found, worst(quantity_errors("gravity", tau, tau_p, scales)), offset)
+        tau = batch.gravities(arm, Q, REFERENCE)
+        for other in _compared(arm):
+            tau_p = batch.gravities(arm, Q, other)
+            diff = max(diff, float(np.max(np.abs(tau - tau_p))))
+            errors = quantity_errors("gravity", tau, tau_p, scales)
+            found = merge_worst(found, worst(errors), offset)
         offset += len(Q)
         need, effort = load(Q, tau)
         low, high = np.minimum(low, need.min(axis=0)), np.maximum(high, need.max(axis=0))
@@ -680,6 +684,11 @@ class ContactMass:
         ]
 
 
+def _compared(arm: Arm) -> list[str]:
+    """The engines checked against the reference, by name."""
+    return [name for name in arm.engines if name != REFERENCE]
+
+
 def contact_mass(arm: Arm, n_poses: int, seed: int | None = 0) -> ContactMass:
     """The effective mass at the tool over ``seed``'s poses, with and without armature.
 
@@ -688,7 +697,7 @@ def contact_mass(arm: Arm, n_poses: int, seed: int | None = 0) -> ContactMass:
         n_poses: Random poses (the gravity sweep's, for the same seed).
         seed: Their seed.
     """
-    engine = arm.mujoco
+    engine = arm.reference
     masses: dict[bool, list[Array]] = {True: [], False: []}
     for Q in pose_chunks(arm, n_poses, seed):
         for armature in (True, False):
