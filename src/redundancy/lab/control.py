@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from ..engines import simulation
 from ..engines.mujoco import captured_warnings
 
 Array = NDArray[np.float64]
@@ -58,18 +59,18 @@ class JointPD:
         kd: float,
         gravity_compensation: bool = True,
     ) -> None:
-        """One timestep under the controller (one ``mj_step``)."""
-        # mj_step1 runs the position and velocity stages, so qfrc_bias is current for the
-        # state about to be integrated; mj_step2 then applies ctrl and integrates. Together
-        # they are one mj_step, without the extra mj_forward a read-then-step loop needs.
-        mujoco.mj_step1(model, data)
-        tau = data.qfrc_bias.copy() if gravity_compensation else np.zeros(model.nv)
-        if kp or kd:
-            tau += kp * (target - data.qpos) - kd * data.qvel
-        data.ctrl[self._act] = tau[self._dof] / self._gear
-        if self.unactuated.size:
-            data.qfrc_applied[self.unactuated] = tau[self.unactuated]
-        mujoco.mj_step2(model, data)
+        """One timestep under the controller (one ``mj_step``, see `simulation.step`)."""
+
+        def actuate() -> None:
+            # qfrc_bias is the state's about to be integrated (after mj_step1).
+            tau = data.qfrc_bias.copy() if gravity_compensation else np.zeros(model.nv)
+            if kp or kd:
+                tau += kp * (target - data.qpos) - kd * data.qvel
+            data.ctrl[self._act] = tau[self._dof] / self._gear
+            if self.unactuated.size:
+                data.qfrc_applied[self.unactuated] = tau[self.unactuated]
+
+        simulation.step(model, data, actuate)
 
     def applied(self, data: mujoco.MjData, dof: int) -> float:
         """Torque applied to a dof in the last step, after the actuator's clamp [N m or N]."""
@@ -136,7 +137,7 @@ def _hold(
     record_from: float,
     messages: list[str],
 ) -> HoldResult:
-    d = mujoco.MjData(model)
+    d = simulation.new_state(model)
     d.qpos[:] = target
     d.qvel[:] = nudge
     n = round(seconds / model.opt.timestep)

@@ -42,6 +42,7 @@ from .. import collision, kernels, linalg
 from ..analysis import selfmotion
 from ..analysis.observer import MomentumObserver
 from ..arm import Arm, sampling_ranges
+from ..engines import simulation
 from ..errors import MissingInertiaError, PoseError, RedundancyError
 from .control import JointPD
 
@@ -267,7 +268,7 @@ class LabSim:
             arm = arm.at_keyframe(keyframe)
         self.arm = arm
         self.model = copy.deepcopy(arm.mj_model)
-        self.data = mujoco.MjData(self.model)
+        self.data = simulation.new_state(self.model)
         self.kp = float(kp)
         self.kd = float(kd)
         self.timestep = float(self.model.opt.timestep)
@@ -332,7 +333,7 @@ class LabSim:
         with self._lock:
             mujoco.mj_resetData(self.model, self.data)
             self.data.qpos[:] = self.home
-            mujoco.mj_forward(self.model, self.data)
+            simulation.settle(self.model, self.data)
             self.targets = self.home.copy()
             self._path = None
             self._steps = 0
@@ -677,7 +678,7 @@ class LabSim:
         """
         key = self.data.qpos.tobytes()
         if key != self._drawn_qpos:
-            mujoco.mj_kinematics(self.model, self.data)
+            simulation.place(self.model, self.data)
             self._drawn_qpos = key
 
     def geom_poses(self, geoms: Sequence[int]) -> tuple[Array, Array]:
