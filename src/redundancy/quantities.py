@@ -69,9 +69,7 @@ class Evaluation:
     @functools.cached_property
     def stacks(self) -> Stacks:
         """The engine's stacked kinematics and dynamics for every field wanted (one pass)."""
-        n, nv = len(self.Q), self.engine.nv
-        shapes = {"X": (n, 3), "R": (n, 3, 3), "J": (n, 6, nv), "M": (n, nv, nv), "G": (n, nv)}
-        stacks = Stacks(**{f: np.empty(shapes[f]) for f in sorted(self.fields)})  # type: ignore[arg-type]
+        stacks = Stacks.empty(len(self.Q), self.engine.nv, sorted(self.fields))
         self.engine.evaluate(self.Q, stacks, self.threads)
         return stacks
 

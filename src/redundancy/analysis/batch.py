@@ -271,10 +271,9 @@ def scatter(
 
 def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bool = True) -> Array:
     """One quantity over a validated stack: allocate, let the engine fill it."""
-    n, nv = len(Q), arm.nq
-    out = np.empty({"J": (n, 6, nv), "M": (n, nv, nv), "G": (n, nv)}[what])
-    arm.engine(engine).evaluate(Q, Stacks(armature=armature, **{what: out}), threads)
-    return out
+    stacks = Stacks.empty(len(Q), arm.nq, (what,), armature)
+    arm.engine(engine).evaluate(Q, stacks, threads)
+    return getattr(stacks, what)  # type: ignore[no-any-return]
 
 
 def _stack(

@@ -435,8 +435,7 @@ def mass_condition(arm: Arm, Q: Array, M: Array | None = None) -> float:
     ``M``: those mass matrices when already computed, shape (n, nq, nq).
     """
     if M is None:
-        n, nv = len(Q), arm.nq
-        stacks = Stacks(M=np.empty((n, nv, nv)))
+        stacks = Stacks.empty(len(Q), arm.nq, "M")
         arm.reference.evaluate(Q, stacks)
         M = stacks.M
     return float(np.max(np.linalg.cond(M)))

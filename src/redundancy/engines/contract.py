@@ -14,7 +14,7 @@ of threads: each thread computes with its own engine data.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -45,6 +45,12 @@ class Stacks:
     M: Array | None = None
     G: Array | None = None
     armature: bool = True
+
+    @classmethod
+    def empty(cls, n: int, nv: int, fields: Iterable[str], armature: bool = True) -> Stacks:
+        """Uninitialised stacks of ``n`` poses for the ``fields`` named (``"X"``... ``"G"``)."""
+        shapes = {"X": (n, 3), "R": (n, 3, 3), "J": (n, 6, nv), "M": (n, nv, nv), "G": (n, nv)}
+        return cls(**{f: np.empty(shapes[f]) for f in fields}, armature=armature)  # type: ignore[arg-type]
 
     @property
     def dynamics(self) -> bool:
