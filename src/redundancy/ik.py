@@ -409,8 +409,11 @@ def _checked_errors(
     solver: _Solver, checks: tuple[Engine, ...], q: Array
 ) -> tuple[float, float, bool]:
     """Position and orientation errors, the worst over the checkers (NaN wins); both pass?"""
-    found = [tool_errors(solver.p_t, solver.R_t, *check.site_pose(q)) for check in checks]
-    npos, nrot = (float(x) for x in np.max(found, axis=0))
+    if len(checks) == 1:  # two engines: the other one's errors as they are (the common path)
+        npos, nrot = tool_errors(solver.p_t, solver.R_t, *checks[0].site_pose(q))
+    else:
+        found = [tool_errors(solver.p_t, solver.R_t, *c.site_pose(q)) for c in checks]
+        npos, nrot = (float(x) for x in np.max(found, axis=0))
     s = solver.s
     ok = npos <= s.position_tol and (solver.position_only or nrot <= s.orientation_tol)
     return npos, nrot, ok
@@ -436,5 +439,5 @@ def _result(
         restarts=restarts,
         objective=value,
         engine=engine.name,
-        checked_by=", ".join(c.name for c in checks),
+        checked_by=checks[0].name if len(checks) == 1 else ", ".join(c.name for c in checks),
     )
