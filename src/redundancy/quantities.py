@@ -16,13 +16,12 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .engines.contract import Engine, Stacks, remove_armature
-from .kernels import mobility
+from .kernels import Scales, mobility
 from .linalg import manipulability_gradient
 
 Array = NDArray[np.float64]
@@ -30,23 +29,6 @@ Array = NDArray[np.float64]
 #: Rows and columns of one block of a quantity's value (after the pose axis).
 Index = tuple[slice, ...]
 ALL: Index = ()
-
-
-class Sizes(Protocol):
-    """The arm's size in each unit (`redundancy.model.scales.Scales`)."""
-
-    length: float
-    mass: float
-
-    @property
-    def inertia(self) -> float:
-        """M L^2 [kg m^2]."""
-        ...
-
-    @property
-    def torque(self) -> float:
-        """M g L [N m]."""
-        ...
 
 
 class Evaluation:
@@ -136,7 +118,7 @@ class Quantity:
     tol: float
     method: str
     stack: Callable[[Evaluation], Array]
-    blocks: Callable[[Sizes], tuple[tuple[Index, float], ...]]
+    blocks: Callable[[Scales], tuple[tuple[Index, float], ...]]
     field: str | None = None
     dynamic: bool = False
     m_inverse: bool = False
@@ -148,17 +130,17 @@ class Quantity:
         return self.field is not None
 
 
-def _whole(size: Callable[[Sizes], float]) -> Callable[[Sizes], tuple[tuple[Index, float], ...]]:
+def _whole(size: Callable[[Scales], float]) -> Callable[[Scales], tuple[tuple[Index, float], ...]]:
     """One block, the whole value, of size ``size(scales)``."""
     return lambda s: ((ALL, size(s)),)
 
 
-def _motion_rows(s: Sizes) -> tuple[tuple[Index, float], ...]:
+def _motion_rows(s: Scales) -> tuple[tuple[Index, float], ...]:
     """A Jacobian's linear rows (size L) and angular rows (size 1): their units differ."""
     return (((slice(None, 3), slice(None)), s.length), ((slice(3, None), slice(None)), 1.0))
 
 
-def _inertia_blocks(s: Sizes) -> tuple[tuple[Index, float], ...]:
+def _inertia_blocks(s: Scales) -> tuple[tuple[Index, float], ...]:
     """J M^-1 J^T's blocks: [1/kg] linear, [1/(kg m^2)] angular, [1/(kg m)] between."""
     return (
         ((slice(None, 3), slice(None, 3)), 1.0 / s.mass),

@@ -815,6 +815,13 @@ class MujocoEngine:
         return (d.cdof_dot * (self._subtrees @ h)).sum(axis=1)
 
 
+def effective_gravity(mm: mujoco.MjModel) -> Array:
+    """The gravity MuJoCo simulates [m/s^2]: ``opt.gravity``, or zero when the flag disables it."""
+    if mm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+        return np.zeros(3)
+    return mm.opt.gravity.copy()
+
+
 def rest_data(model: mujoco.MjModel, qpos: ArrayLike | None = None) -> mujoco.MjData:
     """MuJoCo's data at ``qpos`` (``qpos0`` by default) after ``mj_kinematics``.
 

@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ..engines.mujoco import rest_data
+from ..engines.mujoco import effective_gravity, rest_data
 from ..engines.pinocchio import frame_placements, joint_kind, tool_frame_id
 from ..errors import UnsupportedFeatureError
 from .names import body_name, display_names
@@ -240,13 +240,6 @@ def _bridge_site(
             "site_pos and site_quat (site defaults)",
         )
     ]
-
-
-def effective_gravity(mm: mujoco.MjModel) -> Array:
-    """The gravity MuJoCo simulates [m/s^2]: ``opt.gravity``, or zero when the flag disables it."""
-    if mm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
-        return np.zeros(3)
-    return mm.opt.gravity.copy()
 
 
 def _root_body(mm: mujoco.MjModel, site: int) -> int | None:

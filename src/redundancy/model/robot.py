@@ -32,8 +32,11 @@ from numpy.typing import NDArray
 
 from ..engines.mujoco import JOINT_TYPES, object_names, rest_data, whole_model_quantities
 from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
+from ..kernels import scaled_error
+from ..quantities import QUANTITY
 from .actuators import transmission_refusal
 from .names import display_names
+from .scales import arm_scales
 
 Array = NDArray[np.float64]
 
@@ -909,14 +912,17 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
 
 
 def difference_to_whole_robot(arm: object, q: Array) -> float:
-    """Largest difference of the arm (both engines) to `whole_robot_quantities`.
+    """Largest difference of the arm (every engine) to `whole_robot_quantities`.
 
-    Relative to each quantity's own scale: ``|arm - whole| / max(1, max |whole|)``, over the
-    Jacobian, mass matrix (with armature), gravity and tool position.
+    The library's one error measure (`redundancy.model.scales`): per quantity of the
+    registry, ``max |whole - arm| / max(max |whole|, FLOOR x its size on the arm)``, over the
+    Jacobian (linear and angular rows apart), the mass matrix (with armature), gravity and
+    the tool position.
     """
     whole = whole_robot_quantities(arm, q)
+    scales = arm_scales(arm)  # type: ignore[arg-type]
     worst = 0.0
-    for engine in ("mujoco", "pinocchio"):
+    for engine in arm.engines:  # type: ignore[attr-defined]
         ours = {
             "jacobian": arm.jacobian(q, engine),  # type: ignore[attr-defined]
             "mass matrix": arm.mass_matrix(q, engine=engine),  # type: ignore[attr-defined]
@@ -924,6 +930,7 @@ def difference_to_whole_robot(arm: object, q: Array) -> float:
             "site position": arm.site_pose(q, engine)[0],  # type: ignore[attr-defined]
         }
         for key, value in ours.items():
-            scale = max(1.0, float(np.max(np.abs(whole[key]))))
-            worst = max(worst, float(np.max(np.abs(value - whole[key]))) / scale)
+            for index, size in QUANTITY[key].blocks(scales):
+                block = (..., *index)
+                worst = max(worst, scaled_error(whole[key][block], value[block], size))
     return worst
