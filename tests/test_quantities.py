@@ -92,3 +92,8 @@ def test_a_third_engine_is_compared_with_the_reference_and_confirms_ik() -> None
     result = arm.solve_ik(arm.site_pose([0.4, 0.3]), position_only=True)
     assert result.success
     assert (result.engine, result.checked_by) == ("mujoco", "pinocchio, skewed")
+    with pytest.raises(
+        rd.UnknownNameError,
+        match=r"^unknown engine 'nope'; valid engine names: \['mujoco', 'pinocchio', 'skewed'\]$",
+    ):
+        arm.engine("nope")

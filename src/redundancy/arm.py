@@ -345,7 +345,7 @@ class Arm:
         try:
             return self.engines[name]
         except (KeyError, TypeError):
-            raise UnknownNameError("engine", str(name), ENGINES) from None
+            raise UnknownNameError("engine", str(name), tuple(self.engines)) from None
 
     def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
         """Validate a joint configuration and return it as a float64 array of shape (nq,).
@@ -382,7 +382,7 @@ class Arm:
         try:  # the engine table read inline: arm.jacobian is a controller's inner loop
             eng = self.engines[engine]
         except (KeyError, TypeError):
-            raise UnknownNameError("engine", str(engine), ENGINES) from None
+            raise UnknownNameError("engine", str(engine), tuple(self.engines)) from None
         return eng.site_jacobian(q)
 
     def svd(
