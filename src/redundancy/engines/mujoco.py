@@ -219,6 +219,8 @@ class MujocoEngine:
         # This thread's data: get() builds it on the thread's first call.
         threads = PerThread(lambda: _Work(model))
         self._work, self._local = threads.get, threads.local
+        # The IK kernels' own data per thread: their poses never pass for the checked ones.
+        self._kernel_work = PerThread(lambda: _Work(model)).get
 
     # -- the contract's per-joint vectors ---------------------------------------------------
     @property
@@ -591,9 +593,10 @@ class MujocoEngine:
         tens of times per solve, where a pose check or a NumPy call on a 3 x 3 matrix costs as much
         as the kinematics: the caller passes only finite float64 (nv,) poses. The arrays returned
         are this thread's buffers, valid until the next call; the kernel must stay in the thread
-        that made it.
+        that made it. It computes in this thread's kernel data, never the data the checked
+        queries read (no pose key to clear on its path).
         """
-        w = self._work()
+        w = self._kernel_work()
         m, d, sid = self.model, w.data, self.site_id
         qpos, jacp, jacr, jac = w.qpos, w.jacp, w.jacr, w.jac
         x, xmat = d.site_xpos[sid], d.site_xmat[sid]
@@ -603,11 +606,10 @@ class MujocoEngine:
         quat, local = np.empty(4), np.empty(3)
         e = np.empty(6)
         ep, er = e[:3], e[3:]
-        kin, com, jsite, sub, forget = _kinematics, _com_pos, _jac_site, np.subtract, w.forget
+        kin, com, jsite, sub = _kinematics, _com_pos, _jac_site, np.subtract
         to_quat, sub_quat, rotate = mujoco.mju_mat2Quat, mujoco.mju_subQuat, mujoco.mju_mulMatVec3
 
         def kernel(q: Array) -> tuple[Array, Array]:
-            forget()  # the data no longer holds the pose cached for the checked methods
             qpos[:] = q
             kin(m, d)
             com(m, d)  # cdof, which mj_jacSite reads

@@ -151,6 +151,8 @@ class PinocchioEngine:
         self._joint_ids = [model.getJointId(n) for n in joint_names]
         # This thread's data; a bound method, so a query pays one call to reach it.
         self._work = PerThread(lambda: _Work(model)).get
+        # The IK kernels' own data per thread: their poses never pass for the checked ones.
+        self._kernel_work = PerThread(lambda: _Work(model)).get
 
     # -- the contract's per-joint vectors ---------------------------------------------------
     @property
@@ -535,7 +537,7 @@ class PinocchioEngine:
         float64 (nv,) poses only, arrays valid until the next call, used in the thread that
         made it.
         """
-        w = self._work()
+        w = self._kernel_work()
         model, data, fid, nv = self.model, w.data, self.frame_id, self.nv
         cfj, place, log3 = pin.computeFrameJacobian, pin.updateFramePlacement, pin.log3
         perm, identity = self.perm, self.identity
@@ -543,10 +545,7 @@ class PinocchioEngine:
         R_t = np.array(rotation, dtype=np.float64)
         e = np.empty(6)
 
-        forget = w.forget
-
         def kernel(q: Array) -> tuple[Array, Array]:
-            forget()  # the data no longer holds the pose cached for the checked methods
             J = np.reshape(cfj(model, data, self._pin_q(w, q), fid, _LWA), (6, nv))
             oMf = place(model, data, fid)
             e[:3] = p_t - oMf.translation
