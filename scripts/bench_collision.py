@@ -1,4 +1,4 @@
-"""Benchmark: self-collision statistics on many-pair arms against arm7 (issue 11, item 7).
+"""Benchmark: self-collision statistics on many-pair arms against arm7.
 
 The audit's collision section sweeps random poses: MuJoCo's contact list at every pose and
 every pair's distance (the audit uses MuJoCo's ``mj_geomDistance``). A ~40-sphere arm has

@@ -296,7 +296,7 @@ def _simulated(arm: rd.Arm, q: np.ndarray, u: np.ndarray) -> float:
 
 
 def effective_mass_section(n: int, repeats: int) -> list[str]:
-    from bench import ratio, rounds  # the main benchmark's round-robin timing
+    from timing import ratio, rounds  # the benchmarks' round-robin timing
 
     lines = [f"Effective mass at the tool (panda, {n} random poses, direction z):"]
     arm = rd.load(rd.model_path("panda"), site="ee")
@@ -397,7 +397,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=5)
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    from bench import machine  # the main benchmark's machine and load lines
+    from timing import machine  # the benchmarks' machine and load lines
 
     print("\n".join(machine()) + "\n", flush=True)
     print("\n".join(ik_section(args.arms.split(","), args.n, args.clik)) + "\n", flush=True)

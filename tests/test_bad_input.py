@@ -425,7 +425,7 @@ def test_table_size() -> None:
 
 
 def test_attach_is_given_to_pinocchio_as_mujoco_resolved_it(tmp_path: Path) -> None:
-    """Issue 21: Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
+    """Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
     the arm was in MuJoCo's M only: M11 0.456 vs 0.105); Pinocchio gets MuJoCo's model."""
     (tmp_path / "block.xml").write_text(
         '<mujoco><worldbody><body name="blk" pos="0 0 0.3">'
@@ -481,7 +481,7 @@ READ_DIFFERENTLY = {
 
 @pytest.mark.parametrize("name", list(READ_DIFFERENTLY))
 def test_read_differently_is_served(name: str) -> None:
-    """Valid MJCF that Pinocchio's parser reads differently (refused until issue 26): served
+    """Valid MJCF that Pinocchio's parser reads differently (once refused): served
     with MuJoCo's compiled model given to Pinocchio, the cause named in ``arm.bridges``."""
     xml, cause = READ_DIFFERENTLY[name]
     arm = rd.load_string(xml, site="tip")
@@ -492,7 +492,7 @@ def test_read_differently_is_served(name: str) -> None:
 
 
 def test_jointinparent_actuator_reads_as_joint() -> None:
-    """Issue 21: MuJoCo applies +-80 N m through ``jointinparent`` on a hinge; it was
+    """MuJoCo applies +-80 N m through ``jointinparent`` on a hinge; it was
     ignored (effort unlimited, ``actuated`` False)."""
     from redundancy.model.actuators import effort_range
 
@@ -535,7 +535,7 @@ def test_jointinparent_actuator_reads_as_joint() -> None:
     ],
 )
 def test_site_and_body_transmissions_on_the_arm_are_refused(actuator: str, expected: str) -> None:
-    """Issue 21: read neither as effort nor as armature; refused, naming the actuator."""
+    """Read neither as effort nor as armature; refused, naming the actuator."""
     named = actuator.replace(" ", ' name="push" ', 1)
     message = (
         UF + expected + ": it drives the arm's joints through pose-dependent moment arms; the "
@@ -586,7 +586,7 @@ def test_tendon_transmission_is_refused_with_the_tendon() -> None:
 
 
 def test_unnamed_keyframe_does_not_overwrite_a_named_one() -> None:
-    """Issue 21: an unnamed key 1 was called key1 and replaced the real key1 (nkey 2, 1 kept)."""
+    """An unnamed key 1 was called key1 and replaced the real key1 (nkey 2, 1 kept)."""
     keys = '<keyframe><key name="key1" qpos="0.1 0.2"/><key qpos="0.3 0.4"/></keyframe>'
     arm = rd.load_string(chain(extra=keys), site="tip")
     assert arm.mj_model.nkey == 2

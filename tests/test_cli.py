@@ -368,7 +368,7 @@ def test_base_and_rest_load_the_arm(capsys):
     assert "nowhere" in capsys.readouterr().err
 
 
-# -- issue 21: a CLI that behaves like a Unix tool ------------------------------------------
+# -- A CLI that behaves like a Unix tool ---------------------------------------------------
 
 RUN = "import sys; from redundancy.cli import main; sys.exit(main())"
 

@@ -1701,7 +1701,7 @@ def test_batch_mujoco_distances_count_slide_travel_from_qpos0() -> None:
 
 
 def test_check_path_refuses_waypoints_outside_the_ranges(slider: rd.Arm) -> None:
-    """Issue 21: the motion bound counts a slide's travel within its range only, so a path
+    """The motion bound counts a slide's travel within its range only, so a path
     that leaves the range was called free through a contact; it is refused instead."""
     home = np.zeros(slider.nq)
     out = home.copy()

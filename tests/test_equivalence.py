@@ -89,7 +89,7 @@ def test_site_defaults_are_bridged():
 
 
 # ------------------------------------------------------------------------------------------
-# Issue 11's rules, each on a tiny model: Pinocchio's own reading differs from MuJoCo's (the
+# The loader's reading rules, each on a tiny model: Pinocchio's own reading differs from MuJoCo's (the
 # measurement that justifies the rule) or does not (the rule accepts without a bridge), and
 # the library's arm agrees either way.
 # ------------------------------------------------------------------------------------------
@@ -316,7 +316,7 @@ def test_difference_report_carries_both_values():
 
 
 # ------------------------------------------------------------------------------------------
-# What MuJoCo simulates that neither engine's numbers include (issue 11 item 3, model side).
+# What MuJoCo simulates that neither engine's numbers include (the model side).
 # ------------------------------------------------------------------------------------------
 
 

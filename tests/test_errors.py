@@ -173,7 +173,7 @@ def test_unknown_crosscheck_quantity_lists_the_valid_ones(skew7: rd.Arm):
 
 
 def test_a_model_without_geoms_loads_and_is_checked():
-    """Issue 12: a model with no geoms raised a bare ValueError in the loader's checks."""
+    """A model with no geoms raised a bare ValueError in the loader's checks."""
     xml = (
         '<mujoco><worldbody><body name="l1"><joint name="a" axis="0 1 0"/>'
         '<inertial pos="0 0 0.1" mass="1" diaginertia=".1 .1 .1"/>'

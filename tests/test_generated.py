@@ -264,7 +264,7 @@ def test_read_differently_is_served_or_reported(xml: str, message: str, quantity
     assert quantity in {d.quantity for d in report.differences}, report.lines()
 
 
-#: Shrunk models of classes Pinocchio 4.1 reads differently that the loader bridges (issue 11):
+#: Shrunk models of classes Pinocchio 4.1 reads differently that the loader bridges:
 #: accepted in strict mode, the bridge reported, the engines agreeing.
 BRIDGED = [
     pytest.param(_model('<geom mass="3"/>'), "body inertia", id="geom-mass-default"),

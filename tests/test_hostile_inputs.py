@@ -1,4 +1,4 @@
-"""Issue 21: bad arguments get the library's errors, naming the argument and the valid range.
+"""Bad arguments get the library's errors, naming the argument and the valid range.
 
 First the cases the hostile round found (exact messages), then a hypothesis sweep feeding
 every public function NaN, inf, empty, wrong-shape and wrong-type arguments and allowing

@@ -135,7 +135,7 @@ def test_path_of_wrong_type() -> None:
 
 
 def test_urdf_without_inertials_is_the_librarys_error() -> None:
-    """Issue 12: not MuJoCo's mass error; issue 26: kinematics served, dynamics the library's
+    """Not MuJoCo's mass error; kinematics served, dynamics the library's
     error naming the link."""
     text = (
         '<robot name="r"><link name="base"/><link name="l1"/>'
@@ -161,7 +161,7 @@ def test_mjcf_site_and_frame() -> None:
 def test_an_existing_file_whose_name_starts_with_a_bracket_loads(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Issue 21: "<arm7>.xml" was refused as XML text; only a path to nothing can be text."""
+    """'<arm7>.xml' was once refused as XML text; only a path to nothing can be text."""
     path = tmp_path / "<arm7>.xml"
     path.write_bytes(rd.model_path("arm7").read_bytes())
     assert rd.load(path, site="ee").nq == 7

@@ -1,4 +1,4 @@
-"""Issue 21, case 5: tolerances relative to each quantity's scale on the arm.
+"""Tolerances relative to each quantity's scale on the arm.
 
 A 2.5 mm arm and a 150 m crane are held to the same relative 1e-9 by the cross-check,
 ``compare`` and ``compare_models``: an absolute 1e-9 (or 1e-9 x max(1, |value|)) let the

@@ -259,7 +259,7 @@ print("ok")
 
 @pytest.mark.parametrize("path", list(THREADED_PATHS))
 def test_a_fork_after_each_threaded_path_leaves_the_child_usable(path: str) -> None:
-    """Issue 21: a fork after batch.gravities(engine="pinocchio", threads=2) hung the child
+    """A fork after batch.gravities(engine="pinocchio", threads=2) hung the child
     (libgomp's pool does not survive fork). Run in a subprocess: a hang fails the test at
     the timeout (a bound for a hung child, not a measured time) instead of blocking."""
     import subprocess

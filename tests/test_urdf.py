@@ -723,7 +723,7 @@ def test_urdf_loops_and_duplicates_get_the_librarys_message(
     message: str,
     capfd: pytest.CaptureFixture[str],
 ) -> None:
-    """Issue 21: the parsers' own text, and C++ output on stderr, before."""
+    """The parsers' own text, and C++ output on stderr, before."""
     with pytest.raises(rd.ModelError) as err:
         rd.load_string(_tree_urdf(links, joints), frame="b" if "b" in links else "a")
     assert str(err.value) == message

@@ -73,7 +73,7 @@ RESOLVED_FEATURES = (
     "<replicate> element",
 )
 
-#:  Features Pinocchio's parser reads differently and the loader bridges (issue 11):
+#:  Features Pinocchio's parser reads differently and the loader bridges:
 #: [`arms`][redundancy.generate.arms] draws up to two of them per model, and both engines must still
 #: agree.
 BRIDGED_FEATURES = (

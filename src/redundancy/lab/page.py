@@ -1026,7 +1026,7 @@ class LabPage:
     def plot_data(self, sim: LabSim) -> dict[str, tuple[Array, Array]]:
         """The plotted series, times relative to now [s] (see `LabSim.csv`)."""
         # One read of the time and the series: a step between separate reads put samples
-        # after "now" (issue 21: the browser test saw them right after a reset).
+        # after "now" (the browser test saw them right after a reset).
         now, (t, v), (_, tau), (ts, s) = sim.histories()
         later, (te, est), (_, true) = sim.external_torque_history()
         return {
