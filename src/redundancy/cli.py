@@ -424,13 +424,40 @@ def _run(args: argparse.Namespace) -> int:
         page.serve(_load(args), host=args.host, port=args.port)
         return OK
     if args.command == "compare":
-        from .analysis.compare import run_compare
-        from .reports.files import write_atomic
-
-        args.frame_a = args.frame_a or args.frame  # None: compare's (load's) default
-        args.frame_b = args.frame_b or args.frame
-        return run_compare(args, write_atomic)
+        return _compare(args)
     return _audit(args)
+
+
+def _compare(args: argparse.Namespace) -> int:
+    """The ``compare`` subcommand: 0 the same robot, 1 differences (bad input raises)."""
+    from .analysis.compare import compare, read_joint_map
+    from .display import to_json
+    from .errors import ModelError
+    from .reports.files import write_atomic
+
+    if not (math.isfinite(args.tol) and args.tol > 0):
+        raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
+    joint_map = read_joint_map(args.joint_map) if args.joint_map else None
+    result = compare(
+        args.a,
+        args.b,
+        frame_a=args.frame_a or args.frame,  # None: compare's (load's) default
+        frame_b=args.frame_b or args.frame,
+        joint_map=joint_map,
+        n_poses=args.poses,
+        seed=args.seed,
+        tol=args.tol,
+    )
+    document = to_json(result.to_dict())
+    if args.json == "-":
+        print(document)
+    else:
+        for line in result.lines():
+            print(line)
+        if args.json:
+            write_atomic(args.json, document + "\n")
+    sys.stdout.flush()
+    return 0 if result.equivalent else 1
 
 
 def _audit(args: argparse.Namespace) -> int:

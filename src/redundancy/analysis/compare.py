@@ -30,12 +30,10 @@ such, not as a difference.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
-from ..display import Report, Table, json_ready, plural, table, to_json
+from ..display import Report, Table, json_ready, plural, table
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
@@ -55,7 +53,7 @@ from ..model.scales import arm_scales, scaled_error, scaled_errors
 
 Array = NDArray[np.float64]
 
-__all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map", "run_compare"]
+__all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map"]
 
 #: A rigid offset is taken as found when, after it, every joint axis of A lies on B's within
 #: this (or the comparison's tolerance, if larger), relative to the arm's length for
@@ -897,37 +895,3 @@ def _joint_bodies(arm: Arm) -> list[str]:
     m = arm.mj_model
     names = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     return [names[int(b)] for b in m.jnt_bodyid]
-
-
-def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:
-    """The ``compare`` subcommand: 0 the same robot, 1 differences (bad input raises).
-
-    Args:
-        args: Parsed arguments (``a``, ``b``, ``frame_a``, ``frame_b``, ``joint_map``,
-            ``json``, ``poses``, ``seed``, ``tol``); the command line has checked the counts
-            and the JSON target.
-        write: Writes text to a path atomically (the audit's writer).
-    """
-    if not (math.isfinite(args.tol) and args.tol > 0):
-        raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
-    joint_map = read_joint_map(args.joint_map) if args.joint_map else None
-    result = compare(
-        args.a,
-        args.b,
-        frame_a=args.frame_a,
-        frame_b=args.frame_b,
-        joint_map=joint_map,
-        n_poses=args.poses,
-        seed=args.seed,
-        tol=args.tol,
-    )
-    document = to_json(result.to_dict())
-    if args.json == "-":
-        print(document)
-    else:
-        for line in result.lines():
-            print(line)
-        if args.json:
-            write(args.json, document + "\n")
-    sys.stdout.flush()
-    return 0 if result.equivalent else 1
