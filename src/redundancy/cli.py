@@ -421,7 +421,10 @@ def _run(args: argparse.Namespace) -> int:
         from .lab import page  # MissingDependencyError without the `lab` extra
 
         page.check_address(args.host, args.port)  # before any work
-        page.serve(_load(args), host=args.host, port=args.port)
+        arm = _load(args)
+        lab = page.LabServer(arm, host=args.host, port=args.port)
+        print(f"redundancy lab: {arm.source} at {lab.url} (Ctrl-C to stop)", flush=True)
+        lab.serve_forever()
         return OK
     if args.command == "compare":
         return _compare(args)
