@@ -352,9 +352,47 @@ def _defaults(draw: st.DrawFn, ctx: _Ctx) -> tuple[str, dict[str, str], dict[str
     return text, classes, parents
 
 
-@st.composite
-def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None) -> GeneratedArm:
-    ctx = _Ctx(degree=draw(st.booleans()))
+#: Refusals whose element sits on the tool's body, so the tool's body needs a joint on the arm.
+_ON_THE_TOOL = (
+    "tendon on an arm joint",
+    "joint coupling on the arm",
+    "ball joint",
+    "free joint",
+    "several joints in one body",
+    "unnamed joint",
+    "shell inertia",
+    *RESOLVED_FEATURES,
+)
+
+
+@dataclass
+class _Head:
+    """The drawn file's head (compiler, option, defaults) and what its bodies may use."""
+
+    compiler: str
+    option: str
+    defaults: str
+    classes: dict[str, str]
+    class_parents: dict[str, str]
+    extras: set[str]
+    extra_lines: str
+
+    def refining(self, active: str | None) -> list[str | None]:
+        """Classes an element may name inside ``childclass=active``: it or its descendants."""
+        if active is None:
+            return [None, *self.classes]
+        out: list[str | None] = [None]
+        for c in self.classes:
+            k: str | None = c
+            while k is not None and k != active:
+                k = self.class_parents.get(k)
+            if k == active:
+                out.append(c)
+        return out
+
+
+def _head(draw: st.DrawFn, ctx: _Ctx, refuse: str | None) -> _Head:
+    """Draw the compiler settings, gravity and defaults, and the bridged features to add."""
     seq = draw(st.sampled_from(EULER_SEQUENCES))
     if refuse == "extrinsic eulerseq":
         seq = seq.upper()
@@ -383,21 +421,22 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
             if defaults
             else f"  <default>\n    {extra_defaults}\n  </default>\n"
         )
+    return _Head(compiler, option, defaults, classes, class_parents, extras, extra_lines)
 
-    def refining(active: str | None) -> list[str | None]:
-        """Classes an element may name inside ``childclass=active``: it or its descendants."""
-        if active is None:
-            return [None, *classes]
-        out: list[str | None] = [None]
-        for c in classes:
-            k: str | None = c
-            while k is not None and k != active:
-                k = class_parents.get(k)
-            if k == active:
-                out.append(c)
-        return out
 
-    # Jointed bodies, then up to two welded (joint-less) bodies inserted anywhere.
+def _tree(
+    draw: st.DrawFn,
+    ctx: _Ctx,
+    max_joints: int,
+    branching: bool,
+    refuse: str | None,
+    extras: set[str],
+) -> tuple[list[bool], list[int], list[list[int]]]:
+    """Draw the body tree: which bodies have a joint, each body's parent, each one's children.
+
+    Jointed bodies, then up to two welded (joint-less) bodies inserted anywhere; the last body
+    carries the tool.
+    """
     jointed = [refuse != "no joints"] * draw(st.integers(1, max_joints))
     for _ in range(draw(st.integers(0, 2))):
         jointed.insert(draw(st.integers(0, len(jointed))), False)
@@ -405,16 +444,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         jointed[0] = True
     if refuse in ("ball joint", "free joint") and sum(jointed) < 2:
         jointed.append(True)  # the ball or free joint is held: the arm needs a hinge or slide
-    if refuse in (
-        "tendon on an arm joint",
-        "joint coupling on the arm",
-        "ball joint",
-        "free joint",
-        "several joints in one body",
-        "unnamed joint",
-        "shell inertia",
-        *RESOLVED_FEATURES,
-    ):
+    if refuse in _ON_THE_TOOL:
         jointed[-1] = True  # the tool's body: its joint is on the arm (never "no joints")
     if "fixed root body with a pose" in extras:
         jointed[0] = False
@@ -435,83 +465,70 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
     children: list[list[int]] = [[] for _ in range(n)]
     for i, p in enumerate(parents[1:], start=1):
         children[p].append(i)
+    return jointed, parents, children
 
-    class_names = list(classes)
-    bodies: list[str] = []
-    active_of: list[str | None] = []
-    joint_names: list[str] = []
-    joint_kinds: list[str] = []
-    for i in range(n):
-        inherited = active_of[parents[i]] if i else None
-        childclass = draw(st.sampled_from([None, *class_names])) if class_names else None
-        active_of.append(childclass or inherited)
-        attrs = f'name="b{i}"'
-        if childclass:
-            attrs += f' childclass="{childclass}"'
-            ctx.features.add("childclass")
-        if refuse == "axisangle with a non-unit axis" and i == n - 1:
-            attrs += ' pos="0 0 0.1" axisangle="1 1 0 30"'
-        elif i > 0 or jointed[0]:
-            attrs += draw(_pose(ctx))
-        elif "fixed root body with a pose" in extras:
-            attrs += ' pos="0 0 0.1" quat="0.9 0.1 0 0"'
-        lines = [f"<body {attrs}>"]
-        if jointed[i]:
-            jclass = draw(st.sampled_from(refining(active_of[i])))
-            active = jclass or active_of[i]
-            kind = (
-                draw(st.sampled_from([None, "hinge", "slide"]))
-                if active
-                else draw(st.sampled_from(["hinge", "slide"]))
-            )
-            eff = kind or classes.get(active or "", "hinge")
-            name = f"j{len(joint_names)}"
-            jattrs = draw(_joint_attrs(ctx, kind))
-            if jclass:
-                jattrs += f' class="{jclass}"'
-            if refuse == "unnamed joint" and i == n - 1:  # on the arm's chain
-                lines.append(f"<joint{jattrs}/>")
-            elif refuse == "ball joint" and not joint_names:
-                lines.append(f'<joint name="{name}" type="ball" limited="false"/>')
-            elif refuse == "free joint" and i == 0:
-                lines.append(f'<freejoint name="{name}"/>')
-            else:
-                lines.append(f'<joint name="{name}"{jattrs}/>')
-            if refuse == "several joints in one body" and i == n - 1:  # on the arm's chain
-                lines.append(f'<joint name="{name}b" type="hinge" axis="1 0 0"/>')
-            joint_names.append(name)
-            joint_kinds.append(eff)
-        if draw(st.booleans()):
-            lines.append(draw(_inertial(ctx)))
-        gclass = draw(st.sampled_from(refining(active_of[i])))
-        geoms = [draw(_geom(ctx, gclass))]
-        if draw(st.booleans()):
-            geoms.append(draw(_geom(ctx, None, visual=draw(st.booleans()))))
-        if refuse == "<frame> element" and i == n - 1:
-            geoms.append('<frame pos="0 0 0.1"><geom type="sphere" size="0.02"/></frame>')
-        if "mesh geom" in extras and i == n - 1:
-            geoms.append('<geom type="mesh" mesh="cube" contype="0" conaffinity="0"/>')
-        if extra_lines and i == n - 1:
-            geoms.append(extra_lines)
-        lines += geoms
-        if i == n - 1:
-            lines.append(f'<site name="tip"{draw(_pose(ctx, 0.2))}/>')
-        bodies.append("\n".join(lines))
 
-    def render(i: int, depth: int) -> str:
-        pad = "  " * depth
-        head, *rest = bodies[i].split("\n")
-        out = [pad + head] + [pad + "  " + r for r in rest]
-        out += [render(c, depth + 1) for c in children[i]]
-        out.append(pad + "</body>")
-        return "\n".join(out)
+def _joint_lines(
+    draw: st.DrawFn,
+    ctx: _Ctx,
+    head: _Head,
+    active: str | None,
+    name: str,
+    first: bool,
+    refuse: str | None,
+    on_tool: bool,
+    root: bool,
+) -> tuple[list[str], str]:
+    """Draw a body's joint: its MJCF lines and its effective type (``hinge`` or ``slide``).
 
-    world = render(0, 2)
-    if refuse in ("several root bodies", "several kinematic trees"):
-        joint = '<joint name="other" axis="0 0 1"/>' if refuse == "several kinematic trees" else ""
-        world += (
-            f'\n    <body name="other" pos="1 0 0">{joint}<geom type="sphere" size="0.05"/></body>'
-        )
+    ``active`` is the body's class in force, ``first`` whether no joint was drawn yet, ``on_tool``
+    whether the body carries the tool, ``root`` whether it is the first body.
+    """
+    jclass = draw(st.sampled_from(head.refining(active)))
+    in_force = jclass or active
+    kind = (
+        draw(st.sampled_from([None, "hinge", "slide"]))
+        if in_force
+        else draw(st.sampled_from(["hinge", "slide"]))
+    )
+    eff = kind or head.classes.get(in_force or "", "hinge")
+    jattrs = draw(_joint_attrs(ctx, kind))
+    if jclass:
+        jattrs += f' class="{jclass}"'
+    if refuse == "unnamed joint" and on_tool:  # on the arm's chain
+        lines = [f"<joint{jattrs}/>"]
+    elif refuse == "ball joint" and first:
+        lines = [f'<joint name="{name}" type="ball" limited="false"/>']
+    elif refuse == "free joint" and root:
+        lines = [f'<freejoint name="{name}"/>']
+    else:
+        lines = [f'<joint name="{name}"{jattrs}/>']
+    if refuse == "several joints in one body" and on_tool:  # on the arm's chain
+        lines.append(f'<joint name="{name}b" type="hinge" axis="1 0 0"/>')
+    return lines, eff
+
+
+def _geoms(
+    draw: st.DrawFn, ctx: _Ctx, head: _Head, active: str | None, refuse: str | None, on_tool: bool
+) -> list[str]:
+    """Draw a body's geoms (one, maybe a second), with the tool body's extra elements."""
+    gclass = draw(st.sampled_from(head.refining(active)))
+    geoms = [draw(_geom(ctx, gclass))]
+    if draw(st.booleans()):
+        geoms.append(draw(_geom(ctx, None, visual=draw(st.booleans()))))
+    if refuse == "<frame> element" and on_tool:
+        geoms.append('<frame pos="0 0 0.1"><geom type="sphere" size="0.02"/></frame>')
+    if "mesh geom" in head.extras and on_tool:
+        geoms.append('<geom type="mesh" mesh="cube" contype="0" conaffinity="0"/>')
+    if head.extra_lines and on_tool:
+        geoms.append(head.extra_lines)
+    return geoms
+
+
+def _tail(
+    draw: st.DrawFn, ctx: _Ctx, refuse: str | None, joint_names: list[str], extras: set[str]
+) -> tuple[str, str]:
+    """Draw the actuators, tendons and equalities after the world, and the mesh asset."""
     tail = ""
     if draw(st.booleans()) and joint_names and refuse is None:
         ctx.features.add("actuators")
@@ -530,9 +547,72 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
     if "mesh geom" in extras:
         verts = "0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"
         asset = f'  <asset><mesh name="cube" vertex="{verts}"/></asset>\n'
+    return tail, asset
+
+
+def _render(bodies: list[str], children: list[list[int]], i: int, depth: int) -> str:
+    """Body ``i`` and its subtree as indented MJCF (each body's lines, then its children)."""
+    pad = "  " * depth
+    head, *rest = bodies[i].split("\n")
+    out = [pad + head] + [pad + "  " + r for r in rest]
+    out += [_render(bodies, children, c, depth + 1) for c in children[i]]
+    out.append(pad + "</body>")
+    return "\n".join(out)
+
+
+@st.composite
+def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None) -> GeneratedArm:
+    ctx = _Ctx(degree=draw(st.booleans()))
+    head = _head(draw, ctx, refuse)
+    extras = head.extras
+    jointed, parents, children = _tree(draw, ctx, max_joints, branching, refuse, extras)
+    n = len(jointed)
+    class_names = list(head.classes)
+    bodies: list[str] = []
+    active_of: list[str | None] = []
+    joint_names: list[str] = []
+    joint_kinds: list[str] = []
+    for i in range(n):
+        on_tool = i == n - 1
+        inherited = active_of[parents[i]] if i else None
+        childclass = draw(st.sampled_from([None, *class_names])) if class_names else None
+        active_of.append(childclass or inherited)
+        attrs = f'name="b{i}"'
+        if childclass:
+            attrs += f' childclass="{childclass}"'
+            ctx.features.add("childclass")
+        if refuse == "axisangle with a non-unit axis" and on_tool:
+            attrs += ' pos="0 0 0.1" axisangle="1 1 0 30"'
+        elif i > 0 or jointed[0]:
+            attrs += draw(_pose(ctx))
+        elif "fixed root body with a pose" in extras:
+            attrs += ' pos="0 0 0.1" quat="0.9 0.1 0 0"'
+        lines = [f"<body {attrs}>"]
+        if jointed[i]:
+            name = f"j{len(joint_names)}"
+            joint, eff = _joint_lines(
+                draw, ctx, head, active_of[i], name, not joint_names, refuse, on_tool, i == 0
+            )
+            lines += joint
+            joint_names.append(name)
+            joint_kinds.append(eff)
+        if draw(st.booleans()):
+            lines.append(draw(_inertial(ctx)))
+        lines += _geoms(draw, ctx, head, active_of[i], refuse, on_tool)
+        if on_tool:
+            lines.append(f'<site name="tip"{draw(_pose(ctx, 0.2))}/>')
+        bodies.append("\n".join(lines))
+
+    world = _render(bodies, children, 0, 2)
+    if refuse in ("several root bodies", "several kinematic trees"):
+        joint = '<joint name="other" axis="0 0 1"/>' if refuse == "several kinematic trees" else ""
+        world += (
+            f'\n    <body name="other" pos="1 0 0">{joint}<geom type="sphere" size="0.05"/></body>'
+        )
+    tail, asset = _tail(draw, ctx, refuse, joint_names, extras)
     xml = (
-        f"<mujoco>\n  {compiler}{option}\n{defaults}{asset}  <worldbody>\n{world}\n"
-        f"  </worldbody>\n{tail}</mujoco>\n"
+        f"<mujoco>\n  {head.compiler}{head.option}\n{head.defaults}{asset}  <worldbody>\n"
+        f"{world}\n  </worldbody>\n{tail}</mujoco>\n"
     )
     return GeneratedArm(xml, "tip", len(joint_names), tuple(sorted(ctx.features)), refuse)
 
