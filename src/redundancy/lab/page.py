@@ -381,6 +381,18 @@ class LabPage:
             f"PD with gravity compensation, every {1000 * sim.timestep:g} ms step:  \n"
             f"τ = qfrc_bias + kp (q* − q) − kd q̇, kp = {sim.kp:g} N m/rad"
         )
+        self._build_joint_targets()
+        self._build_redundancy()
+        self._build_controller()
+        self._build_push()
+        self._build_session()
+        self._build_view()
+        self._build_plots()
+
+    def _build_joint_targets(self) -> None:
+        """The joint target sliders."""
+        gui = self.server.gui
+        sim = self.sim
         self.sliders = []
         with gui.add_folder("joint targets q*"):
             for i in range(self.arm.nq):
@@ -393,6 +405,10 @@ class LabPage:
                 )
                 s.on_update(self._target_callback(i))
                 self.sliders.append(s)
+
+    def _build_redundancy(self) -> None:
+        """Self-motion, the gizmo and the velocity ellipsoid."""
+        gui = self.server.gui
         with gui.add_folder("redundancy"):
             self.self_motion = gui.add_slider(
                 SELF_MOTION_LABEL,
@@ -410,6 +426,11 @@ class LabPage:
             )
             self.show_ellipsoid = gui.add_checkbox(ELLIPSOID_LABEL, True)
             self.show_ellipsoid.on_update(lambda _: self.update(self.sim, force=True))
+
+    def _build_controller(self) -> None:
+        """kd, armature, contact forces and the nudge."""
+        gui = self.server.gui
+        sim = self.sim
         with gui.add_folder("controller and model"):
             self.kd = gui.add_slider(
                 KD_LABEL,
@@ -442,6 +463,10 @@ class LabPage:
             self.collide.on_update(lambda _: sim.set_contact_forces(bool(self.collide.value)))
             self.nudge = gui.add_button(NUDGE_LABEL, hint="add 0.01 rad/s to every joint's speed")
             self.nudge.on_click(lambda _: sim.nudge())
+
+    def _build_push(self) -> None:
+        """The push sliders: a force at the tool."""
+        gui = self.server.gui
         with gui.add_folder("push the tool"):
             self.push = [
                 gui.add_slider(
@@ -457,6 +482,10 @@ class LabPage:
             ]
             for slider in self.push:
                 slider.on_update(lambda _: self._on_push())
+
+    def _build_session(self) -> None:
+        """Reset, pause, single step, speed and the CSV download."""
+        gui = self.server.gui
         with gui.add_folder("session"):
             self.reset = gui.add_button(RESET_LABEL, hint="the keyframe at rest; settings kept")
             self.reset.on_click(lambda _: self._reset(all_settings=False))
@@ -474,6 +503,10 @@ class LabPage:
             self.rate.on_update(lambda _: self._set_rate())
             self.download = gui.add_button(CSV_LABEL)
             self.download.on_click(self._send_csv)
+
+    def _build_view(self) -> None:
+        """Camera views and what the scene shows."""
+        gui = self.server.gui
         with gui.add_folder("view"):
             self.views = gui.add_button_group(VIEW_LABEL, VIEWS)
             self.views.on_click(lambda event: self.set_view(str(event.target.value)))
@@ -491,7 +524,10 @@ class LabPage:
             ):
                 box.on_update(lambda _: self.update(self.sim, force=True))
 
-        # Readouts and plots in a panel of their own, docked left of the scene.
+    def _build_plots(self) -> None:
+        """Readouts and plots in a panel of their own, docked left of the scene."""
+        gui = self.server.gui
+        sim = self.sim
         joint = sim.watch_joint
         limit = float(sim.effort_limit[sim.watch_index])
         panel = gui.add_panel()
