@@ -453,7 +453,7 @@ def rtb_section(calls: int, repeats: int) -> list[str]:
     except ImportError:
         return ["Manipulability against Robotics Toolbox: not run (pip install '.[bench]')"]
     robot = rtb.models.Panda()
-    arm = rd.load(rd.model_path("panda"), site="ee")
+    arm = rd.load(rd.model_path("panda"), frame="ee")
     qs = random_poses(arm, calls, seed=11)
     qs_list = [np.array(q) for q in qs]
 
@@ -617,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--calls", type=int, default=2000, help="single-pose calls per round")
     p.add_argument("--ik", type=int, default=1000, help="IK targets per arm (CLIK: a fifth)")
     args = p.parse_args(argv)
-    arm = rd.load(rd.model_path(args.model), site="ee")
+    arm = rd.load(rd.model_path(args.model), frame="ee")
     Q = random_poses(arm, args.n, seed=0)
     t0 = time.perf_counter()
     lines = [

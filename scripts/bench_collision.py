@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         from tests import corpus
 
         model = corpus.MODELS["iiwa14"]
-        arms["iiwa14 (corpus)"] = rd.load(model.write(Path(tmp.name)), site=model.site)
+        arms["iiwa14 (corpus)"] = rd.load(model.write(Path(tmp.name)), frame=model.site)
     except ImportError:
         pass
 

@@ -125,8 +125,8 @@ def _without_armature(arm: rd.Arm) -> tuple[MujocoEngine, PinocchioEngine]:
     mm.actuator_armature[:] = 0.0
     pm = arm.pinocchio.model.copy()
     pm.armature[:] = 0.0
-    return MujocoEngine(mm, arm.site, np.zeros(arm.nq)), PinocchioEngine(
-        pm, arm.site, arm.joint_names
+    return MujocoEngine(mm, arm.frame, np.zeros(arm.nq)), PinocchioEngine(
+        pm, arm.frame, arm.joint_names
     )
 
 
@@ -217,7 +217,7 @@ SHORT_ARMS = {
     </body>
   </body>
 </worldbody></mujoco>""",
-        site="tip",
+        frame="tip",
     )
     for n in (3, 5)
 }

@@ -230,7 +230,7 @@ def test_the_arm_is_not_modified(arm7: rd.Arm) -> None:
 
 
 def test_panda_runs() -> None:
-    panda = rd.load(rd.model_path("panda"), site="ee")
+    panda = rd.load(rd.model_path("panda"), frame="ee")
     sim = LabSim(panda)
     r = sim.run_for(0.5)
     assert r.watch_joint == panda.joint_names[-1]
@@ -454,17 +454,17 @@ def test_cli_lab_serves_the_panda(
     def once(self: object) -> None:
         lab = self
         seen["joints"] = lab.sim.arm.joint_names  # type: ignore[attr-defined]
-        seen["site"] = lab.sim.arm.site  # type: ignore[attr-defined]
+        seen["site"] = lab.sim.arm.frame  # type: ignore[attr-defined]
         with urllib.request.urlopen(lab.url, timeout=30) as resp:  # type: ignore[attr-defined]
             seen["status"] = resp.status
         lab.stop()  # type: ignore[attr-defined]
 
     monkeypatch.setattr(page.LabServer, "serve_forever", once)
     model = str(rd.model_path("panda"))
-    assert cli.main(["lab", model, "--site", "ee", "--port", "0"]) == 0
+    assert cli.main(["lab", model, "--frame", "ee", "--port", "0"]) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"redundancy lab: {model} at http://127.0.0.1:")
-    assert seen == {"joints": rd.load(model, site="ee").joint_names, "site": "ee", "status": 200}
+    assert seen == {"joints": rd.load(model, frame="ee").joint_names, "site": "ee", "status": 200}
 
 
 def test_server_serves_the_page_and_warns_on_a_busy_port(arm7: rd.Arm) -> None:

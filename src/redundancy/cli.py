@@ -25,6 +25,7 @@ import contextlib
 import math
 import os
 import sys
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NoReturn
 
@@ -199,6 +200,23 @@ def _version() -> str:
 _EXIT = "exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error"
 
 
+class _FrameOption(argparse.Action):
+    """``--frame NAME``; its old name ``--site`` still works, with a warning."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        if option_string == "--site":
+            message = "--site is deprecated: name the tool frame with --frame"
+            warnings.warn(message, DeprecationWarning, stacklevel=2)
+            _error(f"redundancy: warning: {message}")
+        setattr(namespace, self.dest, values)
+
+
 def _model_arguments(p: argparse.ArgumentParser) -> None:
     """The model file and how to load it: shared by ``audit`` and ``lab``."""
     p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
@@ -207,8 +225,10 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
         "--site",
         dest="frame",
         metavar="NAME",
+        action=_FrameOption,
         help="tool frame: an MJCF site or body, a URDF link or fixed joint (default: the "
-        "model's one chain end; with several, the error lists them)",
+        "model's one chain end; with several, the error lists them); --site is its "
+        "deprecated name",
     )
     p.add_argument(
         "--srdf",

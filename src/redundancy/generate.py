@@ -19,13 +19,14 @@ Example:
     >>> from redundancy.generate import arms
     >>> @given(arms())
     ... def test_engines_agree(gen):
-    ...     arm = rd.load_string(gen.xml, site=gen.site)
+    ...     arm = rd.load_string(gen.xml, frame=gen.frame)
     ...     assert rd.compare_models(arm).equivalent
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -123,7 +124,7 @@ class GeneratedArm:
 
     Attributes:
         xml: The MJCF text.
-        site: Name of the tool site (``"tip"``).
+        frame: Name of the tool frame, a site (``"tip"``).
         n_joints: Number of hinge and slide joints.
         features: Short names of the optional features the model uses.
         refused: For [`refused_arms`][redundancy.generate.refused_arms], the feature the loader must
@@ -131,10 +132,20 @@ class GeneratedArm:
     """
 
     xml: str
-    site: str = "tip"
+    frame: str = "tip"
     n_joints: int = 0
     features: tuple[str, ...] = ()
     refused: str | None = None
+
+    @property
+    def site(self) -> str:
+        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
+        warnings.warn(
+            "GeneratedArm.site is deprecated: use GeneratedArm.frame",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.frame
 
     def __repr__(self) -> str:  # shown by hypothesis for a falsifying example
         head = f"GeneratedArm(n_joints={self.n_joints}, features={list(self.features)}"

@@ -633,7 +633,7 @@ class _Comparer:
         self.find_tool()
         pos_a, rot_a = self.tool_a(*a.mujoco.site_pose(qa))
         pos_b, rot_b = b.mujoco.site_pose(qb)
-        tool = f"tool frame {a.site!r}" + (f" [{b.site!r}]" if b.site != a.site else "")
+        tool = f"tool frame {a.frame!r}" + (f" [{b.frame!r}]" if b.frame != a.frame else "")
         moved = self.check("tool frame position (world)", tool, pos_a, pos_b)
         moved |= self.check("tool frame rotation (world)", tool, rot_a, rot_b)
         if moved:
@@ -864,8 +864,8 @@ class _Comparer:
         return Comparison(
             a=f"{self.a.source} ({self.fmt_a})",
             b=f"{self.b.source} ({self.fmt_b})",
-            frame_a=self.a.site,
-            frame_b=self.b.site,
+            frame_a=self.a.frame,
+            frame_b=self.b.frame,
             joint_map=tuple(self.pairs),
             differences=tuple(self.diffs),
             not_expressible=tuple(self.inexpressible),

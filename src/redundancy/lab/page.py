@@ -1,10 +1,10 @@
 """The lab: lesson 5.2's interactive arm, served as a local web page with viser.
 
-``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its geoms (a
-colour per link), held by `redundancy.lab.sim.LabSim` (PD control with gravity compensation, stepped
-in real time by `redundancy.lab.sim.RealTimeRunner`), with sliders for the joint targets and the
-controller's damping, a choice of armature, readouts, the six singular values as bars and three live
-plots.
+``redundancy lab [MODEL.xml] [--frame NAME]`` starts it. The page shows the arm drawn from its
+geoms (a colour per link), held by `redundancy.lab.sim.LabSim` (PD control with gravity
+compensation, stepped in real time by `redundancy.lab.sim.RealTimeRunner`), with sliders for the
+joint targets and the controller's damping, a choice of armature, readouts, the six singular
+values as bars and three live plots.
 
 Redundancy to touch: a self-motion slider moves the elbow along the null space with the tool
 held; a gizmo at the tool drags it (damped least squares with a null-space posture term);
@@ -292,7 +292,7 @@ class LabPage:
             origin_color=(250, 200, 0),
         )
         self._tool_label = scene.add_label(
-            "/tool/name", f"tool ({self.arm.site})", anchor="top-left"
+            "/tool/name", f"tool ({self.arm.frame})", anchor="top-left"
         )
         self._ellipsoid = scene.add_icosphere(
             "/ellipsoid",
@@ -1113,7 +1113,7 @@ class LabServer:
             self._allowed_hosts |= machine_names()
         self.server._websock_server.on_client_connect(self._check_origin)
         name = arm.source.rsplit("/", 1)[-1]
-        title = f"Posing {name}: {arm.nq} joints, site {arm.site!r}"
+        title = f"Posing {name}: {arm.nq} joints, frame {arm.frame!r}"
         self.runner = RealTimeRunner(self.sim, fps=fps)
         self.page = LabPage(self.server, self.sim, self.runner, title, f"{name} · redundancy lab")
         self.runner.callbacks.append(self.page.update)

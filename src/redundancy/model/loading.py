@@ -6,6 +6,7 @@ import copy
 import math
 import os
 import tempfile
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -129,8 +130,16 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
 
 
+def _warn_site(site: str | None) -> None:
+    """Warn the caller of `load` or `load_string` who named the tool frame ``site=``."""
+    if site is not None:
+        warnings.warn(
+            "site= is deprecated: name the tool frame with frame=", DeprecationWarning, stacklevel=3
+        )
+
+
 def _tool(site: str | None, frame: str | None) -> str | None:
-    """The tool frame asked for: ``frame``, else ``site``; None: the model's default."""
+    """The tool frame asked for: ``frame``, else the deprecated ``site``; None: the default."""
     for name, value in (("frame", frame), ("site", site)):
         if value is None:
             continue
@@ -142,9 +151,9 @@ def _tool(site: str | None, frame: str | None) -> str | None:
 
 def load(
     path: str | os.PathLike[str],
-    site: str | None = None,
-    strict: bool = True,
     frame: str | None = None,
+    strict: bool = True,
+    site: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
     base: str | None = None,
     rest: RestSpec = None,
@@ -161,17 +170,18 @@ def load(
 
     Args:
         path: MJCF or URDF file.
-        site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
+        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint. None: the
+            model's one chain end (a leaf with a moving joint above it; see
+            `redundancy.model.ends`), else its frame named ``"ee"``, else a ModelError listing
+            the chain ends.
         strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
             (``<frame>``, ``<replicate>``, a class inside another childclass...: see
             `redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
             compiled model instead, reported in ``arm.bridges``. False: Pinocchio reads the
             file itself and `redundancy.compare_models` shows the differences. MJCF
             only.
-        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
-            Overrides ``site``. Neither given: the model's one chain end (a leaf with a
-            moving joint above it; see `redundancy.model.ends`), else its frame named
-            ``"ee"``, else a ModelError listing the chain ends.
+        site: Deprecated name of ``frame`` (from when the tool had to be an MJCF site):
+            warns with a DeprecationWarning; ``frame`` wins when both are given.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
             joined by a joint are always excluded. An SRDF of a whole robot serves a part of
@@ -192,6 +202,7 @@ def load(
         UnknownNameError: The tool is not a frame of the model, ``base`` not a body on its
             chain, ``rest`` not a keyframe or held joint (the message lists the valid names).
     """
+    _warn_site(site)
     p, data = _read_file(path)
     options = _options(site, strict, frame, disabled_collisions, base, rest)
     return _from_file(p, data, options, str(p))
@@ -268,19 +279,22 @@ def rebuild_arm(recipe: Recipe) -> Arm:
 
 def load_string(
     xml: str | bytes,
-    site: str | None = None,
-    strict: bool = True,
     frame: str | None = None,
+    strict: bool = True,
+    site: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
     base: str | None = None,
     rest: RestSpec = None,
 ) -> Arm:
     """Load MJCF or URDF text into MuJoCo and Pinocchio (see [`load`][redundancy.load]).
 
+    The arguments after ``xml`` are `load`'s (``site=`` its deprecated name of ``frame=``).
+
     Bytes are decoded as XML says. Pinocchio's MJCF parser reads files, so MJCF text is
     written to a temporary file for it and must not refer to other files (meshes, includes)
     by relative path; a URDF's relative mesh paths count from the current directory.
     """
+    _warn_site(site)
     if isinstance(xml, bytes | bytearray):
         xml, _ = decode_xml(bytes(xml), "<string>")
     elif isinstance(xml, str):

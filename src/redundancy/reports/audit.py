@@ -98,7 +98,7 @@ def audit(
     findings, notes = judge(arm, computed, engines)
     return AuditReport(
         str(arm.source),
-        arm.site,
+        arm.frame,
         mode,
         computed,
         engines,

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -112,7 +113,7 @@ class AuditReport(Report):
 
     Attributes:
         model: The model file (or ``"<string>"``).
-        site: The tool frame (a site of MuJoCo's model: an MJCF site, a URDF link).
+        frame: The tool frame (a site of MuJoCo's model: an MJCF site, a URDF link).
         mode: ``"strict"`` or ``"lenient"`` (loaded with ``strict=False``: what Pinocchio reads
             differently is a finding, not a refusal).
         sections: Joints, keyframes, gravity, self-collision.
@@ -125,7 +126,7 @@ class AuditReport(Report):
     """
 
     model: str
-    site: str
+    frame: str
     mode: str
     sections: Sections
     engines: EngineAgreement
@@ -134,6 +135,16 @@ class AuditReport(Report):
     model_format: str = "MJCF"
     robot: RobotPart | None = None
     contact_mass: sections.ContactMass | None = None
+
+    @property
+    def site(self) -> str:
+        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
+        warnings.warn(
+            "AuditReport.site is deprecated: use AuditReport.frame",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.frame
 
     @property
     def exit_code(self) -> int:
@@ -158,7 +169,7 @@ class AuditReport(Report):
         doc = {
             "model": self.model,
             "format": self.model_format,
-            "frame": self.site,
+            "frame": self.frame,
             "mode": self.mode,
             "simulation": asdict(j.simulation),
             "kd": j.kd,
@@ -246,7 +257,7 @@ class AuditReport(Report):
 
     def summary(self) -> str:
         """The model, the tool frame and the number of findings."""
-        return f"{self.model} ({self.site}): {plural(len(self.findings), 'finding')}"
+        return f"{self.model} ({self.frame}): {plural(len(self.findings), 'finding')}"
 
     def html_tables(self) -> list[Table]:
         """Findings, keyframes, and the engines' agreement."""
@@ -293,7 +304,7 @@ def format_report(r: AuditReport) -> list[str]:
     lenient = ": Pinocchio's differences are findings" if r.mode == "lenient" else ""
     out = [
         f"audit of {r.model}",
-        f"  {r.model_format}, tool frame {r.site!r}, {r.mode} mode{lenient}",
+        f"  {r.model_format}, tool frame {r.frame!r}, {r.mode} mode{lenient}",
         "",
     ]
     defaults = " (MuJoCo's defaults: URDF cannot set them)" if r.model_format == "URDF" else ""
