@@ -437,3 +437,10 @@ def test_site_is_a_deprecated_name_of_frame(tmp_path: Path) -> None:
         warnings.simplefilter("error", DeprecationWarning)
         assert rd.load(path, frame="ee").frame == "ee"
         assert rd.load(path, "ee").frame == "ee"  # the second parameter is the frame
+
+
+def test_arm_site_is_a_deprecated_name_of_frame(arm7: rd.Arm) -> None:
+    assert arm7.frame == "ee" and "frame='ee'" in repr(arm7)
+    with pytest.warns(DeprecationWarning, match=r"^Arm.site is deprecated: use Arm.frame$") as seen:
+        assert arm7.site == "ee"
+    assert seen[0].filename == __file__

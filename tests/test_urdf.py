@@ -232,8 +232,8 @@ def test_tool_as_fixed_joint_name_and_unknown_tool() -> None:
     assert str(err.value) == "unknown link 'flange'; valid link names: ['base', 'l1', 'tool']"
 
 
-def test_site_argument_names_the_link_too() -> None:
-    assert rd.load_string(tiny_urdf(), frame="tool").site == "tool"
+def test_frame_argument_names_the_link_too() -> None:
+    assert rd.load_string(tiny_urdf(), frame="tool").frame == "tool"
 
 
 def test_continuous_joint_is_one_unbounded_angle() -> None:

@@ -906,7 +906,7 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
     # gravity alone.
     mujoco.mj_forward(m, d)
     jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.site)  # type: ignore[attr-defined]
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.frame)  # type: ignore[attr-defined]
     mujoco.mj_jacSite(m, d, jp, jr, sid)
     M = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, M)
