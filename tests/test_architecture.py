@@ -257,7 +257,6 @@ LONG_MODULES = {
     "analysis/compare.py",
     "arm.py",
     "engines/mujoco.py",
-    "generate.py",
     "lab/page.py",
     "lab/sim.py",
     "linalg.py",

@@ -25,18 +25,17 @@ Example:
 
 from __future__ import annotations
 
-import math
 import warnings
-from dataclasses import dataclass, field
-
-import numpy as np
+from dataclasses import dataclass
 
 try:
     from hypothesis import strategies as st
 except ImportError as _err:  # pragma: no cover - exercised only without the extra
-    from .errors import MissingDependencyError
+    from ..errors import MissingDependencyError
 
     raise MissingDependencyError("hypothesis", "test") from _err
+
+from . import elements as el
 
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
 EULER_SEQUENCES = ("xyz", "zyx", "zxz", "xzx", "yzx", "xzy", "yxz", "zyz", "xyx", "yzy")
@@ -115,8 +114,6 @@ _REFUSAL_PARTS = {
     "shell inertia": ("", '<geom type="sphere" size="0.02" shellinertia="true"/>', ""),
 }
 
-_AXES = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0), (0, -1, 0), (0, 0, -1))
-
 
 @dataclass(frozen=True)
 class GeneratedArm:
@@ -158,211 +155,6 @@ class GeneratedArm:
         printer.text(repr(self))  # type: ignore[attr-defined]
 
 
-# -- number helpers ---------------------------------------------------------------------------
-
-
-def _num(x: float) -> str:
-    """Shortest text that reads back as exactly ``x``."""
-    return repr(float(x)) if x != int(x) else str(int(x))
-
-
-def _vec(xs: tuple[float, ...] | list[float] | np.ndarray) -> str:
-    return " ".join(_num(float(x)) for x in xs)
-
-
-def _real(lo: float, hi: float, digits: int = 3) -> st.SearchStrategy[float]:
-    """Floats in [lo, hi] rounded to ``digits`` decimals (readable, shrink toward 0 or lo)."""
-    return st.floats(lo, hi, allow_nan=False, allow_infinity=False).map(lambda x: round(x, digits))
-
-
-def _direction(min_norm: float = 0.2) -> st.SearchStrategy[tuple[float, float, float]]:
-    """A coordinate axis or a rounded random vector of norm >= ``min_norm`` (not unit)."""
-    rand = st.tuples(_real(-1, 1, 2), _real(-1, 1, 2), _real(-1, 1, 2)).map(
-        lambda v: v if math.hypot(*v) >= min_norm else (0.0, 0.0, 1.0)
-    )
-    return st.one_of(st.sampled_from(_AXES), rand)
-
-
-@dataclass
-class _Ctx:
-    """What the drawn model's compiler settings are, while drawing its elements."""
-
-    degree: bool
-    features: set[str] = field(default_factory=set)
-
-    def angle(self, rad: float) -> float:
-        """An angle [rad] in the model's unit, rounded."""
-        return round(math.degrees(rad), 3) if self.degree else round(rad, 5)
-
-
-@st.composite
-def _orientation(draw: st.DrawFn, ctx: _Ctx, forms: tuple[str, ...] | None = None) -> str:
-    """One orientation attribute (or none) in any MJCF form."""
-    form = draw(st.sampled_from(forms or ("none", "quat", "euler", "axisangle", "xyaxes", "zaxis")))
-    if form == "none":
-        return ""
-    ctx.features.add(form)
-    if form == "quat":
-        q = draw(st.tuples(*[_real(-1, 1, 3)] * 4))
-        q = q if math.hypot(*q) >= 0.2 else (1.0, 0.0, 0.0, 0.0)
-        return f' quat="{_vec(q)}"'
-    if form == "euler":
-        a = draw(st.tuples(*[_real(-math.pi, math.pi, 4)] * 3))
-        return f' euler="{_vec([ctx.angle(x) for x in a])}"'
-    if form == "axisangle":
-        v = np.array(draw(_direction()), dtype=float)
-        v /= np.linalg.norm(v)  # printed with repr: a unit axis to 1e-16
-        ang = draw(_real(-math.pi, math.pi, 4))
-        return f' axisangle="{_vec(v)} {_num(ctx.angle(ang))}"'
-    if form == "xyaxes":
-        x = draw(_direction())
-        y = draw(_direction())
-        if np.linalg.norm(np.cross(x, y)) <= 0.2 * math.hypot(*x) * math.hypot(*y):
-            y = (1, 0, 0) if abs(x[0]) < 0.5 * math.hypot(*x) else (0, 1, 0)
-        return f' xyaxes="{_vec(x)} {_vec(y)}"'
-    z = draw(_direction())
-    return f' zaxis="{_vec(z)}"'
-
-
-@st.composite
-def _pose(draw: st.DrawFn, ctx: _Ctx, scale: float = 0.3) -> str:
-    pos = draw(st.one_of(st.none(), st.tuples(*[_real(-scale, scale)] * 3)))
-    text = f' pos="{_vec(pos)}"' if pos is not None else ""
-    return text + draw(_orientation(ctx))
-
-
-@st.composite
-def _geom(draw: st.DrawFn, ctx: _Ctx, klass: str | None, visual: bool = False) -> str:
-    kind = draw(st.sampled_from(("sphere", "capsule", "cylinder", "box", "ellipsoid")))
-    attrs = f'type="{kind}"'
-    r = draw(_real(0.01, 0.08))
-    fromto = kind in ("capsule", "cylinder", "box") and draw(st.booleans())
-    if fromto:
-        ctx.features.add("fromto")
-        a = draw(st.tuples(*[_real(-0.2, 0.2)] * 3))
-        b = draw(st.tuples(*[_real(-0.2, 0.2)] * 3))
-        b = b if math.dist(a, b) > 0.02 else (a[0], a[1], a[2] + 0.1)
-        size = f"{_num(r)}" if kind != "box" else f"{_num(r)} {_num(r * 0.7)}"
-        attrs += f' size="{size}" fromto="{_vec(a)} {_vec(b)}"'
-    else:
-        if kind == "sphere":
-            size = [r]
-        elif kind in ("capsule", "cylinder"):
-            size = [r, draw(_real(0.01, 0.2))]
-        else:
-            size = draw(st.tuples(*[_real(0.01, 0.1)] * 3))
-        attrs += f' size="{_vec(size)}"' + draw(_pose(ctx, 0.15))
-    if visual:
-        ctx.features.add("visual geom")
-        return f'<geom {attrs} contype="0" conaffinity="0" group="2" mass="0"/>'
-    how = draw(st.sampled_from(("default", "mass", "density")))
-    if how == "mass":
-        attrs += f' mass="{_num(draw(_real(0.05, 3)))}"'
-    elif how == "density":
-        attrs += f' density="{_num(draw(_real(100, 3000, 0)))}"'
-    if klass:
-        attrs += f' class="{klass}"'
-    ctx.features.add(f"geom {how}")
-    return f"<geom {attrs}/>"
-
-
-@st.composite
-def _inertial(draw: st.DrawFn, ctx: _Ctx) -> str:
-    """An explicit inertial of a solid box (so the moments are physical) [kg, kg m^2]."""
-    m = draw(_real(0.05, 3))
-    dims = np.array(draw(st.tuples(*[_real(0.02, 0.4)] * 3)))
-    sq = dims**2
-    diag = m / 12 * np.array([sq[1] + sq[2], sq[0] + sq[2], sq[0] + sq[1]])
-    pos = draw(st.tuples(*[_real(-0.2, 0.2)] * 3))
-    if draw(st.booleans()):
-        ctx.features.add("fullinertia")
-        # A rotated box: R diag R^T, written as ixx iyy izz ixy ixz iyz.
-        angles = draw(st.tuples(*[_real(-math.pi, math.pi, 3)] * 3))
-        R = _rotation(angles)
-        full = R @ np.diag(diag) @ R.T
-        vals = [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
-        return f'<inertial pos="{_vec(pos)}" mass="{_num(m)}" fullinertia="{_vec(vals)}"/>'
-    ctx.features.add("diaginertia")
-    orient = draw(_orientation(ctx, ("none", "quat", "euler", "zaxis")))
-    return f'<inertial pos="{_vec(pos)}"{orient} mass="{_num(m)}" diaginertia="{_vec(diag)}"/>'
-
-
-def _rotation(angles: tuple[float, float, float]) -> np.ndarray:
-    a, b, c = angles
-    rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
-    ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
-    rz = np.array([[math.cos(c), -math.sin(c), 0], [math.sin(c), math.cos(c), 0], [0, 0, 1]])
-    return rz @ ry @ rx
-
-
-@st.composite
-def _joint_attrs(draw: st.DrawFn, ctx: _Ctx, kind: str | None, in_default: bool = False) -> str:
-    """Joint attributes other than name and class; ``kind`` None leaves the type to defaults.
-
-    A joint ``pos`` is drawn only on joints, not in defaults (see `REFUSED_FEATURES`).
-    """
-    attrs = ""
-    if kind is not None:
-        attrs += f' type="{kind}"'
-        ctx.features.add(kind)
-    if draw(st.booleans()):
-        attrs += f' axis="{_vec(draw(_direction()))}"'
-    if not in_default and draw(st.booleans()):
-        attrs += f' pos="{_vec(draw(st.tuples(*[_real(-0.1, 0.1)] * 3)))}"'
-    if kind is not None and draw(st.booleans()):
-        ctx.features.add("range")
-        attrs += " " + _range(draw, ctx, kind)
-    if draw(st.booleans()):
-        attrs += f' armature="{_num(draw(_real(0, 0.1, 4)))}"'
-    if draw(st.booleans()):
-        attrs += f' damping="{_num(draw(_real(0, 2)))}"'
-    return attrs
-
-
-def _range(draw: st.DrawFn, ctx: _Ctx, kind: str) -> str:
-    if kind == "slide":
-        lo, hi = draw(_real(-0.3, 0.0)), draw(_real(0.01, 0.3))
-        return f'range="{_num(lo)} {_num(hi)}"'
-    lo, hi = draw(_real(-math.pi, -0.05, 4)), draw(_real(0.05, math.pi, 4))
-    return f'range="{_num(ctx.angle(lo))} {_num(ctx.angle(hi))}"'
-
-
-@st.composite
-def _defaults(draw: st.DrawFn, ctx: _Ctx) -> tuple[str, dict[str, str], dict[str, str]]:
-    """The ``<default>`` block, the joint type each class gives and each class's parent."""
-    classes: dict[str, str] = {}
-    parents: dict[str, str] = {}
-    main = ""
-    if draw(st.booleans()):
-        armature, damping = _num(draw(_real(0, 0.05, 4))), _num(draw(_real(0, 1)))
-        main += f'<joint armature="{armature}" damping="{damping}"/>'
-    if draw(st.booleans()):
-        main += f'<geom density="{_num(draw(_real(200, 2000, 0)))}"/>'
-    names = draw(st.sampled_from(((), ("A",), ("A", "B"))))
-    nested = len(names) == 2 and draw(st.booleans())
-    blocks: dict[str, str] = {}
-    for name in names:
-        kind = draw(st.sampled_from(("hinge", "slide")))
-        classes[name] = kind
-        jattrs = f' type="{kind}"' + draw(_joint_attrs(ctx, None, in_default=True))
-        if draw(st.booleans()):
-            jattrs += " " + _range(draw, ctx, kind)
-        gattrs = ""
-        if draw(st.booleans()):
-            gattrs = f' density="{_num(draw(_real(200, 3000, 0)))}"'
-        blocks[name] = f'<default class="{name}"><joint{jattrs}/><geom{gattrs}/>'
-    if nested:
-        ctx.features.add("nested classes")
-        parents["B"] = "A"
-        inner = f"\n    {blocks['A']}{blocks['B']}</default></default>"
-    else:
-        inner = "".join(f"\n    {b}</default>" for b in blocks.values())
-    if main or inner:
-        ctx.features.add("defaults")
-    text = f"  <default>{main}{inner}\n  </default>\n" if (main or inner) else ""
-    return text, classes, parents
-
-
 #: Refusals whose element sits on the tool's body, so the tool's body needs a joint on the arm.
 _ON_THE_TOOL = (
     "tendon on an arm joint",
@@ -402,7 +194,7 @@ class _Head:
         return out
 
 
-def _head(draw: st.DrawFn, ctx: _Ctx, refuse: str | None) -> _Head:
+def _head(draw: st.DrawFn, ctx: el.Ctx, refuse: str | None) -> _Head:
     """Draw the compiler settings, gravity and defaults, and the bridged features to add."""
     seq = draw(st.sampled_from(EULER_SEQUENCES))
     if refuse == "extrinsic eulerseq":
@@ -424,8 +216,8 @@ def _head(draw: st.DrawFn, ctx: _Ctx, refuse: str | None) -> _Head:
     option = ""
     if draw(st.booleans()):
         ctx.features.add("gravity")
-        option = f'\n  <option gravity="{_vec(draw(st.tuples(*[_real(-10, 10, 2)] * 3)))}"/>'
-    defaults, classes, class_parents = draw(_defaults(ctx))
+        option = f'\n  <option gravity="{el.vec(draw(st.tuples(*[el.real(-10, 10, 2)] * 3)))}"/>'
+    defaults, classes, class_parents = draw(el.defaults(ctx))
     if extra_defaults:
         defaults = (
             defaults.replace("\n  </default>\n", f"\n    {extra_defaults}\n  </default>\n")
@@ -437,7 +229,7 @@ def _head(draw: st.DrawFn, ctx: _Ctx, refuse: str | None) -> _Head:
 
 def _tree(
     draw: st.DrawFn,
-    ctx: _Ctx,
+    ctx: el.Ctx,
     max_joints: int,
     branching: bool,
     refuse: str | None,
@@ -481,7 +273,7 @@ def _tree(
 
 def _joint_lines(
     draw: st.DrawFn,
-    ctx: _Ctx,
+    ctx: el.Ctx,
     head: _Head,
     active: str | None,
     name: str,
@@ -503,7 +295,7 @@ def _joint_lines(
         else draw(st.sampled_from(["hinge", "slide"]))
     )
     eff = kind or head.classes.get(in_force or "", "hinge")
-    jattrs = draw(_joint_attrs(ctx, kind))
+    jattrs = draw(el.joint_attrs(ctx, kind))
     if jclass:
         jattrs += f' class="{jclass}"'
     if refuse == "unnamed joint" and on_tool:  # on the arm's chain
@@ -520,13 +312,13 @@ def _joint_lines(
 
 
 def _geoms(
-    draw: st.DrawFn, ctx: _Ctx, head: _Head, active: str | None, refuse: str | None, on_tool: bool
+    draw: st.DrawFn, ctx: el.Ctx, head: _Head, active: str | None, refuse: str | None, on_tool: bool
 ) -> list[str]:
     """Draw a body's geoms (one, maybe a second), with the tool body's extra elements."""
     gclass = draw(st.sampled_from(head.refining(active)))
-    geoms = [draw(_geom(ctx, gclass))]
+    geoms = [draw(el.geom(ctx, gclass))]
     if draw(st.booleans()):
-        geoms.append(draw(_geom(ctx, None, visual=draw(st.booleans()))))
+        geoms.append(draw(el.geom(ctx, None, visual=draw(st.booleans()))))
     if refuse == "<frame> element" and on_tool:
         geoms.append('<frame pos="0 0 0.1"><geom type="sphere" size="0.02"/></frame>')
     if "mesh geom" in head.extras and on_tool:
@@ -537,7 +329,7 @@ def _geoms(
 
 
 def _tail(
-    draw: st.DrawFn, ctx: _Ctx, refuse: str | None, joint_names: list[str], extras: set[str]
+    draw: st.DrawFn, ctx: el.Ctx, refuse: str | None, joint_names: list[str], extras: set[str]
 ) -> tuple[str, str]:
     """Draw the actuators, tendons and equalities after the world, and the mesh asset."""
     tail = ""
@@ -545,8 +337,8 @@ def _tail(
         ctx.features.add("actuators")
         motors = []
         for name in draw(st.lists(st.sampled_from(joint_names), unique=True, min_size=1)):
-            gear = _num(draw(_real(0.5, 100, 1)))
-            lim = _num(draw(_real(1, 50, 1)))
+            gear = el.num(draw(el.real(0.5, 100, 1)))
+            lim = el.num(draw(el.real(1, 50, 1)))
             motors.append(f'<motor joint="{name}" gear="{gear}" ctrlrange="-{lim} {lim}"/>')
         tail += "  <actuator>" + "".join(motors) + "</actuator>\n"
     if refuse == "tendon on an arm joint":
@@ -573,7 +365,7 @@ def _render(bodies: list[str], children: list[list[int]], i: int, depth: int) ->
 
 @st.composite
 def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None) -> GeneratedArm:
-    ctx = _Ctx(degree=draw(st.booleans()))
+    ctx = el.Ctx(degree=draw(st.booleans()))
     head = _head(draw, ctx, refuse)
     extras = head.extras
     jointed, parents, children = _tree(draw, ctx, max_joints, branching, refuse, extras)
@@ -595,7 +387,7 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
         if refuse == "axisangle with a non-unit axis" and on_tool:
             attrs += ' pos="0 0 0.1" axisangle="1 1 0 30"'
         elif i > 0 or jointed[0]:
-            attrs += draw(_pose(ctx))
+            attrs += draw(el.pose(ctx))
         elif "fixed root body with a pose" in extras:
             attrs += ' pos="0 0 0.1" quat="0.9 0.1 0 0"'
         lines = [f"<body {attrs}>"]
@@ -608,10 +400,10 @@ def _model(draw: st.DrawFn, max_joints: int, branching: bool, refuse: str | None
             joint_names.append(name)
             joint_kinds.append(eff)
         if draw(st.booleans()):
-            lines.append(draw(_inertial(ctx)))
+            lines.append(draw(el.inertial(ctx)))
         lines += _geoms(draw, ctx, head, active_of[i], refuse, on_tool)
         if on_tool:
-            lines.append(f'<site name="tip"{draw(_pose(ctx, 0.2))}/>')
+            lines.append(f'<site name="tip"{draw(el.pose(ctx, 0.2))}/>')
         bodies.append("\n".join(lines))
 
     world = _render(bodies, children, 0, 2)
