@@ -270,7 +270,6 @@ LONG_FUNCTIONS = {
     "analysis/batch.py:solve_ik",
     "analysis/crosscheck.py:crosscheck_batch",
     "analysis/selfmotion.py:self_motion",
-    "cli.py:_parser",
     "collision/pairs.py:collision_pairs",
     "collision/pathcheck.py:check",
     "collision/statistics.py:collision_statistics",
@@ -284,7 +283,6 @@ LONG_FUNCTIONS = {
     "model/urdf.py:check_urdf",
     "model/urdf.py:prepare_urdf",
     "model/urdf.py:build_mujoco",
-    "reports/audit_report.py:to_dict",
 }
 
 

@@ -255,6 +255,15 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"redundancy {_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    _audit_parser(sub)
+    _example_parser(sub)
+    _lab_parser(sub)
+    _compare_parser(sub)
+    return p
+
+
+def _audit_parser(sub: Any) -> None:
+    """The ``audit`` subcommand's arguments."""
     a = sub.add_parser(
         "audit",
         help="audit an MJCF or URDF arm: findings where its own numbers show a problem",
@@ -298,6 +307,10 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no progress bar and no tables: print the findings only",
     )
+
+
+def _example_parser(sub: Any) -> None:
+    """The ``example`` subcommand's arguments."""
     ex = sub.add_parser(
         "example",
         help="run a worked example: 'arm7' prints the tables of the bundled arm7's lesson",
@@ -307,6 +320,10 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument(
         "--poses", type=_count(1), default=10_000, help="random poses for tables (3) and (4)"
     )
+
+
+def _lab_parser(sub: Any) -> None:
+    """The ``lab`` subcommand's arguments."""
     lab = sub.add_parser(
         "lab", help="serve an arm as an interactive local web page (needs redundancy[lab])"
     )
@@ -324,6 +341,10 @@ def _parser() -> argparse.ArgumentParser:
         help="TCP port, 0..65535 (default: 8080; 0: any free port; if taken, the next free "
         "one, with a warning)",
     )
+
+
+def _compare_parser(sub: Any) -> None:
+    """The ``compare`` subcommand's arguments."""
     cmp = sub.add_parser(
         "compare",
         help="compare two descriptions of one robot (MJCF or URDF), structurally and pose by pose",
@@ -347,7 +368,6 @@ def _parser() -> argparse.ArgumentParser:
     cmp.add_argument("--poses", type=_count(0), default=200, help="random poses (default: 200)")
     cmp.add_argument("--seed", type=_count(0), default=0, help="seed of the poses (default: 0)")
     cmp.add_argument("--tol", type=float, default=1e-9, help="tolerance (default: 1e-9)")
-    return p
 
 
 def _check_files(args: argparse.Namespace) -> None:

@@ -154,8 +154,7 @@ class AuditReport(Report):
     def to_dict(self) -> dict[str, Any]:
         """The report as plain data (the ``--json`` document)."""
         s = self.sections
-        j, g, c, t = s.joints, s.gravity, s.contacts, s.touching
-        urdf = self.model_format == "URDF"
+        j, g = s.joints, s.gravity
         cc, eq = self.engines.crosscheck, self.engines.equivalence
         gravity = (
             None
@@ -176,57 +175,9 @@ class AuditReport(Report):
             "reference_keyframe": j.keyframe,
             "timestep_note": j.note,
             "joints": [{**asdict(r), "armature_share": r.armature_share} for r in j.rows],
-            "keyframes": [
-                {
-                    "name": k.name,
-                    "q": k.q,
-                    "sigma": k.svd.sigma,
-                    "rank": k.svd.rank,
-                    "manipulability": k.svd.manipulability,
-                    "condition": k.svd.condition,
-                    "lost_directions": k.svd.lost_direction_names(),
-                    "engine_sigma_diff": k.engine_diff,
-                    "hold": k.hold,
-                    "effort_lower": k.effort_lower,
-                    "effort_upper": k.effort_upper,
-                    "moves_held": k.moves_held,
-                }
-                for k in s.keyframes
-            ],
+            "keyframes": [self._keyframe_data(k) for k in s.keyframes],
             "gravity": gravity,
-            "collision": {
-                "n_poses": c.n_poses,
-                "seed": c.seed,
-                "share_with_contact": c.share_with_contact,
-                "touching_everywhere": [
-                    {"pair": p.pair.label, "poses": p.poses, **exclusion(p.pair, urdf)}
-                    for p in (t.pairs if t is not None else ())
-                ],
-                "share_with_contact_without_them": (
-                    c.share_with_contact if t is None else t.share_with_contact
-                ),
-                "n_pairs": len(c.pairs),
-                "disagreements": c.disagreements,
-                "pairs": [
-                    {
-                        "pair": p.pair.label,
-                        "poses": p.poses,
-                        "contacts": p.contacts,
-                        "closest": p.closest,
-                    }
-                    for p in sorted(c.pairs, key=lambda p: (-p.poses, p.closest))
-                ],
-                "keyframes": [
-                    {
-                        "name": k.keyframe,
-                        "contacts": k.contacts,
-                        "closest_pair": k.closest.pair.label if k.closest else None,
-                        "closest_distance": k.closest.distance if k.closest else None,
-                        "moves_held": k.moves_held,
-                    }
-                    for k in c.keyframes
-                ],
-            },
+            "collision": self._collision_data(),
             "crosscheck": {
                 "n_poses": cc.n_poses,
                 "n_poses_second_order": self.engines.second_order_poses,
@@ -246,6 +197,62 @@ class AuditReport(Report):
             "contact_mass": None if self.contact_mass is None else asdict(self.contact_mass),
         }
         return json_ready(doc)
+
+    @staticmethod
+    def _keyframe_data(k: sections.KeyframeRow) -> dict[str, Any]:
+        """A keyframe's row of the JSON document: its Jacobian's SVD and its hold."""
+        return {
+            "name": k.name,
+            "q": k.q,
+            "sigma": k.svd.sigma,
+            "rank": k.svd.rank,
+            "manipulability": k.svd.manipulability,
+            "condition": k.svd.condition,
+            "lost_directions": k.svd.lost_direction_names(),
+            "engine_sigma_diff": k.engine_diff,
+            "hold": k.hold,
+            "effort_lower": k.effort_lower,
+            "effort_upper": k.effort_upper,
+            "moves_held": k.moves_held,
+        }
+
+    def _collision_data(self) -> dict[str, Any]:
+        """The self-collision section of the JSON document."""
+        c, t = self.sections.contacts, self.sections.touching
+        urdf = self.model_format == "URDF"
+        return {
+            "n_poses": c.n_poses,
+            "seed": c.seed,
+            "share_with_contact": c.share_with_contact,
+            "touching_everywhere": [
+                {"pair": p.pair.label, "poses": p.poses, **exclusion(p.pair, urdf)}
+                for p in (t.pairs if t is not None else ())
+            ],
+            "share_with_contact_without_them": (
+                c.share_with_contact if t is None else t.share_with_contact
+            ),
+            "n_pairs": len(c.pairs),
+            "disagreements": c.disagreements,
+            "pairs": [
+                {
+                    "pair": p.pair.label,
+                    "poses": p.poses,
+                    "contacts": p.contacts,
+                    "closest": p.closest,
+                }
+                for p in sorted(c.pairs, key=lambda p: (-p.poses, p.closest))
+            ],
+            "keyframes": [
+                {
+                    "name": k.keyframe,
+                    "contacts": k.contacts,
+                    "closest_pair": k.closest.pair.label if k.closest else None,
+                    "closest_distance": k.closest.distance if k.closest else None,
+                    "moves_held": k.moves_held,
+                }
+                for k in c.keyframes
+            ],
+        }
 
     def to_json(self) -> str:
         """The report as a JSON document (infinite or NaN values as null)."""
