@@ -19,14 +19,11 @@ Usage: ``python scripts/bench.py [--model arm7] [--n 10000] [--repeats 7] [--cal
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import statistics
 import sys
 import time
 from collections.abc import Callable
 
-import coal
 import mujoco
 import numpy as np
 import pinocchio as pin
@@ -35,52 +32,9 @@ import redundancy as rd
 from redundancy import batch, linalg
 from redundancy.collision import checker, random_poses
 from redundancy.reports.audit import audit
+from timing import machine, ms, ratio, rounds
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-
-def machine() -> list[str]:
-    """Lines describing the machine and the software versions."""
-    cpu = platform.processor() or "?"
-    try:
-        with open("/proc/cpuinfo") as f:
-            names = [ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")]
-        cpu = names[0] if names else cpu
-    except OSError:
-        pass
-    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    return [
-        f"machine: {platform.node()} {platform.platform()}",
-        f"cpu: {cpu}, {os.cpu_count()} logical cores, {usable} usable; "
-        f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}",
-        f"python {platform.python_version()}, numpy {np.__version__}, mujoco {mujoco.__version__}, "
-        f"pinocchio {pin.__version__}, coal {getattr(coal, '__version__', '?')}",
-    ]
-
-
-def rounds(cases: dict[str, Callable[[], object]], repeats: int) -> dict[str, list[float]]:
-    """Run every case once per round, ``repeats`` rounds; wall times [s] per case."""
-    for f in cases.values():  # warm-up: workspaces, pools, caches
-        f()
-    times: dict[str, list[float]] = {k: [] for k in cases}
-    for _ in range(repeats):
-        for k, f in cases.items():
-            t = time.perf_counter()
-            f()
-            times[k].append(time.perf_counter() - t)
-    return times
-
-
-def ratio(times: dict[str, list[float]], num: str, den: str | list[str]) -> float:
-    """Median over rounds of time(num) / time(den) (den: one case or the sum of several)."""
-    dens = [den] if isinstance(den, str) else den
-    per_round = [a / sum(times[d][i] for d in dens) for i, a in enumerate(times[num])]
-    return statistics.median(per_round)
-
-
-def ms(times: dict[str, list[float]], k: str) -> float:
-    return 1e3 * statistics.median(times[k])
 
 
 # ------------------------------------------------------------------------------------------
@@ -499,7 +453,7 @@ def rtb_section(calls: int, repeats: int) -> list[str]:
     except ImportError:
         return ["Manipulability against Robotics Toolbox: not run (pip install '.[bench]')"]
     robot = rtb.models.Panda()
-    arm = rd.load(rd.model_path("panda"), site="ee")
+    arm = rd.load(rd.model_path("panda"), frame="ee")
     qs = random_poses(arm, calls, seed=11)
     qs_list = [np.array(q) for q in qs]
 
@@ -663,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--calls", type=int, default=2000, help="single-pose calls per round")
     p.add_argument("--ik", type=int, default=1000, help="IK targets per arm (CLIK: a fifth)")
     args = p.parse_args(argv)
-    arm = rd.load(rd.model_path(args.model), site="ee")
+    arm = rd.load(rd.model_path(args.model), frame="ee")
     Q = random_poses(arm, args.n, seed=0)
     t0 = time.perf_counter()
     lines = [

@@ -1,4 +1,4 @@
-"""Benchmark: self-collision statistics on many-pair arms against arm7 (issue 11, item 7).
+"""Benchmark: self-collision statistics on many-pair arms against arm7.
 
 The audit's collision section sweeps random poses: MuJoCo's contact list at every pose and
 every pair's distance (the audit uses MuJoCo's ``mj_geomDistance``). A ~40-sphere arm has
@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         from tests import corpus
 
         model = corpus.MODELS["iiwa14"]
-        arms["iiwa14 (corpus)"] = rd.load(model.write(Path(tmp.name)), site=model.site)
+        arms["iiwa14 (corpus)"] = rd.load(model.write(Path(tmp.name)), frame=model.site)
     except ImportError:
         pass
 

@@ -66,12 +66,12 @@ def arms() -> dict[str, tuple[Callable[[], rd.Arm], Path, str]]:
     """Arm name -> (loader, URDF for the peers, tool frame)."""
     out: dict[str, tuple[Callable[[], rd.Arm], Path, str]] = {
         "arm7": (
-            lambda: rd.load(rd.model_path("arm7"), site="ee"),
+            lambda: rd.load(rd.model_path("arm7"), frame="ee"),
             ROOT / "models/arm7.urdf",
             "ee",
         ),
         "panda": (
-            lambda: rd.load(rd.model_path("panda"), site="ee"),
+            lambda: rd.load(rd.model_path("panda"), frame="ee"),
             ROOT / "models/panda.urdf",
             "ee",
         ),
@@ -155,7 +155,7 @@ class MinkIK:
         self.mink = mink
         self.config = mink.Configuration(arm.mj_model)
         self.task = mink.FrameTask(
-            frame_name=arm.site, frame_type="site", position_cost=1.0, orientation_cost=1.0
+            frame_name=arm.frame, frame_type="site", position_cost=1.0, orientation_cost=1.0
         )
         self.limits = [mink.ConfigurationLimit(arm.mj_model)]
 
@@ -296,10 +296,10 @@ def _simulated(arm: rd.Arm, q: np.ndarray, u: np.ndarray) -> float:
 
 
 def effective_mass_section(n: int, repeats: int) -> list[str]:
-    from bench import ratio, rounds  # the main benchmark's round-robin timing
+    from timing import ratio, rounds  # the benchmarks' round-robin timing
 
     lines = [f"Effective mass at the tool (panda, {n} random poses, direction z):"]
-    arm = rd.load(rd.model_path("panda"), site="ee")
+    arm = rd.load(rd.model_path("panda"), frame="ee")
     Q = random_poses(arm, n, seed=3)
     u = np.array([0.0, 0.0, 1.0])
     m, d = arm.mj_model, mujoco.MjData(arm.mj_model)
@@ -397,7 +397,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=5)
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    from bench import machine  # the main benchmark's machine and load lines
+    from timing import machine  # the benchmarks' machine and load lines
 
     print("\n".join(machine()) + "\n", flush=True)
     print("\n".join(ik_section(args.arms.split(","), args.n, args.clik)) + "\n", flush=True)

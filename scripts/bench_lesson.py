@@ -119,7 +119,7 @@ def project(path: str, n_poses: int = 10_000) -> dict[str, object]:
     import redundancy as rd
     from redundancy.reports import lesson
 
-    arm = rd.load(path, site="ee")
+    arm = rd.load(path, frame="ee")
     with redirect_stdout(io.StringIO()):
         lesson.print_tables(arm, n_poses)
     # print_tables computes and prints; for the comparison re-use its building blocks.
@@ -151,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     from redundancy.reports import lesson
 
     path = str(args.model or rd.model_path("arm7"))
-    arm = rd.load(path, site="ee")
+    arm = rd.load(path, frame="ee")
     print(
         f"machine: {platform.processor() or platform.machine()}, {platform.system()} "
         f"{platform.release()}, "

@@ -185,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
 
     plt = pyplot()
 
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     home = arm.keyframe("home")
     runs = {
         "corrected (Euler + J^+ e)": self_motion(arm, home, args.total, args.step),

@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
 
     plt = pyplot()
 
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     home = arm.keyframe("home")
     k6 = arm.joint_index("j6")
     lo, hi = float(arm.lower[k6]), float(arm.upper[k6])

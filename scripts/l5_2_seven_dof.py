@@ -26,7 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     from redundancy.reports import lesson
 
     t0 = time.perf_counter()
-    arm = rd.load(args.model or rd.model_path("arm7"), site="ee")
+    arm = rd.load(args.model or rd.model_path("arm7"), frame="ee")
     lesson.print_tables(arm, n_poses=args.poses)
     print(f"({time.perf_counter() - t0:.2f} s)", file=sys.stderr)
     return 0

@@ -38,7 +38,7 @@ def check_plots(b: LabBrowser) -> None:
 
 
 def main(out: Path = OUT, rtf_seconds: float = 0.0) -> Path:
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     with (
         lab.LabServer(arm, port=0) as server,
         LabBrowser(server.url, viewport=(1500, 1400)) as b,

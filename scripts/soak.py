@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     import redundancy as rd
     from redundancy import batch
 
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     rng = np.random.default_rng(7)
     peak_sigma = np.zeros(6)
     peak_tau = np.zeros(arm.nq)

@@ -70,7 +70,7 @@ def survey_one(file: str, tool: str, base: str | None, args: argparse.Namespace)
         served = "served"
     code = "-"
     if not args.no_audit:
-        cmd = ["audit", str(path), "--site", tool, "--poses", str(args.audit_poses)]
+        cmd = ["audit", str(path), "--frame", tool, "--poses", str(args.audit_poses)]
         if base:
             cmd += ["--base", base]
         with tempfile.TemporaryDirectory() as tmp:

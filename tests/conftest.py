@@ -33,17 +33,17 @@ def pytest_report_header(config: pytest.Config) -> str:
 
 @pytest.fixture(scope="session")
 def arm7() -> rd.Arm:
-    return rd.load(rd.model_path("arm7"), site="ee")
+    return rd.load(rd.model_path("arm7"), frame="ee")
 
 
 @pytest.fixture(scope="session")
 def panda() -> rd.Arm:
-    return rd.load(rd.model_path("panda"), site="ee")
+    return rd.load(rd.model_path("panda"), frame="ee")
 
 
 @pytest.fixture(scope="session")
 def skew7() -> rd.Arm:
-    return rd.load_string(SKEW7, site="tool")
+    return rd.load_string(SKEW7, frame="tool")
 
 
 @pytest.fixture(scope="session")

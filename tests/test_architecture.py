@@ -271,3 +271,157 @@ def _key_writes(path: Path) -> set[str]:
 def test_one_writer_of_each_engines_pose_key() -> None:
     writers = {_rel(p): _key_writes(p) for p in sorted((SRC / "engines").glob("*.py"))}
     assert {k: v for k, v in writers.items() if v} == KEY_WRITERS
+
+
+# -- sizes a reader can hold, and no import cycles ----------------------------------------------
+
+#: Modules longer than this many lines are listed in LONG_MODULES.
+MODULE_LINES = 600
+#: Functions of at least this many lines are listed in LONG_FUNCTIONS.
+FUNCTION_LINES = 80
+#: The modules still over `MODULE_LINES`: the list may only shrink (the goal is at most 3).
+LONG_MODULES = {
+    "analysis/batch.py",
+    "analysis/compare.py",
+    "arm.py",
+    "engines/mujoco.py",
+    "lab/page.py",
+    "lab/sim.py",
+    "linalg.py",
+    "model/loading.py",
+    "model/robot.py",
+    "model/urdf.py",
+    "reports/sections.py",
+}
+#: The functions still of `FUNCTION_LINES` or more: the list may only shrink (the goal is 5).
+LONG_FUNCTIONS = {
+    "analysis/batch.py:solve_ik",
+    "analysis/crosscheck.py:crosscheck_batch",
+    "analysis/selfmotion.py:self_motion",
+    "collision/pairs.py:collision_pairs",
+    "collision/pathcheck.py:check",
+    "collision/statistics.py:collision_statistics",
+    "engines/mujoco.py:evaluate",
+    "lab/page.py:_build_scene",
+    "model/equivalence.py:compare_models",
+    "model/equivalence.py:simulated_only",
+    "model/robot.py:select_arm",
+    "model/robot.py:_check_couplings",
+    "model/support.py:inertia_causes",
+    "model/urdf.py:check_urdf",
+    "model/urdf.py:prepare_urdf",
+    "model/urdf.py:build_mujoco",
+}
+
+
+def module_sizes() -> dict[str, int]:
+    """Lines per module of the library."""
+    return {_rel(p): len(p.read_text().splitlines()) for p in _modules()}
+
+
+def function_sizes() -> dict[str, int]:
+    """Lines per function (methods and nested functions included), as 'module:name'."""
+    out: dict[str, int] = {}
+    for p in _modules():
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                key = f"{_rel(p)}:{node.name}"
+                out[key] = max(out.get(key, 0), node.end_lineno - node.lineno + 1)  # type: ignore[operator]
+    return out
+
+
+def test_no_module_grows_past_the_size_a_reader_can_hold() -> None:
+    long = {m for m, n in module_sizes().items() if n > MODULE_LINES}
+    assert long - LONG_MODULES == set(), "split it at its seams"
+    assert LONG_MODULES - long == set(), "shorter now: take it off LONG_MODULES"
+
+
+def test_no_function_grows_past_the_size_a_reader_can_hold() -> None:
+    long = {f for f, n in function_sizes().items() if n >= FUNCTION_LINES}
+    assert long - LONG_FUNCTIONS == set(), "break it at its natural seams"
+    assert LONG_FUNCTIONS - long == set(), "shorter now: take it off LONG_FUNCTIONS"
+
+
+def _dotted(path: Path) -> str:
+    """The module's dotted name, from its package ``redundancy`` down."""
+    parts = list(path.with_suffix("").parts)
+    parts = parts[len(parts) - 1 - parts[::-1].index("redundancy") :]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def module_imports(path: Path, known: set[str]) -> set[str]:
+    """Library modules a module imports, at module or function level (``from . import x``
+    counts as the submodule ``x`` when there is one)."""
+    tree = ast.parse(path.read_text(), str(path))
+    me = _dotted(path)
+    package = me.split(".") if path.name == "__init__.py" else me.split(".")[:-1]
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - (node.level - 1)]
+                module = ".".join(base + (node.module.split(".") if node.module else []))
+            else:
+                module = node.module or ""
+            for a in node.names:
+                if f"{module}.{a.name}" in known:
+                    out.add(f"{module}.{a.name}")
+                elif module in known:
+                    out.add(module)
+        elif isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name in known)
+    return out - {me}
+
+
+def import_cycles(paths: list[Path]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    known = {_dotted(p) for p in paths}
+    graph = {_dotted(p): module_imports(p, known) for p in paths}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return cycles
+
+
+def test_no_import_cycle_among_the_library_modules() -> None:
+    assert import_cycles(_modules()) == []
+
+
+def test_the_cycle_finder_sees_a_function_level_cycle(tmp_path: Path) -> None:
+    # The finder itself must be able to fail: a function-level import closes a cycle.
+    pkg = tmp_path / "redundancy"
+    (pkg / "model").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "model" / "__init__.py").write_text("")
+    (pkg / "model" / "ends.py").write_text("def f():\n    from .loading import g\n")
+    (pkg / "model" / "loading.py").write_text("from .ends import f\n")
+    assert import_cycles(sorted(pkg.rglob("*.py"))) == [
+        ["redundancy.model.ends", "redundancy.model.loading"]
+    ]

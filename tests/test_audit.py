@@ -76,7 +76,7 @@ def arm_xml(
 
 
 def run(xml: str, n_poses: int = 300, **kw) -> tuple[rd.Arm, list[str], list[str]]:
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     r = audit(arm, n_poses=n_poses, **kw)
     return arm, [f.kind for f in r.findings], [f.message for f in r.findings]
 
@@ -99,12 +99,12 @@ def test_a_sound_model_has_no_findings():
 
 def test_zero_and_placeholder_armature_are_notes_not_findings():
     # Armature is a value the file gives or not: the model's numbers show no problem by it.
-    report = audit(rd.load_string(arm_xml(armature="0 0.01"), site="tip"), n_poses=50)
+    report = audit(rd.load_string(arm_xml(armature="0 0.01"), frame="tip"), n_poses=50)
     assert report.findings == ()
     assert [(n.kind, n.message.split(":")[0]) for n in report.notes] == [
         ("armature", "zero armature on 'a'")
     ]
-    report = audit(rd.load_string(arm_xml(armature="0.02 0.02"), site="tip"), n_poses=50)
+    report = audit(rd.load_string(arm_xml(armature="0.02 0.02"), frame="tip"), n_poses=50)
     assert report.findings == ()
     assert [n.message.split(":")[0] for n in report.notes] == [
         "every joint has the same armature 0.02 kg m^2"
@@ -180,14 +180,14 @@ def test_forcerange_and_ctrlrange_whichever_binds():
         '<motor joint="a" gear="10" ctrlrange="-5 5" forcerange="-0.3 0.4" forcelimited="true"/>'
         '<motor joint="b" gear="2" ctrlrange="-1 3"/><motor joint="c" ctrlrange="-50 50"/>'
     )
-    arm = rd.load_string(arm_xml(actuators=motors), site="tip")
+    arm = rd.load_string(arm_xml(actuators=motors), frame="tip")
     rows = sections.joints(arm).rows
     assert (rows[0].effort_lower, rows[0].effort_upper) == (-3.0, 4.0)  # forcerange x gear
     assert (rows[1].effort_lower, rows[1].effort_upper) == (-2.0, 6.0)  # ctrlrange x gear
     capped = arm_xml(actuators=motors).replace(
         'range="-2 2" armature', 'range="-2 2" actuatorfrcrange="-1 1" armature'
     )
-    rows = sections.joints(rd.load_string(capped, site="tip")).rows
+    rows = sections.joints(rd.load_string(capped, frame="tip")).rows
     assert (rows[0].effort_lower, rows[0].effort_upper) == (-1.0, 1.0)  # the joint's clamp
 
 
@@ -224,7 +224,7 @@ def test_servo_damping_is_read_from_the_actuators(integrator, stable):
     # Position servos (kv 5) at h = 10 ms: Euler integrates kv explicitly and joint c
     # (0.0104 kg m^2) allows 4.2 ms; implicitfast integrates it implicitly.
     xml = arm_xml(key="0 0", timestep="0.01", actuators=SERVOS, option=f'integrator="{integrator}"')
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     report = audit(arm, n_poses=100)
     rows = report.sections.joints.rows
     assert [r.servo_kv for r in rows] == [5.0, 5.0, 5.0] and [r.kd for r in rows] == [0, 0, 0]
@@ -265,7 +265,7 @@ def test_keyframe_in_contact_and_singular():
     assert "keyframe" in found
     # All three axes pitch about y and the arm stands straight: rank 2 of 3.
     straight = arm_xml(key="0 0", axis_c="0 1 0").replace('pos="0.3 0 0"/>', 'pos="0 0 0.3"/>')
-    report = audit(rd.load_string(straight, site="tip"), n_poses=50)
+    report = audit(rd.load_string(straight, frame="tip"), n_poses=50)
     assert any(f.message.startswith("keyframe 'k' is singular") for f in report.findings)
 
 
@@ -277,7 +277,7 @@ def test_engine_disagreement_is_a_finding():
         '<body name="lost"><inertial pos="0 0 0" mass="0.2" diaginertia="1e-4 1e-4 1e-4"/>'
         "</body></frame>"
     )
-    report = audit(rd.load_string(arm_xml(visual=lost), site="tip", strict=False), n_poses=50)
+    report = audit(rd.load_string(arm_xml(visual=lost), frame="tip", strict=False), n_poses=50)
     engines = [f.message for f in report.findings if f.kind == "engines"]
     assert any(m.startswith("models differ: body mass of body moved by c") for m in engines)
     assert any(m.startswith("engines disagree on gravity") for m in engines)
@@ -319,7 +319,7 @@ def test_a_one_joint_arm_is_audited():
   </worldbody>
   <actuator><motor joint="a" ctrlrange="-5 5"/></actuator>
 </mujoco>"""
-    report = audit(rd.load_string(xml, site="tip"), n_poses=40)
+    report = audit(rd.load_string(xml, frame="tip"), n_poses=40)
     assert [r.name for r in report.sections.joints.rows] == ["a"]
     assert report.engines.crosscheck.ok
     assert report.sections.gravity.n_over == 0
@@ -339,7 +339,7 @@ def test_every_line_fits_100_characters_at_any_name_length(length):
     xml = xml.replace('<motor joint="a" ctrlrange="-20 20"/>', "").replace(
         'body name="l3"', f'body name="{name[:-1]}X"'
     )
-    lines = format_report(audit(rd.load_string(xml, site="tip"), n_poses=20))
+    lines = format_report(audit(rd.load_string(xml, frame="tip"), n_poses=20))
     assert max(len(line) for line in lines) <= 100
     assert "200.0001398" not in "\n".join(lines)
     # The joint table: the first column holds the whole name, folded within the column when
@@ -515,7 +515,7 @@ def test_holding_torque_is_mujocos_bias_minus_its_gravcomp(factors):
     xml = arm_xml()
     for body, factor in factors.items():
         xml = xml.replace(f'name="{body}" pos=', f'name="{body}" gravcomp="{factor}" pos=')
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     row = sections.keyframes(arm)[0]
     d = mujoco.MjData(arm.mj_model)
     d.qpos[:] = arm.keyframe("k")
@@ -563,7 +563,7 @@ def test_no_controller_damping_is_assumed_without_kd():
         '<position joint="a" kp="300" kv="4" ctrlrange="-2 2"/>'
         '<motor joint="b" ctrlrange="-50 50"/><motor joint="c" ctrlrange="-50 50"/>'
     )
-    arm = rd.load_string(arm_xml(actuators=actuators), site="tip")
+    arm = rd.load_string(arm_xml(actuators=actuators), frame="tip")
     rows = sections.joints(arm).rows
     assert [r.kd for r in rows] == [0.0, 0.0, 0.0]
     assert [r.servo_kv for r in rows] == [4.0, 0.0, 0.0]
@@ -599,7 +599,7 @@ def test_an_unlimited_servo_has_effort_none_and_nothing_overflows():
     xml = arm_xml(key="0.3 0.5", actuators=servos, option='integrator="implicitfast"')
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        report = audit(rd.load_string(xml, site="tip"), n_poses=50)
+        report = audit(rd.load_string(xml, frame="tip"), n_poses=50)
         lines = format_report(report)
         data = json.loads(report.to_json())
     rows = report.sections.joints.rows
@@ -663,3 +663,12 @@ def test_a_long_path_is_never_broken():
     units = wrap("  key: b: damping [N m s/rad]; M_ii [kg m^2]" * 4)
     assert len(units) > 1
     assert " ".join(units).count("[N m s/rad]") == 4  # no unit cut by a line's end
+
+
+def test_report_site_is_a_deprecated_name_of_frame(arm7) -> None:
+    report = audit(arm7, n_poses=5)
+    assert report.frame == "ee" and report.to_dict()["frame"] == "ee"
+    with pytest.warns(
+        DeprecationWarning, match=r"^AuditReport.site is deprecated: use AuditReport.frame$"
+    ):
+        assert report.site == "ee"

@@ -40,15 +40,25 @@ class Case:
     quiet: bool = True  # nothing may be printed on stdout or stderr
 
 
-def _load(xml: object, site: str = "tip", strict: bool = True) -> Callable[[], object]:
-    return lambda: rd.load_string(xml, site=site, strict=strict)  # type: ignore[arg-type]
+def _load(xml: object, frame: str = "tip", strict: bool = True) -> Callable[[], object]:
+    return lambda: rd.load_string(xml, frame=frame, strict=strict)  # type: ignore[arg-type]
 
 
-def _load_file(tmp: str, name: str, text: str, site: str = "tip") -> Callable[[], object]:
+def _load_site(xml: str, site: object) -> Callable[[], object]:
+    """``load_string`` with the deprecated ``site=``: still checked, and it warns."""
+
+    def call() -> object:
+        with pytest.warns(DeprecationWarning):
+            return rd.load_string(xml, site=site)  # type: ignore[arg-type]
+
+    return call
+
+
+def _load_file(tmp: str, name: str, text: str, frame: str = "tip") -> Callable[[], object]:
     def call() -> object:
         path = Path(tmp) / name
         path.write_text(text)
-        return rd.load(path, site=site)
+        return rd.load(path, frame=frame)
 
     return call
 
@@ -96,7 +106,7 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             ),
         ),
         "arm7 cut in half": Case(
-            _load(ARM7_TEXT[: len(ARM7_TEXT) // 2], site="ee"),
+            _load(ARM7_TEXT[: len(ARM7_TEXT) // 2], frame="ee"),
             rd.ModelError,
             r"^not well-formed XML: [a-z ]+: line \d+, column \d+$",
         ),
@@ -139,7 +149,7 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             "^" + MJ + ".*x\\.xml",
         ),
         "arm7 without its site": Case(
-            _load_file(tmp, "nosite.xml", ARM7_TEXT, site="flange"),
+            _load_file(tmp, "nosite.xml", ARM7_TEXT, frame="flange"),
             rd.UnknownNameError,
             r"^unknown site or body 'flange'; valid site or body names: \['ee', 'link1', 'link2', "
             r"'link3', 'link4', 'link5', 'link6', 'link7'\]$",
@@ -261,7 +271,7 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             "^" + MJ + "Error: unknown transmission target 'zz' for actuator id = 0",
         ),
         "site on the world body": Case(
-            _load(chain().replace("<worldbody>", '<worldbody><site name="w"/>'), site="w"),
+            _load(chain().replace("<worldbody>", '<worldbody><site name="w"/>'), frame="w"),
             rd.UnsupportedFeatureError,
             "^"
             + re.escape(
@@ -271,7 +281,7 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             + "$",
         ),
         "site not a name": Case(
-            _load(chain(), site=3),  # type: ignore[arg-type]
+            _load_site(chain(), 3),
             rd.ModelError,
             r"^site must be a name \(str\) or None, got int$",
         ),
@@ -321,7 +331,7 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             + "$",
         ),
         "site named like a joint": Case(
-            _load(chain(body_extra='<site name="a"/>'), site="a"),
+            _load(chain(body_extra='<site name="a"/>'), frame="a"),
             rd.UnsupportedFeatureError,
             r"^unsupported feature: site named like another frame \(site 'a' and joint 'a'\)",
         ),
@@ -425,7 +435,7 @@ def test_table_size() -> None:
 
 
 def test_attach_is_given_to_pinocchio_as_mujoco_resolved_it(tmp_path: Path) -> None:
-    """Issue 21: Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
+    """Pinocchio's MJCF parser does not expand <attach> (a 3 kg block attached to
     the arm was in MuJoCo's M only: M11 0.456 vs 0.105); Pinocchio gets MuJoCo's model."""
     (tmp_path / "block.xml").write_text(
         '<mujoco><worldbody><body name="blk" pos="0 0 0.3">'
@@ -437,7 +447,7 @@ def test_attach_is_given_to_pinocchio_as_mujoco_resolved_it(tmp_path: Path) -> N
             "<mujoco>", '<mujoco><asset><model name="block" file="block.xml"/></asset>'
         )
     )
-    loaded = rd.load(arm, site="tip")
+    loaded = rd.load(arm, frame="tip")
     assert loaded.mj_model.nbody == 4  # MuJoCo expands it
     (note,) = [b for b in loaded.bridges if b.quantity == "whole model"]
     assert note.source.endswith("because of <attach> (Pinocchio's parser does not expand it)")
@@ -481,10 +491,10 @@ READ_DIFFERENTLY = {
 
 @pytest.mark.parametrize("name", list(READ_DIFFERENTLY))
 def test_read_differently_is_served(name: str) -> None:
-    """Valid MJCF that Pinocchio's parser reads differently (refused until issue 26): served
+    """Valid MJCF that Pinocchio's parser reads differently (once refused): served
     with MuJoCo's compiled model given to Pinocchio, the cause named in ``arm.bridges``."""
     xml, cause = READ_DIFFERENTLY[name]
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     (note,) = [b for b in arm.bridges if b.quantity == "whole model"]
     assert note.source.endswith(f"because of {cause}")
     for q in ([0.3, -0.5], [1.2, 0.4]):
@@ -492,7 +502,7 @@ def test_read_differently_is_served(name: str) -> None:
 
 
 def test_jointinparent_actuator_reads_as_joint() -> None:
-    """Issue 21: MuJoCo applies +-80 N m through ``jointinparent`` on a hinge; it was
+    """MuJoCo applies +-80 N m through ``jointinparent`` on a hinge; it was
     ignored (effort unlimited, ``actuated`` False)."""
     from redundancy.model.actuators import effort_range
 
@@ -502,7 +512,7 @@ def test_jointinparent_actuator_reads_as_joint() -> None:
     )
     arm = rd.load_string(
         chain(extra=extra).replace("<mujoco>", '<mujoco><compiler autolimits="true"/>'),
-        site="tip",
+        frame="tip",
     )
     effort = effort_range(arm.mj_model)
     np.testing.assert_array_equal(effort.lower, [-80.0, -1.0])
@@ -535,14 +545,14 @@ def test_jointinparent_actuator_reads_as_joint() -> None:
     ],
 )
 def test_site_and_body_transmissions_on_the_arm_are_refused(actuator: str, expected: str) -> None:
-    """Issue 21: read neither as effort nor as armature; refused, naming the actuator."""
+    """Read neither as effort nor as armature; refused, naming the actuator."""
     named = actuator.replace(" ", ' name="push" ', 1)
     message = (
         UF + expected + ": it drives the arm's joints through pose-dependent moment arms; the "
         "library reads actuators with a joint transmission only (joint, jointinparent)"
     )
     with pytest.raises(rd.UnsupportedFeatureError, match="^" + re.escape(message) + "$"):
-        rd.load_string(chain(extra=f"<actuator>{named}</actuator>"), site="tip")
+        rd.load_string(chain(extra=f"<actuator>{named}</actuator>"), frame="tip")
 
 
 @pytest.mark.parametrize("kind", ["site", "body"])
@@ -570,7 +580,7 @@ def test_check_transmissions_refuses_site_and_body_transmissions(kind: str) -> N
 def test_site_transmission_off_the_arm_is_allowed() -> None:
     world_site = chain(extra='<actuator><motor site="w" gear="1 0 0 0 0 0"/></actuator>')
     xml = world_site.replace("<worldbody>", '<worldbody><site name="w" pos="1 0 0"/>')
-    assert rd.load_string(xml, site="tip", strict=False).nq == 2
+    assert rd.load_string(xml, frame="tip", strict=False).nq == 2
 
 
 def test_tendon_transmission_is_refused_with_the_tendon() -> None:
@@ -582,13 +592,13 @@ def test_tendon_transmission_is_refused_with_the_tendon() -> None:
         rd.UnsupportedFeatureError,
         match=r"^unsupported feature: tendon on an arm joint \(tendon 't' \(arm joint 'a'\)\)",
     ):
-        rd.load_string(chain(extra=tendon), site="tip")
+        rd.load_string(chain(extra=tendon), frame="tip")
 
 
 def test_unnamed_keyframe_does_not_overwrite_a_named_one() -> None:
-    """Issue 21: an unnamed key 1 was called key1 and replaced the real key1 (nkey 2, 1 kept)."""
+    """An unnamed key 1 was called key1 and replaced the real key1 (nkey 2, 1 kept)."""
     keys = '<keyframe><key name="key1" qpos="0.1 0.2"/><key qpos="0.3 0.4"/></keyframe>'
-    arm = rd.load_string(chain(extra=keys), site="tip")
+    arm = rd.load_string(chain(extra=keys), frame="tip")
     assert arm.mj_model.nkey == 2
     assert list(arm.keyframes) == ["key1", "key1_"]
     np.testing.assert_array_equal(arm.keyframe("key1"), [0.1, 0.2])

@@ -21,8 +21,8 @@ from .models import SKEW7
 @pytest.fixture(scope="module", params=["arm7", "panda", "skew7"])
 def arm(request: pytest.FixtureRequest) -> rd.Arm:
     if request.param == "skew7":
-        return rd.load_string(SKEW7, site="tool")
-    return rd.load(rd.model_path(request.param), site="ee")
+        return rd.load_string(SKEW7, frame="tool")
+    return rd.load(rd.model_path(request.param), frame="ee")
 
 
 def sample(arm: rd.Arm, n: int = 120, seed: int = 3) -> np.ndarray:
@@ -189,7 +189,7 @@ def test_pinocchio_stacks_follow_a_joint_order_other_than_its_own(
 ) -> None:
     # The loaders' arms keep Pinocchio's order; an engine given the joints in another order
     # must permute every stack as its single-pose methods do (the permuted branches).
-    eng = PinocchioEngine(arm7.pinocchio.model, arm7.site, arm7.joint_names[::-1])
+    eng = PinocchioEngine(arm7.pinocchio.model, arm7.frame, arm7.joint_names[::-1])
     assert not eng.identity
     Q = random_poses(arm7, 2 * MIN_POSES_PER_THREAD, seed=9)
     n, nv = Q.shape

@@ -122,7 +122,7 @@ def test_bad_names_exit_2(capsys):
     assert (
         capsys.readouterr().err == "redundancy: error: model file not found: '/nonexistent.xml'\n"
     )
-    assert main(["audit", PANDA, "--site", "tcp"]) == 2
+    assert main(["audit", PANDA, "--frame", "tcp"]) == 2
     err = capsys.readouterr().err
     assert "valid site or body names: ['ee', 'link0'" in err and err.count("\n") == 1
 
@@ -155,11 +155,11 @@ def test_lenient_audits_what_strict_refuses(tmp_path, capsys):
 </mujoco>"""
     path = tmp_path / "m.xml"
     path.write_text(xml)
-    strict = main(["audit", str(path), "--site", "tip", "--poses", "20"])
+    strict = main(["audit", str(path), "--frame", "tip", "--poses", "20"])
     capsys.readouterr()
     out = tmp_path / "r.json"
     lenient = main(
-        ["audit", str(path), "--site", "tip", "--poses", "20", "--lenient", "--json", str(out)]
+        ["audit", str(path), "--frame", "tip", "--poses", "20", "--lenient", "--json", str(out)]
     )
     text = capsys.readouterr().out
     data = json.loads(out.read_text())
@@ -244,7 +244,7 @@ def load_calls(monkeypatch):
 
 
 def test_frame_site_srdf_base_rest_reach_load(load_calls, capsys):
-    assert main(["audit", PANDA, "--site", "ee"]) == 3
+    assert main(["audit", PANDA, "--frame", "ee"]) == 3
     assert main(["audit", PANDA, "--frame", "ee", "--srdf", "a.srdf"]) == 3
     assert main(["lab", PANDA, "--frame", "ee", "--base", "link0", "--rest", "home"]) == 3
     assert main(["audit", PANDA, "--frame", "ee", "--rest", "j1=0.5, j2=-1e-1"]) == 3
@@ -368,7 +368,7 @@ def test_base_and_rest_load_the_arm(capsys):
     assert "nowhere" in capsys.readouterr().err
 
 
-# -- issue 21: a CLI that behaves like a Unix tool ------------------------------------------
+# -- A CLI that behaves like a Unix tool ---------------------------------------------------
 
 RUN = "import sys; from redundancy.cli import main; sys.exit(main())"
 
@@ -542,3 +542,11 @@ def test_one_json_convention_for_infinities(tmp_path, capsys) -> None:
     presence = [d for d in document["differences"] if d["quantity"] == "presence"]
     assert presence and all(d["error"] is None for d in presence)
     assert '"inf"' not in text and "Infinity" not in text
+
+
+def test_site_option_is_a_deprecated_name_of_frame(load_calls, capsys):
+    message = "--site is deprecated: name the tool frame with --frame"
+    with pytest.warns(DeprecationWarning, match=f"^{message}$"):
+        assert main(["audit", PANDA, "--site", "ee"]) == 3
+    assert capsys.readouterr().err.startswith(f"redundancy: warning: {message}\n")
+    assert [k for _, k in load_calls] == [{"frame": "ee", "strict": True}]

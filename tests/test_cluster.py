@@ -130,7 +130,7 @@ def test_crosscheck_batch_on_dask_equals_serial(
 def test_a_string_arm_travels_too(dask_executor: Executor) -> None:
     from .models import SKEW7
 
-    arm = rd.load_string(SKEW7, site="tool")
+    arm = rd.load_string(SKEW7, frame="tool")
     Q = rd.random_poses(arm, 1500, seed=3)
     assert (
         batch.gravities(arm, Q, executor=dask_executor).tobytes()
@@ -260,7 +260,7 @@ def test_a_failure_on_a_worker_fails_the_call_with_the_librarys_error(
     assert str(remote.value) == str(serial.value)
     assert remote.value.lost == serial.value.lost
     # The executor is still usable.
-    arm7 = rd.load(rd.model_path("arm7"), site="ee")
+    arm7 = rd.load(rd.model_path("arm7"), frame="ee")
     Q7 = rd.random_poses(arm7, 50, seed=4)
     assert _within(lambda: batch.gravities(arm7, Q7, executor=executor)).tobytes() == (
         batch.gravities(arm7, Q7).tobytes()

@@ -595,7 +595,7 @@ def test_failed_epa_is_redone(monkeypatch: pytest.MonkeyPatch) -> None:
     if that fails too, the overlap is bounded by the sum of the bounding radii."""
     import coal
 
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     ch = col.CollisionChecker(arm)
     q = arm.keyframe("home").copy()
     q[arm.joint_index("j4")] = 2.9
@@ -1252,7 +1252,7 @@ def test_checker_from_eight_threads_gives_the_sequential_answers(
     """One fresh arm's checker hammered from 8 threads (each building its own scenes) gives
     the sequential numbers bit for bit: contacts, coal and MuJoCo distances, nearest points."""
     if model == "arm7":
-        arm = rd.load(rd.model_path("arm7"), site="ee")
+        arm = rd.load(rd.model_path("arm7"), frame="ee")
     else:
         arm = mesh_arm(tmp_path)
     Q = col.random_poses(arm, 160, seed=11)
@@ -1266,7 +1266,7 @@ def test_checker_from_eight_threads_gives_the_sequential_answers(
 
 def test_statistics_from_threads_give_the_sequential_answer() -> None:
     """collision_statistics on one arm from 4 threads at once (this segfaulted before)."""
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
 
     def stats(i: int) -> tuple:
         s = col.collision_statistics(arm, 400, seed=i % 2, distances=("coal", "mujoco")[i % 2])
@@ -1278,7 +1278,7 @@ def test_statistics_from_threads_give_the_sequential_answer() -> None:
 
 def test_batch_coal_distances_from_threads_are_right() -> None:
     """batch.distances(engine="coal") reads the checker's scene of the calling thread."""
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     Q = col.random_poses(arm, 150, seed=5)
     expected = rd.batch.distances(arm, Q, engine="coal")
     got = run_threads(4, lambda i: rd.batch.distances(arm, Q, engine="coal"))
@@ -1287,7 +1287,7 @@ def test_batch_coal_distances_from_threads_are_right() -> None:
 
 
 def test_checker_cache_does_not_keep_the_arm_alive() -> None:
-    arm = rd.load(rd.model_path("arm7"), site="ee")
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
     col.collision_statistics(arm, 20, distances="coal")
     pc.check_path(arm, [arm.keyframe("zero"), arm.keyframe("home")])
     ref = weakref.ref(arm)
@@ -1308,7 +1308,7 @@ def test_memory_stays_bounded_over_many_loads_with_collision_use() -> None:
     Before the fix every Arm stayed in the checker cache (about 0.8 MB each)."""
 
     def use() -> None:
-        arm = rd.load(rd.model_path("arm7"), site="ee")
+        arm = rd.load(rd.model_path("arm7"), frame="ee")
         q = arm.keyframe("home")
         col.distances(arm, q, "coal")
         col.distances(arm, q, "mujoco")
@@ -1694,14 +1694,14 @@ def test_batch_mujoco_distances_count_slide_travel_from_qpos0() -> None:
       </body>
       <body name="d" pos="0 0.5 0"><geom name="gd" type="sphere" size="0.05"/></body>
     </body></worldbody></mujoco>"""
-    arm = rd.load_string(xml, site="tip", strict=False)
+    arm = rd.load_string(xml, frame="tip", strict=False)
     Q = np.array([[0.05, 0.2], [0.0, -0.5]])
     single = np.array([col.checker(arm).distance_values(q, "mujoco") for q in Q])
     assert np.array_equal(rd.batch.distances(arm, Q, engine="mujoco"), single)
 
 
 def test_check_path_refuses_waypoints_outside_the_ranges(slider: rd.Arm) -> None:
-    """Issue 21: the motion bound counts a slide's travel within its range only, so a path
+    """The motion bound counts a slide's travel within its range only, so a path
     that leaves the range was called free through a contact; it is refused instead."""
     home = np.zeros(slider.nq)
     out = home.copy()

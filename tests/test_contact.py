@@ -46,7 +46,7 @@ def _simulated_effective_mass(arm: rd.Arm, q: np.ndarray, u: np.ndarray, armatur
     d = mujoco.MjData(m)
     d.qpos[:] = q
     mujoco.mj_forward(m, d)  # site placement for the point of application
-    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.site)
+    site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, arm.frame)
     body = int(m.site_bodyid[site])
     F = 7.0  # [N]
     mujoco.mj_applyFT(m, d, F * u, np.zeros(3), d.site_xpos[site].copy(), body, d.qfrc_applied)

@@ -125,8 +125,8 @@ def _without_armature(arm: rd.Arm) -> tuple[MujocoEngine, PinocchioEngine]:
     mm.actuator_armature[:] = 0.0
     pm = arm.pinocchio.model.copy()
     pm.armature[:] = 0.0
-    return MujocoEngine(mm, arm.site, np.zeros(arm.nq)), PinocchioEngine(
-        pm, arm.site, arm.joint_names
+    return MujocoEngine(mm, arm.frame, np.zeros(arm.nq)), PinocchioEngine(
+        pm, arm.frame, arm.joint_names
     )
 
 
@@ -217,7 +217,7 @@ SHORT_ARMS = {
     </body>
   </body>
 </worldbody></mujoco>""",
-        site="tip",
+        frame="tip",
     )
     for n in (3, 5)
 }
@@ -227,7 +227,7 @@ SHORT_ARMS = {
 @pytest.mark.parametrize("engine", rd.engines.ENGINES)
 @given(data=st.data())
 def test_manipulability_of_short_arms_is_one_value_with_its_gradient(n, engine, data):
-    """Issue 21: with fewer than 6 joints, value (product of the singular values, which is
+    """With fewer than 6 joints, value (product of the singular values, which is
     sqrt(det J^T J) there), stacks and gradient are one definition; the gradient was 0."""
     arm = SHORT_ARMS[n]
     assert arm.nq == n
@@ -254,7 +254,7 @@ def test_manipulability_of_short_arms_is_one_value_with_its_gradient(n, engine, 
 
 
 def test_short_arm_manipulability_gradient_is_not_zero():
-    """The value changes with the elbow: the gradient was [0, 0, 0] before issue 21."""
+    """The value changes with the elbow: the gradient was once [0, 0, 0]."""
     arm = SHORT_ARMS[3]
     g = arm.manipulability_gradient([0.3, 0.4, 0.5])
     assert abs(g[2]) > 1e-3 and abs(g[0]) < 1e-12  # the yaw about the base changes nothing

@@ -44,7 +44,7 @@ def paths(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 @pytest.fixture(scope="module")
 def arms(paths: dict[str, Path]) -> dict[str, rd.Arm]:
-    return {n: rd.load(p, site=corpus.MODELS[n].site) for n, p in paths.items()}
+    return {n: rd.load(p, frame=corpus.MODELS[n].site) for n, p in paths.items()}
 
 
 def test_the_corpus_has_the_features_the_issue_names(paths: dict[str, Path]) -> None:

@@ -263,7 +263,7 @@ def test_a_file_wins_over_a_bundled_name(tmp_path: Path, monkeypatch: pytest.Mon
 
     (tmp_path / "panda.xml").write_text(SKEW7)
     monkeypatch.chdir(tmp_path)
-    assert rd.load("panda.xml", site="tool").source == "panda.xml"
+    assert rd.load("panda.xml", frame="tool").source == "panda.xml"
 
 
 def test_license_is_the_apache_text() -> None:

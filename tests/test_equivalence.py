@@ -41,7 +41,7 @@ def test_actuators_are_not_read_by_pinocchio_so_limits_are_bridged():
         extra='<actuator><motor joint="a" gear="3" forcerange="-5 5" forcelimited="true"/>'
         '<motor joint="b" ctrlrange="-2 2" ctrllimited="true" gear="4"/></actuator>'
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert _bridged(arm, "effort limit") == {"a": 15.0, "b": 8.0}
     assert rd.compare_models(arm).equivalent
 
@@ -50,7 +50,7 @@ def test_actuator_armature_and_damping_are_bridged_and_reach_the_mass_matrix():
     xml = chain(
         extra='<actuator><motor joint="a" gear="10" armature="0.001" damping="0.01"/></actuator>'
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert _bridged(arm, "armature") == {"a": pytest.approx(0.1)}
     assert _bridged(arm, "damping") == {"a": pytest.approx(1.0)}
     q = np.array([0.3, -0.2])
@@ -60,7 +60,7 @@ def test_actuator_armature_and_damping_are_bridged_and_reach_the_mass_matrix():
 
 def test_gravity_option_is_bridged():
     xml = chain().replace("<mujoco>", '<mujoco><option gravity="1 2 -3"/>')
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert _bridged(arm, "gravity") == {"model": (1.0, 2.0, -3.0)}
     assert rd.crosscheck(arm, np.array([0.4, 0.7])).ok
 
@@ -71,7 +71,7 @@ def test_slide_range_in_degree_mode_and_limited_false_are_bridged():
         '<joint name="b" axis="0 1 0"/>',
         '<joint name="b" axis="0 1 0" range="-30 30" limited="false"/>',
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert _bridged(arm, "joint range") == {"a": (-0.5, 0.7), "b": (-np.inf, np.inf)}
     assert rd.compare_models(arm).equivalent
 
@@ -82,14 +82,14 @@ def test_site_defaults_are_bridged():
         .replace("<mujoco>", '<mujoco><default><site pos="0 0 0.3"/></default>')
         .replace('<site name="tip" pos="0 0 0.3"/>', '<site name="tip"/>')
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert "tip" in _bridged(arm, "site placement")
     report = rd.crosscheck(arm, np.array([0.4, -1.1]))
     assert report.ok, report.lines()
 
 
 # ------------------------------------------------------------------------------------------
-# Issue 11's rules, each on a tiny model: Pinocchio's own reading differs from MuJoCo's (the
+# The loader's reading rules, each on a tiny model: Pinocchio's own reading differs from MuJoCo's (the
 # measurement that justifies the rule) or does not (the rule accepts without a bridge), and
 # the library's arm agrees either way.
 # ------------------------------------------------------------------------------------------
@@ -173,7 +173,7 @@ INERTIA_RULES = [
 )
 def test_inertia_rules(body_extra: str, head: str, pinocchio_alone_differs: bool, cause: str):
     xml = chain(body_extra=body_extra).replace("<mujoco>", "<mujoco>" + head)
-    arm = rd.load_string(xml, site="tip")  # strict: accepted
+    arm = rd.load_string(xml, frame="tip")  # strict: accepted
     assert _raw_differs(xml, arm) == pinocchio_alone_differs
     bridged = [b for b in arm.bridges if b.quantity == "body inertia"]
     if pinocchio_alone_differs:
@@ -200,7 +200,7 @@ def test_an_unnamed_body_pinocchio_loses_is_bridged():
             'diaginertia=".1 .1 .1"/></body>',
         )
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert _raw_differs(xml, arm)
     (bridged,) = [b for b in arm.bridges if b.joint == "l2, l2 body 0"]
     assert "unnamed body 'l2 body 0'" in bridged.source
@@ -211,7 +211,7 @@ def test_an_explicit_inertial_is_never_overwritten():
     """A difference Pinocchio makes in an <inertial> it reads itself stays a difference."""
     xml = chain(body_extra=INERTIAL).replace("<mujoco>", '<mujoco><compiler eulerseq="XYZ"/>')
     xml = xml.replace(INERTIAL, INERTIAL.replace("/>", ' euler="0.3 0.2 0.1"/>'))
-    arm = rd.load_string(xml, site="tip", strict=False)
+    arm = rd.load_string(xml, frame="tip", strict=False)
     assert not [b for b in arm.bridges if b.quantity == "body inertia"]
     assert "inertia about com (world)" in {d.quantity for d in rd.compare_models(arm).differences}
 
@@ -230,7 +230,7 @@ POSED_ROOT = (
 
 def test_posed_fixed_root_is_bridged_into_joint_placements_and_frames():
     raw = _raw_pinocchio(POSED_ROOT)
-    arm = rd.load_string(POSED_ROOT, site="tip")
+    arm = rd.load_string(POSED_ROOT, frame="tip")
     # Pinocchio alone drops the pose: its tool site is off by the root's offset.
     raw_data = raw.createData()
     pin.framesForwardKinematics(raw, raw_data, np.zeros(2))
@@ -258,7 +258,7 @@ def test_posed_fixed_root_is_bridged_into_joint_placements_and_frames():
 
 def test_frame_contents_are_bridged_where_they_feed_the_inertia():
     xml = chain(body_extra='<frame pos="0 0 0.1"><geom size="0.05" mass="2"/></frame>')
-    arm = rd.load_string(xml, site="tip", strict=False)
+    arm = rd.load_string(xml, frame="tip", strict=False)
     assert _raw_differs(xml, arm)
     (bridged,) = [b for b in arm.bridges if b.quantity == "body inertia"]
     assert "<frame>" in bridged.source
@@ -269,7 +269,7 @@ def test_several_joints_in_one_body_are_refused():
     # Pinocchio merges them into one composite joint named after the first; the others vanish.
     xml = chain(joints='<joint name="a" axis="0 1 0"/><joint name="a2" axis="1 0 0"/>')
     with pytest.raises(rd.UnsupportedFeatureError, match="several joints in one body"):
-        rd.load_string(xml, site="tip", strict=False)
+        rd.load_string(xml, frame="tip", strict=False)
 
 
 @pytest.mark.parametrize("first", [True, False])
@@ -281,7 +281,7 @@ def test_second_root_body_is_set_aside_for_pinocchio(first: bool):
         xml = chain().replace("<worldbody>", "<worldbody>" + table)
     else:
         xml = chain().replace("</worldbody>", table + "</worldbody>")
-    arm = rd.load_string(xml, site="tip", strict=False)
+    arm = rd.load_string(xml, frame="tip", strict=False)
     assert [(a.what, a.name) for a in arm.set_aside] == [("root body", "table")]
     assert arm.pinocchio.model.existFrame("l1") and not arm.pinocchio.model.existFrame("table")
     assert rd.crosscheck(arm, np.array([[0.3, -0.2], [1.0, 0.5]])).ok
@@ -296,27 +296,27 @@ def test_extrinsic_euler_and_non_unit_axisangle_are_served_or_reported():
             '<body name="l2" pos="0 0 0.3">', '<body name="l2" pos="0 0 0.3" euler="30 40 50">'
         )
     )
-    assert rd.compare_models(rd.load_string(xml, site="tip")).equivalent
-    assert not rd.compare_models(rd.load_string(xml, site="tip", strict=False)).equivalent
+    assert rd.compare_models(rd.load_string(xml, frame="tip")).equivalent
+    assert not rd.compare_models(rd.load_string(xml, frame="tip", strict=False)).equivalent
     xml = chain().replace(
         '<body name="l2" pos="0 0 0.3">', '<body name="l2" pos="0 0 0.3" axisangle="1 1 0 30">'
     )
-    assert rd.compare_models(rd.load_string(xml, site="tip")).equivalent
-    assert not rd.compare_models(rd.load_string(xml, site="tip", strict=False)).equivalent
+    assert rd.compare_models(rd.load_string(xml, frame="tip")).equivalent
+    assert not rd.compare_models(rd.load_string(xml, frame="tip", strict=False)).equivalent
 
 
 def test_difference_report_carries_both_values():
     xml = chain().replace(
         '<body name="l2" pos="0 0 0.3">', '<body name="l2" pos="0 0 0.3" axisangle="1 1 0 30">'
     )
-    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
+    report = rd.compare_models(rd.load_string(xml, frame="tip", strict=False))
     line = next(x for x in report.lines() if x.startswith("DIFFERS  site position"))
     assert "MuJoCo" in line and "Pinocchio" in line
     assert report.largest["site position"] > 1e-3
 
 
 # ------------------------------------------------------------------------------------------
-# What MuJoCo simulates that neither engine's numbers include (issue 11 item 3, model side).
+# What MuJoCo simulates that neither engine's numbers include (the model side).
 # ------------------------------------------------------------------------------------------
 
 
@@ -333,7 +333,7 @@ def test_gravcomp_is_listed_and_is_what_mujoco_applies():
         .replace('<body name="l1"', '<body name="l1" gravcomp="1"')
         .replace('<body name="l2"', '<body name="l2" gravcomp="1"')
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert _simulated(arm)["gravity compensation"] == ["body l1: gravcomp=1", "body l2: gravcomp=1"]
     # MuJoCo's simulation applies exactly the gravity torque as compensation: a motor would
     # hold nothing, while both engines' gravity numbers still say what gravity alone needs.
@@ -353,7 +353,7 @@ def test_asymmetric_ranges_are_listed_per_direction():
         '<motor joint="b" forcerange="-3 4" ctrlrange="-1 1" gear="2"/>'
         '<position joint="b" kp="10" ctrlrange="0 1"/></actuator>',
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     sim = _simulated(arm)
     assert sim["asymmetric control range"] == ["actuator actuator 0: [-10, 80]"]
     assert sim["asymmetric force range"] == ["actuator actuator 1: [-3, 4]"]
@@ -364,17 +364,17 @@ def test_asymmetric_ranges_are_listed_per_direction():
 
 def test_integrator_and_flags_are_listed():
     euler = chain(extra='<option integrator="Euler"><flag eulerdamp="disable"/></option>')
-    lines = rd.compare_models(rd.load_string(euler, site="tip")).lines()
+    lines = rd.compare_models(rd.load_string(euler, frame="tip")).lines()
     assert any(
         x.startswith("SIMULATED  integrator (model: Euler, timestep 0.002 s)") for x in lines
     )
     assert any("eulerdamp disabled" in x and "integrated explicitly" in x for x in lines)
     fast = chain(extra='<option integrator="implicitfast"><flag eulerdamp="disable"/></option>')
-    sim = {s.feature: s for s in rd.compare_models(rd.load_string(fast, site="tip")).simulated}
+    sim = {s.feature: s for s in rd.compare_models(rd.load_string(fast, frame="tip")).simulated}
     assert "no effect under the implicitfast integrator" in sim["eulerdamp disabled"].effect
     assert "implicitly" in sim["integrator"].effect
     other = chain(extra='<option><flag contact="disable" frictionloss="disable"/></option>')
-    sim = _simulated(rd.load_string(other, site="tip"))
+    sim = _simulated(rd.load_string(other, frame="tip"))
     assert "contact disabled" in sim and "frictionloss disabled" in sim
 
 
@@ -382,7 +382,7 @@ def test_friction_loss_and_springs_are_listed():
     xml = chain(
         joints='<joint name="a" axis="0 1 0" frictionloss="0.7" stiffness="3" springref="20"/>'
     )
-    sim = _simulated(rd.load_string(xml, site="tip"))
+    sim = _simulated(rd.load_string(xml, frame="tip"))
     assert sim["friction loss"] == ["joints: a=0.7"]
     assert sim["joint spring"] == [
         "joint a: stiffness=3, springref=0.349066"
@@ -391,7 +391,7 @@ def test_friction_loss_and_springs_are_listed():
 
 def test_gravity_flag_is_bridged_and_listed():
     xml = chain(extra='<option gravity="0 0 -9.81"><flag gravity="disable"/></option>')
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     q = np.array([0.7, -0.4])
     # Pinocchio alone keeps 9.81 m/s^2: its gravity torque is not what MuJoCo simulates.
     raw = _raw_pinocchio(xml)

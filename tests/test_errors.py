@@ -14,7 +14,7 @@ JOINTS = "['q1', 'q2', 'q3', 'q4', 'q5', 'q6', 'q7']"
 
 def test_unknown_site_lists_the_valid_ones():
     with pytest.raises(rd.UnknownNameError) as exc:
-        rd.load_string(SKEW7, site="flange")
+        rd.load_string(SKEW7, frame="flange")
     assert str(exc.value) == (
         "unknown site or body 'flange'; valid site or body names: "
         "['tool', 'b1', 'b2', 'b3', 'b4', 'b5', 'b6', 'b7']"
@@ -96,7 +96,7 @@ def test_missing_file():
 )
 def test_malformed_models(xml, match):
     with pytest.raises(rd.ModelError, match=match):
-        rd.load_string(xml, site="tip")
+        rd.load_string(xml, frame="tip")
 
 
 @pytest.mark.parametrize(
@@ -136,7 +136,7 @@ def test_malformed_models(xml, match):
 )
 def test_unsupported_features(xml, message):
     with pytest.raises(rd.UnsupportedFeatureError) as exc:
-        rd.load_string(xml, site="tip")
+        rd.load_string(xml, frame="tip")
     assert str(exc.value) == message
 
 
@@ -173,7 +173,7 @@ def test_unknown_crosscheck_quantity_lists_the_valid_ones(skew7: rd.Arm):
 
 
 def test_a_model_without_geoms_loads_and_is_checked():
-    """Issue 12: a model with no geoms raised a bare ValueError in the loader's checks."""
+    """A model with no geoms raised a bare ValueError in the loader's checks."""
     xml = (
         '<mujoco><worldbody><body name="l1"><joint name="a" axis="0 1 0"/>'
         '<inertial pos="0 0 0.1" mass="1" diaginertia=".1 .1 .1"/>'
@@ -181,7 +181,7 @@ def test_a_model_without_geoms_loads_and_is_checked():
         '<inertial pos="0 0 0.1" mass="1" diaginertia=".1 .1 .1"/><site name="tip" pos="0 0 .2"/>'
         "</body></body></worldbody></mujoco>"
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert arm.mj_model.ngeom == 0
     assert rd.compare_models(arm).equivalent
     assert rd.crosscheck(arm, np.array([[0.1, 0.2], [-1.0, 2.0]])).ok
@@ -196,6 +196,6 @@ def test_body_and_joint_may_share_a_name():
         .replace('<site name="tip" pos="0 0 0.3"/>', '<site name="tip"/>')
         .replace("<mujoco>", '<mujoco><default><site pos="0 0 0.3"/></default>')
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert "site placement" in {b.quantity for b in arm.bridges}  # looks the body frame up
     assert rd.crosscheck(arm, np.array([0.3, -0.4])).ok

@@ -64,7 +64,7 @@ for line in sys.stdin:
     os.dup2(noise.fileno(), 1)
     os.dup2(noise.fileno(), 2)
     try:
-        arm = rd.load(req["path"], site=req["site"], strict=req["strict"])
+        arm = rd.load(req["path"], frame=req["site"], strict=req["strict"])
     except rd.RedundancyError as err:
         out = {"status": "refused", "message": str(err)}
     except BaseException as err:
@@ -131,12 +131,12 @@ class Worker:
         self.results = os.fdopen(read, "r")
         return proc
 
-    def load(self, path: Path, site: str = "ee", strict: bool = True) -> dict[str, object]:
+    def load(self, path: Path, frame: str = "ee", strict: bool = True) -> dict[str, object]:
         if self.proc is None or self.proc.poll() is not None:
             self.proc = self._start()
         assert self.proc.stdin
         self.proc.stdin.write(
-            json.dumps({"path": str(path), "site": site, "strict": strict}) + "\n"
+            json.dumps({"path": str(path), "site": frame, "strict": strict}) + "\n"
         )
         self.proc.stdin.flush()
         line = self.results.readline()

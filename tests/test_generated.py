@@ -101,7 +101,7 @@ def assert_distances_agree(arm: rd.Arm, q: np.ndarray) -> None:
 
 
 def assert_engines_agree(gen: GeneratedArm, qs: list[np.ndarray]) -> rd.Arm:
-    arm = rd.load_string(gen.xml, site=gen.site)
+    arm = rd.load_string(gen.xml, frame=gen.frame)
     report = rd.compare_models(arm)
     assert report.equivalent, "\n".join(report.lines())
     cc = rd.crosscheck(arm, np.array(qs))
@@ -114,7 +114,7 @@ def assert_engines_agree(gen: GeneratedArm, qs: list[np.ndarray]) -> rd.Arm:
 @settings(max_examples=N_MODELS, suppress_health_check=[HealthCheck.too_slow])
 @given(arms(), st.data())
 def test_generated_arms_agree(gen: GeneratedArm, data: st.DataObject) -> None:
-    arm = rd.load_string(gen.xml, site=gen.site)
+    arm = rd.load_string(gen.xml, frame=gen.frame)
     qs = [data.draw(poses(arm), label="q") for _ in range(2)]
     assert_engines_agree(gen, qs)
     SEEN["models"] += 1
@@ -128,7 +128,7 @@ def test_held_variants_agree_with_the_whole_robot(feature: str) -> None:
     @settings(max_examples=max(3, EXAMPLES // len(REFUSED_FEATURES)))
     @given(held_arms((feature,)), st.data())
     def check(gen: GeneratedArm, data: st.DataObject) -> None:
-        arm = rd.load_string(gen.xml, site=gen.site)
+        arm = rd.load_string(gen.xml, frame=gen.frame)
         qs = [data.draw(poses(arm), label="q") for _ in range(2)]
         assert_engines_agree(gen, qs)
         for q in qs:
@@ -149,7 +149,7 @@ def test_refused_variants_are_refused(feature: str) -> None:
     @given(refused_arms((feature,)))
     def check(gen: GeneratedArm) -> None:
         with pytest.raises(rd.UnsupportedFeatureError) as exc:
-            rd.load_string(gen.xml, site=gen.site)
+            rd.load_string(gen.xml, frame=gen.frame)
         assert exc.value.feature == gen.refused == feature, str(exc.value)
         assert str(exc.value).startswith(f"unsupported feature: {feature} (")
 
@@ -164,7 +164,7 @@ def test_resolved_variants_agree_with_mujoco(feature: str) -> None:
     @settings(max_examples=max(3, EXAMPLES // len(RESOLVED_FEATURES)))
     @given(resolved_arms((feature,)), st.data())
     def check(gen: GeneratedArm, data: st.DataObject) -> None:
-        arm = rd.load_string(gen.xml, site=gen.site)
+        arm = rd.load_string(gen.xml, frame=gen.frame)
         assert "whole model" in {b.quantity for b in arm.bridges}
         qs = [data.draw(poses(arm), label="q") for _ in range(2)]
         assert_engines_agree(gen, qs)
@@ -202,7 +202,7 @@ ONE_JOINT = """<mujoco>
 
 def test_one_joint_arm() -> None:
     """Class 1: eigenpy returns Pinocchio's 6 x 1 Jacobians as vectors of shape (6,)."""
-    arm = rd.load_string(ONE_JOINT, site="tip")
+    arm = rd.load_string(ONE_JOINT, frame="tip")
     assert arm.jacobian([0.3], engine="pinocchio").shape == (6, 1)
     assert rd.compare_models(arm).equivalent
     assert rd.crosscheck(arm, np.array([[0.3], [-1.2]])).ok
@@ -254,17 +254,17 @@ READ_DIFFERENTLY = [
 
 @pytest.mark.parametrize(("xml", "message", "quantity"), READ_DIFFERENTLY)
 def test_read_differently_is_served_or_reported(xml: str, message: str, quantity: str) -> None:
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     (note,) = [b for b in arm.bridges if b.quantity == "whole model"]
     assert note.source.endswith(f"because of {message}")
     assert rd.compare_models(arm).equivalent
     for q in ([0.1, 0.2], [-1.0, 0.7]):
         assert largest_difference_to_full_model(arm, np.array(q)) < 1e-12
-    report = rd.compare_models(rd.load_string(xml, site="tip", strict=False))
+    report = rd.compare_models(rd.load_string(xml, frame="tip", strict=False))
     assert quantity in {d.quantity for d in report.differences}, report.lines()
 
 
-#: Shrunk models of classes Pinocchio 4.1 reads differently that the loader bridges (issue 11):
+#: Shrunk models of classes Pinocchio 4.1 reads differently that the loader bridges:
 #: accepted in strict mode, the bridge reported, the engines agreeing.
 BRIDGED = [
     pytest.param(_model('<geom mass="3"/>'), "body inertia", id="geom-mass-default"),
@@ -275,7 +275,7 @@ BRIDGED = [
 
 @pytest.mark.parametrize(("xml", "quantity"), BRIDGED)
 def test_read_differently_and_bridged(xml: str, quantity: str) -> None:
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert quantity in {b.quantity for b in arm.bridges}
     assert rd.compare_models(arm).equivalent
     assert rd.crosscheck(arm, np.array([[0.3, -0.4], [1.2, 2.0]])).ok
@@ -289,7 +289,7 @@ def test_class_refining_the_childclass_is_accepted() -> None:
         body='childclass="A"',
         joint='<joint name="j0" class="B"/>',
     )
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert arm.joint_types == ("hinge", "slide")
     assert rd.compare_models(arm).equivalent
     assert rd.crosscheck(arm, np.array([0.4, 0.05])).ok
@@ -321,7 +321,7 @@ def test_mujoco_capsule_box_misses_a_capsule_through_the_box() -> None:
     radius 0.016 to get out); MuJoCo's capsule-box collider and ``mj_geomDistance`` say the
     geoms are 3 mm apart, and ``mj_collision`` lists no contact for the pair.
     """
-    arm = rd.load_string(CAPSULE_THROUGH_BOX, site="tip")
+    arm = rd.load_string(CAPSULE_THROUGH_BOX, frame="tip")
     ch = col.checker(arm)
     pair = next(p for p in ch.pairs if p.types == frozenset({"capsule", "box"}))
     k = ch.pairs.index(pair)
@@ -337,3 +337,12 @@ def test_segment_box_helper() -> None:
     assert _segment_crosses_box(np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), half)
     assert not _segment_crosses_box(np.array([-1.0, 0.5, 0]), np.array([1.0, 0.5, 0]), half)
     assert _segment_crosses_box(np.zeros(3), np.zeros(3), half)
+
+
+def test_generated_site_is_a_deprecated_name_of_frame() -> None:
+    gen = GeneratedArm("<mujoco/>")
+    assert gen.frame == "tip"
+    with pytest.warns(
+        DeprecationWarning, match=r"^GeneratedArm.site is deprecated: use GeneratedArm.frame$"
+    ):
+        assert gen.site == "tip"

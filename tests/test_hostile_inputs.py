@@ -1,4 +1,4 @@
-"""Issue 21: bad arguments get the library's errors, naming the argument and the valid range.
+"""Bad arguments get the library's errors, naming the argument and the valid range.
 
 First the cases the hostile round found (exact messages), then a hypothesis sweep feeding
 every public function NaN, inf, empty, wrong-shape and wrong-type arguments and allowing
@@ -251,15 +251,15 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
             rd.load,
             {
                 "path": ARM7_PATH,
-                "site": "ee",
+                "frame": "ee",
                 "strict": True,
-                "frame": None,
+                "site": None,
                 "disabled_collisions": None,
             },
         ),
         "rd.load_string": (
             rd.load_string,
-            {"xml": "<mujoco/>", "site": "ee", "strict": True, "frame": None},
+            {"xml": "<mujoco/>", "frame": "ee", "strict": True, "site": None},
         ),
         "rd.max_stable_kd": (rd.max_stable_kd, {"inertia": 1.0, "timestep": 0.002, "damping": 0.5}),
         "rd.max_stable_timestep": (
@@ -531,10 +531,13 @@ HOSTILE: list[Any] = [
 def call_hostile(name: str, arg: str, value: Any) -> None:
     """Call ``name`` with ``arg`` replaced by ``value``: a result or a RedundancyError."""
     fn, kwargs = CASES[name]
-    try:
-        fn(**{**kwargs, arg: value})
-    except rd.RedundancyError:
-        pass
+    with warnings.catch_warnings():
+        if arg == "site":  # the deprecated name of frame=: checked too, its warning expected
+            warnings.simplefilter("ignore", DeprecationWarning)
+        try:
+            fn(**{**kwargs, arg: value})
+        except rd.RedundancyError:
+            pass
 
 
 def _public_functions() -> dict[str, Callable[..., Any]]:

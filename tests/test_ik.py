@@ -190,7 +190,7 @@ def test_an_arm_of_any_size_solves_the_same_targets(settings: dict) -> None:
     slide = kw.pop("slide", False)
     solved = {}
     for link in (1.0, 3e-4, 100.0):
-        arm = rd.load_string(_links(link, slide), site="tip")
+        arm = rd.load_string(_links(link, slide), frame="tip")
         Qt, Q0 = random_poses(arm, 30, seed=11), random_poses(arm, 30, seed=12)
         solved[link] = [
             arm.solve_ik(arm.site_pose(qt), q0, position_tol=TOL * link, **kw).success

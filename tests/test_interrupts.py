@@ -1,4 +1,4 @@
-"""Issue 21, case 1: an exception at any engine call leaves the per-thread cache honest.
+"""An exception at any engine call leaves the per-thread cache honest.
 
 Each engine's module reaches its engine through module attributes (``mujoco`` and the hot
 path's bound ``mj_*`` functions; ``pin``). The test replaces them by a proxy that raises

@@ -230,7 +230,7 @@ def test_the_arm_is_not_modified(arm7: rd.Arm) -> None:
 
 
 def test_panda_runs() -> None:
-    panda = rd.load(rd.model_path("panda"), site="ee")
+    panda = rd.load(rd.model_path("panda"), frame="ee")
     sim = LabSim(panda)
     r = sim.run_for(0.5)
     assert r.watch_joint == panda.joint_names[-1]
@@ -454,17 +454,17 @@ def test_cli_lab_serves_the_panda(
     def once(self: object) -> None:
         lab = self
         seen["joints"] = lab.sim.arm.joint_names  # type: ignore[attr-defined]
-        seen["site"] = lab.sim.arm.site  # type: ignore[attr-defined]
+        seen["site"] = lab.sim.arm.frame  # type: ignore[attr-defined]
         with urllib.request.urlopen(lab.url, timeout=30) as resp:  # type: ignore[attr-defined]
             seen["status"] = resp.status
         lab.stop()  # type: ignore[attr-defined]
 
     monkeypatch.setattr(page.LabServer, "serve_forever", once)
     model = str(rd.model_path("panda"))
-    assert cli.main(["lab", model, "--site", "ee", "--port", "0"]) == 0
+    assert cli.main(["lab", model, "--frame", "ee", "--port", "0"]) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"redundancy lab: {model} at http://127.0.0.1:")
-    assert seen == {"joints": rd.load(model, site="ee").joint_names, "site": "ee", "status": 200}
+    assert seen == {"joints": rd.load(model, frame="ee").joint_names, "site": "ee", "status": 200}
 
 
 def test_server_serves_the_page_and_warns_on_a_busy_port(arm7: rd.Arm) -> None:
@@ -649,7 +649,7 @@ def check_plots(b: object, titles: set[str], event: str) -> None:
 
     def ready() -> bool:
         # The state asserted, not merely some data: right after a reset the page may still
-        # show the previous frame's series until its next update (issue 21: 1 run in 5).
+        # show the previous frame's series until its next update (seen in 1 run in 5).
         seen.clear()
         seen.update(b.plots())  # type: ignore[attr-defined]
         if set(seen) != titles or any(len(p["x"]) < 2 for p in seen.values()):
@@ -677,7 +677,7 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
         laps.append((name, time.monotonic()))
 
     # timeout: the bound on each wait for the page (a hung page), not a timing assertion;
-    # on two shared cores a reload's first frame took over 30 s (issue 21's 20-run check).
+    # on two shared cores a reload's first frame took over 30 s (in a 20-run check).
     with (
         L.LabServer(arm7, port=0) as lab,
         LabBrowser(lab.url, executable=exe, timeout=120.0) as b,
@@ -870,7 +870,7 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
                 if attempt == 2:
                     raise
         # The gizmo may still be moving when it has passed 5 cm (the drag's last events):
-        # wait for the tool at the gizmo where it is, the state asserted (issue 21: a target
+        # wait for the tool at the gizmo where it is, the state asserted (a target
         # read mid-drag failed 1 of 11 runs).
         wait_for(
             "the tool within 1 mm of the gizmo",
@@ -913,7 +913,7 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("n", [3, 5])
 def test_lab_runs_an_arm_of_fewer_than_six_joints(n: int) -> None:
-    """Issue 21: the readouts raised IndexError (6 columns of U, n singular values)."""
+    """The readouts raised IndexError (6 columns of U, n singular values)."""
     from .test_core import SHORT_ARMS
 
     arm = SHORT_ARMS[n]
@@ -940,7 +940,7 @@ def test_plot_data_never_shows_samples_after_now(
     arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The page read the time, then the series: a runner step in between put samples after
-    "now" (issue 21). A step is attempted from another thread exactly there: it must find
+    "now". A step is attempted from another thread exactly there: it must find
     the simulation locked."""
     page = _page_module()
     sim = LabSim(arm7)

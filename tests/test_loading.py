@@ -8,6 +8,7 @@ import os
 import pickle
 import re
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -49,8 +50,8 @@ def test_encodings_load_in_both_engines(
     text = f'<?xml version="1.0" encoding="{declared}"?>\n' + _arm7_text(kind)
     path = tmp_path / f"arm7.{kind}"
     path.write_bytes(bom + text.encode(encoding))
-    arm = rd.load(path, site="ee")
-    reference = rd.load(MODELS / f"arm7.{kind}", site="ee")
+    arm = rd.load(path, frame="ee")
+    reference = rd.load(MODELS / f"arm7.{kind}", frame="ee")
     for q in random_poses(arm, 5, seed=2):
         for engine in ("mujoco", "pinocchio"):
             np.testing.assert_array_equal(
@@ -68,8 +69,8 @@ def test_non_ascii_names_reach_both_engines(tmp_path: Path) -> None:
     )
     path = tmp_path / "arm7_latin1.xml"
     path.write_bytes(text.encode("latin-1"))
-    arm = rd.load(path, site="outil_é")
-    assert arm.site == "outil_é"
+    arm = rd.load(path, frame="outil_é")
+    assert arm.frame == "outil_é"
     q = arm.keyframe("home")
     np.testing.assert_allclose(arm.site_pose(q)[0], arm.site_pose(q, "pinocchio")[0], atol=1e-12)
 
@@ -103,7 +104,7 @@ def test_xml_text_where_a_path_is_expected(kind: str) -> None:
         rd.load(text)
     assert str(err.value).startswith("load() takes a file path, and this looks like XML text (")
     assert str(err.value).endswith("...); use load_string() for model text")
-    assert rd.load_string(text, site="ee").nq == 7  # what the message suggests works
+    assert rd.load_string(text, frame="ee").nq == 7  # what the message suggests works
 
 
 def test_bytes_where_a_path_is_expected() -> None:
@@ -135,7 +136,7 @@ def test_path_of_wrong_type() -> None:
 
 
 def test_urdf_without_inertials_is_the_librarys_error() -> None:
-    """Issue 12: not MuJoCo's mass error; issue 26: kinematics served, dynamics the library's
+    """Not MuJoCo's mass error; kinematics served, dynamics the library's
     error naming the link."""
     text = (
         '<robot name="r"><link name="base"/><link name="l1"/>'
@@ -150,7 +151,7 @@ def test_urdf_without_inertials_is_the_librarys_error() -> None:
 
 def test_mjcf_site_and_frame() -> None:
     by_frame = rd.load(MODELS / "arm7.xml", frame="ee")
-    assert by_frame.site == "ee"
+    assert by_frame.frame == "ee"
     with pytest.raises(
         rd.UnknownNameError,
         match="unknown site or body 'tool0'; valid site or body names: \\['ee', ",
@@ -161,15 +162,15 @@ def test_mjcf_site_and_frame() -> None:
 def test_an_existing_file_whose_name_starts_with_a_bracket_loads(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Issue 21: "<arm7>.xml" was refused as XML text; only a path to nothing can be text."""
+    """'<arm7>.xml' was once refused as XML text; only a path to nothing can be text."""
     path = tmp_path / "<arm7>.xml"
     path.write_bytes(rd.model_path("arm7").read_bytes())
-    assert rd.load(path, site="ee").nq == 7
-    assert rd.load(str(path), site="ee").nq == 7
+    assert rd.load(path, frame="ee").nq == 7
+    assert rd.load(str(path), frame="ee").nq == 7
     with pytest.raises(rd.ModelError, match="looks like XML text"):
         rd.load("<arm7>.xml")  # no such file here: still the hint to load_string()
     monkeypatch.chdir(tmp_path)  # the name as typed in the file's folder (the case reported)
-    assert rd.load("<arm7>.xml", site="ee").nq == 7
+    assert rd.load("<arm7>.xml", frame="ee").nq == 7
 
 
 def _urdf(*leaves: str) -> str:
@@ -416,3 +417,30 @@ def test_a_copy_of_urdf_text_keeps_the_meshes_it_found_in_the_working_directory(
     twin = copy.deepcopy(arm)
     assert twin.mj_model.mesh_vert.tobytes() == arm.mj_model.mesh_vert.tobytes()
     assert twin.mj_model.nmesh == 1
+
+
+def test_site_is_a_deprecated_name_of_frame(tmp_path: Path) -> None:
+    """``site=`` still names the tool frame, with a DeprecationWarning at the caller's line;
+    ``frame=`` alone warns of nothing, and wins when both are given."""
+    path = write_two_links(tmp_path)
+    message = r"^site= is deprecated: name the tool frame with frame=$"
+    with pytest.warns(DeprecationWarning, match=message) as seen:
+        arm = rd.load(path, site="ee")
+    assert arm.frame == "ee" and seen[0].filename == __file__
+    text = rd.model_path("arm7").read_text()
+    with pytest.warns(DeprecationWarning, match=message) as seen:
+        assert rd.load_string(text, site="ee").frame == "ee"
+    assert seen[0].filename == __file__
+    with pytest.warns(DeprecationWarning, match=message):
+        assert rd.load_string(text, frame="ee", site="link7").frame == "ee"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        assert rd.load(path, frame="ee").frame == "ee"
+        assert rd.load(path, "ee").frame == "ee"  # the second parameter is the frame
+
+
+def test_arm_site_is_a_deprecated_name_of_frame(arm7: rd.Arm) -> None:
+    assert arm7.frame == "ee" and "frame='ee'" in repr(arm7)
+    with pytest.warns(DeprecationWarning, match=r"^Arm.site is deprecated: use Arm.frame$") as seen:
+        assert arm7.site == "ee"
+    assert seen[0].filename == __file__

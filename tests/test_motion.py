@@ -95,8 +95,8 @@ def small(tmp_path_factory: pytest.TempPathFactory) -> dict[str, rd.Arm]:
     sides = {s: SIDE.format(s=s, x=x) for s, x in (("left", "-0.3"), ("right", "0.3"))}
     (cell / "cell.xml").write_text(BIMANUAL_MAIN.format(**sides))
     return {
-        "two_link": rd.load_string(TWO_LINK, site="ee"),
-        "slider": rd.load_string(SLIDER, site="ee"),
+        "two_link": rd.load_string(TWO_LINK, frame="ee"),
+        "slider": rd.load_string(SLIDER, frame="ee"),
         # a table and the other arm (held) welded to the world, outside Pinocchio's tree
         "cell": rd.load(cell / "cell.xml", frame="right_gripper"),
         "humanoid": rd.load_string(HUMANOID, frame="l_palm"),  # a held free base
@@ -382,7 +382,7 @@ def test_fixed_mass_counts_in_the_com_and_not_in_the_momentum(small: dict, arm7:
     """SLIDER's base (3 kg, welded to the world, posed): in the centre of mass, no momentum."""
     arm = small["slider"]
     q = np.array([0.4, 0.1, -0.3])
-    moving = rd.load_string(SLIDER.replace('mass="3"', 'mass="0"'), site="ee")
+    moving = rd.load_string(SLIDER.replace('mass="3"', 'mass="0"'), frame="ee")
     base = np.array([0.1, 0.05, 0.2])  # the base's centre of mass in the world
     expected = (3.0 * base + 2.1 * moving.com(q)) / 5.1
     for engine in ENGINES:

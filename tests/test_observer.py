@@ -92,9 +92,9 @@ def arms(arm7: rd.Arm) -> dict[str, rd.Arm]:
     return {
         "arm7": arm7,
         "springs": rd.load_string(
-            SPRUNG.format(springs='stiffness="8" springref="0.2"'), site="tool"
+            SPRUNG.format(springs='stiffness="8" springref="0.2"'), frame="tool"
         ),
-        "no springs": rd.load_string(SPRUNG.format(springs=""), site="tool"),
+        "no springs": rd.load_string(SPRUNG.format(springs=""), frame="tool"),
     }
 
 
@@ -130,7 +130,7 @@ def test_springs_and_gravity_compensation_are_accounted_for(arms: dict) -> None:
     assert np.max(np.abs(seen[-1])) < 0.01 * np.max(np.abs(spring))
     no_gravcomp = rd.load_string(
         SPRUNG.format(springs='stiffness="8" springref="0.2"').replace(' gravcomp="0.5"', ""),
-        site="tool",
+        frame="tool",
     )
     wrong = batch.external_torques(no_gravcomp, run["q"], run["v"], run["tau"], 0.002, 50.0)
     assert np.max(np.abs(wrong[-1])) > 10 * np.max(np.abs(seen[-1]))

@@ -173,7 +173,7 @@ def test_queries_in_any_order_read_one_kinematics_pass(skew7: rd.Arm) -> None:
     """J, M, gravity and the site pose at one pose, in every order, equal fresh answers."""
     eng = skew7.mujoco
     q = np.linspace(0.5, -0.5, NQ)
-    fresh = rd.load_string(SKEW7, site="tool").mujoco
+    fresh = rd.load_string(SKEW7, frame="tool").mujoco
     want = {
         "J": fresh.site_jacobian(q),
         "M": fresh.mass_matrix(q),

@@ -300,7 +300,7 @@ def test_audit_without_inertias_says_what_it_skipped(tmp_path, capsys) -> None:
     path = tmp_path / "ri.urdf"
     path.write_text(_urdf(False))
     out = tmp_path / "r.json"
-    code = cli(["audit", str(path), "--site", "tool0", "--poses", "30", "--json", str(out)])
+    code = cli(["audit", str(path), "--frame", "tool0", "--poses", "30", "--json", str(out)])
     text = capsys.readouterr().out
     assert code == 0
     doc = json.loads(out.read_text())
@@ -336,7 +336,7 @@ def test_published_human_without_inertial_virtual_links() -> None:
         mujoco.mj_kinematics(arm.robot_model, whole)
         mujoco.mj_comPos(arm.robot_model, whole)
         jp, jr = np.zeros((3, arm.robot_model.nv)), np.zeros((3, arm.robot_model.nv))
-        site = mujoco.mj_name2id(arm.robot_model, mujoco.mjtObj.mjOBJ_SITE, arm.site)
+        site = mujoco.mj_name2id(arm.robot_model, mujoco.mjtObj.mjOBJ_SITE, arm.frame)
         mujoco.mj_jacSite(arm.robot_model, whole, jp, jr, site)
         dofs = [arm.robot_model.jnt_dofadr[names.index(n)] for n in arm.joint_names]
         for engine in ("mujoco", "pinocchio"):

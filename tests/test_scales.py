@@ -1,4 +1,4 @@
-"""Issue 21, case 5: tolerances relative to each quantity's scale on the arm.
+"""Tolerances relative to each quantity's scale on the arm.
 
 A 2.5 mm arm and a 150 m crane are held to the same relative 1e-9 by the cross-check,
 ``compare`` and ``compare_models``: an absolute 1e-9 (or 1e-9 x max(1, |value|)) let the
@@ -45,7 +45,7 @@ POSES = np.array([[0.3, -0.4, 0.9], [1.2, 0.5, -0.7], [0.0, 0.0, 0.0]])
 
 
 def test_scales_of_an_arm() -> None:
-    s = arm_scales(rd.load_string(scaled_arm(*TINY), site="tip"))
+    s = arm_scales(rd.load_string(scaled_arm(*TINY), frame="tip"))
     assert s.length == pytest.approx(2.5e-3) and s.mass == pytest.approx(2e-6)
     assert s.gravity == pytest.approx(9.81)
     assert s.inertia == pytest.approx(2e-6 * 2.5e-3**2)
@@ -54,7 +54,7 @@ def test_scales_of_an_arm() -> None:
 
 @pytest.mark.parametrize("size", [TINY, CRANE], ids=["2.5 mm", "150 m"])
 def test_crosscheck_passes_both_ends_of_the_scale(size: tuple[float, float]) -> None:
-    arm = rd.load_string(scaled_arm(*size), site="tip")
+    arm = rd.load_string(scaled_arm(*size), frame="tip")
     report = rd.crosscheck(arm, POSES)
     assert report.ok, report.lines()
 
@@ -72,7 +72,7 @@ def scaled_pinocchio_inertia(arm: rd.Arm, factor: float) -> None:
 def test_crosscheck_sees_57_percent_on_a_small_arm() -> None:
     """The engines' M differ by 57 %: the old measure called that ok (differences of 1e-12
     kg m^2 against a tolerance of 1e-9 x max(1, |value|))."""
-    arm = rd.load_string(scaled_arm(*TINY), site="tip")
+    arm = rd.load_string(scaled_arm(*TINY), frame="tip")
     scaled_pinocchio_inertia(arm, 1.57)
     M_mj, M_pin = arm.mass_matrix(POSES[0]), arm.mass_matrix(POSES[0], engine="pinocchio")
     assert np.max(np.abs(M_mj - M_pin)) < 1e-9  # what an absolute tolerance passes
@@ -85,7 +85,7 @@ def test_crosscheck_sees_57_percent_on_a_small_arm() -> None:
 def test_crane_rounding_is_not_a_disagreement() -> None:
     """On a 150 m, 200 t crane the M entries are 1e8 to 1e9 kg m^2: rounding is ~1e-7
     absolute, 1e-16 of the scale."""
-    arm = rd.load_string(scaled_arm(*CRANE), site="tip")
+    arm = rd.load_string(scaled_arm(*CRANE), frame="tip")
     report = rd.crosscheck(arm, POSES)
     assert report.ok and report["mass matrix"].max_error < 1e-12, report.lines()
 
@@ -107,7 +107,7 @@ def test_compare_sees_tenfold_inertias_on_a_small_arm(tmp_path: Path) -> None:
 
 
 def test_compare_models_sees_engines_apart_on_a_small_arm() -> None:
-    arm = rd.load_string(scaled_arm(*TINY), site="tip")
+    arm = rd.load_string(scaled_arm(*TINY), frame="tip")
     assert rd.compare_models(arm).equivalent
     scaled_pinocchio_inertia(arm, 10.0)
     report = rd.compare_models(arm)
@@ -131,6 +131,6 @@ def test_bodies_at_one_point_have_the_size_of_their_geoms() -> None:
     xml = """<mujoco><worldbody><body name="b0"><geom type="sphere" size="0.062"/>
       <body name="b1" euler="0 0 1"><joint name="j0" pos="0 0.062 0"/>
       <geom type="sphere" size="0.062"/><site name="tip"/></body></body></worldbody></mujoco>"""
-    arm = rd.load_string(xml, site="tip")
+    arm = rd.load_string(xml, frame="tip")
     assert arm_scales(arm).length == pytest.approx(arm.mj_model.stat.extent)
     assert rd.compare_models(arm).equivalent

@@ -1,4 +1,4 @@
-"""Self-motion (issue #5): wrist singularity, null-space drift, contact escape, the scripts.
+"""Self-motion: wrist singularity, null-space drift, contact escape, the scripts.
 
 Every number the two scripts print rests on a test here; nothing is compared with a stored
 result, only with the geometry (collinear axes, equal columns) or with orders of convergence.

@@ -151,15 +151,19 @@ def test_copies_and_pickles_give_the_same_numbers(arm7, skew7, how):
         }[how](arm)
         assert twin is not arm
         assert twin.mujoco.model is not arm.mujoco.model  # independent engines
-        assert (twin.source, twin.site, twin.joint_names) == (arm.source, arm.site, arm.joint_names)
+        assert (twin.source, twin.frame, twin.joint_names) == (
+            arm.source,
+            arm.frame,
+            arm.joint_names,
+        )
         assert twin.bridges == arm.bridges
         assert same(_numbers(twin), _numbers(arm))
 
 
 def test_pickled_arm_keeps_its_load_options(tmp_path):
-    arm = rd.load_string(SKEW7, site="tool", strict=False)
+    arm = rd.load_string(SKEW7, frame="tool", strict=False)
     twin = pickle.loads(pickle.dumps(arm))
-    assert twin.site == "tool" and twin.source == "<string>"
+    assert twin.frame == "tool" and twin.source == "<string>"
 
 
 def _gravity_in_worker(arm: rd.Arm, Q: np.ndarray) -> np.ndarray:
@@ -240,7 +244,7 @@ import numpy as np
 import redundancy as rd
 from redundancy import batch
 
-arm = rd.load(rd.model_path("arm7"), site="ee")
+arm = rd.load(rd.model_path("arm7"), frame="ee")
 Q = rd.arm.random_poses(arm, 1024)
 call = lambda: {call}
 call()  # threads started in the parent
@@ -259,7 +263,7 @@ print("ok")
 
 @pytest.mark.parametrize("path", list(THREADED_PATHS))
 def test_a_fork_after_each_threaded_path_leaves_the_child_usable(path: str) -> None:
-    """Issue 21: a fork after batch.gravities(engine="pinocchio", threads=2) hung the child
+    """A fork after batch.gravities(engine="pinocchio", threads=2) hung the child
     (libgomp's pool does not survive fork). Run in a subprocess: a hang fails the test at
     the timeout (a bound for a hung child, not a measured time) instead of blocking."""
     import subprocess
@@ -346,7 +350,7 @@ def test_loads_from_threads_leave_the_users_warning_callback(users_warnings):
     def loads() -> None:
         for _ in range(4):
             barrier.wait()
-            rd.load(rd.model_path("arm7"), site="ee")
+            rd.load(rd.model_path("arm7"), frame="ee")
 
     with cf.ThreadPoolExecutor(3) as pool:
         for f in [pool.submit(loads) for _ in range(3)]:
@@ -374,7 +378,7 @@ def test_a_child_forked_during_another_threads_capture_has_the_users_callback(us
         pid = os.fork()
         if pid == 0:  # the child: the capturing thread is gone
             ok = mujoco.get_mju_user_warning() is mine
-            rd.load(rd.model_path("arm7"), site="ee")  # the capture works in the child too
+            rd.load(rd.model_path("arm7"), frame="ee")  # the capture works in the child too
             os._exit(0 if ok and mujoco.get_mju_user_warning() is mine else 1)
         _, status = os.waitpid(pid, 0)
     finally:

@@ -180,7 +180,7 @@ def write_stl(path: Path) -> None:
 @pytest.mark.parametrize("name", ["arm7", "panda"])
 def test_bundled_urdf_crosschecks(name: str) -> None:
     arm = rd.load(MODELS / f"{name}.urdf", frame="ee")
-    assert arm.nq == 7 and arm.site == "ee"
+    assert arm.nq == 7 and arm.frame == "ee"
     assert arm.bridges == ()  # both importers read every value the library uses
     report = crosscheck(arm, random_poses(arm, 100, seed=3))
     assert report.ok, report.lines()
@@ -192,7 +192,7 @@ def test_bundled_urdf_crosschecks(name: str) -> None:
 @pytest.mark.parametrize("name", ["arm7", "panda"])
 def test_bundled_urdf_is_its_mjcf_without_armature(name: str) -> None:
     urdf = rd.load(MODELS / f"{name}.urdf", frame="ee")
-    mjcf = rd.load(MODELS / f"{name}.xml", site="ee")
+    mjcf = rd.load(MODELS / f"{name}.xml", frame="ee")
     for q in random_poses(mjcf, 20, seed=4):
         np.testing.assert_allclose(urdf.jacobian(q), mjcf.jacobian(q), atol=1e-12)
         np.testing.assert_allclose(
@@ -232,8 +232,8 @@ def test_tool_as_fixed_joint_name_and_unknown_tool() -> None:
     assert str(err.value) == "unknown link 'flange'; valid link names: ['base', 'l1', 'tool']"
 
 
-def test_site_argument_names_the_link_too() -> None:
-    assert rd.load_string(tiny_urdf(), site="tool").site == "tool"
+def test_frame_argument_names_the_link_too() -> None:
+    assert rd.load_string(tiny_urdf(), frame="tool").frame == "tool"
 
 
 def test_continuous_joint_is_one_unbounded_angle() -> None:
@@ -300,7 +300,7 @@ def test_adjacent_links_never_collide() -> None:
     for i in range(7):
         assert frozenset((f"link{i}", f"link{i + 1}")) not in pairs
     # The MJCF excludes link0/link1 explicitly: the two files give the same body pairs.
-    assert pairs == _body_pairs(rd.load(MODELS / "panda.xml", site="ee"))
+    assert pairs == _body_pairs(rd.load(MODELS / "panda.xml", frame="ee"))
 
 
 def test_srdf_and_listed_disabled_pairs(tmp_path: Path) -> None:
@@ -354,7 +354,7 @@ def test_disabled_pairs_bad_input(tmp_path: Path) -> None:
 def test_audit_runs_on_a_urdf(capsys: pytest.CaptureFixture[str]) -> None:
     from redundancy.cli import main
 
-    code = main(["audit", str(MODELS / "arm7.urdf"), "--site", "ee", "--poses", "200"])
+    code = main(["audit", str(MODELS / "arm7.urdf"), "--frame", "ee", "--poses", "200"])
     assert code in (0, 1)
     assert "Traceback" not in capsys.readouterr().err
 
@@ -676,7 +676,7 @@ def test_fuzzed_urdf(
     data, what = mutant
     path = tmp_path_factory.mktemp("urdf_fuzz") / "arm7.urdf"
     path.write_bytes(data)
-    result = fuzz_worker.load(path, site="ee")
+    result = fuzz_worker.load(path, frame="ee")
     assert result["status"] in ("refused", "loaded"), f"{what}: {result}"
     if result["status"] == "refused":
         assert result["message"], what
@@ -723,7 +723,7 @@ def test_urdf_loops_and_duplicates_get_the_librarys_message(
     message: str,
     capfd: pytest.CaptureFixture[str],
 ) -> None:
-    """Issue 21: the parsers' own text, and C++ output on stderr, before."""
+    """The parsers' own text, and C++ output on stderr, before."""
     with pytest.raises(rd.ModelError) as err:
         rd.load_string(_tree_urdf(links, joints), frame="b" if "b" in links else "a")
     assert str(err.value) == message

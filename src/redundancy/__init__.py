@@ -2,7 +2,7 @@
 
 Example:
     >>> import redundancy as rd
-    >>> arm = rd.load(rd.model_path("arm7"), site="ee")
+    >>> arm = rd.load(rd.model_path("arm7"), frame="ee")
     >>> arm.svd(arm.keyframe("zero")).rank
     3
 """

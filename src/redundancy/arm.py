@@ -8,6 +8,7 @@ itself only dispatches: every number comes from an engine of `redundancy.engines
 from __future__ import annotations
 
 import threading
+import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -97,7 +98,7 @@ class Arm:
     Attributes:
         engines: The engines by name, the reference first; ``mujoco`` and ``pinocchio``
             name each.
-        site: Name of the tool site.
+        frame: Name of the tool frame (``site`` is its deprecated name).
         joint_names: Joint names, in order.
         joint_types: ``"hinge"`` or ``"slide"`` per joint.
         lower: Lower joint limits (``-inf`` where unlimited) [rad or m].
@@ -130,7 +131,7 @@ class Arm:
         self,
         mj_model: mujoco.MjModel,
         pin_model: Any,
-        site: str,
+        frame: str,
         source: str,
         *,
         armature: Array,
@@ -150,7 +151,7 @@ class Arm:
         key_moves: tuple[Mapping[str, float | tuple[float, ...]], ...] = (),
     ) -> None:
         self.source = source
-        self.site = site
+        self.frame = frame
         self.joint_names: tuple[str, ...] = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
         self.joint_types: tuple[str, ...] = tuple(
             JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type
@@ -161,8 +162,8 @@ class Arm:
         #: The engines by name, the reference first (`redundancy.engines.REFERENCE`): the
         #: cross-check compares it with each other one, IK confirms in every other one.
         self.engines: dict[str, Engine] = {
-            "mujoco": MujocoEngine(mj_model, site, armature, damping),
-            "pinocchio": PinocchioEngine(pin_model, site, self.joint_names, frame_type),
+            "mujoco": MujocoEngine(mj_model, frame, armature, damping),
+            "pinocchio": PinocchioEngine(pin_model, frame, self.joint_names, frame_type),
         }
         limits: tuple[Array, Array] = self.mujoco.limits
         self.lower: Array = limits[0]
@@ -206,9 +207,10 @@ class Arm:
 
     # -- names, keyframes and poses --------------------------------------------------------
     @property
-    def frame(self) -> str:
-        """Name of the tool frame (``site`` is its older name)."""
-        return self.site
+    def site(self) -> str:
+        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
+        warnings.warn("Arm.site is deprecated: use Arm.frame", DeprecationWarning, stacklevel=2)
+        return self.frame
 
     @property
     def mujoco(self) -> MujocoEngine:
@@ -709,7 +711,7 @@ class Arm:
 
     def __repr__(self) -> str:
         held = f", held={len(self.held)}" if self.held else ""
-        return f"Arm({self.source!r}, frame={self.site!r}, joints={list(self.joint_names)}{held})"
+        return f"Arm({self.source!r}, frame={self.frame!r}, joints={list(self.joint_names)}{held})"
 
 
 def sampling_ranges(

@@ -25,6 +25,7 @@ import contextlib
 import math
 import os
 import sys
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NoReturn
 
@@ -199,6 +200,23 @@ def _version() -> str:
 _EXIT = "exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error"
 
 
+class _FrameOption(argparse.Action):
+    """``--frame NAME``; its old name ``--site`` still works, with a warning."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        if option_string == "--site":
+            message = "--site is deprecated: name the tool frame with --frame"
+            warnings.warn(message, DeprecationWarning, stacklevel=2)
+            _error(f"redundancy: warning: {message}")
+        setattr(namespace, self.dest, values)
+
+
 def _model_arguments(p: argparse.ArgumentParser) -> None:
     """The model file and how to load it: shared by ``audit`` and ``lab``."""
     p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
@@ -207,8 +225,10 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
         "--site",
         dest="frame",
         metavar="NAME",
+        action=_FrameOption,
         help="tool frame: an MJCF site or body, a URDF link or fixed joint (default: the "
-        "model's one chain end; with several, the error lists them)",
+        "model's one chain end; with several, the error lists them); --site is its "
+        "deprecated name",
     )
     p.add_argument(
         "--srdf",
@@ -235,6 +255,15 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"redundancy {_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    _audit_parser(sub)
+    _example_parser(sub)
+    _lab_parser(sub)
+    _compare_parser(sub)
+    return p
+
+
+def _audit_parser(sub: Any) -> None:
+    """The ``audit`` subcommand's arguments."""
     a = sub.add_parser(
         "audit",
         help="audit an MJCF or URDF arm: findings where its own numbers show a problem",
@@ -278,6 +307,10 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no progress bar and no tables: print the findings only",
     )
+
+
+def _example_parser(sub: Any) -> None:
+    """The ``example`` subcommand's arguments."""
     ex = sub.add_parser(
         "example",
         help="run a worked example: 'arm7' prints the tables of the bundled arm7's lesson",
@@ -287,6 +320,10 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument(
         "--poses", type=_count(1), default=10_000, help="random poses for tables (3) and (4)"
     )
+
+
+def _lab_parser(sub: Any) -> None:
+    """The ``lab`` subcommand's arguments."""
     lab = sub.add_parser(
         "lab", help="serve an arm as an interactive local web page (needs redundancy[lab])"
     )
@@ -304,6 +341,10 @@ def _parser() -> argparse.ArgumentParser:
         help="TCP port, 0..65535 (default: 8080; 0: any free port; if taken, the next free "
         "one, with a warning)",
     )
+
+
+def _compare_parser(sub: Any) -> None:
+    """The ``compare`` subcommand's arguments."""
     cmp = sub.add_parser(
         "compare",
         help="compare two descriptions of one robot (MJCF or URDF), structurally and pose by pose",
@@ -327,7 +368,6 @@ def _parser() -> argparse.ArgumentParser:
     cmp.add_argument("--poses", type=_count(0), default=200, help="random poses (default: 200)")
     cmp.add_argument("--seed", type=_count(0), default=0, help="seed of the poses (default: 0)")
     cmp.add_argument("--tol", type=float, default=1e-9, help="tolerance (default: 1e-9)")
-    return p
 
 
 def _check_files(args: argparse.Namespace) -> None:
@@ -421,16 +461,46 @@ def _run(args: argparse.Namespace) -> int:
         from .lab import page  # MissingDependencyError without the `lab` extra
 
         page.check_address(args.host, args.port)  # before any work
-        page.serve(_load(args), host=args.host, port=args.port)
+        arm = _load(args)
+        lab = page.LabServer(arm, host=args.host, port=args.port)
+        print(f"redundancy lab: {arm.source} at {lab.url} (Ctrl-C to stop)", flush=True)
+        lab.serve_forever()
         return OK
     if args.command == "compare":
-        from .analysis.compare import run_compare
-        from .reports.files import write_atomic
-
-        args.frame_a = args.frame_a or args.frame  # None: compare's (load's) default
-        args.frame_b = args.frame_b or args.frame
-        return run_compare(args, write_atomic)
+        return _compare(args)
     return _audit(args)
+
+
+def _compare(args: argparse.Namespace) -> int:
+    """The ``compare`` subcommand: 0 the same robot, 1 differences (bad input raises)."""
+    from .analysis.compare import compare, read_joint_map
+    from .display import to_json
+    from .errors import ModelError
+    from .reports.files import write_atomic
+
+    if not (math.isfinite(args.tol) and args.tol > 0):
+        raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
+    joint_map = read_joint_map(args.joint_map) if args.joint_map else None
+    result = compare(
+        args.a,
+        args.b,
+        frame_a=args.frame_a or args.frame,  # None: compare's (load's) default
+        frame_b=args.frame_b or args.frame,
+        joint_map=joint_map,
+        n_poses=args.poses,
+        seed=args.seed,
+        tol=args.tol,
+    )
+    document = to_json(result.to_dict())
+    if args.json == "-":
+        print(document)
+    else:
+        for line in result.lines():
+            print(line)
+        if args.json:
+            write_atomic(args.json, document + "\n")
+    sys.stdout.flush()
+    return 0 if result.equivalent else 1
 
 
 def _audit(args: argparse.Namespace) -> int:

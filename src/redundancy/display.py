@@ -9,7 +9,7 @@ once; the HTML is escaped, never built from unescaped names.
 
 Example:
     >>> import redundancy as rd
-    >>> arm = rd.load(rd.model_path("arm7"), site="ee")
+    >>> arm = rd.load(rd.model_path("arm7"), frame="ee")
     >>> report = rd.crosscheck(arm, arm.keyframe("zero"))
     >>> repr(report)
     '<CrossCheckReport: ok, 8 quantities over 1 pose>'

@@ -9,7 +9,7 @@ a cell's value and which ``fig.savefig(path)`` writes anywhere.
 Example:
     >>> import redundancy as rd
     >>> from redundancy.plotting import manipulability_figure
-    >>> arm = rd.load(rd.model_path("arm7"), site="ee")
+    >>> arm = rd.load(rd.model_path("arm7"), frame="ee")
     >>> fig = manipulability_figure(arm, rd.random_poses(arm, 50))
     >>> fig.savefig("manipulability.png")  # doctest: +SKIP
 """
@@ -100,7 +100,7 @@ def manipulability_figure(
     top, bottom = fig.subplots(2, 1, sharex=True)
     top.plot(x, w, color="C0")
     top.set_ylabel(f"manipulability ({kind})")
-    top.set_title(f"{arm.site}: manipulability along the path ({len(Q)} poses)")
+    top.set_title(f"{arm.frame}: manipulability along the path ({len(Q)} poses)")
     bottom.plot(x, sigma_min, color="C1")
     bottom.set_ylabel("smallest singular value")
     bottom.set_xlabel(xlabel)
@@ -155,7 +155,7 @@ def velocity_ellipsoid_figure(
     ax.set_xlabel(f"x [{unit}]")
     ax.set_ylabel(f"y [{unit}]")
     ax.set_zlabel(f"z [{unit}]")
-    ax.set_title(f"{arm.site}: {kind} velocity ellipsoid (unit joint speed)")
+    ax.set_title(f"{arm.frame}: {kind} velocity ellipsoid (unit joint speed)")
     ax.legend(loc="upper left", fontsize="small")
     return fig
 

@@ -4,7 +4,7 @@ Example:
     >>> from hypothesis import given
     >>> import redundancy as rd
     >>> from redundancy.testing import poses
-    >>> arm = rd.load(rd.model_path("panda"), site="ee")
+    >>> arm = rd.load(rd.model_path("panda"), frame="ee")
     >>> @given(poses(arm))
     ... def test_engines_agree(q):
     ...     assert rd.crosscheck(arm, q).ok

@@ -30,14 +30,9 @@ such, not as a difference.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
-import sys
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from pathlib import Path
+from collections.abc import Mapping
 from typing import Any
 
 import mujoco
@@ -45,17 +40,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
-from ..display import Report, Table, json_ready, plural, table, to_json
 from ..engines.contract import Stacks
 from ..errors import ModelError, UnknownNameError
 from ..model.bridges import effective_gravity
-from ..model.equivalence import fit_rigid, format_value, parent_joint
+from ..model.equivalence import fit_rigid, parent_joint
 from ..model.names import display_names
 from ..model.scales import arm_scales, scaled_error, scaled_errors
+from .comparison import Comparison, Finding, RigidOffset, read_joint_map
 
 Array = NDArray[np.float64]
 
-__all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map", "run_compare"]
+__all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map"]
 
 #: A rigid offset is taken as found when, after it, every joint axis of A lies on B's within
 #: this (or the comparison's tolerance, if larger), relative to the arm's length for
@@ -63,279 +58,8 @@ __all__ = ["Comparison", "Finding", "RigidOffset", "compare", "read_joint_map", 
 FIT_TOL = 1e-6
 
 
-@dataclass(frozen=True)
-class RigidOffset:
-    """A constant placement by which B differs from A.
-
-    Attributes:
-        kind: ``"base placement"`` (B's world = ``rotation`` A's world + ``translation``) or
-            ``"tool mount"`` (B's tool frame = A's tool frame moved by ``translation`` and
-            turned by ``rotation``, in A's tool frame).
-        translation: [m], shape (3,).
-        rotation: Rotation matrix, shape (3, 3).
-    """
-
-    kind: str
-    translation: Array
-    rotation: Array
-
-    @property
-    def angle(self) -> float:
-        """Angle of the rotation [rad]."""
-        R = self.rotation
-        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-        # atan2 keeps small angles exact where acos of the trace would lose them.
-        return math.atan2(float(np.linalg.norm(w)) / 2.0, (float(np.trace(R)) - 1.0) / 2.0)
-
-    @property
-    def axis(self) -> Array:
-        """Unit axis of the rotation (z when there is none)."""
-        R = self.rotation
-        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-        norm = float(np.linalg.norm(w))
-        if norm > 1e-12:
-            return w / norm
-        if self.angle < 1e-12:
-            return np.array([0.0, 0.0, 1.0])
-        # Half a turn: the axis is the column of R + I of largest norm.
-        B = R + np.eye(3)
-        v = B[:, int(np.argmax(np.linalg.norm(B, axis=0)))]
-        return v / np.linalg.norm(v)
-
-    def __str__(self) -> str:
-        where = "in the world frame" if self.kind == "base placement" else "in A's tool frame"
-        text = f"{self.kind}: B is A moved by {_vector(self.translation)} m {where}"
-        if self.angle > 0:
-            text += f", turned {math.degrees(self.angle):.6g} deg about {_vector(self.axis)}"
-        return text
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form."""
-        return {
-            "kind": self.kind,
-            "translation": json_ready(self.translation),
-            "rotation": json_ready(self.rotation),
-            "angle_deg": math.degrees(self.angle),
-            "axis": json_ready(self.axis),
-        }
-
-
-def _vector(v: Array) -> str:
-    return "[" + " ".join(f"{0.0 if abs(x) < 1e-12 else x:.6g}" for x in v) + "]"
-
-
 def _skew(v: Array) -> Array:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One quantity on which the two descriptions differ, or that one cannot express.
-
-    Attributes:
-        quantity: e.g. ``"joint axis (world)"``, ``"centre of mass (world)"``, ``"jacobian"``.
-        where: The joint, body or frame it concerns, in A's names (B's in brackets when
-            they differ).
-        a: A's value (None where A cannot express it).
-        b: B's value (None where B cannot express it).
-        error: Largest absolute difference [SI units of the quantity] (0 for a listing).
-        note: Extra context (the pose, the format that cannot express it).
-    """
-
-    quantity: str
-    where: str
-    a: Any
-    b: Any
-    error: float = 0.0
-    note: str = ""
-
-    def __str__(self) -> str:
-        text = f"{self.quantity} of {self.where}: A {_fmt(self.a)}, B {_fmt(self.b)}"
-        if self.error:
-            text += f" (|diff| {self.error:.3g})"
-        return text + (f"; {self.note}" if self.note else "")
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (arrays as lists, infinities as null, as every document)."""
-        return {
-            "quantity": self.quantity,
-            "where": self.where,
-            "a": json_ready(self.a),
-            "b": json_ready(self.b),
-            "error": json_ready(self.error),
-            "note": self.note,
-        }
-
-
-@dataclass(frozen=True, repr=False)
-class Comparison(Report):
-    """Result of [`compare`][redundancy.compare].
-
-    ``print(comparison)`` prints [`lines`][redundancy.analysis.compare.Comparison.lines]; a notebook
-    shows the HTML tables.
-
-    Attributes:
-        a: Description of A (file and format); b likewise.
-        frame_a: A's tool frame; frame_b likewise.
-        joint_map: Pairs (A's joint, B's joint), in A's order.
-        differences: Every difference, structural first, then pose by pose (after the
-            rigid offsets).
-        not_expressible: What one format cannot express, with the other's values.
-        chains_part: Where the kinematic chains first part (a joint, ``"tool frame"``), or
-            None when they do not.
-        largest: Largest difference per quantity compared (0 where identical), relative to the
-            quantity's scale on A ([`redundancy.model.scales`][redundancy.model.scales]) [-].
-        n_poses: Poses compared (random ones and keyframes).
-        tol: Relative tolerance [-].
-        offsets: The rigid offsets found (base placement, tool mount), relative to which the
-            rest was compared.
-    """
-
-    a: str
-    b: str
-    frame_a: str
-    frame_b: str
-    joint_map: tuple[tuple[str, str], ...]
-    differences: tuple[Finding, ...]
-    not_expressible: tuple[Finding, ...]
-    chains_part: str | None
-    largest: dict[str, float] = field(default_factory=dict)
-    n_poses: int = 0
-    tol: float = 1e-9
-    offsets: tuple[RigidOffset, ...] = ()
-
-    @property
-    def equivalent(self) -> bool:
-        """True when nothing differs, placement included.
-
-        What a format cannot express is not a difference.
-        """
-        return not self.differences and not self.offsets
-
-    @property
-    def verdict(self) -> str:
-        """``"same robot"``, ``"different"``, or ``"same robot, placed differently"``.
-
-        The last when only rigid offsets differ.
-        """
-        if self.differences:
-            return "different"
-        return "same robot, placed differently" if self.offsets else "same robot"
-
-    def lines(self) -> list[str]:
-        """Human-readable report lines."""
-        out = [
-            f"A: {self.a}, tool frame {self.frame_a!r}",
-            f"B: {self.b}, tool frame {self.frame_b!r}",
-            f"joints matched: {len(self.joint_map)} ("
-            + ", ".join(a if a == b else f"{a}={b}" for a, b in self.joint_map)
-            + ")",
-            f"compared: structure at the reference pose, and {self.n_poses} poses "
-            f"(tolerance {self.tol:g})",
-        ]
-        out += [f"OFFSET  {o}" for o in self.offsets]
-        if self.offsets:
-            out.append("compared relative to the offset" + ("s" if len(self.offsets) > 1 else ""))
-        if self.chains_part:
-            out.append(f"the chains part at: {self.chains_part}")
-        out += [f"DIFFERS  {d}" for d in self.differences]
-        out += [f"NOT EXPRESSIBLE  {n}" for n in self.not_expressible]
-        out.append("largest difference per quantity:")
-        width = max((len(k) for k in self.largest), default=0)
-        out += [f"  {k:<{width}}  {v:.2e}" for k, v in self.largest.items()]
-        out.append(f"verdict: {self.verdict}")
-        return out
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form of the whole comparison."""
-        return {
-            "a": self.a,
-            "b": self.b,
-            "frame_a": self.frame_a,
-            "frame_b": self.frame_b,
-            "joint_map": [list(p) for p in self.joint_map],
-            "verdict": self.verdict,
-            "equivalent": self.equivalent,
-            "chains_part": self.chains_part,
-            "offsets": [o.to_dict() for o in self.offsets],
-            "differences": [d.to_dict() for d in self.differences],
-            "not_expressible": [n.to_dict() for n in self.not_expressible],
-            "largest": {k: json_ready(v) for k, v in self.largest.items()},
-            "n_poses": self.n_poses,
-            "tol": self.tol,
-        }
-
-    def summary(self) -> str:
-        """The verdict and the counts, e.g. ``"different: 3 differences, 7 joints matched"``."""
-        n = plural(len(self.differences), "difference")
-        return f"{self.verdict}: {n}, {plural(len(self.joint_map), 'joint')} matched"
-
-    def html_tables(self) -> list[Table]:
-        """The differences, what a format cannot express, the largest difference per quantity."""
-        rows = [
-            (f.quantity, f.where, _fmt(f.a), _fmt(f.b), f"{f.error:.3g}", f.note)
-            for f in self.differences
-        ]
-        header = ("quantity", "where", "A", "B", "|diff|", "note")
-        align = (False, False, False, False, True, False)
-        return [
-            table(
-                "the two descriptions",
-                ("", "description", "tool frame"),
-                [("A", self.a, self.frame_a), ("B", self.b, self.frame_b)],
-            ),
-            table(plural(len(rows), "difference"), header, rows, align),
-            table(
-                "not expressible in one of the formats",
-                ("quantity", "where", "A", "B", "note"),
-                [(f.quantity, f.where, _fmt(f.a), _fmt(f.b), f.note) for f in self.not_expressible],
-            ),
-            table(
-                f"largest difference per quantity over {plural(self.n_poses, 'pose')}"
-                f" (tolerance {self.tol:g})",
-                ("quantity", "largest"),
-                [(k, f"{v:.2e}") for k, v in self.largest.items()],
-                (False, True),
-            ),
-        ]
-
-
-def _fmt(x: Any) -> str:
-    return "(cannot express)" if x is None else format_value(x)
-
-
-def read_joint_map(path: str | os.PathLike[str]) -> dict[str, str]:
-    """A joint map file: a JSON object ``{"A joint": "B joint"}``, or lines ``A_joint B_joint``.
-
-    In the line form, ``#`` starts a comment and ``=`` or ``:`` may separate the two names.
-
-    Raises:
-        ModelError: Unreadable file, or a line that is not two names.
-    """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ModelError(f"cannot read the joint map {str(p)!r}: {err}") from err
-    if text.lstrip().startswith("{"):
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise ModelError(f"joint map {str(p)!r} is not valid JSON: {err}") from err
-        if not all(isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
-            raise ModelError(f"joint map {str(p)!r}: every key and value must be a joint name")
-        return dict(data)
-    out: dict[str, str] = {}
-    for n, line in enumerate(text.splitlines(), 1):
-        words = line.split("#", 1)[0].replace("=", " ").replace(":", " ").split()
-        if not words:
-            continue
-        if len(words) != 2:
-            raise ModelError(
-                f"joint map {str(p)!r} line {n}: expected two joint names, got {line.strip()!r}"
-            )
-        out[words[0]] = words[1]
-    return out
 
 
 def _match(a: Arm, b: Arm, joint_map: Mapping[str, str] | None) -> list[tuple[str, str]]:
@@ -559,25 +283,7 @@ class _Comparer:
     # -- structure -----------------------------------------------------------------------
     def structure(self) -> None:
         a, b = self.a, self.b
-        only_a = [na for na, nb in self.pairs if nb not in b.joint_names]
-        mapped = {nb for _, nb in self.pairs}
-        only_b = [n for n in b.joint_names if n not in mapped]
-        for n in only_a:
-            self.diffs.append(Finding("presence", f"joint {n!r}", "present", "absent", math.inf))
-        for n in only_b:
-            self.diffs.append(Finding("presence", f"joint {n!r}", "absent", "present", math.inf))
-        # Joints off the arm (a gripper's, a torso's) are held still: one file may have them
-        # and the other not; their bodies' masses show in the mass matrix and gravity below.
-        for n in a.held:
-            if n not in b.held and n not in b.joint_names:
-                where = f"held joint {n!r}"
-                self.diffs.append(Finding("presence", where, "present", "absent", math.inf))
-        for n in b.held:
-            if n not in a.held and n not in a.joint_names:
-                where = f"held joint {n!r}"
-                self.diffs.append(Finding("presence", where, "absent", "present", math.inf))
-        if only_a:
-            self.kinematic.append(a.joint_index(only_a[0]))
+        self._presence()
         qa, qb = self.reference_poses()
         ax_a, an_a = a.mujoco.joint_axes(qa)
         ax_b, an_b = b.mujoco.joint_axes(qb)
@@ -632,10 +338,38 @@ class _Comparer:
         self.armature()
         self.passive()
         self.format_only()
+        self._tool_and_gravity(qa, qb)
+
+    def _presence(self) -> None:
+        """Joints (arm and held) that one description has and the other lacks."""
+        a, b = self.a, self.b
+        only_a = [na for na, nb in self.pairs if nb not in b.joint_names]
+        mapped = {nb for _, nb in self.pairs}
+        only_b = [n for n in b.joint_names if n not in mapped]
+        for n in only_a:
+            self.diffs.append(Finding("presence", f"joint {n!r}", "present", "absent", math.inf))
+        for n in only_b:
+            self.diffs.append(Finding("presence", f"joint {n!r}", "absent", "present", math.inf))
+        # Joints off the arm (a gripper's, a torso's) are held still: one file may have them
+        # and the other not; their bodies' masses show in the mass matrix and gravity below.
+        for n in a.held:
+            if n not in b.held and n not in b.joint_names:
+                where = f"held joint {n!r}"
+                self.diffs.append(Finding("presence", where, "present", "absent", math.inf))
+        for n in b.held:
+            if n not in a.held and n not in a.joint_names:
+                where = f"held joint {n!r}"
+                self.diffs.append(Finding("presence", where, "absent", "present", math.inf))
+        if only_a:
+            self.kinematic.append(a.joint_index(only_a[0]))
+
+    def _tool_and_gravity(self, qa: Array, qb: Array) -> None:
+        """The tool frame's placement at the reference poses, and the gravity vector."""
+        a, b = self.a, self.b
         self.find_tool()
         pos_a, rot_a = self.tool_a(*a.mujoco.site_pose(qa))
         pos_b, rot_b = b.mujoco.site_pose(qb)
-        tool = f"tool frame {a.site!r}" + (f" [{b.site!r}]" if b.site != a.site else "")
+        tool = f"tool frame {a.frame!r}" + (f" [{b.frame!r}]" if b.frame != a.frame else "")
         moved = self.check("tool frame position (world)", tool, pos_a, pos_b)
         moved |= self.check("tool frame rotation (world)", tool, rot_a, rot_b)
         if moved:
@@ -866,8 +600,8 @@ class _Comparer:
         return Comparison(
             a=f"{self.a.source} ({self.fmt_a})",
             b=f"{self.b.source} ({self.fmt_b})",
-            frame_a=self.a.site,
-            frame_b=self.b.site,
+            frame_a=self.a.frame,
+            frame_b=self.b.frame,
             joint_map=tuple(self.pairs),
             differences=tuple(self.diffs),
             not_expressible=tuple(self.inexpressible),
@@ -897,37 +631,3 @@ def _joint_bodies(arm: Arm) -> list[str]:
     m = arm.mj_model
     names = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     return [names[int(b)] for b in m.jnt_bodyid]
-
-
-def run_compare(args: argparse.Namespace, write: Callable[[str, str], None]) -> int:
-    """The ``compare`` subcommand: 0 the same robot, 1 differences (bad input raises).
-
-    Args:
-        args: Parsed arguments (``a``, ``b``, ``frame_a``, ``frame_b``, ``joint_map``,
-            ``json``, ``poses``, ``seed``, ``tol``); the command line has checked the counts
-            and the JSON target.
-        write: Writes text to a path atomically (the audit's writer).
-    """
-    if not (math.isfinite(args.tol) and args.tol > 0):
-        raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
-    joint_map = read_joint_map(args.joint_map) if args.joint_map else None
-    result = compare(
-        args.a,
-        args.b,
-        frame_a=args.frame_a,
-        frame_b=args.frame_b,
-        joint_map=joint_map,
-        n_poses=args.poses,
-        seed=args.seed,
-        tol=args.tol,
-    )
-    document = to_json(result.to_dict())
-    if args.json == "-":
-        print(document)
-    else:
-        for line in result.lines():
-            print(line)
-        if args.json:
-            write(args.json, document + "\n")
-    sys.stdout.flush()
-    return 0 if result.equivalent else 1

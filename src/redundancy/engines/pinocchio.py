@@ -30,7 +30,7 @@ class _OpenMP:
 
     libgomp's thread pool does not survive ``fork``: a child whose parent had started a
     team of OpenMP threads hangs in its first parallel region of more than one thread
-    (issue 21: ``batch.gravities(engine="pinocchio", threads=2)`` then a fork). Such a child
+    (``batch.gravities(engine="pinocchio", threads=2)`` then a fork). Such a child
     computes its stacked gravity on one thread (no pool involved); a child of a process
     that never started a team, or a spawned process, keeps its threads.
     """

@@ -1,10 +1,10 @@
 """The lab: lesson 5.2's interactive arm, served as a local web page with viser.
 
-``redundancy lab [MODEL.xml] [--site S]`` starts it. The page shows the arm drawn from its geoms (a
-colour per link), held by `redundancy.lab.sim.LabSim` (PD control with gravity compensation, stepped
-in real time by `redundancy.lab.sim.RealTimeRunner`), with sliders for the joint targets and the
-controller's damping, a choice of armature, readouts, the six singular values as bars and three live
-plots.
+``redundancy lab [MODEL.xml] [--frame NAME]`` starts it. The page shows the arm drawn from its
+geoms (a colour per link), held by `redundancy.lab.sim.LabSim` (PD control with gravity
+compensation, stepped in real time by `redundancy.lab.sim.RealTimeRunner`), with sliders for the
+joint targets and the controller's damping, a choice of armature, readouts, the six singular
+values as bars and three live plots.
 
 Redundancy to touch: a self-motion slider moves the elbow along the null space with the tool
 held; a gizmo at the tool drags it (damped least squares with a null-space posture term);
@@ -31,7 +31,6 @@ from __future__ import annotations
 import contextlib
 import html
 import io
-import ipaddress
 import json
 import math
 import socket
@@ -45,7 +44,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm
-from ..errors import MissingDependencyError, RedundancyError
+from ..errors import MissingDependencyError
+from .axes import log_axis, nice_ceil, symmetric_axis, tick_label
+from .geometry import (
+    BASE_COLOR,
+    drawn_geoms,
+    geom_mesh,
+    link_colors,
+    mat_to_quat,
+    quat_to_mat,
+)
+from .network import check_address, is_ip, is_loopback, machine_names
 from .sim import (
     KD,
     LOST_SIGMA,
@@ -61,7 +70,6 @@ from .sim import (
 )
 
 try:
-    import trimesh
     import viser
     import viser.uplot
 except ImportError as _err:  # pragma: no cover - exercised only without the extra
@@ -139,20 +147,6 @@ CONTACT_COLOR = (230, 40, 40)
 MAX_CONTACT_MARKERS = 24
 #: Readouts and plots are refreshed every this many frames.
 GUI_EVERY = 3
-#: One colour per link (cycled), and the colour of geoms on bodies without joints.
-LINK_COLORS = (
-    (76, 114, 176),
-    (221, 132, 82),
-    (85, 168, 104),
-    (196, 78, 82),
-    (129, 114, 179),
-    (147, 120, 96),
-    (218, 139, 195),
-    (140, 140, 140),
-    (204, 185, 116),
-    (100, 181, 205),
-)
-BASE_COLOR = (120, 120, 125)
 #: The velocity ellipsoid is drawn with this many metres per (m/s per rad/s).
 ELLIPSOID_SCALE = 0.2
 #: Length of a lost-direction arrow [m].
@@ -167,147 +161,6 @@ def joint_label(arm: Arm, i: int) -> str:
     """Label of joint ``i``'s slider, e.g. ``"j4 (rad)"``."""
     unit = "rad" if arm.joint_types[i] == "hinge" else "m"
     return f"{arm.joint_names[i]} ({unit})"
-
-
-def tick_label(v: float) -> str:
-    """A tick value with enough significant digits to tell the ticks apart (3; "0" for 0)."""
-    if v == 0:
-        return "0"
-    return f"{v:.3g}".replace("e-0", "e-").replace("e+0", "e")
-
-
-def nice_ceil(x: float, floor: float) -> float:
-    """The smallest of 1, 2, 5 times a power of ten that is >= max(x, floor)."""
-    x = max(float(x), floor)
-    e = math.floor(math.log10(x))
-    for m in (1.0, 2.0, 5.0, 10.0):
-        if m * 10.0**e >= x * (1 - 1e-12):
-            return m * 10.0**e
-    return 10.0 ** (e + 1)  # pragma: no cover
-
-
-def symmetric_axis(half: float) -> tuple[tuple[float, ...], tuple[str, ...]]:
-    """Ticks and labels of a symmetric axis [-half, half]: five ticks."""
-    splits = (-half, -half / 2, 0.0, half / 2, half)
-    return splits, tuple(tick_label(v) for v in splits)
-
-
-def log_axis(lo: float, hi: float) -> tuple[tuple[float, ...], tuple[str, ...]]:
-    """Ticks at each power of ten in [lo, hi], labelled ``1e-6`` ... ``0.01``, ``0.1``, ``1``."""
-    splits = tuple(10.0**k for k in range(round(math.log10(lo)), round(math.log10(hi)) + 1))
-    return splits, tuple(f"{v:g}" if v >= 1e-3 else f"1e{round(math.log10(v))}" for v in splits)
-
-
-def check_address(host: str, port: int) -> None:
-    """Check a host and port the lab can listen on.
-
-    Raises:
-        RedundancyError: ``port`` is not an integer in 0..65535 (0: any free port), or
-            ``host`` is not an address or a name that resolves.
-    """
-    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
-        raise RedundancyError(
-            f"port must be an integer in 0..65535 (0: any free port), got {port!r}"
-        )
-    if not isinstance(host, str) or not host:
-        raise RedundancyError(f"host must be an address or a host name, got {host!r}")
-    try:
-        socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
-    except (OSError, UnicodeError) as err:
-        raise RedundancyError(f"cannot listen on host {host!r}: {err}") from err
-
-
-def is_loopback(host: str) -> bool:
-    """Whether every address ``host`` resolves to is a loopback address."""
-    try:
-        infos = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
-    except OSError:
-        return False
-    return all(ipaddress.ip_address(str(i[4][0]).split("%")[0]).is_loopback for i in infos)
-
-
-def _machine_names() -> set[str]:
-    """Names and addresses under which this machine may be reached (for the Host check)."""
-    names = {"localhost", "127.0.0.1", "::1", "[::1]"}
-    for name in (socket.gethostname(), socket.getfqdn()):
-        names.add(name.lower())
-        try:
-            for info in socket.getaddrinfo(name, None):
-                addr = str(info[4][0])
-                names.add(addr)
-                names.add(f"[{addr}]")
-        except OSError:
-            pass
-    return names
-
-
-def _rgb(rgba: Array) -> tuple[int, int, int]:
-    r, g, b = (round(255 * float(c)) for c in rgba[:3])
-    return r, g, b
-
-
-def _geom_mesh(model: mujoco.MjModel, g: int) -> trimesh.Trimesh | None:
-    """A triangle mesh of a primitive geom in its own frame (None for planes and others)."""
-    size = model.geom_size[g]
-    kind = mujoco.mjtGeom(model.geom_type[g])
-    if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        return trimesh.creation.box(extents=2 * size)
-    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return trimesh.creation.icosphere(subdivisions=2, radius=size[0])
-    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=[24, 12])
-    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return trimesh.creation.cylinder(radius=size[0], height=2 * size[1], sections=32)
-    if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
-        mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
-        mesh.apply_scale(size)
-        return mesh
-    if kind == mujoco.mjtGeom.mjGEOM_MESH:
-        mid = int(model.geom_dataid[g])
-        v0, nv = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
-        f0, nf = int(model.mesh_faceadr[mid]), int(model.mesh_facenum[mid])
-        # MuJoCo stores a mesh's vertices in the geom's frame (re-centred on compile).
-        return trimesh.Trimesh(
-            model.mesh_vert[v0 : v0 + nv].copy(),
-            model.mesh_face[f0 : f0 + nf].copy(),
-            process=False,
-        )
-    return None
-
-
-def drawn_geoms(model: mujoco.MjModel) -> list[int]:
-    """Geoms to draw: the visual ones (no collision bits) if any, else every drawable geom."""
-    drawable = [g for g in range(model.ngeom) if _geom_mesh(model, g) is not None]
-    visual = [g for g in drawable if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0]
-    return visual or drawable
-
-
-def link_colors(model: mujoco.MjModel) -> dict[int, tuple[int, int, int]]:
-    """A colour per body that moves (a palette cycled in tree order); fixed bodies grey."""
-    out: dict[int, tuple[int, int, int]] = {}
-    k = 0
-    for b in range(1, model.nbody):
-        moving = model.body_weldid[b] != 0
-        if moving and model.body_jntnum[b] > 0:
-            out[b] = LINK_COLORS[k % len(LINK_COLORS)]
-            k += 1
-        elif moving:  # welded to a moving parent: the parent's colour
-            out[b] = out.get(int(model.body_weldid[b]), BASE_COLOR)
-        else:
-            out[b] = BASE_COLOR
-    return out
-
-
-def _quat_to_mat(wxyz: Any) -> Array:
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, np.asarray(wxyz, dtype=float))
-    return R.reshape(3, 3)
-
-
-def _mat_to_quat(R: Array) -> Array:
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).reshape(9))
-    return q
 
 
 class LabPage:
@@ -389,7 +242,7 @@ class LabPage:
         self._colors = [colors.get(b, BASE_COLOR) for b in self._body_of]
         self._meshes = []
         for g, color in zip(self._geoms, self._colors, strict=True):
-            mesh = _geom_mesh(m, g)
+            mesh = geom_mesh(m, g)
             assert mesh is not None
             alpha = float(m.geom_rgba[g, 3])
             handle = scene.add_mesh_simple(
@@ -439,7 +292,7 @@ class LabPage:
             origin_color=(250, 200, 0),
         )
         self._tool_label = scene.add_label(
-            "/tool/name", f"tool ({self.arm.site})", anchor="top-left"
+            "/tool/name", f"tool ({self.arm.frame})", anchor="top-left"
         )
         self._ellipsoid = scene.add_icosphere(
             "/ellipsoid",
@@ -462,7 +315,7 @@ class LabPage:
             line_width=3.0,
             depth_test=False,
             position=tuple(site),
-            wxyz=tuple(_mat_to_quat(rot)),
+            wxyz=tuple(mat_to_quat(rot)),
         )
         self.gizmo.on_update(self._on_gizmo)
         position, look_at = self.camera_view("oblique", aspect=1.0)
@@ -528,6 +381,18 @@ class LabPage:
             f"PD with gravity compensation, every {1000 * sim.timestep:g} ms step:  \n"
             f"τ = qfrc_bias + kp (q* − q) − kd q̇, kp = {sim.kp:g} N m/rad"
         )
+        self._build_joint_targets()
+        self._build_redundancy()
+        self._build_controller()
+        self._build_push()
+        self._build_session()
+        self._build_view()
+        self._build_plots()
+
+    def _build_joint_targets(self) -> None:
+        """The joint target sliders."""
+        gui = self.server.gui
+        sim = self.sim
         self.sliders = []
         with gui.add_folder("joint targets q*"):
             for i in range(self.arm.nq):
@@ -540,6 +405,10 @@ class LabPage:
                 )
                 s.on_update(self._target_callback(i))
                 self.sliders.append(s)
+
+    def _build_redundancy(self) -> None:
+        """Self-motion, the gizmo and the velocity ellipsoid."""
+        gui = self.server.gui
         with gui.add_folder("redundancy"):
             self.self_motion = gui.add_slider(
                 SELF_MOTION_LABEL,
@@ -557,6 +426,11 @@ class LabPage:
             )
             self.show_ellipsoid = gui.add_checkbox(ELLIPSOID_LABEL, True)
             self.show_ellipsoid.on_update(lambda _: self.update(self.sim, force=True))
+
+    def _build_controller(self) -> None:
+        """kd, armature, contact forces and the nudge."""
+        gui = self.server.gui
+        sim = self.sim
         with gui.add_folder("controller and model"):
             self.kd = gui.add_slider(
                 KD_LABEL,
@@ -589,6 +463,10 @@ class LabPage:
             self.collide.on_update(lambda _: sim.set_contact_forces(bool(self.collide.value)))
             self.nudge = gui.add_button(NUDGE_LABEL, hint="add 0.01 rad/s to every joint's speed")
             self.nudge.on_click(lambda _: sim.nudge())
+
+    def _build_push(self) -> None:
+        """The push sliders: a force at the tool."""
+        gui = self.server.gui
         with gui.add_folder("push the tool"):
             self.push = [
                 gui.add_slider(
@@ -604,6 +482,10 @@ class LabPage:
             ]
             for slider in self.push:
                 slider.on_update(lambda _: self._on_push())
+
+    def _build_session(self) -> None:
+        """Reset, pause, single step, speed and the CSV download."""
+        gui = self.server.gui
         with gui.add_folder("session"):
             self.reset = gui.add_button(RESET_LABEL, hint="the keyframe at rest; settings kept")
             self.reset.on_click(lambda _: self._reset(all_settings=False))
@@ -621,6 +503,10 @@ class LabPage:
             self.rate.on_update(lambda _: self._set_rate())
             self.download = gui.add_button(CSV_LABEL)
             self.download.on_click(self._send_csv)
+
+    def _build_view(self) -> None:
+        """Camera views and what the scene shows."""
+        gui = self.server.gui
         with gui.add_folder("view"):
             self.views = gui.add_button_group(VIEW_LABEL, VIEWS)
             self.views.on_click(lambda event: self.set_view(str(event.target.value)))
@@ -638,7 +524,10 @@ class LabPage:
             ):
                 box.on_update(lambda _: self.update(self.sim, force=True))
 
-        # Readouts and plots in a panel of their own, docked left of the scene.
+    def _build_plots(self) -> None:
+        """Readouts and plots in a panel of their own, docked left of the scene."""
+        gui = self.server.gui
+        sim = self.sim
         joint = sim.watch_joint
         limit = float(sim.effort_limit[sim.watch_index])
         panel = gui.add_panel()
@@ -869,7 +758,7 @@ class LabPage:
                 self._dragging = True
                 self._drag_rest = self.sim.targets.copy()
             target = np.asarray(self.gizmo.position, dtype=float)
-            rot = _quat_to_mat(self.gizmo.wxyz)
+            rot = quat_to_mat(self.gizmo.wxyz)
             q, err = solve_ik(self.arm, self.sim.targets, target, rot, rest=self._drag_rest)
             self.sim.set_targets(q)
             self._gizmo_target = target
@@ -886,7 +775,7 @@ class LabPage:
             return
         p, R = self.arm.site_pose(self.sim.targets if q is None else q)
         self.gizmo.position = tuple(p)
-        self.gizmo.wxyz = tuple(_mat_to_quat(R))
+        self.gizmo.wxyz = tuple(mat_to_quat(R))
 
     @staticmethod
     def _set_visible(handle: Any, on: bool) -> None:
@@ -1026,7 +915,7 @@ class LabPage:
     def plot_data(self, sim: LabSim) -> dict[str, tuple[Array, Array]]:
         """The plotted series, times relative to now [s] (see `LabSim.csv`)."""
         # One read of the time and the series: a step between separate reads put samples
-        # after "now" (issue 21: the browser test saw them right after a reset).
+        # after "now" (the browser test saw them right after a reset).
         now, (t, v), (_, tau), (ts, s) = sim.histories()
         later, (te, est), (_, true) = sim.external_torque_history()
         return {
@@ -1054,7 +943,7 @@ class LabPage:
                         h.position = p
                         h.wxyz = w
                     self._tool.position = site
-                    self._tool.wxyz = _mat_to_quat(rot)
+                    self._tool.wxyz = mat_to_quat(rot)
                     self._update_frames(pos, quat, anchor, axis)
                     self._update_trail(site)
                     self._update_names(gpos)
@@ -1132,7 +1021,7 @@ class LabPage:
         self._set_visible(self._ellipsoid, show)
         if show:
             self._ellipsoid.position = site
-            self._ellipsoid.wxyz = _mat_to_quat(r.velocity_axes)
+            self._ellipsoid.wxyz = mat_to_quat(r.velocity_axes)
             self._ellipsoid.scale = tuple(np.maximum(ELLIPSOID_SCALE * r.velocity_semi_axes, 1e-4))
         arrows = []
         for u in r.lost.T:
@@ -1221,10 +1110,10 @@ class LabServer:
             self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
         self._allowed_hosts = {"localhost", "127.0.0.1", "::1", "[::1]", host.lower()}
         if not is_loopback(host):
-            self._allowed_hosts |= _machine_names()
+            self._allowed_hosts |= machine_names()
         self.server._websock_server.on_client_connect(self._check_origin)
         name = arm.source.rsplit("/", 1)[-1]
-        title = f"Posing {name}: {arm.nq} joints, site {arm.site!r}"
+        title = f"Posing {name}: {arm.nq} joints, frame {arm.frame!r}"
         self.runner = RealTimeRunner(self.sim, fps=fps)
         self.page = LabPage(self.server, self.sim, self.runner, title, f"{name} · redundancy lab")
         self.runner.callbacks.append(self.page.update)
@@ -1262,7 +1151,7 @@ class LabServer:
         host_header = headers.get("Host", "")
         host_part = host_header.rsplit(":", 1)[0].lower() if host_header else ""
         if origin == f"http://{host_header}" and (
-            host_part in self._allowed_hosts or self._is_ip(host_part)
+            host_part in self._allowed_hosts or is_ip(host_part)
         ):
             return
         self.rejected_origins.append(origin)
@@ -1274,15 +1163,6 @@ class LabServer:
 
         connection.recv = closed  # no message of this connection reaches viser
         await connection.close(1008, "origin not allowed")
-
-    @staticmethod
-    def _is_ip(host: str) -> bool:
-        """An address literal: a page served from it came from this server (no DNS to rebind)."""
-        try:
-            ipaddress.ip_address(host.strip("[]"))
-        except ValueError:
-            return False
-        return True
 
     @property
     def port(self) -> int:
@@ -1324,19 +1204,3 @@ class LabServer:
             pass
         finally:
             self.stop()
-
-
-def serve(arm: Arm, host: str = "127.0.0.1", port: int = 8080) -> None:
-    """Serve the lab for ``arm`` until Ctrl-C (the ``redundancy lab`` command).
-
-    Args:
-        arm: The arm.
-        host: Interface to listen on (default: loopback only).
-        port: TCP port (0: any free port).
-
-    Raises:
-        RedundancyError: Bad ``host`` or ``port``.
-    """
-    lab = LabServer(arm, host=host, port=port)
-    print(f"redundancy lab: {arm.source} at {lab.url} (Ctrl-C to stop)", flush=True)
-    lab.serve_forever()

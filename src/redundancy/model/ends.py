@@ -15,6 +15,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from ..errors import ModelError
+from .xmlfile import decode_xml, expanded, parse_xml
 
 __all__ = ["chain_ends", "default_tool_frame", "ends_of", "frame_for", "single_chain_end"]
 
@@ -23,8 +24,6 @@ _MOVING = {"revolute", "continuous", "prismatic", "floating", "planar"}
 
 
 def _root(path: str | os.PathLike[str]) -> ET.Element:
-    from .loading import decode_xml
-
     p = Path(path)
     try:
         data = p.read_bytes()
@@ -33,10 +32,7 @@ def _root(path: str | os.PathLike[str]) -> ET.Element:
     except OSError as err:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
     text, _ = decode_xml(data, str(p))
-    try:
-        return ET.fromstring(text)
-    except ET.ParseError as err:
-        raise ModelError(f"not well-formed XML: {err}") from err
+    return parse_xml(text)
 
 
 def chain_ends(path: str | os.PathLike[str]) -> tuple[str, ...]:
@@ -108,8 +104,6 @@ def default_tool_frame(path: str | os.PathLike[str]) -> str:
         ModelError: The file is missing or not XML; no chain end, or several and no frame
             named ``"ee"`` (the message lists them).
     """
-    from .loading import expanded
-
     whole, _ = expanded(_root(path), Path(path).resolve().parent)
     return frame_for(whole, str(path))
 

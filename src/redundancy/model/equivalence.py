@@ -342,8 +342,8 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
             cmp("inertia about com (world)", item, I_m[i], I_p[i])
     p_m, R_m = mj.site_pose(q)
     p_p, R_p = pn.site_pose(q)
-    cmp("site position", arm.site, p_m, p_p)
-    cmp("site orientation", arm.site, R_m, R_p)
+    cmp("site position", arm.frame, p_m, p_p)
+    cmp("site orientation", arm.frame, R_m, R_p)
     cmp("gravity vector", "model", effective_gravity(arm.mj_model), np.asarray(pm.gravity.linear))
     checked = (
         "parent joint",

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import codecs
 import copy
 import math
 import os
-import re
 import tempfile
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -45,6 +44,7 @@ from .urdf import (
     read_disabled_pairs,
     resolve_frame,
 )
+from .xmlfile import decode_xml, expanded, parse_xml, strip_declaration
 
 
 def _read_mujoco(
@@ -96,62 +96,6 @@ def _read_pinocchio(path: Path) -> object:
         raise ModelError(f"Pinocchio could not read the model: {err}") from err
 
 
-def _xml_root(text: str) -> ET.Element:
-    try:
-        return ET.fromstring(text)
-    except ET.ParseError as err:
-        raise ModelError(f"not well-formed XML: {err}") from err
-
-
-_BOMS = (
-    (codecs.BOM_UTF32_LE, "utf-32"),
-    (codecs.BOM_UTF32_BE, "utf-32"),
-    (codecs.BOM_UTF8, "utf-8-sig"),
-    (codecs.BOM_UTF16_LE, "utf-16"),
-    (codecs.BOM_UTF16_BE, "utf-16"),
-)
-_DECLARED = re.compile(rb"""^\s*<\?xml[^>]*?encoding\s*=\s*["']([A-Za-z0-9._-]+)["']""")
-
-
-def strip_declaration(text: str) -> str:
-    """The text without its XML declaration (an encoding it names no longer applies)."""
-    return re.sub(r"^\s*<\?xml[^>]*\?>", "", text, count=1)
-
-
-def decode_xml(data: bytes, source: str) -> tuple[str, bool]:
-    """Decode a model file's bytes as XML does: byte-order mark, else the declared encoding.
-
-    MuJoCo reads UTF-8 only (a UTF-16 file fails to parse, a Latin-1 file's names reach it
-    as invalid UTF-8) and Pinocchio's parsers likewise, so a file in another encoding is
-    handed to both as the decoded text.
-
-    Args:
-        data: The file's bytes.
-        source: File name, for messages.
-
-    Returns:
-        The text without its XML declaration, and whether the bytes were UTF-8 without a
-        byte-order mark (the engines may then read the file itself).
-
-    Raises:
-        ModelError: An unknown encoding, or bytes that are not in the declared one.
-    """
-    encoding = next((enc for bom, enc in _BOMS if data.startswith(bom)), None)
-    if encoding is None and data[:2] in (b"<\x00", b"\x00<"):
-        encoding = "utf-16-le" if data[:1] == b"<" else "utf-16-be"  # UTF-16 without a BOM
-    if encoding is None:
-        declared = _DECLARED.match(data)
-        encoding = declared.group(1).decode("ascii") if declared else "utf-8"
-    try:
-        text = data.decode(encoding)
-    except LookupError as err:
-        raise ModelError(f"{source}: unknown encoding {encoding!r} in the XML declaration") from err
-    except UnicodeDecodeError as err:
-        raise ModelError(f"{source}: not valid {encoding} text: {err}") from err
-    as_is = codecs.lookup(encoding).name == "utf-8"
-    return strip_declaration(text), as_is
-
-
 def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
     """A model file's bytes, or the library's error saying what was passed instead."""
     if isinstance(path, bytes | bytearray):
@@ -186,8 +130,16 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
 
 
+def _warn_site(site: str | None) -> None:
+    """Warn the caller of `load` or `load_string` who named the tool frame ``site=``."""
+    if site is not None:
+        warnings.warn(
+            "site= is deprecated: name the tool frame with frame=", DeprecationWarning, stacklevel=3
+        )
+
+
 def _tool(site: str | None, frame: str | None) -> str | None:
-    """The tool frame asked for: ``frame``, else ``site``; None: the model's default."""
+    """The tool frame asked for: ``frame``, else the deprecated ``site``; None: the default."""
     for name, value in (("frame", frame), ("site", site)):
         if value is None:
             continue
@@ -199,9 +151,9 @@ def _tool(site: str | None, frame: str | None) -> str | None:
 
 def load(
     path: str | os.PathLike[str],
-    site: str | None = None,
-    strict: bool = True,
     frame: str | None = None,
+    strict: bool = True,
+    site: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
     base: str | None = None,
     rest: RestSpec = None,
@@ -218,17 +170,18 @@ def load(
 
     Args:
         path: MJCF or URDF file.
-        site: Alias of ``frame`` (the name it had when the tool had to be an MJCF site).
+        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint. None: the
+            model's one chain end (a leaf with a moving joint above it; see
+            `redundancy.model.ends`), else its frame named ``"ee"``, else a ModelError listing
+            the chain ends.
         strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
             (``<frame>``, ``<replicate>``, a class inside another childclass...: see
             `redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
             compiled model instead, reported in ``arm.bridges``. False: Pinocchio reads the
             file itself and `redundancy.compare_models` shows the differences. MJCF
             only.
-        frame: The tool frame: an MJCF site or body, a URDF link or fixed joint.
-            Overrides ``site``. Neither given: the model's one chain end (a leaf with a
-            moving joint above it; see `redundancy.model.ends`), else its frame named
-            ``"ee"``, else a ModelError listing the chain ends.
+        site: Deprecated name of ``frame`` (from when the tool had to be an MJCF site):
+            warns with a DeprecationWarning; ``frame`` wins when both are given.
         disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
             ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
             joined by a joint are always excluded. An SRDF of a whole robot serves a part of
@@ -249,6 +202,7 @@ def load(
         UnknownNameError: The tool is not a frame of the model, ``base`` not a body on its
             chain, ``rest`` not a keyframe or held joint (the message lists the valid names).
     """
+    _warn_site(site)
     p, data = _read_file(path)
     options = _options(site, strict, frame, disabled_collisions, base, rest)
     return _from_file(p, data, options, str(p))
@@ -275,7 +229,7 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
     with recording() as reading:
         record(p.resolve(), data)
         text, as_is = decode_xml(data, shown)
-        root = _xml_root(text)
+        root = parse_xml(text)
         folder = p.resolve().parent
         tool, whole = _tool(site, frame), None  # type: ignore[arg-type]
         if tool is None:  # the model's default, from its chain ends, includes read
@@ -325,19 +279,22 @@ def rebuild_arm(recipe: Recipe) -> Arm:
 
 def load_string(
     xml: str | bytes,
-    site: str | None = None,
-    strict: bool = True,
     frame: str | None = None,
+    strict: bool = True,
+    site: str | None = None,
     disabled_collisions: DisabledPairs | None = None,
     base: str | None = None,
     rest: RestSpec = None,
 ) -> Arm:
     """Load MJCF or URDF text into MuJoCo and Pinocchio (see [`load`][redundancy.load]).
 
+    The arguments after ``xml`` are `load`'s (``site=`` its deprecated name of ``frame=``).
+
     Bytes are decoded as XML says. Pinocchio's MJCF parser reads files, so MJCF text is
     written to a temporary file for it and must not refer to other files (meshes, includes)
     by relative path; a URDF's relative mesh paths count from the current directory.
     """
+    _warn_site(site)
     if isinstance(xml, bytes | bytearray):
         xml, _ = decode_xml(bytes(xml), "<string>")
     elif isinstance(xml, str):
@@ -352,7 +309,7 @@ def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
     """`load_string` of decoded text; relative paths in it count from ``folder``."""
     site, strict, frame, pairs, base, rest = options
     with recording() as reading:
-        root = _xml_root(xml)
+        root = parse_xml(xml)
         tool, whole = _tool(site, frame), None  # type: ignore[arg-type]
         if tool is None:
             whole = expanded(root, folder)
@@ -410,89 +367,12 @@ def _check_mjcf(pairs: DisabledPairs | None) -> None:
         )
 
 
-def expanded(root: ET.Element, folder: Path) -> tuple[ET.Element, list[SetAside]]:
-    """An MJCF as Pinocchio's parser must be given it, with what was done to it.
-
-    ``<include>`` files (counted from ``folder``) are expanded in place and several
-    ``<worldbody>`` sections merged into the first; a URDF (or an MJCF with neither) comes
-    back as it is. The list says what was done, for ``arm.set_aside``.
-    """
-    if root.tag != "mujoco":
-        return root, []
-    edits: list[SetAside] = []
-    return _merge_worldbodies(_expand_includes(root, folder, edits), edits), edits
-
-
 def _edited(robot: _Robot, whole: tuple[ET.Element, list[SetAside]]) -> ET.Element:
     """The expanded MJCF, its edits recorded on ``robot`` (set aside; Pinocchio reads it)."""
     mjcf, edits = whole
     robot.set_aside += edits
     robot.changed = robot.changed or bool(edits)
     return mjcf
-
-
-def _expand_includes(
-    root: ET.Element, base: Path, edits: list[SetAside], depth: int = 0
-) -> ET.Element:
-    """The MJCF with each ``<include file=...>`` replaced by the included file's elements.
-
-    MuJoCo follows includes itself; Pinocchio's parser does not, so Pinocchio (and the
-    library's checks of the text) read this expanded copy. Paths count from the model file's
-    directory, as MuJoCo counts them.
-    """
-    if root.find(".//include") is None:
-        return root
-    if depth > 20:
-        raise ModelError("<include> nested more than 20 deep (a loop?)")
-    root = copy.deepcopy(root)
-    for parent in list(root.iter()):
-        for i, child in enumerate(list(parent)):
-            if child.tag != "include":
-                continue
-            name = child.get("file", "")
-            try:
-                data = (base / name).read_bytes()
-                inner = _xml_root(data.decode("utf-8"))
-            except (OSError, UnicodeDecodeError) as err:
-                raise ModelError(f"cannot read the included file {name!r}: {err}") from err
-            record(base / name, data)
-            inner = _expand_includes(inner, base, edits, depth + 1)
-            parent.remove(child)
-            for k, el in enumerate(list(inner)):
-                parent.insert(i + k, el)
-            edits.append(
-                SetAside("include", name, "expanded in place for Pinocchio's parser", True)
-            )
-    return root
-
-
-def _merge_worldbodies(root: ET.Element, edits: list[SetAside]) -> ET.Element:
-    """The MJCF with its ``<worldbody>`` sections merged into the first, in order.
-
-    MuJoCo reads several sections as one world, in the order they come (a Menagerie
-    ``scene.xml`` adds its floor and lights to the robot file it includes); Pinocchio's
-    parser would read the first section again for each. The merged copy is the same world
-    with the same body order, so the same body ids.
-    """
-    worlds = root.findall("worldbody")
-    if len(worlds) < 2:
-        return root
-    root = copy.deepcopy(root)
-    first, *later = root.findall("worldbody")
-    for world in later:
-        for el in list(world):
-            world.remove(el)
-            first.append(el)
-        root.remove(world)
-    edits.append(
-        SetAside(
-            "worldbody",
-            f"{len(worlds)} <worldbody> sections",
-            "merged into one for Pinocchio's parser, in order (MuJoCo reads them as one)",
-            reaches_arm=True,
-        )
-    )
-    return root
 
 
 def _frozen_pairs(pairs: DisabledPairs) -> DisabledPairs:

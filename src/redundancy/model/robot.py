@@ -902,7 +902,7 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
     for j, value in zip(ids, np.asarray(q, dtype=float), strict=True):
         qpos[m.jnt_qposadr[j]] = value
     dofs = [int(m.jnt_dofadr[j]) for j in ids]
-    J, M, G, x = whole_model_quantities(m, qpos, arm.site)  # type: ignore[attr-defined]
+    J, M, G, x = whole_model_quantities(m, qpos, arm.frame)  # type: ignore[attr-defined]
     return {
         "jacobian": J[:, dofs],
         "mass matrix": M[np.ix_(dofs, dofs)],

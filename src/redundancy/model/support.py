@@ -8,6 +8,7 @@ for values no engine should be given and names Pinocchio cannot tell apart;
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -70,6 +71,18 @@ def check_supported(
             "no joints", "model", "an arm needs at least one hinge or slide joint"
         )
     names = _names(model, mujoco.mjtObj.mjOBJ_JOINT)
+    _check_joint_kinds(model, names)
+    bodies = list(display_names(model, mujoco.mjtObj.mjOBJ_BODY))
+    geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
+    _check_finite(model, names, bodies, geoms)
+    _check_joint_values(model, names)
+    _check_structure(model, bodies, geoms)
+    if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
+        check_names(model, tool_site)
+
+
+def _check_joint_kinds(model: mujoco.MjModel, names: Sequence[str]) -> None:
+    """Refuse ball and free joints, and unnamed joints (joints are matched by name)."""
     joint_labels = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for j in range(model.njnt):
         kind = _JOINT_TYPES[mujoco.mjtJoint(model.jnt_type[j])]
@@ -86,8 +99,12 @@ def check_supported(
                 where,
                 "joints are matched across engines by name; name every joint",
             )
-    bodies = list(display_names(model, mujoco.mjtObj.mjOBJ_BODY))
-    geoms = display_names(model, mujoco.mjtObj.mjOBJ_GEOM)
+
+
+def _check_finite(
+    model: mujoco.MjModel, names: Sequence[str], bodies: Sequence[str], geoms: Sequence[str]
+) -> None:
+    """Refuse non-finite or implausibly large values of the compiled model."""
     sites = display_names(model, mujoco.mjtObj.mjOBJ_SITE)
     # Values no arm can have: MuJoCo compiles some of them (an infinite pos, a NaN axis, a
     # negative armature, range="1 -1") and both engines would then compute nonsense.
@@ -124,6 +141,10 @@ def check_supported(
         raise ModelError(
             f"non-finite value in the compiled model: gravity {model.opt.gravity.tolist()}"
         )
+
+
+def _check_joint_values(model: mujoco.MjModel, names: Sequence[str]) -> None:
+    """Refuse negative armature or damping and inverted joint ranges."""
     for j in range(model.njnt):
         dof = model.jnt_dofadr[j]
         for what, value, unit in (
@@ -140,6 +161,14 @@ def check_supported(
                 f"joint {names[j]!r} has range [{lo:g}, {hi:g}]: "
                 "the lower limit is above the upper limit"
             )
+
+
+def _check_structure(model: mujoco.MjModel, bodies: Sequence[str], geoms: Sequence[str]) -> None:
+    """Refuse what Pinocchio's parser cannot represent.
+
+    Several joints in a body, several kinematic trees, tendons, equality constraints, sdf and
+    height-field geoms.
+    """
     for b in range(model.nbody):
         if model.body_jntnum[b] > 1:
             raise UnsupportedFeatureError(
@@ -166,8 +195,6 @@ def check_supported(
                 f"geom {geoms[g]!r}",
                 "Pinocchio's MJCF parser cannot read it; use primitive or mesh geoms",
             )
-    if xml_root is not None:  # names as Pinocchio's MJCF parser turns them into frames
-        check_names(model, tool_site)
 
 
 def check_robot_values(model: mujoco.MjModel) -> None:

@@ -318,7 +318,7 @@ class _Load:
         else:
             scaled = copy.copy(m)
             scaled.body_mass[:] = m.body_mass * m.body_gravcomp
-            self.engine = MujocoEngine(scaled, arm.site, arm.armature())
+            self.engine = MujocoEngine(scaled, arm.frame, arm.armature())
         self.routed[m.jnt_dofadr[m.jnt_actgravcomp.astype(bool)]] = True
 
     def __call__(self, Q: Array, tau: Array) -> tuple[Array, actuators.EffortRange]:

@@ -14,10 +14,13 @@ import math
 import re
 import textwrap
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
+
+from ..collision import GeomPair
 
 _GLUE = "\x00"  # stands for a space that must not end a line (never in a report's text)
 #: Longest report line [characters].
@@ -150,3 +153,29 @@ def wrap(line: str, width: int = WIDTH) -> list[str]:
 def fit(lines: Iterable[str], width: int = WIDTH) -> list[str]:
     """Every line of ``lines`` wrapped to ``width`` (see `wrap`)."""
     return [part for line in lines for part in wrap(line, width)]
+
+
+def one_line(x: object) -> str:
+    """A value's text on one line (matrices print over several)."""
+    return " ".join(str(x).split())
+
+
+def timestep_text(h: float) -> str:
+    """A timestep [s] as text in milliseconds."""
+    return f"{1e3 * h:g} ms"
+
+
+def exclusion(pair: GeomPair, urdf: bool) -> dict[str, Any]:
+    """What removes a pair from the ones tested: the line for the file, the argument for Python.
+
+    URDF: an SRDF ``<disable_collisions>`` line (``--srdf``) or a ``disabled_collisions=`` entry
+    (its links); MJCF: a ``<contact><exclude>`` of its bodies.
+    """
+    a, b = sorted((pair.body1, pair.body2))  # in the order of the pair's label
+    if urdf:
+        return {
+            "bodies": [a, b],
+            "srdf": f'<disable_collisions link1="{a}" link2="{b}" reason="Always"/>',
+            "disabled_collisions": [a, b],
+        }
+    return {"bodies": [a, b], "mjcf": f'<contact><exclude body1="{a}" body2="{b}"/></contact>'}

@@ -1,0 +1,246 @@
+"""The audit's rules: which numbers of the sections are a finding to act on, which a note.
+
+A [`Finding`][redundancy.reports.audit_report.Finding] only where the model's own numbers show a
+problem; what the file's format cannot express is a
+[`Note`][redundancy.reports.audit_report.Note], never a finding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..analysis.crosscheck import DYNAMIC_QUANTITIES
+from ..arm import Arm
+from ..collision import CollisionStatistics
+from . import sections
+from .audit_report import (
+    SINGULAR_SIGMA,
+    EngineAgreement,
+    Finding,
+    Note,
+)
+from .sections import GravityBudget, JointSection, KeyframeRow, Sections
+from .tables import exclusion, limit, one_line, timestep_text
+
+#: Condition number of M above which the model is reported as ill-conditioned: M^-1's
+#: rounding (cond(M) x eps) passes 1e-7 relative.
+ILL_CONDITIONED = 1e9
+
+
+# -- judging --------------------------------------------------------------------------------------
+def judge(
+    arm: Arm, computed: Sections, engines: EngineAgreement
+) -> tuple[tuple[Finding, ...], tuple[Note, ...]]:
+    """The findings and notes of an arm's audit sections, in the order the report gives them."""
+    urdf = arm.model_format == "URDF"
+    judged = _Judged()
+    _judge_inertia(judged, arm, engines)
+    _judge_joints(judged, computed.joints, urdf)
+    _judge_simulation(judged, computed)
+    _judge_keyframes(judged, arm, computed)
+    if computed.gravity is not None:
+        _judge_gravity(judged, arm, computed.gravity, computed.joints, urdf)
+    _judge_engines(judged, engines, computed.contacts)
+    _judge_touching(judged, computed.touching, urdf)
+    for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
+        judged.finding("published inertia", defect)
+    return tuple(judged.findings), tuple(judged.notes)
+
+
+class _Judged:
+    """Findings and notes, in the order the report gives them."""
+
+    def __init__(self) -> None:
+        self.findings: list[Finding] = []
+        self.notes: list[Note] = []
+
+    def finding(self, kind: str, message: str) -> None:
+        self.findings.append(Finding(kind, message))
+
+    def note(self, kind: str, message: str) -> None:
+        self.notes.append(Note(kind, message))
+
+
+def quoted(items: list[str]) -> str:
+    """Names quoted and joined by commas, as the messages list them."""
+    return ", ".join(repr(n) for n in items)
+
+
+def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
+    """What the model's inertias do not allow: skipped sections, an ill-conditioned M."""
+    if arm.missing_inertia:
+        links = quoted(list(arm.missing_inertia))
+        for section in (
+            "the gravity budget",
+            "the keyframes' holding torques",
+            "M_ii and the timestep bounds",
+            "the effective mass at the tool",
+            f"the engines' cross-check of {', '.join(DYNAMIC_QUANTITIES)}",
+        ):
+            out.note("inertia", f"skipped {section}: the file gives no inertia for {links}")
+    kappa = e.crosscheck.mass_condition
+    if np.isfinite(kappa) and kappa > ILL_CONDITIONED:
+        out.finding(
+            "inertia",
+            f"the mass matrix is ill-conditioned: cond(M) up to {kappa:.2g} (links with mass "
+            "but almost no rotational inertia?); anything solved with M (effective mass, "
+            f"operational inertia, accelerations) carries a relative rounding of about "
+            f"{kappa * np.finfo(float).eps:.1g}, in either engine",
+        )
+
+
+def _judge_joints(out: _Judged, j: JointSection, urdf: bool) -> None:
+    h = j.simulation.timestep
+    rows = j.rows
+    arma = np.array([r.armature for r in rows])
+    if urdf:
+        out.note(
+            "format",
+            "URDF cannot express armature (a geared joint's rotor inertia N^2 J_rotor): the "
+            "mass matrix has none",
+        )
+        out.note(
+            "format",
+            "URDF cannot express actuators: each joint's <limit effort> is the limit MuJoCo "
+            "applies (actuatorfrcrange), the gravity budget's limit",
+        )
+        out.note(
+            "format",
+            f"URDF cannot express the timestep or the integrator: MuJoCo's defaults "
+            f"({timestep_text(h)}, {j.simulation.integrator}) are used",
+        )
+    else:
+        zero = [r.name for r in rows if r.armature == 0.0]
+        if zero:
+            out.note(
+                "armature",
+                f"zero armature on {quoted(zero)}: a geared joint's rotor inertia N^2 J_rotor "
+                "is missing unless the joint is direct-drive",
+            )
+        if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and len(arma) > 1:
+            out.note(
+                "armature",
+                f"every joint has the same armature {arma[0]:g} kg m^2: reflected inertia is "
+                "N^2 J_rotor and differs between a shoulder and a wrist motor",
+            )
+    for r in rows:
+        if h > 0 and h >= r.h_max:
+            kd = f"kd {r.kd:g} N m s/rad written to ctrl" if j.kd is not None else ""
+            damping = f"explicit damping {r.explicit:g}, implicit {r.implicit:g} N m s/rad" + (
+                f", explicit stiffness {r.stiffness:g} N m/rad" if r.stiffness else ""
+            )
+            text = (
+                f"timestep {timestep_text(h)} is above the h_max {r.h_max * 1e3:.3g} ms of joint "
+                f"{r.name!r} (M_ii {r.m_ii:.4g} kg m^2, {damping}"
+                + (f", {kd}" if kd else "")
+                + f"; {j.note}): the joint's speed will grow step by step"
+            )
+            if urdf:  # the file sets no timestep: the bound tells the user which to choose
+                out.note("timestep", f"MuJoCo's default {text}")
+            else:
+                out.finding("timestep", text)
+    if h <= 0:
+        out.finding("timestep", f"timestep {h:g} s is not positive: MuJoCo cannot step the model")
+
+
+def _judge_simulation(out: _Judged, s: Sections) -> None:
+    sim = s.joints.simulation
+    if not sim.gravity_enabled and any(sim.gravity):
+        out.finding(
+            "simulation",
+            'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm '
+            f"weightless, ignoring gravity [{', '.join(f'{g:g}' for g in sim.gravity)}] "
+            "m/s^2, so the gravity budget is 0: the motors are never checked against the "
+            "arm's weight",
+        )
+
+
+def _judge_keyframes(out: _Judged, arm: Arm, s: Sections) -> None:
+    for k in s.keyframes:
+        if k.svd.sigma[-1] < SINGULAR_SIGMA:
+            lost = ", ".join(k.svd.lost_direction_names()) or "see U"
+            out.finding(
+                "keyframe",
+                f"keyframe {k.name!r} is singular: sigma_min {k.svd.sigma[-1]:.2e} < "
+                f"{SINGULAR_SIGMA:g}, rank {k.svd.rank} (lost: {lost})",
+            )
+        _unheld(out, arm, k)
+    for c in s.contacts.keyframes:
+        if c.contacts:
+            out.finding(
+                "keyframe", f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)"
+            )
+
+
+def _unheld(out: _Judged, arm: Arm, k: KeyframeRow) -> None:
+    for i in k.unheld:
+        out.finding(
+            "keyframe",
+            f"keyframe {k.name!r} cannot be held: joint {arm.joint_names[i]!r} needs "
+            f"{k.hold[i]:.4g} N m, its actuators give "
+            f"{limit(float(k.effort_lower[i]), float(k.effort_upper[i]))} N m there",
+        )
+
+
+def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, urdf: bool) -> None:
+    comp = " after gravity compensation" if g.gravcomp else ""
+    for i, name in enumerate(arm.joint_names):
+        # A URDF has no actuators at all (a note says so); its effort limits are judged below.
+        if not urdf and not j.rows[i].actuated and g.peak[i] > 1e-9:
+            out.finding(
+                "gravity",
+                f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
+                f"{g.peak[i]:.3g} N m: nothing in the model holds it",
+            )
+        for count, (need, lim), side in (
+            (g.over_low[i], g.worst_low[i], "negative"),
+            (g.over_high[i], g.worst_high[i], "positive"),
+        ):
+            if count and urdf:  # no actuators: the file's effort limit is what binds
+                out.finding(
+                    "gravity",
+                    f"gravity at joint {name!r} needs more {side} torque than its <limit "
+                    f"effort> allows in {count} of {g.n_poses} poses; worst: needs "
+                    f"{need:.3g} N m where the limit is {lim:.3g} N m",
+                )
+            elif count:
+                out.finding(
+                    "gravity",
+                    f"gravity{comp} at joint {name!r} needs more {side} torque than its "
+                    f"actuators give in {count} of {g.n_poses} poses; worst: needs "
+                    f"{need:.3g} N m where their most {side} is {lim:.3g} N m",
+                )
+
+
+def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics) -> None:
+    if c.disagreements > 0:
+        out.finding(
+            "engines",
+            f"{c.distance_engine}'s touching pairs differ from MuJoCo's contacts in "
+            f"{c.disagreements} of {c.n_poses} poses",
+        )
+    for a in e.crosscheck.agreements:
+        if not a.ok:
+            out.finding(
+                "engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}"
+            )
+    for d in e.equivalence.differences:
+        out.finding("engines", f"models differ: {one_line(d)}")
+
+
+def _judge_touching(out: _Judged, t: sections.TouchingEverywhere | None, urdf: bool) -> None:
+    for p in t.pairs if t is not None else ():
+        fix = exclusion(p.pair, urdf)
+        remedy = (
+            f"the SRDF line {fix['srdf']} (--srdf), or disabled_collisions="
+            f"[{tuple(fix['disabled_collisions'])!r}] in Python"
+            if urdf
+            else f"{fix['mjcf']} in the MJCF file"
+        )
+        out.note(
+            "collision",
+            f"{p.pair.label} touch in {p.poses} of {t.n_poses} poses: a pair in contact at "
+            "(nearly) every pose is almost always two links whose collision shapes overlap where "
+            "a joint joins them, an exclusion the file lacks rather than a collision to avoid; "
+            f"if so, exclude it with {remedy}",
+        )
