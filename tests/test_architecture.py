@@ -287,7 +287,6 @@ LONG_MODULES = {
     "engines/mujoco.py",
     "lab/page.py",
     "lab/sim.py",
-    "linalg.py",
     "model/loading.py",
     "model/robot.py",
     "model/urdf.py",

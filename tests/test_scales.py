@@ -134,3 +134,25 @@ def test_bodies_at_one_point_have_the_size_of_their_geoms() -> None:
     arm = rd.load_string(xml, frame="tip")
     assert arm_scales(arm).length == pytest.approx(arm.mj_model.stat.extent)
     assert rd.compare_models(arm).equivalent
+
+
+SPINNING_LINK = """<mujoco><compiler angle="radian" autolimits="true" eulerseq="xyz"/>
+  <default><default class="A"><joint type="hinge" axis="1 0 0"/><geom/></default></default>
+  <worldbody><body name="b0" pos="0 0.25 0.219"><freejoint name="j0"/>
+    <geom type="sphere" size="0.062"/>
+    <body name="b1"><joint name="j1" class="A"/>
+      <geom type="capsule" size="0.051" fromto="0 0 0 0 0 0.125"/>
+      <site name="tip" pos="0 0 0.002"/></body></body></worldbody></mujoco>"""
+
+
+def test_a_link_spinning_at_its_joint_is_measured_by_its_own_inertia() -> None:
+    """The tool 2 mm from the joint makes the offsets' L tiny, but the 12.5 cm capsule turning
+    about the joint has its own inertia: that is the inertia's scale, not m L^2 (~1e-3 of
+    it), under which Pinocchio's 1.7e-18 of rounding on C = 0 read as 1.1e-9."""
+    arm = rd.load_string(SPINNING_LINK, frame="tip")
+    sc = arm_scales(arm)
+    own = float(arm.mj_model.body_inertia[arm.mj_model.body("b1").id].max())
+    assert sc.mass * sc.length**2 < 1e-2 * own
+    assert sc.inertia == pytest.approx(own, rel=1e-12)
+    report = rd.crosscheck(arm, np.linspace(-3, 3, 13)[:, None], ["coriolis", "mass matrix"])
+    assert report.ok, report

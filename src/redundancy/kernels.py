@@ -291,16 +291,20 @@ class Scales:
         length: Total length of its links: the sum of the body offsets and the tool's [m].
         mass: Total mass [kg].
         gravity: Magnitude of the gravity MuJoCo simulates (1 when it is off) [m/s^2].
+        own_inertia: The moving bodies' own rotational inertias (each body's largest
+            principal moment), summed [kg m^2]: a link spinning about a joint at its centre
+            has this inertia however short the offsets that make ``length`` are.
     """
 
     length: float
     mass: float
     gravity: float
+    own_inertia: float = 0.0
 
     @property
     def inertia(self) -> float:
-        """M L^2 [kg m^2]."""
-        return max(self.mass * self.length**2, _TINY)
+        """The larger of M L^2 and the bodies' own inertia [kg m^2]."""
+        return max(self.mass * self.length**2, self.own_inertia, _TINY)
 
     @property
     def torque(self) -> float:

@@ -36,11 +36,12 @@ def arm_scales(arm: Arm) -> Scales:
 
     Over the bodies the arm moves (an arm inside a robot: not the held rest of it): their
     offsets and the tool's make the length (the engine's
-    `model_length`); their masses make the mass. Zero falls back
-    to 1 (an absolute scale) rather than to nothing.
+    `model_length`); their masses make the mass, their own rotational inertias the
+    inertia's other bound. Zero falls back to 1 (an absolute scale) rather than to nothing.
     """
     m = arm.mj_model
     moved = np.flatnonzero(m.body_weldid != 0)
     mass = float(m.body_mass[moved].sum())
+    own = float(m.body_inertia[moved].max(axis=1).sum()) if len(moved) else 0.0
     g = float(np.linalg.norm(effective_gravity(m)))
-    return Scales(arm.length, mass if mass > 0 else 1.0, g if g > 0 else 1.0)
+    return Scales(arm.length, mass if mass > 0 else 1.0, g if g > 0 else 1.0, own)
