@@ -819,8 +819,10 @@ def test_lab_in_the_browser(arm7: rd.Arm, tmp_path: Path) -> None:
         # "reset all": kd and armature as at the start.
         b.click(L.RESET_ALL_LABEL)
         wait_for("reset all", lambda: sim.kd == 5.0 and sim.model.dof_armature[6] == 0.05)
-        assert b.slider_value(L.KD_LABEL) == 5.0
-        assert lab.runner.rate == 1.0 and not lab.runner.paused
+        # The simulation is reset first, then the sliders and the runner: wait for each state
+        # asserted, in the browser and in the runner, not for the simulation's alone.
+        wait_for("the kd slider at its start", lambda: b.slider_value(L.KD_LABEL) == 5.0)
+        wait_for("real time, running", lambda: lab.runner.rate == 1.0 and not lab.runner.paused)
 
         lap("self-motion")
         # 6. The self-motion slider: the elbow moves by >= 0.1 m, the tool stays within 1e-6 m.
