@@ -296,7 +296,6 @@ LONG_MODULES = {
 LONG_FUNCTIONS = {
     "analysis/batch.py:solve_ik",
     "analysis/crosscheck.py:crosscheck_batch",
-    "analysis/selfmotion.py:self_motion",
     "collision/pairs.py:collision_pairs",
     "collision/pathcheck.py:check",
     "collision/statistics.py:collision_statistics",
