@@ -413,6 +413,14 @@ class MujocoEngine:
         return d.xaxis.copy(), d.xanchor.copy()
 
     # -- stacks of poses ----------------------------------------------------------------------
+    def _stack_data(self) -> tuple[mujoco.MjData, Array]:
+        """This thread's data and its qpos, at rest and holding no pose: a stack's go in."""
+        w = self._work()
+        w.forget()  # this thread's data is about to hold other poses
+        if w.moving:  # an interrupted jacobian_derivatives left a velocity (mj_rne)
+            w.stop(self.model)
+        return w.data, w.qpos
+
     def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
         """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
 
@@ -432,13 +440,7 @@ class MujocoEngine:
         Jp, Jr = (None, None) if J is None else (J[:, :3], J[:, 3:])
         wanted = [s for s in (X, R9, Jp, Jr, M, G) if s is not None]
         dyn = out.dynamics
-
-        def data() -> tuple[mujoco.MjData, Array]:
-            w = self._work()
-            w.forget()  # this thread's data is about to hold other poses
-            if w.moving:  # an interrupted jacobian_derivatives left a velocity (mj_rne)
-                w.stop(m)
-            return w.data, w.qpos
+        data = self._stack_data
 
         def one_stack(lo: int, hi: int) -> None:
             # J, M or gravity alone get loops with no per-pose tests or indexing: each costs
