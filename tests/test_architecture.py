@@ -281,7 +281,6 @@ MODULE_LINES = 600
 FUNCTION_LINES = 80
 #: The modules still over `MODULE_LINES`: the list may only shrink (the goal is at most 3).
 LONG_MODULES = {
-    "analysis/batch.py",
     "analysis/compare.py",
     "arm.py",
     "engines/mujoco.py",
@@ -294,7 +293,6 @@ LONG_MODULES = {
 }
 #: The functions still of `FUNCTION_LINES` or more: the list may only shrink (the goal is 5).
 LONG_FUNCTIONS = {
-    "analysis/batch.py:solve_ik",
     "collision/pairs.py:collision_pairs",
     "collision/pathcheck.py:check",
     "collision/statistics.py:collision_statistics",
