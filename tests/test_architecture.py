@@ -177,7 +177,7 @@ LAYERS = [
     {"errors", "checks", "caching", "display", "kernels"},
     {"engines"},
     {"linalg", "inertia", "ik", "quantities"},
-    {"arm"},
+    {"arm", "arm_keyframes", "arm_mass"},  # the Arm and the parts of its class
     {"model", "models"},
     {"collision"},
     {"analysis", "testing", "generate", "plotting"},
@@ -282,7 +282,6 @@ FUNCTION_LINES = 80
 #: The modules still over `MODULE_LINES`: the list may only shrink (the goal is at most 3).
 LONG_MODULES = {
     "analysis/compare.py",
-    "arm.py",
     "engines/mujoco.py",
     "lab/page.py",
     "lab/sim.py",
