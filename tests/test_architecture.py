@@ -177,7 +177,7 @@ LAYERS = [
     {"errors", "checks", "caching", "display", "kernels"},
     {"engines"},
     {"linalg", "inertia", "ik", "quantities"},
-    {"arm"},
+    {"arm", "arm_keyframes", "arm_mass"},  # the Arm and the parts of its class
     {"model", "models"},
     {"collision"},
     {"analysis", "testing", "generate", "plotting"},
@@ -281,9 +281,7 @@ MODULE_LINES = 600
 FUNCTION_LINES = 80
 #: The modules still over `MODULE_LINES`: the list may only shrink (the goal is at most 3).
 LONG_MODULES = {
-    "analysis/batch.py",
     "analysis/compare.py",
-    "arm.py",
     "engines/mujoco.py",
     "lab/page.py",
     "lab/sim.py",
@@ -294,13 +292,9 @@ LONG_MODULES = {
 }
 #: The functions still of `FUNCTION_LINES` or more: the list may only shrink (the goal is 5).
 LONG_FUNCTIONS = {
-    "analysis/batch.py:solve_ik",
-    "analysis/crosscheck.py:crosscheck_batch",
-    "analysis/selfmotion.py:self_motion",
     "collision/pairs.py:collision_pairs",
     "collision/pathcheck.py:check",
     "collision/statistics.py:collision_statistics",
-    "engines/mujoco.py:evaluate",
     "lab/page.py:_build_scene",
     "model/equivalence.py:compare_models",
     "model/equivalence.py:simulated_only",

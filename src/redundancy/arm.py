@@ -16,12 +16,12 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import ik, kernels, linalg
+from . import ik, linalg
+from .arm_keyframes import _Keyframes
+from .arm_mass import _ToolMass
 from .checks import (
     check_count,
-    check_direction,
     check_flag,
-    check_joint_subset,
     check_number,
     check_pose,
     check_tool_pose,
@@ -87,7 +87,7 @@ def _ik_settings(position_tol: object, orientation_tol: object, restarts: object
     )
 
 
-class Arm:
+class Arm(_Keyframes, _ToolMass):
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
 
     Build it with [`redundancy.load`][redundancy.load] or
@@ -235,106 +235,6 @@ class Arm:
     def mj_model(self) -> mujoco.MjModel:
         """MuJoCo's compiled model (shared, do not modify)."""
         return self.mujoco.model
-
-    @property
-    def keyframe_names(self) -> tuple[str, ...]:
-        """Every keyframe of the robot's file, in file order.
-
-        An unnamed keyframe is called ``key<index>``, with ``_`` appended until the name is
-        not one a keyframe of the model has (an unnamed key never hides a named one).
-        """
-        names = object_names(self.mj_model, mujoco.mjtObj.mjOBJ_KEY)
-        taken = set(names)
-        for k, name in enumerate(names):
-            if not name:
-                name = f"key{k}"
-                while name in taken:
-                    name += "_"
-                names[k] = name
-                taken.add(name)
-        return tuple(names)
-
-    @property
-    def keyframes(self) -> dict[str, Array]:
-        """Keyframe name -> joint configuration [rad or m], for the keyframes of this arm.
-
-        A keyframe is the whole robot's: one that puts a held joint elsewhere than this arm
-        holds it (`keyframe_moves`) is a pose of another arm, `at_keyframe`, and
-        is not listed here (`keyframe_names` lists every keyframe).
-        """
-        m = self.mj_model
-        return {
-            name: m.key_qpos[k].copy()
-            for k, name in enumerate(self.keyframe_names)
-            if not self.keyframe_moves(name)
-        }
-
-    def keyframe(self, name: str) -> Array:
-        """Joint configuration of a named keyframe [rad or m].
-
-        Raises:
-            UnknownNameError: No keyframe of that name.
-            PoseError: The keyframe moves held joints: it is a pose of `at_keyframe`.
-        """
-        moved = self.keyframe_moves(name)
-        if moved:
-            shown = ", ".join(
-                f"{j} = {_value(v)} (held at {_value(self.held[j])})" for j, v in moved.items()
-            )
-            raise PoseError(
-                f"keyframe {name!r} moves held joints ({shown}): it is not a pose of this arm; "
-                f"arm.at_keyframe({name!r}) is the arm at it (or load with rest={name!r})"
-            )
-        return self.mj_model.key_qpos[self.keyframe_names.index(name)].copy()
-
-    def keyframe_moves(self, name: str) -> dict[str, float | tuple[float, ...]]:
-        """The held joints keyframe ``name`` puts elsewhere than this arm holds them.
-
-        Returns:
-            Held joint name -> the keyframe's value [rad or m] (its couplings followed);
-            empty when the keyframe is a pose of this arm.
-
-        Raises:
-            UnknownNameError: No keyframe of that name.
-        """
-        names = self.keyframe_names
-        if not isinstance(name, str) or name not in names:
-            raise UnknownNameError("keyframe", name, list(names))
-        return dict(self._key_moves[names.index(name)]) if self._key_moves else {}
-
-    def at_keyframe(self, name: str) -> Arm:
-        """This arm with its held joints where keyframe ``name`` puts them.
-
-        Itself when the keyframe moves no held joint; otherwise the robot loaded again with
-        ``rest=name`` (built once per keyframe, then shared), whose ``keyframe(name)`` is the
-        keyframe's pose. The audit, the lab and the collision statistics judge each keyframe
-        there, at the robot's real pose.
-
-        Raises:
-            UnknownNameError: No keyframe of that name.
-            TypeError: The keyframe moves held joints and this Arm was not built by
-                `redundancy.load` (it cannot be loaded again).
-        """
-        if not self.keyframe_moves(name):
-            return self
-        with self._lock:
-            if name not in self._at_keys:
-                if self._recipe is None:
-                    raise TypeError(
-                        "this Arm was not built by redundancy.load and cannot be loaded again "
-                        f"at keyframe {name!r}"
-                    )
-                fn, (recipe,) = self._recipe
-                # The same files loaded with rest=: the keyframe by name, or (unnamed) its
-                # held values.
-                named = name in object_names(self.robot_model, mujoco.mjtObj.mjOBJ_KEY)
-                rest = name if named else self._key_held(name)
-                self._at_keys[name] = fn(recipe.with_rest(rest))
-            return self._at_keys[name]
-
-    def _key_held(self, name: str) -> dict[str, float | tuple[float, ...]]:
-        """The held values an unnamed keyframe gives (its couplings followed)."""
-        return {**self.held, **self.keyframe_moves(name)}
 
     def joint_index(self, name: str) -> int:
         """Index of a joint in the library's order."""
@@ -498,110 +398,6 @@ class Arm:
         to the centre of mass only.
         """
         return self.engine(engine).centroidal_momentum_matrix(q)
-
-    # -- the mass a contact at the tool feels ------------------------------------------------
-    def _mobility(
-        self, q: ArrayLike, armature: bool, joints: object, engine: EngineName
-    ) -> tuple[Array, Array]:
-        """J of the free joints and M_ff^-1 J_f^T from one engine (the inputs checked)."""
-        eng = self.engine(engine)
-        free = check_joint_subset("joints", joints, self.joint_names)
-        return eng.tool_mobility(q, check_flag("armature", armature), free)
-
-    def operational_inertia(
-        self,
-        q: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
-    ) -> Array:
-        """Operational-space inertia Lambda = (J M^-1 J^T)^-1 at the tool, shape (6, 6).
-
-        Rows and axes as [`jacobian`][redundancy.arm.Arm.jacobian]: linear block [kg], angular block
-        [kg m^2].
-
-        Args:
-            q: Pose [rad or m].
-            armature: Include the armature (the motors' rotor inertia) in M.
-            joints: Names of the joints free to move; the others are held rigid (their
-                column leaves J, their row and column leave M). None: every joint.
-            engine: ``"mujoco"`` (sparse ``mj_solveM``) or ``"pinocchio"``
-                (``computeMinverse``).
-
-        Raises:
-            SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6, or
-                moves the tool by no more than `motion_floor` along
-                some direction); names the lost tool directions.
-            UnknownNameError: A joint or engine name the arm does not have.
-            ParameterError: ``joints`` empty, repeated or not names.
-        """
-        J, X = self._mobility(q, armature, joints, engine)
-        return kernels.operational_inertia(J, X, atol=self._floor)
-
-    def effective_mass(
-        self,
-        q: ArrayLike,
-        direction: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
-    ) -> float:
-        """Mass a point contact at the tool feels pushing along ``direction`` [kg].
-
-        1 / (u^T J_v M^-1 J_v^T u), u the unit direction in world axes; ``inf`` along a
-        direction the tool cannot move: |J_v^T u| below 1e-9 of |J_v| or at most
-        `motion_floor` of `length` (rounding noise, as at a
-        point on every free joint's axis). Defined at singular poses too.
-
-        Args:
-            q: Pose [rad or m].
-            direction: Direction, world axes, any nonzero length (3,).
-            armature: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
-            joints: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
-            engine: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
-
-        Raises:
-            ParameterError: ``direction`` zero, non-finite or not a 3-vector.
-        """
-        u = check_direction("direction", direction)
-        return kernels.effective_mass(
-            *self._mobility(q, armature, joints, engine), u, atol=self._floor
-        )
-
-    def effective_mass_range(
-        self,
-        q: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
-    ) -> linalg.EffectiveMassRange:
-        """Least and greatest effective mass over all directions at ``q``, with directions.
-
-        The extremes of the 3 x 3 linear block of Lambda^-1 (arguments as
-        `operational_inertia`); the greatest is ``inf`` where the tool cannot move
-        along some direction, the least too where it cannot move at all (the floor as
-        `effective_mass`'s).
-        """
-        J, X = self._mobility(q, armature, joints, engine)
-        return kernels.effective_mass_range(J, X, atol=self._floor)
-
-    def dynamic_manipulability(
-        self,
-        q: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
-    ) -> float:
-        """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) at ``q``.
-
-        Arguments as [`operational_inertia`][redundancy.arm.Arm.operational_inertia]; zero where
-        fewer than six joints are free or at a singular pose [mixed units].
-        """
-        return float(kernels.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
 
     # -- inverse kinematics -----------------------------------------------------------------
     def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
@@ -775,10 +571,3 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
             n,
             f"a count of poses that fits in memory ({n} x {arm.nq} float64: {size:.3g} bytes)",
         ) from None
-
-
-def _value(v: float | tuple[float, ...]) -> str:
-    """A held joint's value for a message: ``1.2`` or ``(0, 0, 0.8, 1, 0, 0, 0)``."""
-    if isinstance(v, tuple):
-        return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
-    return f"{v:.6g}"

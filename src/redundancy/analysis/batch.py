@@ -37,28 +37,19 @@ measures both).
 
 from __future__ import annotations
 
-import collections
-import inspect
 import itertools
 import queue
-import threading
-from collections.abc import Callable
-from concurrent.futures import Executor, Future
-from typing import Any, TypeVar
+from concurrent.futures import Executor
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import kernels, linalg  # the unchecked kernels: the batch functions check input once
+from .. import kernels  # the unchecked kernels: the batch functions check input once
 from ..arm import ENGINES, Arm, EngineName, _ik_settings, check_arm
 from ..checks import (
-    check_callable,
     check_choice,
     check_count,
-    check_directions,
     check_flag,
-    check_joint_subset,
-    check_joint_vectors,
     check_number,
     check_poses,
     check_threads,
@@ -67,21 +58,41 @@ from ..checks import (
 from ..collision import DistanceEngine, checker, distance_stack
 from ..engines.contract import Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
-from ..errors import ModelError, ParameterError, RedundancyError
+from ..errors import ParameterError
 from ..ik import DEFAULT_SETTINGS, IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
-from ..model.content import ContentUnavailable, Recipe
-from ..model.loading import rebuild_arm
-from .observer import MomentumObserver, check_dt
+from .batch_dynamics import (
+    coriolis,
+    dynamic_manipulabilities,
+    effective_mass_ranges,
+    effective_masses,
+    external_torques,
+    operational_inertias,
+)
+from .batch_executor import EXECUTOR_MAX_TASKS, EXECUTOR_MIN_CHUNK, map_chunks, scatter
+
+__all__ = [
+    "EXECUTOR_MAX_TASKS",
+    "EXECUTOR_MIN_CHUNK",
+    "coriolis",
+    "distances",
+    "dynamic_manipulabilities",
+    "effective_mass_ranges",
+    "effective_masses",
+    "external_torques",
+    "gravities",
+    "jacobians",
+    "manipulabilities",
+    "map_chunks",
+    "mass_matrices",
+    "operational_inertias",
+    "poses",
+    "scatter",
+    "singular_values",
+    "solve_ik",
+]
 
 Array = NDArray[np.float64]
-R = TypeVar("R")
-
-#: Chunks sent to an executor hold at least this many poses (a task's overhead, a few ms
-#: on a Dask cluster, stays small against its work) ...
-EXECUTOR_MIN_CHUNK = 1024
-#: ... and a stack is cut into at most this many chunks (so 10^8 poses are 256 tasks).
-EXECUTOR_MAX_TASKS = 256
 
 
 def poses(arm: Arm, Q: ArrayLike) -> Array:
@@ -92,181 +103,6 @@ def poses(arm: Arm, Q: ArrayLike) -> Array:
         ParameterError: ``arm`` is not an Arm.
     """
     return check_poses(Q, check_arm(arm).joint_names)
-
-
-class _Shipped:
-    """An arm on its way to an executor's worker.
-
-    In the caller's process (a thread pool) it is the arm itself. Pickled (a process pool, a
-    Dask worker) it is the arm's recipe (`redundancy.model.content`): lean (the files'
-    paths and digests, not their bytes) unless ``recipe`` is given. Each worker process
-    rebuilds the arm once per identity (`_arrive`) and keeps it for the next chunks. A
-    worker that cannot rebuild it keeps the error, which the task raises: unpickling never
-    fails, and the object pickles again as it came (Dask may move a task between workers).
-    """
-
-    __slots__ = ("arm", "error", "recipe")
-
-    def __init__(
-        self, arm: Arm | None, recipe: Recipe | None = None, error: Exception | None = None
-    ) -> None:
-        self.arm, self.recipe, self.error = arm, recipe, error
-
-    def __reduce__(self) -> tuple[Callable[[Recipe], _Shipped], tuple[Recipe]]:
-        return _arrive, (self.recipe or _recipe_of(self.arm).lean(),)
-
-
-def _recipe_of(arm: Arm | None) -> Recipe:
-    _, (recipe,) = arm.__reduce__()  # type: ignore[union-attr]
-    return recipe  # type: ignore[no-any-return]
-
-
-#: Arms rebuilt in this worker process, by identity (the digest of the files and options),
-#: the most recently used last.
-_ARRIVED: collections.OrderedDict[str, Arm] = collections.OrderedDict()
-_ARRIVED_LOCK = threading.Lock()
-
-
-def _arrive(recipe: Recipe) -> _Shipped:
-    with _ARRIVED_LOCK:
-        arm = _ARRIVED.get(recipe.digest)
-        if arm is not None:
-            _ARRIVED.move_to_end(recipe.digest)
-            return _Shipped(arm, recipe)
-    try:
-        arm = rebuild_arm(recipe)
-    except RedundancyError as err:
-        return _Shipped(None, recipe, err)
-    except Exception as err:  # an engine's own error: the task reports it, the worker lives on
-        why = ModelError(f"cannot rebuild the arm of {recipe.shown!r}: {err}")
-        return _Shipped(None, recipe, why)
-    with _ARRIVED_LOCK:
-        _ARRIVED[recipe.digest] = arm
-        while len(_ARRIVED) > 8:
-            _ARRIVED.popitem(last=False)
-    return _Shipped(arm, recipe)
-
-
-def _run_chunk(fn: Callable[..., R], shipped: _Shipped, Q: Array, kwargs: dict[str, Any]) -> R:
-    """One task on a worker: ``fn`` on its chunk of poses, as in the caller's process."""
-    if shipped.arm is None:
-        raise shipped.error  # type: ignore[misc]
-    return fn(shipped.arm, Q, **kwargs)
-
-
-def map_chunks(
-    executor: Executor,
-    fn: Callable[..., R],
-    arm: Arm,
-    Q: Array,
-    chunk: int | None = None,
-    **kwargs: Any,
-) -> list[tuple[int, R]]:
-    """``fn(arm, Q[lo:hi], **kwargs)`` for consecutive chunks of ``Q``, run on ``executor``.
-
-    Args:
-        executor: Any `concurrent.futures.Executor`; a Dask cluster's ``Client(...).get_executor()``
-            included.
-        fn: A module-level function (it is pickled by name for a process or a cluster).
-        arm: The arm (it must pickle: built by `redundancy.load` or ``load_string``).
-            A worker rebuilds it from its files, or from their bytes, which the caller sends
-            again with a chunk whose worker lacks them.
-        Q: Poses, shape (n, nq).
-        chunk: Poses per task; by default at least `EXECUTOR_MIN_CHUNK` and at most
-            `EXECUTOR_MAX_TASKS` tasks.
-        **kwargs: Passed to ``fn``.
-
-    Returns:
-        (first pose of the chunk, ``fn``'s result) per chunk, in order.
-
-    Raises:
-        ParameterError: ``executor`` is not a `concurrent.futures.Executor`, ``fn`` not callable,
-            ``chunk`` not an integer >= 1.
-        PoseError: ``Q`` not finite poses of the arm.
-    """
-    _check_executor(executor, fn, kwargs)
-    return _map_chunks(executor, fn, arm, poses(arm, Q), chunk, kwargs)
-
-
-def _map_chunks(
-    executor: Executor,
-    fn: Callable[..., R],
-    arm: Arm,
-    Q: Array,
-    chunk: int | None,
-    kwargs: dict[str, Any],
-) -> list[tuple[int, R]]:
-    """`map_chunks` with the executor, ``fn`` and ``Q`` checked."""
-    n = len(Q)
-    if chunk is None:
-        chunk = max(EXECUTOR_MIN_CHUNK, -(-n // EXECUTOR_MAX_TASKS))
-    chunk = check_count("chunk", chunk, 1)
-    shipped = _Shipped(arm)
-    futures: list[tuple[int, Future[R]]] = []
-    try:
-        for lo in range(0, n, chunk):
-            part = np.ascontiguousarray(Q[lo : lo + chunk])
-            futures.append((lo, executor.submit(_run_chunk, fn, shipped, part, kwargs)))
-        out = []
-        for k, (lo, f) in enumerate(futures):
-            try:
-                out.append((lo, f.result()))
-            except ContentUnavailable:
-                # The worker does not have the files as they were loaded: send their bytes.
-                part = np.ascontiguousarray(Q[lo : lo + chunk])
-                futures[k] = (
-                    lo,
-                    executor.submit(_run_chunk, fn, _Shipped(arm, _recipe_of(arm)), part, kwargs),
-                )
-                out.append((lo, futures[k][1].result()))
-        return out
-    finally:  # an error or an interrupt: drop the tasks not yet started
-        for _, f in futures:
-            f.cancel()
-
-
-def _check_executor(executor: object, fn: object, kwargs: dict[str, Any]) -> None:
-    """The executor, and ``fn`` callable as ``fn(arm, Q, **kwargs)``.
-
-    What ``fn`` raises when it runs is its own, as with any executor.
-    """
-    if not isinstance(executor, Executor):
-        raise ParameterError(
-            "executor",
-            executor,
-            "None or a concurrent.futures.Executor (e.g. a Dask "
-            "Client(...).get_executor(), a ProcessPoolExecutor)",
-        )
-    valid = "a module-level function fn(arm, Q, **kwargs)"
-    check_callable("fn", fn, valid)
-    try:
-        inspect.signature(fn).bind(None, None, **kwargs)  # type: ignore[arg-type]
-    except TypeError:
-        raise ParameterError("fn", fn, valid) from None
-    except ValueError:  # no signature to read (some builtins): calling it will tell
-        pass
-
-
-def scatter(
-    executor: Executor, fn: Callable[..., Array], arm: Arm, Q: ArrayLike, **kwargs: Any
-) -> Array:
-    """A batch function's stacked result, computed in chunks on ``executor``.
-
-    The one line that gives a batch function ``executor=``: ``fn`` is called locally on no
-    poses first (so bad arguments raise here, not on a worker, and an empty stack has its
-    shape), then on the chunks on the executor; the results are concatenated in order.
-
-    Example:
-        >>> def jacobians(arm, Q, engine="mujoco", threads=1, executor=None):
-        ...     if executor is not None:
-        ...         return scatter(executor, jacobians, arm, Q, engine=engine, threads=threads)
-        ...     ...
-    """
-    _check_executor(executor, fn, kwargs)
-    Q = poses(arm, Q)
-    empty = fn(arm, Q[:0], **kwargs)
-    parts = [r for _, r in _map_chunks(executor, fn, arm, Q, None, kwargs)]
-    return np.concatenate(parts, axis=0) if parts else empty
 
 
 def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bool = True) -> Array:
@@ -528,208 +364,8 @@ def distances(
 
 
 # ------------------------------------------------------------------------------------------
-# The mass a contact at the tool feels, and inverse kinematics, over many poses or targets
+# Inverse kinematics over many targets
 # ------------------------------------------------------------------------------------------
-
-
-def _dynamics_inputs(
-    arm: Arm, Q: ArrayLike, armature: object, joints: object, engine: object, threads: object
-) -> tuple[Array, bool, tuple[str, ...] | None, str, int]:
-    """The inputs of the tool-mass functions checked, in this order, and made plain values.
-
-    ``joints`` (any iterable of names: a generator, a dict's keys, an array of names) is read
-    once, here, into a tuple: what crosses to an executor's worker is the same plain tuple
-    the serial path uses, so both give the same answer or the same error.
-    """
-    Q = poses(arm, Q)  # the arm checked first
-    engine = check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
-    if joints is not None and hasattr(joints, "__iter__") and not isinstance(joints, str | bytes):
-        joints = tuple(joints)  # type: ignore[call-overload]
-    check_joint_subset("joints", joints, arm.joint_names)
-    armature = check_flag("armature", armature)
-    return Q, armature, joints, engine, threads  # type: ignore[return-value]
-
-
-def _mobilities(
-    arm: Arm, Q: Array, armature: bool, joints: tuple[str, ...] | None, engine: str, threads: int
-) -> tuple[Array, Array]:
-    """J of the free joints and M_ff^-1 J_f^T over a stack (inputs checked)."""
-    free = check_joint_subset("joints", joints, arm.joint_names)
-    return arm.engine(engine).tool_mobilities(Q, armature, free, threads)
-
-
-def _mobility_stack(
-    fn: Callable[..., Array],
-    kernel: Callable[[Array, Array, float], Array],
-    arm: Arm,
-    Q: ArrayLike,
-    armature: object,
-    joints: object,
-    engine: object,
-    threads: object,
-    executor: Executor | None,
-) -> Array:
-    """A stack from the tool's mobilities: check, run ``fn`` on the executor's chunks, or here.
-
-    ``kernel`` maps the stacks J, M^-1 J^T and the arm's motion floor (`linalg.motion_floor`)
-    to the result.
-    """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
-    )
-    if executor is not None:
-        return scatter(
-            executor,
-            fn,
-            arm,
-            Q,
-            armature=armature,
-            joints=joints,
-            engine=engine,
-            threads=threads,
-        )
-    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return kernel(J, X, linalg.motion_floor(arm.length))
-
-
-def operational_inertias(
-    arm: Arm,
-    Q: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
-    """Lambda at each pose, as `redundancy.Arm.operational_inertia`.
-
-    Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
-        armature: Include armature in M.
-        joints: Names of the joints free to move (the others held); None: all.
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only).
-        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
-            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
-
-    Returns:
-        Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
-
-    Raises:
-        SingularPoseError: At the first singular pose (the message names it and the lost
-            tool directions).
-    """
-
-    def kernel(J: Array, X: Array, floor: float) -> Array:
-        return kernels.operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
-
-    return _mobility_stack(
-        operational_inertias, kernel, arm, Q, armature, joints, engine, threads, executor
-    )
-
-
-def effective_masses(
-    arm: Arm,
-    Q: ArrayLike,
-    direction: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
-    """Effective mass at the tool at each pose, as `redundancy.Arm.effective_mass`.
-
-    Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
-        direction: One direction for every pose (3,) or one per pose (n, 3), world axes.
-        armature: Include armature in M.
-        joints: Names of the joints free to move (the others held); None: all.
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only).
-        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
-            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
-
-    Returns:
-        Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
-    """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
-    )
-    U = check_directions("direction", direction, len(Q))
-    if executor is not None:
-        # Each pose travels with its direction: one row of (n, nq + 3).
-        kwargs = {"armature": armature, "joints": joints, "engine": engine, "threads": threads}
-        _check_executor(executor, _effective_masses_of_rows, kwargs)
-        QU = np.concatenate([Q, U], axis=1)
-        parts = _map_chunks(executor, _effective_masses_of_rows, arm, QU, None, kwargs)
-        return np.concatenate([r for _, r in parts]) if parts else np.empty(0)
-    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return kernels.effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
-
-
-def _effective_masses_of_rows(
-    arm: Arm, QU: Array, armature: bool, joints: tuple[str, ...] | None, engine: str, threads: int
-) -> Array:
-    """`effective_masses` of a chunk of rows (pose, unit direction), on a worker."""
-    Q, U = np.ascontiguousarray(QU[:, : arm.nq]), np.ascontiguousarray(QU[:, arm.nq :])
-    J, X = _mobilities(arm, Q, armature, joints, engine, threads)
-    return kernels.effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
-
-
-def effective_mass_ranges(
-    arm: Arm,
-    Q: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
-    """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
-
-    As `Arm.effective_mass_range`'s ``min`` and ``max`` (arguments as
-    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
-    """
-
-    def kernel(J: Array, X: Array, floor: float) -> Array:
-        return kernels.effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
-
-    return _mobility_stack(
-        effective_mass_ranges, kernel, arm, Q, armature, joints, engine, threads, executor
-    )
-
-
-def dynamic_manipulabilities(
-    arm: Arm,
-    Q: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
-    """Yoshikawa's dynamic manipulability at each pose, shape (n,).
-
-    As `Arm.dynamic_manipulability` (arguments as
-    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
-    """
-
-    def kernel(J: Array, X: Array, floor: float) -> Array:
-        if not len(J):
-            return np.zeros(0)
-        return np.asarray(kernels.dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
-
-    return _mobility_stack(
-        dynamic_manipulabilities, kernel, arm, Q, armature, joints, engine, threads, executor
-    )
 
 
 def solve_ik(
@@ -777,19 +413,8 @@ def solve_ik(
     check_choice("engine", engine, ENGINES)
     check_flag("position_only", position_only)
     _ik_settings(position_tol, orientation_tol, restarts)  # bad ones fail here, not in a thread
-    if isinstance(targets, np.ndarray) and targets.ndim == 3:
-        items = list(targets)
-    elif isinstance(targets, list | tuple):
-        items = list(targets)
-    else:
-        raise ParameterError(
-            "targets", targets, "a sequence of targets or an array of poses of shape (n, 4, 4)"
-        )
-    goals = [check_tool_pose(f"targets[{i}]", t) for i, t in enumerate(items)]
+    goals, starts = _ik_targets(arm, targets, Q0)
     n = len(goals)
-    starts = None if Q0 is None else poses(arm, Q0)
-    if starts is not None and len(starts) != n:
-        raise ParameterError("Q0", f"{len(starts)} poses", f"None or one start per target ({n})")
     if seed is not None:
         seed = check_count("seed", seed, 0)
     arm.ik_objective(objective, engine)  # a bad objective fails here, not in a worker
@@ -818,129 +443,21 @@ def solve_ik(
     return tuple(r for r in out if r is not None)
 
 
-def coriolis(
-    arm: Arm,
-    Q: ArrayLike,
-    V: ArrayLike,
-    *,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
-    """Coriolis matrices of a stack of states, as `Arm.coriolis <redundancy.Arm.coriolis>`.
-
-    Equal to the single calls bit for bit: each pose runs the same engine calls in the
-    same order.
-
-    Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
-        V: Joint velocities, one per pose, shape (n, nq) [rad/s or m/s].
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
-        executor: Run on this `concurrent.futures.Executor` in chunks of states (see
-            `jacobians`); None runs here.
-
-    Returns:
-        Coriolis matrices in the Christoffel form, shape (n, nq, nq) [N m s/rad].
-
-    Raises:
-        PoseError: ``Q`` not finite poses, ``V`` not finite and of the same shape.
-    """
-    arm = check_arm(arm)
-    check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
-    Q = poses(arm, Q)
-    V = check_joint_vectors("velocities", V, arm.joint_names, len(Q))
-    nq = arm.nq
-    if executor is not None:
-        # The poses and velocities travel side by side, (n, 2 nq), chunked as poses are.
-        kwargs = {"engine": engine, "threads": threads}
-        _check_executor(executor, _coriolis_of_states, kwargs)
-        parts = _map_chunks(executor, _coriolis_of_states, arm, np.hstack((Q, V)), None, kwargs)
-        return np.concatenate([r for _, r in parts]) if parts else np.empty((0, nq, nq))
-    out = np.empty((len(Q), nq, nq))
-    arm.engine(engine).coriolis_stack(Q, V, out, threads)
-    return out
-
-
-def _coriolis_of_states(arm: Arm, QV: Array, engine: EngineName, threads: int) -> Array:
-    """`coriolis` of a chunk of states laid side by side, (n, 2 nq), on a worker."""
-    nq = arm.nq
-    return coriolis(arm, QV[:, :nq], QV[:, nq:], engine=engine, threads=threads)
-
-
-def external_torques(
-    arm: Arm,
-    Q: ArrayLike,
-    V: ArrayLike,
-    TAU: ArrayLike,
-    dt: object,
-    gain: object,
-    *,
-    executor: Executor | None = None,
-) -> Array:
-    """A recorded trajectory through a `MomentumObserver`, step by step.
-
-    Equal to ``obs = MomentumObserver(arm, gain)`` and ``obs.update(Q[k], V[k], TAU[k],
-    dt[k])`` for every k, bit for bit: the model's terms of every step (M v, C^T v - g and
-    the passive force) are the same engine calls, here or on an executor's workers, and the
-    observer then advances through them in order.
-
-    Args:
-        arm: The arm.
-        Q: Poses at the steps, shape (n, nq) [rad or m].
-        V: Joint velocities at the steps, shape (n, nq) [rad/s or m/s].
-        TAU: The actuators' torque applied from each step to the next (MuJoCo's
-            ``qfrc_actuator``), shape (n, nq) [N m or N].
-        dt: Time from each step to the next [s], one number or one per step (n,), in
-            (0, 2 / gain).
-        gain: The observer's gain K [1/s], a number or one per joint.
-        executor: Compute the model's terms on this `concurrent.futures.Executor`
-            in chunks of steps (see `jacobians`); None: here.
-
-    Returns:
-        The estimated external joint torque at each step, shape (n, nq) [N m or N].
-
-    Raises:
-        PoseError: ``Q``, ``V`` or ``TAU`` not finite, or of different shapes.
-        ParameterError: A bad ``dt`` or ``gain``.
-    """
-    arm = check_arm(arm)
-    observer = MomentumObserver(arm, gain)
-    Q = poses(arm, Q)
-    n = len(Q)
-    V = check_joint_vectors("velocities", V, arm.joint_names, n)
-    TAU = check_joint_vectors("torques", TAU, arm.joint_names, n)
-    steps = check_dt(dt, observer.max_dt)
-    if steps.ndim == 0:
-        steps = np.full(n, float(steps))
-    elif steps.shape != (n,):
-        raise ParameterError("dt", dt, f"a number or one per step, shape ({n},) [s]")
-    nq = arm.nq
-    if executor is not None:
-        _check_executor(executor, _momentum_terms_of_states, {})
-        parts = _map_chunks(executor, _momentum_terms_of_states, arm, np.hstack((Q, V)), None, {})
-        terms = np.concatenate([r for _, r in parts]) if parts else np.empty((0, 2 * nq))
+def _ik_targets(
+    arm: Arm, targets: object, Q0: ArrayLike | None
+) -> tuple[list[tuple[Array, Array]], Array | None]:
+    """`solve_ik`'s targets checked (each named by its index), and its starts, one per target."""
+    if isinstance(targets, np.ndarray) and targets.ndim == 3:
+        items = list(targets)
+    elif isinstance(targets, list | tuple):
+        items = list(targets)
     else:
-        terms = _momentum_terms_of_states(arm, np.hstack((Q, V)))
-    out = np.empty((n, nq))
-    for k in range(n):
-        out[k] = observer.advance(terms[k, :nq], terms[k, nq:], TAU[k], float(steps[k]))
-    return out
-
-
-def _momentum_terms_of_states(arm: Arm, QV: Array) -> Array:
-    """The observer's terms of states laid side by side, (n, 2 nq) -> (n, 2 nq).
-
-    Each row [q, v] gives [p, beta] (`MujocoEngine.momentum_terms
-    <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`).
-    """
-    nq = arm.nq
-    out = np.empty((len(QV), 2 * nq))
-    terms = arm.mujoco.momentum_terms
-    for row, qv in zip(out, QV, strict=True):
-        p, beta = terms(qv[:nq], qv[nq:])
-        row[:nq] = p
-        row[nq:] = beta
-    return out
+        raise ParameterError(
+            "targets", targets, "a sequence of targets or an array of poses of shape (n, 4, 4)"
+        )
+    goals = [check_tool_pose(f"targets[{i}]", t) for i, t in enumerate(items)]
+    n = len(goals)
+    starts = None if Q0 is None else poses(arm, Q0)
+    if starts is not None and len(starts) != n:
+        raise ParameterError("Q0", f"{len(starts)} poses", f"None or one start per target ({n})")
+    return goals, starts

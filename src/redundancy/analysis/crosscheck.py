@@ -397,36 +397,75 @@ def crosscheck_batch(
     seed = check_count("seed", seed, 0)
     Q = check_pose_or_poses(Q, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
-    condition = np.nan
     if executor is not None:
-        kwargs = {
-            "quantities": names,
-            "tolerances": tols,
-            "threads": threads,
-            "chunk": chunk,
-            "seed": seed,
-        }
-        for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
-            for a in part.agreements:
-                found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
-            condition = np.fmax(condition, part.mass_condition)
+        condition = _crosscheck_on(executor, arm, Q, names, tols, threads, chunk, seed, found)
     else:
-        scales = arm_scales(arm)
-        for lo in range(0, len(Q), chunk):
-            part = Q[lo : lo + chunk]
-            out = _all_engines(arm, part, names, threads, seed)
-            for name in names:
-                errors = _agreement_errors(arm, name, out, scales)
-                found[name] = merge_worst(found[name], worst(errors), lo)
-            if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
-                # The reference's M with armature, when compared.
-                M = out[arm.reference.name].get("mass matrix")
-                condition = np.fmax(condition, mass_condition(arm, part, M))
+        condition = _crosscheck_here(arm, Q, names, threads, chunk, seed, found)
     agreements = tuple(
         Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
         for n in names
     )
     return CrossCheckReport(agreements, arm.bridges, len(Q), float(condition), skipped)
+
+
+def _crosscheck_on(
+    executor: Executor,
+    arm: Arm,
+    Q: Array,
+    names: tuple[str, ...],
+    tols: dict[str, float],
+    threads: int,
+    chunk: int,
+    seed: int,
+    found: dict[str, tuple[float, int]],
+) -> float:
+    """`crosscheck_batch` in chunks cross-checked on the executor's workers.
+
+    Each quantity's worst error and pose are merged into ``found``; returns the largest
+    condition number of the mass matrix.
+    """
+    condition = np.nan
+    kwargs = {
+        "quantities": names,
+        "tolerances": tols,
+        "threads": threads,
+        "chunk": chunk,
+        "seed": seed,
+    }
+    for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
+        for a in part.agreements:
+            found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
+        condition = np.fmax(condition, part.mass_condition)
+    return condition
+
+
+def _crosscheck_here(
+    arm: Arm,
+    Q: Array,
+    names: tuple[str, ...],
+    threads: int,
+    chunk: int,
+    seed: int,
+    found: dict[str, tuple[float, int]],
+) -> float:
+    """`crosscheck_batch` in this process, ``chunk`` poses at a time.
+
+    Each quantity's worst error and pose are merged into ``found``; returns the largest
+    condition number of the mass matrix.
+    """
+    condition = np.nan
+    scales = arm_scales(arm)
+    for lo in range(0, len(Q), chunk):
+        part = Q[lo : lo + chunk]
+        out = _all_engines(arm, part, names, threads, seed)
+        for name in names:
+            errors = _agreement_errors(arm, name, out, scales)
+            found[name] = merge_worst(found[name], worst(errors), lo)
+        if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
+            # The reference's M with armature, when compared.
+            M = out[arm.reference.name].get("mass matrix")
+            condition = np.fmax(condition, mass_condition(arm, part, M))
+    return condition
 
 
 def mass_condition(arm: Arm, Q: Array, M: Array | None = None) -> float:

@@ -349,6 +349,67 @@ def self_motion(
         UnknownNameError: Unknown ``elbow`` joint, ``integrator`` or ``engine``.
         PoseError: Bad ``q0``.
     """
+    w, q = _checked_walk(
+        arm,
+        q0,
+        total,
+        step,
+        direction,
+        correct,
+        objective,
+        elbow,
+        engine,
+        stop,
+        integrator,
+        tol,
+        max_corrections,
+        fd_step,
+        respect_limits,
+    )
+    qs, motion, stopped = _walk(w, q)
+    return _path(w, np.stack(qs), motion, stopped)
+
+
+@dataclass(frozen=True)
+class _Walk:
+    """A self-motion's checked settings and the tool's start pose (``p0`` [m], ``R0``)."""
+
+    arm: Arm
+    total: float
+    step: float
+    direction: int
+    correct: bool
+    objective: Objective | None
+    elbow_idx: int
+    engine: EngineName
+    stop: Callable[[Array], bool] | None
+    integrator: Integrator
+    tol: float
+    max_corrections: int
+    fd_step: float
+    respect_limits: bool
+    p0: Array
+    R0: Array
+
+
+def _checked_walk(
+    arm: Arm,
+    q0: ArrayLike,
+    total: float,
+    step: float,
+    direction: int,
+    correct: bool,
+    objective: Objectivelike | None,
+    elbow: str | None,
+    engine: EngineName,
+    stop: Callable[[Array], bool] | None,
+    integrator: Integrator,
+    tol: float,
+    max_corrections: int,
+    fd_step: float,
+    respect_limits: bool,
+) -> tuple[_Walk, Array]:
+    """`self_motion`'s arguments checked (in its documented order), and the start pose."""
     arm = check_arm(arm)
     total = check_number("total", total, 0.0, low_open=True, unit="rad")
     step = check_number("step", step, total / MAX_STEPS, total, unit="rad")
@@ -362,72 +423,107 @@ def self_motion(
     respect_limits = check_flag("respect_limits", respect_limits)
     fd_step = check_number("fd_step", fd_step, 0.0, low_open=True, unit="rad")
     q = check_pose(q0, arm.joint_names)
-    if objective is not None:
-        objective = _checked(objective)
+    checked = _checked(objective) if objective is not None else None
     if stop is not None:
         check_callable("stop", stop, "a callable q -> bool, or None")
     elbow_idx = arm.nq // 2 if elbow is None else arm.joint_index(elbow)
     p0, R0 = arm.site_pose(q, engine)
+    walk = _Walk(
+        arm,
+        total,
+        step,
+        direction,
+        correct,
+        checked,
+        elbow_idx,
+        engine,
+        stop,
+        integrator,
+        tol,
+        max_corrections,
+        fd_step,
+        respect_limits,
+        p0,
+        R0,
+    )
+    return walk, q
 
-    def null_direction(qk: Array, prev: Array | None) -> Array | None:
-        """Unit null-space direction at qk continuing ``prev``; None if there is none."""
-        basis = linalg.nullspace_basis(arm.jacobian(qk, engine))
-        if basis.shape[1] == 0:
-            return None
-        if prev is None:
-            v = basis[:, 0]
-            return direction * _start_sign(arm, qk, v, elbow_idx, engine) * v
-        v = basis @ (basis.T @ prev)  # the null-space direction closest to the previous one
-        n = float(np.linalg.norm(v))
-        return v / n if n > 1e-12 else basis[:, 0]
 
+def _null_direction(w: _Walk, qk: Array, prev: Array | None) -> Array | None:
+    """Unit null-space direction at qk continuing ``prev``; None if there is none."""
+    basis = linalg.nullspace_basis(w.arm.jacobian(qk, w.engine))
+    if basis.shape[1] == 0:
+        return None
+    if prev is None:
+        v = basis[:, 0]
+        return w.direction * _start_sign(w.arm, qk, v, w.elbow_idx, w.engine) * v
+    v = basis @ (basis.T @ prev)  # the null-space direction closest to the previous one
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-12 else basis[:, 0]
+
+
+def _rising_direction(
+    w: _Walk, objective: Objective, q: Array, prev: Array | None
+) -> tuple[Array | None, str]:
+    """Unit null-space direction at q along which the objective rises, or why there is none."""
+    basis = linalg.nullspace_basis(w.arm.jacobian(q, w.engine))
+    if basis.shape[1] == 0:
+        return None, STOP_NO_NULLSPACE
+    g = _objective_direction(objective, q, basis, w.fd_step)
+    gn = float(np.linalg.norm(g))
+    if gn == 0.0:
+        return None, STOP_STATIONARY
+    v = g / gn
+    if prev is not None and v @ prev < 0:
+        return None, STOP_MAXIMUM
+    return v, ""
+
+
+def _corrected(w: _Walk, q_new: Array) -> Array:
+    """``q_new`` after Newton corrections pulling the tool back to its start pose."""
+    for _ in range(w.max_corrections):
+        e = pose_error(w.arm, q_new, w.p0, w.R0, w.engine)
+        if np.linalg.norm(e) <= w.tol:
+            break
+        q_new = q_new + np.linalg.pinv(w.arm.jacobian(q_new, w.engine)) @ e
+    return q_new
+
+
+def _walk(w: _Walk, q: Array) -> tuple[list[Array], list[float], str]:
+    """The poses passed, the joint motion up to each [rad], and why the walk stopped early."""
+    arm, objective = w.arm, w.objective
     prev: Array | None = None
     qs, motion = [q.copy()], [0.0]
     covered = 0.0
     stopped = ""
-    while total - covered > 1e-12:
-        if stop is not None and stop(q):
+    while w.total - covered > 1e-12:
+        if w.stop is not None and w.stop(q):
             stopped = STOP_PREDICATE
             break
         if objective is not None:
-            basis = linalg.nullspace_basis(arm.jacobian(q, engine))
-            if basis.shape[1] == 0:
-                stopped = STOP_NO_NULLSPACE
-                break
-            g = _objective_direction(objective, q, basis, fd_step)
-            gn = float(np.linalg.norm(g))
-            if gn == 0.0:
-                stopped = STOP_STATIONARY
-                break
-            v = g / gn
-            if prev is not None and v @ prev < 0:
-                stopped = STOP_MAXIMUM
-                if objective(q) < objective(qs[-2]):  # the last step passed the maximum
-                    qs.pop()
-                    motion.pop()
-                    q = qs[-1]
-                break
+            v0, stopped = _rising_direction(w, objective, q, prev)
+            if stopped == STOP_MAXIMUM and objective(q) < objective(qs[-2]):
+                # the last step passed the maximum
+                qs.pop()
+                motion.pop()
+                q = qs[-1]
         else:
-            v0 = null_direction(q, prev)
-            if v0 is None:
-                stopped = STOP_NO_NULLSPACE
-                break
-            v = v0
-        h = min(step, total - covered)
-        if integrator == "midpoint":
-            vm = null_direction(q + 0.5 * h * v, v)
+            v0 = _null_direction(w, q, prev)
+            stopped = STOP_NO_NULLSPACE if v0 is None else ""
+        if v0 is None:
+            break
+        v = v0
+        h = min(w.step, w.total - covered)
+        if w.integrator == "midpoint":
+            vm = _null_direction(w, q + 0.5 * h * v, v)
             if vm is None:
                 stopped = STOP_NO_NULLSPACE
                 break
             v = vm
         q_new = q + h * v
-        if correct:
-            for _ in range(max_corrections):
-                e = pose_error(arm, q_new, p0, R0, engine)
-                if np.linalg.norm(e) <= tol:
-                    break
-                q_new = q_new + np.linalg.pinv(arm.jacobian(q_new, engine)) @ e
-        if respect_limits:
+        if w.correct:
+            q_new = _corrected(w, q_new)
+        if w.respect_limits:
             out = np.flatnonzero((q_new < arm.lower) | (q_new > arm.upper))
             if out.size:
                 stopped = f"{STOP_LIMIT}: {arm.joint_names[int(out[0])]}"
@@ -436,16 +532,22 @@ def self_motion(
         q, prev = q_new, v
         covered += h
         qs.append(q.copy())
-    if not stopped and stop is not None and stop(q):
+    if not stopped and w.stop is not None and w.stop(q):
         stopped = STOP_PREDICATE
-    Q = np.stack(qs)
+    return qs, motion, stopped
+
+
+def _path(w: _Walk, Q: Array, motion: list[float], stopped: str) -> SelfMotionPath:
+    """The walk's poses with the tool's drift and the elbow's height along them."""
+    arm, engine = w.arm, w.engine
     pos, ori, elb = [], [], []
     eng = arm.engine(engine)
     for qi in Q:
         p, R = arm.site_pose(qi, engine)
-        pos.append(np.linalg.norm(p - p0))
-        ori.append(np.linalg.norm(rotation_log(R @ R0.T)))
-        elb.append(eng.joint_axes(qi)[1][elbow_idx, 2])
+        pos.append(np.linalg.norm(p - w.p0))
+        ori.append(np.linalg.norm(rotation_log(R @ w.R0.T)))
+        elb.append(eng.joint_axes(qi)[1][w.elbow_idx, 2])
+    objective = w.objective
     obj = np.array([objective(qi) for qi in Q]) if objective is not None else np.zeros(0)
     return SelfMotionPath(
         Q,
@@ -455,7 +557,7 @@ def self_motion(
         np.array(elb),
         obj,
         stopped,
-        arm.joint_names[elbow_idx],
-        correct,
-        integrator,
+        arm.joint_names[w.elbow_idx],
+        w.correct,
+        w.integrator,
     )

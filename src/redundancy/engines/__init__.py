@@ -5,6 +5,9 @@ in the library's joint order (MuJoCo's):
 
 * `redundancy.engines.mujoco`: `MujocoEngine`;
 * `redundancy.engines.pinocchio`: `PinocchioEngine`.
+
+`redundancy.engines.mujoco_warnings` collects MuJoCo's warnings per thread (the loader's and
+the simulation's, as well as the engine's).
 """
 
 from __future__ import annotations

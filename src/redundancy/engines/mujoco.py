@@ -7,14 +7,10 @@ and dof orders coincide).
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import functools
 import itertools
-import os
-import sys
-import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from math import isfinite
 
 import mujoco
@@ -24,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..checks import check_joint_vector, check_pose, pose_key
 from ..kernels import cholesky_solve
 from .contract import Stacks, check_dynamics, remove_armature
+from .mujoco_warnings import captured_warnings as captured_warnings
 from .threads import PerThread, run_split
 
 Array = NDArray[np.float64]
@@ -413,6 +410,14 @@ class MujocoEngine:
         return d.xaxis.copy(), d.xanchor.copy()
 
     # -- stacks of poses ----------------------------------------------------------------------
+    def _stack_data(self) -> tuple[mujoco.MjData, Array]:
+        """This thread's data and its qpos, at rest and holding no pose: a stack's go in."""
+        w = self._work()
+        w.forget()  # this thread's data is about to hold other poses
+        if w.moving:  # an interrupted jacobian_derivatives left a velocity (mj_rne)
+            w.stop(self.model)
+        return w.data, w.qpos
+
     def evaluate(self, Q: Array, out: Stacks, threads: int = 1) -> None:
         """Fill the stacks of ``out`` for every pose of ``Q``, in place (see the contract).
 
@@ -432,13 +437,7 @@ class MujocoEngine:
         Jp, Jr = (None, None) if J is None else (J[:, :3], J[:, 3:])
         wanted = [s for s in (X, R9, Jp, Jr, M, G) if s is not None]
         dyn = out.dynamics
-
-        def data() -> tuple[mujoco.MjData, Array]:
-            w = self._work()
-            w.forget()  # this thread's data is about to hold other poses
-            if w.moving:  # an interrupted jacobian_derivatives left a velocity (mj_rne)
-                w.stop(m)
-            return w.data, w.qpos
+        data = self._stack_data
 
         def one_stack(lo: int, hi: int) -> None:
             # J, M or gravity alone get loops with no per-pose tests or indexing: each costs
@@ -908,78 +907,3 @@ _mul_mat_mat_t, _add_to_scl, _mul_mat_t_vec = (
 )
 #: Flattened identities for damped_stepper, by size (read only).
 _EYES = {r: np.eye(r).reshape(-1) for r in range(1, 7)}
-
-
-class _WarningRelay:
-    """MuJoCo's warning callback while any thread captures warnings.
-
-    The callback is process-wide; MuJoCo calls it in the thread that warns. The relay is
-    installed by the first capture and the user's callback put back by the last (a lock and
-    a count, so any number of threads leave it exactly as the user had it). A warning from
-    a thread that is not capturing goes where it would have gone without the relay: the
-    user's callback, or MuJoCo's default (MUJOCO_LOG.TXT and a line on stdout).
-    """
-
-    def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.captures: dict[int, list[list[str]]] = {}  # thread id -> nested captures
-        self.count = 0
-        self.users: Callable[[str], object] | None = None
-
-    def __call__(self, msg: str) -> None:
-        stack = self.captures.get(threading.get_ident())
-        if stack:
-            stack[-1].append(str(msg).strip())
-        elif self.users is not None:
-            self.users(msg)
-        else:
-            mujoco.mju_writeLog("WARNING", str(msg))
-            sys.stdout.write(f"WARNING: {msg}\n\n")
-
-    @contextlib.contextmanager
-    def capture(self) -> Iterator[list[str]]:
-        messages: list[str] = []
-        me = threading.get_ident()
-        with self.lock:
-            if self.count == 0:
-                self.users = mujoco.get_mju_user_warning()
-                mujoco.set_mju_user_warning(self)
-            self.count += 1
-            self.captures.setdefault(me, []).append(messages)
-        try:
-            yield messages
-        finally:
-            with self.lock:
-                stack = self.captures[me]
-                stack.pop()
-                if not stack:
-                    del self.captures[me]
-                self.count -= 1
-                # A callback the user set meanwhile is theirs to keep.
-                if self.count == 0 and mujoco.get_mju_user_warning() is self:
-                    mujoco.set_mju_user_warning(self.users)
-                if self.count == 0:
-                    self.users = None
-
-    def after_fork(self) -> None:
-        """In a forked child: only the forking thread survives, with its own captures."""
-        self.lock = threading.Lock()  # another thread may have held it at the fork
-        mine = self.captures.get(threading.get_ident(), [])
-        self.captures = {threading.get_ident(): mine} if mine else {}
-        self.count = len(mine)
-        if self.count == 0 and mujoco.get_mju_user_warning() is self:
-            mujoco.set_mju_user_warning(self.users)
-            self.users = None
-
-
-_RELAY = _WarningRelay()
-os.register_at_fork(after_in_child=_RELAY.after_fork)
-
-
-def captured_warnings() -> contextlib.AbstractContextManager[list[str]]:
-    """Collect MuJoCo's warnings instead of letting it print them and write MUJOCO_LOG.TXT.
-
-    Only this thread's warnings are collected; MuJoCo's callback is the user's again when
-    the last capture in any thread ends.
-    """
-    return _RELAY.capture()

@@ -1,0 +1,140 @@
+"""The keyframes of an [`Arm`][redundancy.Arm]'s file: their names, poses and held joints.
+
+A keyframe is the whole robot's: one that puts a held joint elsewhere than the arm holds it
+is a pose of another arm (`Arm.at_keyframe`). `_Keyframes` is a part of `Arm`, which
+documents its methods.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any, Self
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from .engines.mujoco import object_names
+from .errors import PoseError, UnknownNameError
+
+Array = NDArray[np.float64]
+
+
+class _Keyframes:
+    """`Arm`'s keyframe methods; they read the Arm's attributes declared here."""
+
+    held: dict[str, float | tuple[float, ...]]
+    robot_model: mujoco.MjModel
+    _key_moves: tuple[dict[str, float | tuple[float, ...]], ...]
+    _at_keys: dict[str, Any]
+    _lock: threading.Lock
+    _recipe: tuple[Callable[..., Any], tuple[Any, ...]] | None
+    mj_model: mujoco.MjModel  # the Arm's property
+
+    @property
+    def keyframe_names(self) -> tuple[str, ...]:
+        """Every keyframe of the robot's file, in file order.
+
+        An unnamed keyframe is called ``key<index>``, with ``_`` appended until the name is
+        not one a keyframe of the model has (an unnamed key never hides a named one).
+        """
+        names = object_names(self.mj_model, mujoco.mjtObj.mjOBJ_KEY)
+        taken = set(names)
+        for k, name in enumerate(names):
+            if not name:
+                name = f"key{k}"
+                while name in taken:
+                    name += "_"
+                names[k] = name
+                taken.add(name)
+        return tuple(names)
+
+    @property
+    def keyframes(self) -> dict[str, Array]:
+        """Keyframe name -> joint configuration [rad or m], for the keyframes of this arm.
+
+        A keyframe is the whole robot's: one that puts a held joint elsewhere than this arm
+        holds it (`keyframe_moves`) is a pose of another arm, `at_keyframe`, and
+        is not listed here (`keyframe_names` lists every keyframe).
+        """
+        m = self.mj_model
+        return {
+            name: m.key_qpos[k].copy()
+            for k, name in enumerate(self.keyframe_names)
+            if not self.keyframe_moves(name)
+        }
+
+    def keyframe(self, name: str) -> Array:
+        """Joint configuration of a named keyframe [rad or m].
+
+        Raises:
+            UnknownNameError: No keyframe of that name.
+            PoseError: The keyframe moves held joints: it is a pose of `at_keyframe`.
+        """
+        moved = self.keyframe_moves(name)
+        if moved:
+            shown = ", ".join(
+                f"{j} = {_value(v)} (held at {_value(self.held[j])})" for j, v in moved.items()
+            )
+            raise PoseError(
+                f"keyframe {name!r} moves held joints ({shown}): it is not a pose of this arm; "
+                f"arm.at_keyframe({name!r}) is the arm at it (or load with rest={name!r})"
+            )
+        return self.mj_model.key_qpos[self.keyframe_names.index(name)].copy()
+
+    def keyframe_moves(self, name: str) -> dict[str, float | tuple[float, ...]]:
+        """The held joints keyframe ``name`` puts elsewhere than this arm holds them.
+
+        Returns:
+            Held joint name -> the keyframe's value [rad or m] (its couplings followed);
+            empty when the keyframe is a pose of this arm.
+
+        Raises:
+            UnknownNameError: No keyframe of that name.
+        """
+        names = self.keyframe_names
+        if not isinstance(name, str) or name not in names:
+            raise UnknownNameError("keyframe", name, list(names))
+        return dict(self._key_moves[names.index(name)]) if self._key_moves else {}
+
+    def at_keyframe(self, name: str) -> Self:
+        """This arm with its held joints where keyframe ``name`` puts them.
+
+        Itself when the keyframe moves no held joint; otherwise the robot loaded again with
+        ``rest=name`` (built once per keyframe, then shared), whose ``keyframe(name)`` is the
+        keyframe's pose. The audit, the lab and the collision statistics judge each keyframe
+        there, at the robot's real pose.
+
+        Raises:
+            UnknownNameError: No keyframe of that name.
+            TypeError: The keyframe moves held joints and this Arm was not built by
+                `redundancy.load` (it cannot be loaded again).
+        """
+        if not self.keyframe_moves(name):
+            return self
+        with self._lock:
+            if name not in self._at_keys:
+                if self._recipe is None:
+                    raise TypeError(
+                        "this Arm was not built by redundancy.load and cannot be loaded again "
+                        f"at keyframe {name!r}"
+                    )
+                fn, (recipe,) = self._recipe
+                # The same files loaded with rest=: the keyframe by name, or (unnamed) its
+                # held values.
+                named = name in object_names(self.robot_model, mujoco.mjtObj.mjOBJ_KEY)
+                rest = name if named else self._key_held(name)
+                self._at_keys[name] = fn(recipe.with_rest(rest))
+            return self._at_keys[name]
+
+    def _key_held(self, name: str) -> dict[str, float | tuple[float, ...]]:
+        """The held values an unnamed keyframe gives (its couplings followed)."""
+        return {**self.held, **self.keyframe_moves(name)}
+
+
+def _value(v: float | tuple[float, ...]) -> str:
+    """A held joint's value for a message: ``1.2`` or ``(0, 0, 0.8, 1, 0, 0, 0)``."""
+    if isinstance(v, tuple):
+        return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
+    return f"{v:.6g}"
