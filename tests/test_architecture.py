@@ -288,7 +288,6 @@ LONG_MODULES = {
     "lab/page.py",
     "lab/sim.py",
     "model/loading.py",
-    "model/robot.py",
     "model/urdf.py",
     "reports/sections.py",
 }
@@ -304,8 +303,6 @@ LONG_FUNCTIONS = {
     "lab/page.py:_build_scene",
     "model/equivalence.py:compare_models",
     "model/equivalence.py:simulated_only",
-    "model/robot.py:select_arm",
-    "model/robot.py:_check_couplings",
     "model/support.py:inertia_causes",
     "model/urdf.py:check_urdf",
     "model/urdf.py:prepare_urdf",
