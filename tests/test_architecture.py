@@ -299,9 +299,6 @@ LONG_FUNCTIONS = {
     "collision/statistics.py:collision_statistics",
     "engines/mujoco.py:evaluate",
     "lab/page.py:_build_scene",
-    "model/equivalence.py:compare_models",
-    "model/equivalence.py:simulated_only",
-    "model/support.py:inertia_causes",
 }
 
 
