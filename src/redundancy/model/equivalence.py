@@ -23,7 +23,7 @@ from ..errors import RedundancyError
 from .actuators import simulation
 from .bridges import Bridge, effective_gravity
 from .names import display_names
-from .scales import arm_scales, scaled_error
+from .scales import Scales, arm_scales, scaled_error
 
 
 @dataclass(frozen=True)
@@ -267,84 +267,24 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         raise RedundancyError(f"tol must be a finite number >= 0, got {tol!r}")
     mj, pn = arm.mujoco, arm.pinocchio
     q = np.clip(np.zeros(arm.nq), arm.lower, arm.upper) if q is None else arm.pose(q)
-    names = arm.joint_names
-    diffs: list[Difference] = []
-    largest: dict[str, float] = {}
-    sc = arm_scales(arm)
-    L = sc.length
-    sizes = {  # each quantity's size on this arm (see model.scales)
-        "joint axis (world)": 1.0,
-        "joint axis line offset": L,
-        "armature": sc.inertia,
-        "damping": sc.inertia * np.sqrt(sc.gravity / L),  # m L^2 / (time scale sqrt(L/g))
-        "effort limit": sc.torque,
-        "body mass": sc.mass,
-        "centre of mass (world)": L,
-        "inertia about com (world)": sc.inertia,
-        "site position": L,
-        "site orientation": 1.0,
-        "gravity vector": sc.gravity,
-    }
-
-    def cmp(quantity: str, item: str, a: object, b: object, size: float | None = None) -> None:
-        e = scaled_error(a, b, sizes[quantity] if size is None else size)
-        largest[quantity] = max(largest.get(quantity, 0.0), e)
-        if e > tol:
-            diffs.append(Difference(quantity, item, a, b, e))
-
+    t = _Tally(tol, _sizes(arm_scales(arm)))
     pm = pn.model
-    # Tree structure: each joint's parent joint, by name.
-    for i, n in enumerate(names):
-        mj_parent = parent_joint(arm, i)
-        pin_parent = pm.names[pm.parents[pm.getJointId(n)]]
-        pin_parent = "" if pin_parent == "universe" else pin_parent
-        if mj_parent != pin_parent:
-            diffs.append(
-                Difference(
-                    "parent joint", n, mj_parent or "(base)", pin_parent or "(base)", float("inf")
-                )
-            )
-    from ..engines.pinocchio import joint_kind
-
-    for i, n in enumerate(names):
-        kind = joint_kind(pm.joints[pm.getJointId(n)])
-        if kind != arm.joint_types[i]:
-            diffs.append(Difference("joint type", n, arm.joint_types[i], kind, float("inf")))
-    ax_m, an_m = mj.joint_axes(q)
-    ax_p, an_p = pn.joint_axes(q)
-    for i, n in enumerate(names):
-        cmp("joint axis (world)", n, ax_m[i], ax_p[i])
-        if arm.joint_types[i] == "hinge":
-            # The anchor may sit anywhere on the axis line: compare its offset across the line.
-            r = an_p[i] - an_m[i]
-            cmp("joint axis line offset", n, np.zeros(3), r - (r @ ax_m[i]) * ax_m[i])
-    lo_p, hi_p = pn.limits
-    for i, n in enumerate(names):
-        unit = 1.0 if arm.joint_types[i] == "hinge" else L  # rad or m
-        lo_hi = np.array([arm.lower[i], arm.upper[i]])
-        cmp("joint range", n, lo_hi, np.array([lo_p[i], hi_p[i]]), unit)
-    cmp_vec = [
-        ("armature", arm.armature("mujoco"), arm.armature("pinocchio")),
-        ("damping", arm.damping("mujoco"), arm.damping("pinocchio")),
-        ("effort limit", arm.effort_limit, np.asarray(pm.effortLimit)[pn.perm]),
-    ]
-    for quantity, a, b in cmp_vec:
-        for i, n in enumerate(names):
-            cmp(quantity, n, float(a[i]), float(b[i]))
+    _compare_tree(arm, pm, t.diffs)
+    _compare_joints(arm, q, t)
     inertias = not arm.missing_inertia  # else the file gives none: nothing to compare
     if inertias:
         m_m, c_m, I_m = mj.link_inertias(q)
         m_p, c_p, I_p = pn.link_inertias(q)
-        for i, n in enumerate(names):
+        for i, n in enumerate(arm.joint_names):
             item = f"body moved by {n}"
-            cmp("body mass", item, float(m_m[i]), float(m_p[i]))
-            cmp("centre of mass (world)", item, c_m[i], c_p[i])
-            cmp("inertia about com (world)", item, I_m[i], I_p[i])
+            t.cmp("body mass", item, float(m_m[i]), float(m_p[i]))
+            t.cmp("centre of mass (world)", item, c_m[i], c_p[i])
+            t.cmp("inertia about com (world)", item, I_m[i], I_p[i])
     p_m, R_m = mj.site_pose(q)
     p_p, R_p = pn.site_pose(q)
-    cmp("site position", arm.frame, p_m, p_p)
-    cmp("site orientation", arm.frame, R_m, R_p)
-    cmp("gravity vector", "model", effective_gravity(arm.mj_model), np.asarray(pm.gravity.linear))
+    t.cmp("site position", arm.frame, p_m, p_p)
+    t.cmp("site orientation", arm.frame, R_m, R_p)
+    t.cmp("gravity vector", "model", effective_gravity(arm.mj_model), np.asarray(pm.gravity.linear))
     checked = (
         "parent joint",
         "joint type",
@@ -358,13 +298,96 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
         "gravity",
     )
     return EquivalenceReport(
-        tuple(diffs),
+        tuple(t.diffs),
         arm.bridges,
         tol,
         checked,
-        largest,
+        t.largest,
         simulated_only(arm.mj_model, int(arm.robot_model.opt.disableflags)),
     )
+
+
+def _sizes(sc: Scales) -> dict[str, float]:
+    """Each compared quantity's size on this arm (see `redundancy.model.scales`)."""
+    L = sc.length
+    return {
+        "joint axis (world)": 1.0,
+        "joint axis line offset": L,
+        "armature": sc.inertia,
+        "damping": sc.inertia * np.sqrt(sc.gravity / L),  # m L^2 / (time scale sqrt(L/g))
+        "effort limit": sc.torque,
+        "body mass": sc.mass,
+        "centre of mass (world)": L,
+        "inertia about com (world)": sc.inertia,
+        "site position": L,
+        "site orientation": 1.0,
+        "gravity vector": sc.gravity,
+    }
+
+
+@dataclass
+class _Tally:
+    """The differences beyond ``tol`` found so far, and the largest per quantity."""
+
+    tol: float
+    sizes: dict[str, float]
+    diffs: list[Difference] = field(default_factory=list)
+    largest: dict[str, float] = field(default_factory=dict)
+
+    def cmp(
+        self, quantity: str, item: str, a: object, b: object, size: float | None = None
+    ) -> None:
+        e = scaled_error(a, b, self.sizes[quantity] if size is None else size)
+        self.largest[quantity] = max(self.largest.get(quantity, 0.0), e)
+        if e > self.tol:
+            self.diffs.append(Difference(quantity, item, a, b, e))
+
+
+def _compare_tree(arm: Arm, pm: object, diffs: list[Difference]) -> None:
+    """Each joint's parent joint and type, by name: structure, infinitely different or equal."""
+    from ..engines.pinocchio import joint_kind
+
+    names = arm.joint_names
+    for i, n in enumerate(names):
+        mj_parent = parent_joint(arm, i)
+        pin_parent = pm.names[pm.parents[pm.getJointId(n)]]  # type: ignore[attr-defined]
+        pin_parent = "" if pin_parent == "universe" else pin_parent
+        if mj_parent != pin_parent:
+            diffs.append(
+                Difference(
+                    "parent joint", n, mj_parent or "(base)", pin_parent or "(base)", float("inf")
+                )
+            )
+    for i, n in enumerate(names):
+        kind = joint_kind(pm.joints[pm.getJointId(n)])  # type: ignore[attr-defined]
+        if kind != arm.joint_types[i]:
+            diffs.append(Difference("joint type", n, arm.joint_types[i], kind, float("inf")))
+
+
+def _compare_joints(arm: Arm, q: np.ndarray, t: _Tally) -> None:
+    """Each joint's axis (world), range, armature, damping and effort limit at pose ``q``."""
+    mj, pn, names = arm.mujoco, arm.pinocchio, arm.joint_names
+    ax_m, an_m = mj.joint_axes(q)
+    ax_p, an_p = pn.joint_axes(q)
+    for i, n in enumerate(names):
+        t.cmp("joint axis (world)", n, ax_m[i], ax_p[i])
+        if arm.joint_types[i] == "hinge":
+            # The anchor may sit anywhere on the axis line: compare its offset across the line.
+            r = an_p[i] - an_m[i]
+            t.cmp("joint axis line offset", n, np.zeros(3), r - (r @ ax_m[i]) * ax_m[i])
+    lo_p, hi_p = pn.limits
+    for i, n in enumerate(names):
+        unit = 1.0 if arm.joint_types[i] == "hinge" else t.sizes["joint axis line offset"]
+        lo_hi = np.array([arm.lower[i], arm.upper[i]])
+        t.cmp("joint range", n, lo_hi, np.array([lo_p[i], hi_p[i]]), unit)
+    cmp_vec = [
+        ("armature", arm.armature("mujoco"), arm.armature("pinocchio")),
+        ("damping", arm.damping("mujoco"), arm.damping("pinocchio")),
+        ("effort limit", arm.effort_limit, np.asarray(pn.model.effortLimit)[pn.perm]),
+    ]
+    for quantity, a, b in cmp_vec:
+        for i, n in enumerate(names):
+            t.cmp(quantity, n, float(a[i]), float(b[i]))
 
 
 def joint_of_body(arm: Arm, body: int) -> str:
@@ -398,15 +421,20 @@ def simulated_only(
             arm inside a robot: its model turns ``filterparent`` off to keep the robot's
             parent rule as excludes); default: the model's.
     """
-    out: list[SimulatedOnly] = []
     flags = int(model.opt.disableflags) if file_flags is None else file_flags
-    bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     joints = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
-    actuators = [
-        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator {a}"
-        for a in range(model.nu)
-    ]
-    sim = simulation(model)  # integrator and flags, read as the timestep bound reads them
+    return (
+        *_gravity_compensation(model, joints),
+        *_asymmetric_actuators(model),
+        *_joint_terms(model, joints),
+        *_integration(model, flags),
+    )
+
+
+def _gravity_compensation(model: mujoco.MjModel, joints: tuple[str, ...]) -> list[SimulatedOnly]:
+    """Bodies MuJoCo pushes up (``gravcomp``), joints whose actuators carry it."""
+    out: list[SimulatedOnly] = []
+    bodies = display_names(model, mujoco.mjtObj.mjOBJ_BODY)
     for b in range(1, model.nbody):
         gc = float(model.body_gravcomp[b])
         if gc != 0:
@@ -431,6 +459,16 @@ def simulated_only(
                     "force range, not applied as a free external force",
                 )
             )
+    return out
+
+
+def _asymmetric_actuators(model: mujoco.MjModel) -> list[SimulatedOnly]:
+    """Actuators whose force or control range differs per direction."""
+    out: list[SimulatedOnly] = []
+    actuators = [
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or f"actuator {a}"
+        for a in range(model.nu)
+    ]
     for a in range(model.nu):
         motor_like = (
             model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
@@ -453,6 +491,12 @@ def simulated_only(
                         f"{'negative' if abs(lo) < abs(hi) else 'positive'} direction",
                     )
                 )
+    return out
+
+
+def _joint_terms(model: mujoco.MjModel, joints: tuple[str, ...]) -> list[SimulatedOnly]:
+    """Per joint: an asymmetric actuator force range, a spring; then all friction loss."""
+    out: list[SimulatedOnly] = []
     friction: list[str] = []
     for j in range(model.njnt):
         dof = model.jnt_dofadr[j]
@@ -488,6 +532,13 @@ def simulated_only(
                 "gravity and hold numbers leave it out",
             )
         )
+    return out
+
+
+def _integration(model: mujoco.MjModel, flags: int) -> list[SimulatedOnly]:
+    """The integrator, and the physics the disable ``flags`` leave out."""
+    out: list[SimulatedOnly] = []
+    sim = simulation(model)  # integrator and flags, read as the timestep bound reads them
     integrator = sim.integrator
     out.append(
         SimulatedOnly(
@@ -540,4 +591,4 @@ def simulated_only(
                     "MuJoCo leaves this part of the physics out of the simulation",
                 )
             )
-    return tuple(out)
+    return out

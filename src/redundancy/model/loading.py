@@ -1,99 +1,31 @@
-"""Loading an MJCF or URDF file into both engines, checked and bridged, as an Arm."""
+"""Loading an MJCF or URDF file into both engines, checked and bridged, as an Arm.
+
+The entry points (`load`, `load_string`) and the recipe an Arm is rebuilt from; each format's
+path is a module of its own (`redundancy.model.mjcf_loading`, `redundancy.model.urdf_loading`),
+and both end in `redundancy.model.assembly.build_arm`.
+"""
 
 from __future__ import annotations
 
-import copy
-import math
 import os
-import tempfile
 import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from .. import models
 from ..arm import Arm
-from ..engines.mujoco import captured_warnings, joint_limits, object_names
-from ..errors import ModelError, ParameterError, UnknownNameError
-from .actuators import actuator_armature, actuator_damping, joint_force_limits
-from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
-from .content import Recipe, feed_assets, mujoco_assets, rebuild, record, recording
+from ..errors import ModelError, ParameterError
+from .assembly import LoadState
+from .content import Recipe, rebuild, record, recording
 from .ends import frame_for
-from .names import display_names
-from .resolved import resolve_causes, resolved_mjcf
-from .robot import (
-    ArmSelection,
-    RestSpec,
-    SetAside,
-    keyframe_moves,
-    reduce_mujoco,
-    reduce_pinocchio,
-    select_arm,
-)
-from .support import check_robot_values, check_supported
-from .urdf import (
-    DisabledPairs,
-    build_mujoco,
-    build_pinocchio,
-    check_urdf,
-    is_urdf,
-    prepare_urdf,
-    read_disabled_pairs,
-    resolve_frame,
-)
+from .mjcf_loading import load_mjcf, read_mujoco
+from .robot import RestSpec, SetAside
+from .urdf import DisabledPairs, is_urdf
+from .urdf_loading import load_urdf
 from .xmlfile import decode_xml, expanded, parse_xml, strip_declaration
-
-
-def _read_mujoco(
-    xml: str | None, path: Path | None, base: Path | None = None, tool: object = None
-) -> tuple[mujoco.MjSpec, mujoco.MjModel, str]:
-    """MuJoCo's model of the whole robot, with the tool as a site.
-
-    Returns:
-        An uncompiled copy of the spec (the held joints are deleted from it: editing a
-        compiled spec costs 50 ms a joint, a fresh copy 2 ms), the compiled model, and
-        ``"site"`` or ``"body"``: what the tool is in the MJCF.
-    """
-    try:
-        # MuJoCo's compile-time warnings (a NaN in the XML, a singular inertia, a deprecated
-        # attribute) would be printed and written to MUJOCO_LOG.TXT; check_supported refuses
-        # their causes with the library's own message instead.
-        with captured_warnings():
-            if path is not None:
-                spec = mujoco.MjSpec.from_file(str(path))
-            else:
-                spec = mujoco.MjSpec.from_string(xml or "")
-                if base is not None:
-                    # Transcoded text of a file: relative asset paths count from its directory.
-                    spec.modelfiledir = str(base)
-            if spec.compiler.fusestatic:
-                # Fused bodies would leave the compiled model with fewer bodies than the spec
-                # the held joints are edited in; unfused, masses and placements are the same.
-                spec.compiler.fusestatic = False
-            feed_assets(spec, mujoco_assets(spec, base or Path.cwd()))
-            pristine = spec.copy()
-            model = spec.compile()  # MuJoCo's own errors first, then the tool's
-    except (ValueError, TypeError) as err:
-        raise ModelError(f"MuJoCo could not compile the model: {err}") from err
-    kind = _mjcf_tool(pristine, tool)
-    if kind == "body":  # the site added to the copy: compile a copy of the copy
-        edited = pristine.copy()
-        with captured_warnings():
-            model = pristine.compile()
-        pristine = edited
-    return pristine, model, kind
-
-
-def _read_pinocchio(path: Path) -> object:
-    import pinocchio as pin
-
-    try:
-        return pin.buildModelFromMJCF(str(path))
-    except Exception as err:  # Pinocchio raises bare RuntimeError/ValueError from C++.
-        raise ModelError(f"Pinocchio could not read the model: {err}") from err
 
 
 def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
@@ -235,20 +167,20 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
         if tool is None:  # the model's default, from its chain ends, includes read
             whole = expanded(root, folder)
             tool = frame_for(whole[0], shown)
-        robot = _Robot(tool, base, rest, shown)  # type: ignore[arg-type]
+        robot = LoadState(tool, base, rest, shown)  # type: ignore[arg-type]
         if is_urdf(root):
-            arm = _load_urdf(text, root, folder, pairs, robot)  # type: ignore[arg-type]
+            arm = load_urdf(text, root, folder, pairs, robot)  # type: ignore[arg-type]
         else:
             _check_mjcf(pairs)  # type: ignore[arg-type]
             if as_is:
                 # By its absolute path: MuJoCo then looks its assets up by theirs.
-                spec, mj, kind = _read_mujoco(None, p.resolve(), folder, tool)
+                spec, mj, kind = read_mujoco(None, p.resolve(), folder, tool)
             else:
-                spec, mj, kind = _read_mujoco(text, None, folder, tool)
+                spec, mj, kind = read_mujoco(text, None, folder, tool)
             # After MuJoCo, whose errors name a missing include first.
             mjcf = _edited(robot, whole or expanded(root, folder))
             path_for_pin = None if robot.changed or not as_is else p
-            arm = _load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)  # type: ignore[arg-type]
+            arm = load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)  # type: ignore[arg-type]
     recipe = Recipe.made("load", str(p.resolve()), str(folder), options, shown, reading.files)
     arm._recipe = (rebuild_arm, (recipe,))
     return arm
@@ -314,14 +246,14 @@ def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
         if tool is None:
             whole = expanded(root, folder)
             tool = frame_for(whole[0], "<string>")
-        robot = _Robot(tool, base, rest, "<string>")  # type: ignore[arg-type]
+        robot = LoadState(tool, base, rest, "<string>")  # type: ignore[arg-type]
         if is_urdf(root):
-            arm = _load_urdf(xml, root, folder, pairs, robot)  # type: ignore[arg-type]
+            arm = load_urdf(xml, root, folder, pairs, robot)  # type: ignore[arg-type]
         else:
             _check_mjcf(pairs)  # type: ignore[arg-type]
-            spec, mj, kind = _read_mujoco(xml, None, folder, tool)
+            spec, mj, kind = read_mujoco(xml, None, folder, tool)
             mjcf = _edited(robot, whole or expanded(root, folder))
-            arm = _load_mjcf(spec, mj, kind, mjcf, strict, robot, None)  # type: ignore[arg-type]
+            arm = load_mjcf(spec, mj, kind, mjcf, strict, robot, None)  # type: ignore[arg-type]
     recipe = Recipe.made("load_string", xml, str(folder), options, "<string>", reading.files)
     arm._recipe = (rebuild_arm, (recipe,))
     return arm
@@ -330,18 +262,6 @@ def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
 def model_format(arm: Arm) -> str:
     """``"URDF"`` or ``"MJCF"``: the format the arm was loaded from (recorded at load)."""
     return arm.model_format
-
-
-class _Robot:
-    """What a load asks for (tool, base, rest) and what it has set aside so far."""
-
-    def __init__(self, tool: str, base: str | None, rest: RestSpec, source: str) -> None:
-        self.tool, self.base, self.rest = tool, base, rest
-        self.source = source
-        self.set_aside: list[SetAside] = []
-        self.defects: list[str] = []  # defects of the file on bodies the arm moves
-        self.missing_inertia: list[str] = []  # links the arm moves without inertial data
-        self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
 def _frozen_rest(rest: RestSpec) -> RestSpec:
@@ -367,7 +287,7 @@ def _check_mjcf(pairs: DisabledPairs | None) -> None:
         )
 
 
-def _edited(robot: _Robot, whole: tuple[ET.Element, list[SetAside]]) -> ET.Element:
+def _edited(robot: LoadState, whole: tuple[ET.Element, list[SetAside]]) -> ET.Element:
     """The expanded MJCF, its edits recorded on ``robot`` (set aside; Pinocchio reads it)."""
     mjcf, edits = whole
     robot.set_aside += edits
@@ -385,248 +305,3 @@ def _frozen_pairs(pairs: DisabledPairs) -> DisabledPairs:
         raise ModelError(
             f"disabled_collisions must be an SRDF path or (link, link) pairs: {err}"
         ) from err
-
-
-def _pinocchio_from_text(xml: str) -> object:
-    with tempfile.TemporaryDirectory() as tmp:
-        p = Path(tmp) / "model.xml"
-        p.write_text(xml, encoding="utf-8")
-        return _read_pinocchio(p)
-
-
-def _mjcf_tool(spec: mujoco.MjSpec, tool: str) -> str:
-    """``"site"`` or ``"body"``: what the MJCF tool frame is; a body gets a site of its name.
-
-    Raises:
-        UnknownNameError: Neither a site nor a body (the message lists both).
-    """
-    names = [s.name for s in spec.sites if s.name] + [
-        b.name for b in spec.bodies if b.name and b.name != "world"
-    ]
-    if not isinstance(tool, str):
-        raise UnknownNameError("site or body", repr(tool), names)
-    if tool and spec.site(tool) is not None:
-        return "site"
-    body = spec.body(tool) if tool and tool != "world" else None
-    if body is None:
-        raise UnknownNameError("site or body", tool, names)
-    # MuJoCo's tool is a site: one at the body's origin, named after it (Pinocchio reads
-    # the body's own frame).
-    body.add_site(name=tool)
-    return "body"
-
-
-def _load_mjcf(
-    spec: mujoco.MjSpec,
-    full: mujoco.MjModel,
-    kind: str,
-    root: ET.Element,
-    strict: bool,
-    robot: _Robot,
-    path: Path | None,
-) -> Arm:
-    """Both engines' MJCF parsers on the whole robot, then the arm selected and the rest held."""
-    if any(c.get("fusestatic") == "true" for c in root.iter("compiler")):
-        robot.set_aside.append(
-            SetAside(
-                "compiler option",
-                'fusestatic="true"',
-                "bodies without joints kept as bodies (the same masses and placements; "
-                "fused, a held joint's body could not be placed)",
-            )
-        )
-    sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
-    sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
-    mj, aside = reduce_mujoco(spec, full, sel)
-    robot.set_aside += aside
-    tree_root = int(full.body_rootid[sel.tool_body])
-    roots = [b for b in range(1, full.nbody) if full.body_parentid[b] == 0]
-    pin_root = root
-    if len(roots) > 1:
-        bodies = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
-        for r in roots:
-            if r != tree_root:
-                robot.set_aside.append(
-                    SetAside(
-                        "root body",
-                        bodies[r],
-                        "another tree: not given to Pinocchio (it does not move with the "
-                        "arm); MuJoCo keeps it for collisions",
-                    )
-                )
-        pin_root = _only_tree(root, roots.index(tree_root))
-        robot.changed = True
-    check_supported(mj, pin_root, strict, tool_site=robot.tool if kind == "body" else None)
-    check_robot_values(full)
-    causes = resolve_causes(pin_root) if strict else []
-    pm = None
-    if not causes:
-        try:
-            if path is not None and not robot.changed:
-                pm = _read_pinocchio(path)
-            else:
-                pm = _pinocchio_from_text(ET.tostring(pin_root, encoding="unicode"))
-        except ModelError as err:
-            # The parser's own failure ("unordered_map::at") explains nothing to the user:
-            # Pinocchio gets the model as MuJoCo compiled it instead, and the report says why.
-            causes = [f"Pinocchio's parser could not read the file ({err.__cause__ or err})"]
-    bridged: tuple[Bridge, ...] = ()
-    if causes:
-        pm, bridged = _read_resolved(full, tree_root, causes)
-        pin_root = None  # every inertial is explicit: nothing for the inertia bridges to do
-    frame_type = "body" if kind == "body" else "site"
-    return _build(mj, full, pm, sel, robot, bridged, pin_root, "MJCF", frame_type)
-
-
-def _read_resolved(
-    full: mujoco.MjModel, tree_root: int, causes: list[str]
-) -> tuple[object, tuple[Bridge, ...]]:
-    """Pinocchio's model of MuJoCo's compiled tree (`.resolved`), and the note saying so."""
-    text = resolved_mjcf(full, tree_root)
-    try:
-        pm = _pinocchio_from_text(text)
-    except ModelError as err:
-        raise ModelError(
-            f"Pinocchio could not read the model: {'; '.join(causes)}; nor MuJoCo's compiled "
-            f"model of it written out as plain MJCF ({err.__cause__ or err})"
-        ) from err
-    note = Bridge(
-        "whole model",
-        display_names(full, mujoco.mjtObj.mjOBJ_BODY)[tree_root],
-        f"{int(np.sum(full.body_rootid == tree_root))} bodies",
-        "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
-        "sites), because of " + "; ".join(causes),
-    )
-    return pm, (note,)
-
-
-def _only_tree(root: ET.Element, index: int) -> ET.Element:
-    """The MJCF with one tree of ``<worldbody>`` (the ``index``-th root body) and no keyframes.
-
-    Pinocchio's MJCF parser reads only the first body of ``<worldbody>``; the arm's tree is
-    handed to it alone. Keyframes go (their qpos is the whole robot's), as do elements that
-    refer to other trees and that Pinocchio does not read (contact, equality, tendon,
-    actuator, sensor).
-    """
-    root = copy.deepcopy(root)
-    for world in root.findall("worldbody"):
-        bodies = [el for el in world if el.tag == "body"]
-        for k, el in enumerate(bodies):
-            if k != index:
-                world.remove(el)
-    for tag in ("keyframe", "contact", "equality", "tendon", "actuator", "sensor"):
-        for el in root.findall(tag):
-            root.remove(el)
-    return root
-
-
-def _load_urdf(
-    text: str,
-    root: ET.Element,
-    base: Path,
-    pairs: DisabledPairs | None,
-    robot: _Robot,
-) -> Arm:
-    """Both engines' URDF importers on the whole robot, checked (see `urdf`)."""
-    source = robot.source
-    tree = check_urdf(root, source)
-    tool_link = resolve_frame(tree, robot.tool)
-    base_link = robot.base  # select_arm checks it is a link on the chain to the tool
-    disabled, skipped = read_disabled_pairs(pairs, tree)
-    if skipped is not None:
-        robot.set_aside.append(skipped)
-    mended, notes, defects, missing = prepare_urdf(root, tree, tool_link, base_link, source)
-    robot.missing_inertia += missing
-    if notes:
-        text = ET.tostring(mended, encoding="unicode")
-        robot.set_aside += notes
-    robot.defects += defects
-    pm, continuous = build_pinocchio(text, source)
-    spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
-    robot.set_aside += meshes
-    sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
-    made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}
-    sel = select_arm(
-        full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest, made_fixed
-    )
-    mj, aside = reduce_mujoco(spec, full, sel)
-    robot.set_aside += aside
-    # URDF inertials are explicit and the joints are checked above: only the generic
-    # refusals apply (non-finite values, negative damping, inverted ranges).
-    check_supported(mj, None, strict=False)
-    rebuilt = tuple(
-        Bridge(
-            "continuous joint as one angle",
-            name,
-            (-math.inf, math.inf),
-            "URDF continuous joint (Pinocchio's parser makes it a cos/sin pair)",
-        )
-        for name in continuous
-        if name in sel.joints
-    )
-    robot.tool = tool_link
-    return _build(mj, full, pm, sel, robot, rebuilt, None, "URDF", "body")
-
-
-def _build(
-    mj: mujoco.MjModel,
-    full: mujoco.MjModel,
-    pm_full: object,
-    sel: ArmSelection,
-    robot: _Robot,
-    bridged: tuple[Bridge, ...],
-    xml_root: ET.Element | None,
-    model_format: str,
-    frame_type: str,
-) -> Arm:
-    """Bridge and reduce Pinocchio's model, check both engines see the same arm, build it.
-
-    ``bridged`` lists what the loader has already changed in Pinocchio's model. What is
-    bridged on the whole robot (a posed root, inertias Pinocchio reads differently, the tool
-    frame's placement) is bridged before the held joints are locked; per-joint values after.
-    """
-    site = robot.tool
-    robot_bridges = bridge_robot(pm_full, full, site, frame_type, xml_root)  # type: ignore[arg-type]
-    pm = reduce_pinocchio(pm_full, full, sel)
-    joint_names = object_names(mj, mujoco.mjtObj.mjOBJ_JOINT)
-    check_pinocchio(pm, joint_names, site, frame_type)  # type: ignore[arg-type]
-    lower, upper = joint_limits(mj)
-    # Armature and damping as the dynamics see them: the joint's own plus gear^2 times what
-    # its actuators add (rotor-side values reflected through the transmission).
-    armature = mj.dof_armature + actuator_armature(mj)
-    damping = mj.dof_damping + actuator_damping(mj)
-    effort = joint_force_limits(mj)
-    bridges = (
-        bridged
-        + robot_bridges
-        + bridge(
-            pm,  # type: ignore[arg-type]
-            mj,
-            joint_names,
-            effort,
-            armature,
-            damping,
-            lower,
-            upper,
-        )
-    )
-    return Arm(
-        mj,
-        pm,
-        site,
-        robot.source,
-        armature=armature,
-        damping=damping,
-        effort_limit=effort,
-        bridges=bridges,
-        model_format=model_format,
-        held=sel.held,
-        set_aside=tuple(robot.set_aside),
-        defects=tuple(robot.defects),
-        missing_inertia=tuple(robot.missing_inertia),
-        robot_model=full,
-        frame_type=frame_type,
-        base=sel.base,
-        rest=sel.rest,
-        key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
-    )

@@ -398,35 +398,9 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
         MuJoCo body id -> causes, for every body whose inertia may be read differently.
         Empty when the XML's bodies cannot be matched one to one with the compiled model's.
     """
-    compiler: dict[str, str] = {}
-    for el in root.iter("compiler"):
-        compiler.update(el.attrib)
-    from_geoms_always = compiler.get("inertiafromgeom", "auto") == "true"
-    try:
-        group_range = [int(x) for x in compiler.get("inertiagrouprange", "0 5").split()[:2]]
-    except ValueError:  # MuJoCo refuses such a value before this is reached
-        group_range = [0, 5]
-    if len(group_range) != 2:
-        group_range = [0, 5]
-    global_causes = tuple(
-        f"<compiler {a}={compiler[a]!r}> (Pinocchio's parser does not apply it as MuJoCo does)"
-        for a in _MASS_OPTIONS
-        if a in compiler
-    )
+    from_geoms_always, group_range, global_causes = _inertia_compiler(root)
     defaults = _Defaults(root)
-    found: list[tuple[ET.Element, str | None]] = []
-
-    def walk(el: ET.Element, active: str | None) -> None:
-        for child in el:
-            if child.tag == "body":
-                inner = child.get("childclass", active)
-                found.append((child, inner))
-                walk(child, inner)
-            elif child.tag == "frame":
-                walk(child, child.get("childclass", active))
-
-    for world in root.findall("worldbody"):
-        walk(world, None)
+    found = _xml_bodies(root)
     if len(found) != model.nbody - 1:
         return {}
     out: dict[int, tuple[str, ...]] = {}
@@ -443,22 +417,7 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
         )
         if not from_geoms and not global_causes and el.get("name") and not no_inertia:
             continue
-        causes = list(global_causes)
-        if no_inertia:
-            causes.append(
-                f"<inertial> of body {bodies[b]!r} without diaginertia or fullinertia "
-                "(MuJoCo gives it no rotational inertia, Pinocchio's parser 1 kg m^2 on each axis)"
-            )
-        if not el.get("name"):
-            causes.append(
-                f"unnamed body {bodies[b]!r} (Pinocchio's parser names it after its "
-                "parent and can lose it)"
-            )
-        if any(f.iter("geom") for f in el.findall("frame")):
-            causes.append(
-                f"geoms inside <frame> in body {bodies[b]!r} (Pinocchio's parser "
-                "drops the contents of <frame>)"
-            )
+        causes = list(global_causes) + _body_causes(el, bodies[b], no_inertia)
         elements = el.findall("geom")
         if from_geoms and len(elements) == model.body_geomnum[b]:
             for k, geom in enumerate(elements):
@@ -474,6 +433,70 @@ def inertia_causes(root: ET.Element, model: mujoco.MjModel) -> dict[int, tuple[s
                 )
         out[b] = tuple(causes)
     return out
+
+
+def _inertia_compiler(root: ET.Element) -> tuple[bool, list[int], tuple[str, ...]]:
+    """The ``<compiler>`` settings the inertias depend on.
+
+    Returns:
+        Whether every inertia comes from geoms (``inertiafromgeom="true"``), the
+        ``inertiagrouprange``, and the causes that apply to every body (mass settings
+        Pinocchio's parser does not apply).
+    """
+    compiler: dict[str, str] = {}
+    for el in root.iter("compiler"):
+        compiler.update(el.attrib)
+    from_geoms_always = compiler.get("inertiafromgeom", "auto") == "true"
+    try:
+        group_range = [int(x) for x in compiler.get("inertiagrouprange", "0 5").split()[:2]]
+    except ValueError:  # MuJoCo refuses such a value before this is reached
+        group_range = [0, 5]
+    if len(group_range) != 2:
+        group_range = [0, 5]
+    global_causes = tuple(
+        f"<compiler {a}={compiler[a]!r}> (Pinocchio's parser does not apply it as MuJoCo does)"
+        for a in _MASS_OPTIONS
+        if a in compiler
+    )
+    return from_geoms_always, group_range, global_causes
+
+
+def _xml_bodies(root: ET.Element) -> list[tuple[ET.Element, str | None]]:
+    """The MJCF's bodies in MuJoCo's order (depth first, through frames), each with its class."""
+    found: list[tuple[ET.Element, str | None]] = []
+
+    def walk(el: ET.Element, active: str | None) -> None:
+        for child in el:
+            if child.tag == "body":
+                inner = child.get("childclass", active)
+                found.append((child, inner))
+                walk(child, inner)
+            elif child.tag == "frame":
+                walk(child, child.get("childclass", active))
+
+    for world in root.findall("worldbody"):
+        walk(world, None)
+    return found
+
+
+def _body_causes(el: ET.Element, name: str, no_inertia: bool) -> list[str]:
+    """A body's own causes: an inertial without inertia, no name, geoms in a ``<frame>``."""
+    causes = []
+    if no_inertia:
+        causes.append(
+            f"<inertial> of body {name!r} without diaginertia or fullinertia "
+            "(MuJoCo gives it no rotational inertia, Pinocchio's parser 1 kg m^2 on each axis)"
+        )
+    if not el.get("name"):
+        causes.append(
+            f"unnamed body {name!r} (Pinocchio's parser names it after its parent and can lose it)"
+        )
+    if any(f.iter("geom") for f in el.findall("frame")):
+        causes.append(
+            f"geoms inside <frame> in body {name!r} (Pinocchio's parser "
+            "drops the contents of <frame>)"
+        )
+    return causes
 
 
 def _geom_causes(

@@ -1,0 +1,75 @@
+"""A URDF into both engines: its tree checked, its masses mended, each engine's importer.
+
+See `redundancy.model.urdf` for how the library reads URDF.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+
+from ..arm import Arm
+from .assembly import LoadState, build_arm
+from .bridges import Bridge
+from .robot import reduce_mujoco, select_arm
+from .support import check_supported
+from .urdf import (
+    DisabledPairs,
+    build_mujoco,
+    build_pinocchio,
+    check_urdf,
+    prepare_urdf,
+    read_disabled_pairs,
+    resolve_frame,
+)
+
+
+def load_urdf(
+    text: str,
+    root: ET.Element,
+    base: Path,
+    pairs: DisabledPairs | None,
+    robot: LoadState,
+) -> Arm:
+    """Both engines' URDF importers on the whole robot, checked (see `urdf`)."""
+    source = robot.source
+    tree = check_urdf(root, source)
+    tool_link = resolve_frame(tree, robot.tool)
+    base_link = robot.base  # select_arm checks it is a link on the chain to the tool
+    disabled, skipped = read_disabled_pairs(pairs, tree)
+    if skipped is not None:
+        robot.set_aside.append(skipped)
+    mended, notes, defects, missing = prepare_urdf(root, tree, tool_link, base_link, source)
+    robot.missing_inertia += missing
+    if notes:
+        text = ET.tostring(mended, encoding="unicode")
+        robot.set_aside += notes
+    robot.defects += defects
+    pm, continuous = build_pinocchio(text, source)
+    spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    robot.set_aside += meshes
+    sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
+    made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}
+    sel = select_arm(
+        full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest, made_fixed
+    )
+    mj, aside = reduce_mujoco(spec, full, sel)
+    robot.set_aside += aside
+    # URDF inertials are explicit and the joints are checked above: only the generic
+    # refusals apply (non-finite values, negative damping, inverted ranges).
+    check_supported(mj, None, strict=False)
+    rebuilt = tuple(
+        Bridge(
+            "continuous joint as one angle",
+            name,
+            (-math.inf, math.inf),
+            "URDF continuous joint (Pinocchio's parser makes it a cos/sin pair)",
+        )
+        for name in continuous
+        if name in sel.joints
+    )
+    robot.tool = tool_link
+    return build_arm(mj, full, pm, sel, robot, rebuilt, None, "URDF", "body")
