@@ -286,7 +286,6 @@ LONG_MODULES = {
     "arm.py",
     "engines/mujoco.py",
     "lab/page.py",
-    "lab/sim.py",
     "model/loading.py",
     "model/robot.py",
     "model/urdf.py",
