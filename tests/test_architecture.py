@@ -289,7 +289,6 @@ LONG_MODULES = {
     "model/loading.py",
     "model/robot.py",
     "model/urdf.py",
-    "reports/sections.py",
 }
 #: The functions still of `FUNCTION_LINES` or more: the list may only shrink (the goal is 5).
 LONG_FUNCTIONS = {
