@@ -294,7 +294,6 @@ LONG_FUNCTIONS = {
     "analysis/batch.py:solve_ik",
     "analysis/crosscheck.py:crosscheck_batch",
     "analysis/selfmotion.py:self_motion",
-    "collision/statistics.py:collision_statistics",
     "engines/mujoco.py:evaluate",
     "lab/page.py:_build_scene",
     "model/equivalence.py:compare_models",
