@@ -295,7 +295,6 @@ LONG_FUNCTIONS = {
     "analysis/crosscheck.py:crosscheck_batch",
     "analysis/selfmotion.py:self_motion",
     "engines/mujoco.py:evaluate",
-    "lab/page.py:_build_scene",
     "model/equivalence.py:compare_models",
     "model/equivalence.py:simulated_only",
     "model/robot.py:select_arm",

@@ -219,7 +219,6 @@ class LabPage:
     # -- scene -----------------------------------------------------------------------------
     def _build_scene(self) -> None:
         scene = self.server.scene
-        m = self.sim.model
         scene.set_up_direction("+z")
         # Plain lights instead of viser's image-based environment: as clear, and several
         # times cheaper to render where WebGL runs in software (headless browsers, VMs).
@@ -232,6 +231,19 @@ class LabPage:
         scene.add_grid(
             "/floor", width=grid, height=grid, cell_size=0.1, section_size=0.5, plane="xy"
         )
+        self._build_links()
+        _, _, anchor, axis, site, rot = self.sim.frames()
+        self._build_markers(anchor, axis)
+        self._build_gizmo(site, rot)
+        position, look_at = self.camera_view("oblique", aspect=1.0)
+        self.server.initial_camera.look_at = tuple(look_at)
+        self.server.initial_camera.position = tuple(position)
+        self.server.initial_camera.fov = math.radians(45.0)
+
+    def _build_links(self) -> None:
+        """The arm's geoms, a colour per link, clickable; the link-name labels."""
+        scene = self.server.scene
+        m = self.sim.model
         self._geoms = drawn_geoms(m)
         colors = link_colors(m)
         self._body_of = [int(m.geom_bodyid[g]) for g in self._geoms]
@@ -263,7 +275,10 @@ class LabPage:
             for b in self._link_bodies
         }
         self._picked_label = scene.add_label("/picked", "", visible=False, font_screen_scale=1.2)
-        _, _, anchor, axis, site, rot = self.sim.frames()
+
+    def _build_markers(self, anchor: Array, axis: Array) -> None:
+        """Joint frames and axes, contact markers, the tool, the ellipsoid, lost arrows, trail."""
+        scene = self.server.scene
         self._frames = [
             scene.add_frame(f"/frames/{name}", axes_length=0.08, axes_radius=0.004, visible=False)
             for name in self.arm.joint_names
@@ -309,6 +324,10 @@ class LabPage:
         self._trail_handle = scene.add_line_segments(
             "/trail", none, (30, 100, 235), thickness=3.0, thickness_units="screen", visible=False
         )
+
+    def _build_gizmo(self, site: Array, rot: Array) -> None:
+        """The gizmo that drags the tool, at the tool's pose."""
+        scene = self.server.scene
         self.gizmo = scene.add_transform_controls(
             "/gizmo",
             scale=max(0.15, 0.2 * self.reach),
@@ -318,10 +337,6 @@ class LabPage:
             wxyz=tuple(mat_to_quat(rot)),
         )
         self.gizmo.on_update(self._on_gizmo)
-        position, look_at = self.camera_view("oblique", aspect=1.0)
-        self.server.initial_camera.look_at = tuple(look_at)
-        self.server.initial_camera.position = tuple(position)
-        self.server.initial_camera.fov = math.radians(45.0)
 
     def _reach(self) -> tuple[float, Array]:
         """Upper bound of the tool's distance from the first joint's anchor [m], and that anchor.
