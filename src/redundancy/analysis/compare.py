@@ -39,14 +39,14 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arm import Arm, sampling_ranges
-from ..engines.contract import Stacks
-from ..errors import ModelError, UnknownNameError
+from ..arm import Arm
+from ..errors import ModelError
 from ..model.bridges import effective_gravity
 from ..model.equivalence import fit_rigid, parent_joint
 from ..model.names import display_names
 from ..model.scales import arm_scales, scaled_error, scaled_errors
-from .comparison import Comparison, Finding, RigidOffset, read_joint_map
+from .compare_poses import mujoco_stacks, passive_forces, shared_poses
+from .comparison import Comparison, Finding, RigidOffset, match_joints, read_joint_map
 
 Array = NDArray[np.float64]
 
@@ -60,24 +60,6 @@ FIT_TOL = 1e-6
 
 def _skew(v: Array) -> Array:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _match(a: Arm, b: Arm, joint_map: Mapping[str, str] | None) -> list[tuple[str, str]]:
-    mapping = dict(joint_map or {})
-    for name_a, name_b in mapping.items():
-        if name_a not in a.joint_names:
-            raise UnknownNameError("joint", name_a, a.joint_names)
-        if name_b not in b.joint_names:
-            raise UnknownNameError("joint", name_b, b.joint_names)
-    pairs = [(n, mapping.get(n, n)) for n in a.joint_names]
-    targets = [nb for _, nb in pairs]
-    twice = sorted({nb for nb in targets if targets.count(nb) > 1})
-    if twice:
-        raise ModelError(
-            f"the joint map sends two joints of A to one joint of B ({', '.join(twice)}): "
-            f"{dict(pairs)}"
-        )
-    return pairs
 
 
 def compare(
@@ -141,7 +123,7 @@ def compare(
     arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a)
     arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b)
     fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
-    pairs = _match(arm_a, arm_b, joint_map)
+    pairs = match_joints(arm_a, arm_b, joint_map)
     return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)
 
 
@@ -486,25 +468,8 @@ class _Comparer:
         return qb
 
     # -- poses -----------------------------------------------------------------------------
-    def poses(self, n: int, seed: int) -> Array:
-        lo_a, hi_a = sampling_ranges(self.a)
-        lo_b, hi_b = sampling_ranges(self.b)
-        lo, hi = lo_a.copy(), hi_a.copy()
-        # Draw where both ranges allow (a range only one file has is a structural difference).
-        lo[self.ia] = np.maximum(lo_a[self.ia], lo_b[self.ib])
-        hi[self.ia] = np.minimum(hi_a[self.ia], hi_b[self.ib])
-        empty = lo > hi
-        lo[empty], hi[empty] = lo_a[empty], hi_a[empty]
-        qs = [np.random.default_rng(seed).uniform(lo, hi, size=(n, self.a.nq))]
-        qs += [q[None, :] for q in self.a.keyframes.values()]
-        for q in self.b.keyframes.values():
-            qa = np.clip(np.zeros(self.a.nq), self.a.lower, self.a.upper)
-            qa[self.ia] = q[self.ib]
-            qs.append(qa[None, :])
-        return np.concatenate(qs) if qs else np.zeros((0, self.a.nq))
-
     def pose_by_pose(self, n: int, seed: int) -> int:
-        qs = self.poses(n, seed)
+        qs = shared_poses(self.a, self.b, self.ia, self.ib, n, seed)
         if not len(qs):
             return 0
         perm = np.asarray(self.ib)
@@ -512,8 +477,8 @@ class _Comparer:
         full_m = self.armature_comparable
         gravity_ok = not any(f.quantity == "gravity vector" for f in self.inexpressible)
         # One stacked pass per arm (the engine's evaluate, equal to its single-pose methods).
-        Xa, Ra, Ja, Ma, Ga = _mujoco_stacks(self.a, qs, full_m, gravity_ok)
-        Xb, Rb, Jb, Mb, Gb = _mujoco_stacks(self.b, self.to_b(qs), full_m, gravity_ok)
+        Xa, Ra, Ja, Ma, Ga = mujoco_stacks(self.a, qs, full_m, gravity_ok)
+        Xb, Rb, Jb, Mb, Gb = mujoco_stacks(self.b, self.to_b(qs), full_m, gravity_ok)
         # A's tool where B's base and mount put it (gravity stays: a turned base changes it).
         Ja = self.jacobian_a(Ja, Ra)
         Xa, Ra = self.tool_a(Xa, Ra)
@@ -528,7 +493,9 @@ class _Comparer:
         if Ga is not None and Gb is not None:
             values["gravity torque"] = (Ga[:, cols], Gb[:, perm], 0)
         if self.fmt_a == self.fmt_b:
-            (Pa, Ca), (Pb, Cb) = self.passive_forces(qs, seed)
+            (Pa, Ca), (Pb, Cb) = passive_forces(
+                self.a, self.b, qs, self.to_b(qs), self.ia, self.ib, self.scales.length, seed
+            )
             values["spring and fluid force"] = (Pa[:, cols], Pb[:, perm], 0)
             values["gravity compensation torque"] = (Ca[:, cols], Cb[:, perm], 0)
         sc = self.scales
@@ -568,27 +535,6 @@ class _Comparer:
             self.diffs.append(Finding(name, where, float(va[entry]), float(vb[entry]), err, note))
         return len(qs)
 
-    def passive_forces(self, qs: Array, seed: int) -> tuple[tuple[Array, Array], ...]:
-        """Each arm's passive force less damping and gravity compensation, and the latter.
-
-        At the poses ``qs`` (A's) with random velocities in +-1 rad/s (+-1 arm length per
-        second on a slide), the same for the joints both have. The damping (compared on its
-        own) and the gravity compensation (the second array) are taken out of the passive
-        force, so that no difference is reported twice.
-        """
-        unit = np.where(np.array(self.a.joint_types) == "hinge", 1.0, self.scales.length)
-        Va = np.random.default_rng([seed, 1]).uniform(-1.0, 1.0, qs.shape) * unit
-        Vb = np.zeros((len(qs), self.b.nq))
-        Vb[:, self.ib] = Va[:, self.ia]
-        out = []
-        for arm, Q, V in ((self.a, qs, Va), (self.b, self.to_b(qs), Vb)):
-            m = arm.mj_model
-            P, C = arm.mujoco.passive_forces(Q, V)
-            # The compensation is in qfrc_passive except on joints that send it to actuators.
-            passive_gc = C * (m.jnt_actgravcomp[m.dof_jntid] == 0)
-            out.append((P + m.dof_damping * V - passive_gc, C))
-        return tuple(out)
-
     def run(self, n: int, seed: int) -> Comparison:
         self.find_base()
         self.structure()
@@ -611,17 +557,6 @@ class _Comparer:
             tol=self.tol,
             offsets=tuple(self.offsets),
         )
-
-
-def _mujoco_stacks(
-    arm: Arm, Q: Array, armature: bool, gravity: bool
-) -> tuple[Array, Array, Array, Array, Array | None]:
-    """MuJoCo's tool poses, Jacobians, mass matrices and (if asked) gravity over ``Q``."""
-    n, nv = len(Q), arm.nq
-    X, R, J, M = np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 6, nv)), np.empty((n, nv, nv))
-    G = np.empty((n, nv)) if gravity else None
-    arm.mujoco.evaluate(Q, Stacks(X=X, R=R, J=J, M=M, G=G, armature=armature))
-    return X, R, J, M, G
 
 
 def _joint_bodies(arm: Arm) -> list[str]:

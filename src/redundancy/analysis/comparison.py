@@ -1,4 +1,4 @@
-"""What `redundancy.compare` returns, and the joint map it may read from a file.
+"""What `redundancy.compare` returns, and the joint map it may read from a file and pairs joints by.
 
 A [`Comparison`][redundancy.analysis.comparison.Comparison] holds the verdict, each
 [`Finding`][redundancy.analysis.comparison.Finding] (a difference, or what one format cannot
@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,13 +19,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..arm import Arm
 from ..display import Report, Table, json_ready, plural, table
-from ..errors import ModelError
+from ..errors import ModelError, UnknownNameError
 from ..model.equivalence import format_value
 
 Array = NDArray[np.float64]
 
-__all__ = ["Comparison", "Finding", "RigidOffset", "read_joint_map"]
+__all__ = ["Comparison", "Finding", "RigidOffset", "match_joints", "read_joint_map"]
 
 
 @dataclass(frozen=True)
@@ -297,3 +299,27 @@ def read_joint_map(path: str | os.PathLike[str]) -> dict[str, str]:
             )
         out[words[0]] = words[1]
     return out
+
+
+def match_joints(a: Arm, b: Arm, joint_map: Mapping[str, str] | None) -> list[tuple[str, str]]:
+    """Pair each joint of A with B's joint of the same name, or the one ``joint_map`` names.
+
+    Raises:
+        UnknownNameError: The map names a joint that A or B does not have.
+        ModelError: The map sends two joints of A to one joint of B.
+    """
+    mapping = dict(joint_map or {})
+    for name_a, name_b in mapping.items():
+        if name_a not in a.joint_names:
+            raise UnknownNameError("joint", name_a, a.joint_names)
+        if name_b not in b.joint_names:
+            raise UnknownNameError("joint", name_b, b.joint_names)
+    pairs = [(n, mapping.get(n, n)) for n in a.joint_names]
+    targets = [nb for _, nb in pairs]
+    twice = sorted({nb for nb in targets if targets.count(nb) > 1})
+    if twice:
+        raise ModelError(
+            f"the joint map sends two joints of A to one joint of B ({', '.join(twice)}): "
+            f"{dict(pairs)}"
+        )
+    return pairs

@@ -137,6 +137,37 @@ def _margin_gap(model: mujoco.MjModel, g1: int, g2: int, ipair: int) -> tuple[fl
     return margin, gap
 
 
+def _tested_pairs(m: mujoco.MjModel) -> dict[tuple[int, int], int]:
+    """The geom pairs that pass MuJoCo's pair rules, each with its ``<pair>`` index.
+
+    Returns:
+        (g1, g2) with g1 < g2 -> the index of the ``<contact><pair>`` naming them, or -1 for a
+        pair from the body filter, the exclusions and the bitmasks.
+    """
+    found: dict[tuple[int, int], int] = {}  # (g1, g2) -> ipair (-1: from the filters)
+    for k in range(m.npair):
+        g1, g2 = sorted((int(m.pair_geom1[k]), int(m.pair_geom2[k])))
+        found.setdefault((g1, g2), k)
+    # exclude_signature packs the two body ids as (smaller << 16) + larger.
+    excluded = {(int(s) >> 16, int(s) & 0xFFFF) for s in m.exclude_signature}
+    for g1 in range(m.ngeom):
+        for g2 in range(g1 + 1, m.ngeom):
+            if (g1, g2) in found:
+                continue
+            b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
+            if bodies_filtered(m, b1, b2):
+                continue
+            if (min(b1, b2), max(b1, b2)) in excluded:
+                continue
+            if not (
+                m.geom_contype[g1] & m.geom_conaffinity[g2]
+                or m.geom_contype[g2] & m.geom_conaffinity[g1]
+            ):
+                continue
+            found[(g1, g2)] = -1
+    return found
+
+
 def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
     """The geom pairs MuJoCo's ``mj_collision`` tests for contact, sorted by geom ids.
 
@@ -182,27 +213,7 @@ def collision_pairs(model: mujoco.MjModel | Arm) -> tuple[GeomPair, ...]:
             "mujoco.set_mjcb_contactfilter",
             "a user callback replaces MuJoCo's bitmask test; the pair set cannot be reproduced",
         )
-    found: dict[tuple[int, int], int] = {}  # (g1, g2) -> ipair (-1: from the filters)
-    for k in range(m.npair):
-        g1, g2 = sorted((int(m.pair_geom1[k]), int(m.pair_geom2[k])))
-        found.setdefault((g1, g2), k)
-    # exclude_signature packs the two body ids as (smaller << 16) + larger.
-    excluded = {(int(s) >> 16, int(s) & 0xFFFF) for s in m.exclude_signature}
-    for g1 in range(m.ngeom):
-        for g2 in range(g1 + 1, m.ngeom):
-            if (g1, g2) in found:
-                continue
-            b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
-            if bodies_filtered(m, b1, b2):
-                continue
-            if (min(b1, b2), max(b1, b2)) in excluded:
-                continue
-            if not (
-                m.geom_contype[g1] & m.geom_conaffinity[g2]
-                or m.geom_contype[g2] & m.geom_conaffinity[g1]
-            ):
-                continue
-            found[(g1, g2)] = -1
+    found = _tested_pairs(m)
     geoms = display_names(m, mujoco.mjtObj.mjOBJ_GEOM)
     bodies = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     pairs = []

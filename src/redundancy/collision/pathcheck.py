@@ -51,6 +51,8 @@ from .shapes import bounding_radius
 
 if TYPE_CHECKING:
     from ..arm import Arm
+    from .coal_scene import CoalScene
+    from .mujoco_scene import MujocoScene
 
 Array = NDArray[np.float64]
 
@@ -281,54 +283,22 @@ class PathChecker:
             ParameterError: ``tol`` not a number above the engines' accuracy, or
                 ``max_evaluations`` not a positive integer.
         """
-        check_choice("distance engine", engine, DISTANCE_ENGINES)
+        Q, tol, max_evaluations = self._validated(waypoints, tol, engine, max_evaluations)
         eps = AMBIGUITY_BAND
-        # tol must exceed the engines' accuracy, or the safe steps could shrink to nothing.
-        tol = check_number("tol", tol, eps, low_open=True, unit="m")
-        max_evaluations = check_count("max_evaluations", max_evaluations, 1)
-        arm = self.arm
-        Q = check_poses(waypoints, arm.joint_names)
-        if not len(Q):
-            raise PoseError(f"waypoints must have shape (k, {arm.nq}) with k >= 1, got (0,)")
-        # The motion bounds assume every joint within its range (a slide's travel is part of
-        # the reach of the links beyond it): a path outside the ranges is not covered.
-        check_in_range(Q, arm.joint_names, arm.lower, arm.upper, "waypoint")
         nseg = len(Q) - 1
         thr = self.thresholds
         # The waypoints are validated and every pose below is made from them: this thread's
         # scene is called directly, without validating each evaluated pose again.
-        scene = self.checker.scene(engine)
-        evals = 0
-        min_clear = np.inf
-
-        def clearance(q: Array) -> Array:
-            nonlocal evals, min_clear
-            evals += 1
-            if evals > max_evaluations:
-                raise PoseError(f"path check gave up after {max_evaluations} distance evaluations")
-            c = scene.distance_values(q) - thr
-            min_clear = min(min_clear, float(c.min()))
-            return c
+        clearance = _Clearance(self.checker.scene(engine), thr, max_evaluations)
 
         def report(seg: int, s0: float, c: Array, rate: Array) -> PathCheck:
             qa, qb = Q[seg], Q[min(seg + 1, len(Q) - 1)]
-            s = s0
-            if c.min() >= 0 and rate.max() > 0:
-                # Near miss: walk on in steps that move every pair by at most tol.
-                h = tol / float(rate.max())
-                cs, ss = c, s
-                for _ in range(NEAR_MISS_WALK):
-                    if cs.min() >= tol or ss >= 1.0:
-                        break
-                    ss = min(1.0, ss + h)
-                    cs = clearance(qa + ss * (qb - qa))
-                    if cs.min() < 0:
-                        c, s = cs, ss
-                        break
+            c, s = _walk_on(clearance, qa, qb, c, s0, tol, rate)
             k = int(np.argmin(c))
             q = qa + s * (qb - qa)
             contact = PathContact(seg, s, q, self.pairs[k], float(c[k] + thr[k]), s0)
-            return PathCheck(False, contact, evals, nseg, tol, engine, float(min_clear))
+            evals, least = clearance.evals, float(clearance.least)
+            return PathCheck(False, contact, evals, nseg, tol, engine, least)
 
         if not self.pairs:
             return PathCheck(True, None, 0, nseg, tol, engine, float("inf"))
@@ -355,7 +325,70 @@ class PathChecker:
                 c = clearance(qa + s * dq if s < 1.0 else qb)
                 if c.min() < tol:
                     return report(seg, s, c, rate)
-        return PathCheck(True, None, evals, nseg, tol, engine, float(min_clear))
+        return PathCheck(True, None, clearance.evals, nseg, tol, engine, float(clearance.least))
+
+    def _validated(
+        self, waypoints: ArrayLike, tol: float, engine: DistanceEngine, max_evaluations: int
+    ) -> tuple[Array, float, int]:
+        """The waypoints, ``tol`` and ``max_evaluations`` of `check`, checked."""
+        check_choice("distance engine", engine, DISTANCE_ENGINES)
+        # tol must exceed the engines' accuracy, or the safe steps could shrink to nothing.
+        tol = check_number("tol", tol, AMBIGUITY_BAND, low_open=True, unit="m")
+        max_evaluations = check_count("max_evaluations", max_evaluations, 1)
+        arm = self.arm
+        Q = check_poses(waypoints, arm.joint_names)
+        if not len(Q):
+            raise PoseError(f"waypoints must have shape (k, {arm.nq}) with k >= 1, got (0,)")
+        # The motion bounds assume every joint within its range (a slide's travel is part of
+        # the reach of the links beyond it): a path outside the ranges is not covered.
+        check_in_range(Q, arm.joint_names, arm.lower, arm.upper, "waypoint")
+        return Q, tol, max_evaluations
+
+
+class _Clearance:
+    """Each pair's distance less its threshold at a pose [m], evaluations counted.
+
+    Attributes:
+        evals: Evaluations so far.
+        least: The smallest clearance seen so far [m] (``inf`` before the first).
+    """
+
+    def __init__(
+        self, scene: MujocoScene | CoalScene, thresholds: Array, max_evaluations: int
+    ) -> None:
+        self.scene, self.thresholds, self.max_evaluations = scene, thresholds, max_evaluations
+        self.evals = 0
+        self.least = np.inf
+
+    def __call__(self, q: Array) -> Array:
+        self.evals += 1
+        if self.evals > self.max_evaluations:
+            raise PoseError(f"path check gave up after {self.max_evaluations} distance evaluations")
+        c = self.scene.distance_values(q) - self.thresholds
+        self.least = min(self.least, float(c.min()))
+        return c
+
+
+def _walk_on(
+    clearance: _Clearance, qa: Array, qb: Array, c: Array, s: float, tol: float, rate: Array
+) -> tuple[Array, float]:
+    """From a point within ``tol`` of contact at ``s``, the contact that follows, if any.
+
+    A near miss (no pair in contact) is walked on in steps that move every pair by at most
+    ``tol``, until a pair is in contact (its clearances and ``s`` are returned) or the clearance
+    exceeds ``tol`` again, or the segment ends (the near miss itself is returned).
+    """
+    if c.min() >= 0 and rate.max() > 0:
+        h = tol / float(rate.max())
+        cs, ss = c, s
+        for _ in range(NEAR_MISS_WALK):
+            if cs.min() >= tol or ss >= 1.0:
+                break
+            ss = min(1.0, ss + h)
+            cs = clearance(qa + ss * (qb - qa))
+            if cs.min() < 0:
+                return cs, ss
+    return c, s
 
 
 def check_path(

@@ -230,20 +230,7 @@ def collision_statistics(
         check_choice("distance engine", distances, DISTANCE_ENGINES)
     ch = checker(arm)
     prune, keyframes = check_flag("prune", prune), check_flag("keyframes", keyframes)
-    if poses is None:
-        n = check_count("n_poses", n_poses, 0)
-        if seed is not None:
-            seed = check_count("seed", seed, 0)
-        lo, hi = sampling_ranges(arm)
-        rng = np.random.default_rng(seed)
-        # Drawn chunk by chunk from one generator: the same numbers as random_poses(arm, n).
-        chunks: Iterable[Array] = (
-            rng.uniform(lo, hi, size=(min(CHUNK, n - i), arm.nq)) for i in range(0, n, CHUNK)
-        )
-    else:
-        Q = check_poses(poses, arm.joint_names)
-        n = len(Q)
-        chunks = (Q[i : i + CHUNK] for i in range(0, n, CHUNK))
+    chunks, n, seed = _pose_chunks(arm, n_poses, seed, poses)
     sweep = _Sweep(ch, distances, prune)
     t0 = time.perf_counter()
     for block in chunks:
@@ -269,6 +256,31 @@ def collision_statistics(
         disagreements=sweep.disagree if distances is not None else -1,
         seconds=seconds,
     )
+
+
+def _pose_chunks(
+    arm: Arm, n_poses: int, seed: int | None, poses: ArrayLike | None
+) -> tuple[Iterable[Array], int, int | None]:
+    """The sweep's poses in chunks of `CHUNK` (random unless ``poses`` is given), checked.
+
+    Returns:
+        The chunks, the number of poses and the seed (as checked).
+    """
+    if poses is None:
+        n = check_count("n_poses", n_poses, 0)
+        if seed is not None:
+            seed = check_count("seed", seed, 0)
+        lo, hi = sampling_ranges(arm)
+        rng = np.random.default_rng(seed)
+        # Drawn chunk by chunk from one generator: the same numbers as random_poses(arm, n).
+        chunks: Iterable[Array] = (
+            rng.uniform(lo, hi, size=(min(CHUNK, n - i), arm.nq)) for i in range(0, n, CHUNK)
+        )
+    else:
+        Q = check_poses(poses, arm.joint_names)
+        n = len(Q)
+        chunks = (Q[i : i + CHUNK] for i in range(0, n, CHUNK))
+    return chunks, n, seed
 
 
 class _Sweep:

@@ -45,7 +45,8 @@ from numpy.typing import NDArray
 
 from ..arm import Arm
 from ..errors import MissingDependencyError
-from .axes import log_axis, nice_ceil, symmetric_axis, tick_label
+from .axes import log_axis, nice_ceil
+from .axes import symmetric_axis as symmetric_axis  # still importable from the page
 from .geometry import (
     BASE_COLOR,
     drawn_geoms,
@@ -55,6 +56,7 @@ from .geometry import (
     quat_to_mat,
 )
 from .network import check_address, is_ip, is_loopback, machine_names
+from .plots import external_scales, speed_scales, symmetric_axes, time_axis
 from .sim import (
     KD,
     LOST_SIGMA,
@@ -219,7 +221,6 @@ class LabPage:
     # -- scene -----------------------------------------------------------------------------
     def _build_scene(self) -> None:
         scene = self.server.scene
-        m = self.sim.model
         scene.set_up_direction("+z")
         # Plain lights instead of viser's image-based environment: as clear, and several
         # times cheaper to render where WebGL runs in software (headless browsers, VMs).
@@ -232,6 +233,19 @@ class LabPage:
         scene.add_grid(
             "/floor", width=grid, height=grid, cell_size=0.1, section_size=0.5, plane="xy"
         )
+        self._build_links()
+        _, _, anchor, axis, site, rot = self.sim.frames()
+        self._build_markers(anchor, axis)
+        self._build_gizmo(site, rot)
+        position, look_at = self.camera_view("oblique", aspect=1.0)
+        self.server.initial_camera.look_at = tuple(look_at)
+        self.server.initial_camera.position = tuple(position)
+        self.server.initial_camera.fov = math.radians(45.0)
+
+    def _build_links(self) -> None:
+        """The arm's geoms, a colour per link, clickable; the link-name labels."""
+        scene = self.server.scene
+        m = self.sim.model
         self._geoms = drawn_geoms(m)
         colors = link_colors(m)
         self._body_of = [int(m.geom_bodyid[g]) for g in self._geoms]
@@ -263,7 +277,10 @@ class LabPage:
             for b in self._link_bodies
         }
         self._picked_label = scene.add_label("/picked", "", visible=False, font_screen_scale=1.2)
-        _, _, anchor, axis, site, rot = self.sim.frames()
+
+    def _build_markers(self, anchor: Array, axis: Array) -> None:
+        """Joint frames and axes, contact markers, the tool, the ellipsoid, lost arrows, trail."""
+        scene = self.server.scene
         self._frames = [
             scene.add_frame(f"/frames/{name}", axes_length=0.08, axes_radius=0.004, visible=False)
             for name in self.arm.joint_names
@@ -309,6 +326,10 @@ class LabPage:
         self._trail_handle = scene.add_line_segments(
             "/trail", none, (30, 100, 235), thickness=3.0, thickness_units="screen", visible=False
         )
+
+    def _build_gizmo(self, site: Array, rot: Array) -> None:
+        """The gizmo that drags the tool, at the tool's pose."""
+        scene = self.server.scene
         self.gizmo = scene.add_transform_controls(
             "/gizmo",
             scale=max(0.15, 0.2 * self.reach),
@@ -318,10 +339,6 @@ class LabPage:
             wxyz=tuple(mat_to_quat(rot)),
         )
         self.gizmo.on_update(self._on_gizmo)
-        position, look_at = self.camera_view("oblique", aspect=1.0)
-        self.server.initial_camera.look_at = tuple(look_at)
-        self.server.initial_camera.position = tuple(position)
-        self.server.initial_camera.fov = math.radians(45.0)
 
     def _reach(self) -> tuple[float, Array]:
         """Upper bound of the tool's distance from the first joint's anchor [m], and that anchor.
@@ -538,7 +555,7 @@ class LabPage:
                 "#d9480f",
                 f"{joint} speed (rad/s), last {SPEED_WINDOW:g} s; "
                 f"dashed: ±{REST_SPEED:g} (at rest)",
-                self._speed_scales(2 * REST_SPEED),
+                speed_scales(2 * REST_SPEED),
                 self._speed_axes(2 * REST_SPEED),
             )
             self.torque_plot = self._live_plot(
@@ -549,7 +566,7 @@ class LabPage:
                     "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
                     "y": viser.uplot.Scale(auto=False, range=(-1.25 * limit, 1.25 * limit)),
                 },
-                self._symmetric_axes(SPEED_WINDOW, limit, limit),
+                symmetric_axes(SPEED_WINDOW, limit, limit),
             )
             self._external_top = EXTERNAL_RANGE
             self.external_plot = self.server.gui.add_uplot(
@@ -566,8 +583,8 @@ class LabPage:
                     f"observer (gain {OBSERVER_GAIN:g}/s) from q, q̇ and the motors' torque; "
                     "dashed: the push's"
                 ),
-                scales=self._external_scales(EXTERNAL_RANGE),
-                axes=(self._time_axis(SPEED_WINDOW), viser.uplot.Axis(size=48)),
+                scales=external_scales(EXTERNAL_RANGE),
+                axes=(time_axis(SPEED_WINDOW), viser.uplot.Axis(size=48)),
                 aspect=2.4,
             )
             # Up to the power of ten above twice the keyframe's sigma_min (1 for arm7's 0.23).
@@ -589,7 +606,7 @@ class LabPage:
                     "y": viser.uplot.Scale(auto=False, distr=3, log=10, range=self._sigma_range),
                 },
                 axes=(
-                    self._time_axis(SIGMA_WINDOW),
+                    time_axis(SIGMA_WINDOW),
                     viser.uplot.Axis(splits=splits, values=labels, size=48),
                 ),
                 aspect=1.8,
@@ -620,64 +637,8 @@ class LabPage:
             aspect=2.4,
         )
 
-    @staticmethod
-    def _time_axis(window: float) -> viser.uplot.Axis:
-        step = 1.0 if window <= 4 else 2.0
-        splits = tuple(-step * k for k in range(round(window / step), -1, -1))
-        return viser.uplot.Axis(
-            splits=splits,
-            values=tuple(tick_label(v) for v in splits),
-            label="t − now (s)",
-            labelSize=18,
-        )
-
-    def _symmetric_axes(
-        self, window: float, ticks: float, limit: float
-    ) -> tuple[viser.uplot.Axis, ...]:
-        """Time axis; y ticks at 0, +-ticks/2, +-ticks; dashed lines at +-limit, if they show.
-
-        The limit lines are left out when they would lie within 5 % of the range of 0 (the
-        speed plot's at-rest band while the joint buzzes at 15 rad/s).
-        """
-        splits, labels = symmetric_axis(ticks)
-        width = 12 + 7 * max(len(s) for s in labels)
-        axes = [
-            self._time_axis(window),
-            viser.uplot.Axis(splits=splits, values=labels, size=width),
-        ]
-        if limit >= 0.05 * ticks:
-            axes.append(
-                # The limits: dashed lines across the plot, labelled on the right.
-                viser.uplot.Axis(
-                    scale="y",
-                    side=1,
-                    splits=(-limit, limit),
-                    values=(tick_label(-limit), tick_label(limit)),
-                    grid=viser.uplot.Axis_Grid(stroke="#e03131", dash=(6.0, 4.0), width=1.5),
-                    ticks=viser.uplot.Axis_Ticks(show=False),
-                    size=12 + 7 * len(tick_label(-limit)),
-                    stroke="#e03131",
-                )
-            )
-        return tuple(axes)
-
-    @staticmethod
-    def _speed_scales(half: float) -> dict[str, viser.uplot.Scale]:
-        return {
-            "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
-            # 15 % above the outer ticks, so their labels are not clipped.
-            "y": viser.uplot.Scale(auto=False, range=(-1.15 * half, 1.15 * half)),
-        }
-
-    @staticmethod
-    def _external_scales(top: float) -> dict[str, viser.uplot.Scale]:
-        return {
-            "x": viser.uplot.Scale(time=False, auto=False, range=(-SPEED_WINDOW, 0.0)),
-            "y": viser.uplot.Scale(auto=False, range=(0.0, 1.1 * top)),
-        }
-
     def _speed_axes(self, half: float) -> tuple[viser.uplot.Axis, ...]:
-        return self._symmetric_axes(SPEED_WINDOW, half, REST_SPEED)
+        return symmetric_axes(SPEED_WINDOW, half, REST_SPEED)
 
     # -- callbacks -------------------------------------------------------------------------
     def _target_callback(self, i: int) -> Callable[[Any], None]:
@@ -963,7 +924,7 @@ class LabPage:
         half = nice_ceil(1.05 * float(np.max(np.abs(v))) if len(v) else 0.0, 2 * REST_SPEED)
         if half != self._speed_half:
             self._speed_half = half
-            self.speed_plot.scales = self._speed_scales(half)
+            self.speed_plot.scales = speed_scales(half)
             self.speed_plot.axes = self._speed_axes(half)
         self.speed_plot.data = data["speed"]
         self.torque_plot.data = data["torque"]
@@ -973,7 +934,7 @@ class LabPage:
         top = nice_ceil(max(np.max(est, initial=0.0), np.max(true, initial=0.0)), EXTERNAL_RANGE)
         if top != self._external_top:
             self._external_top = top
-            self.external_plot.scales = self._external_scales(top)
+            self.external_plot.scales = external_scales(top)
         self.external_plot.data = (t, est, true)
 
     def _update_frames(self, pos: Array, quat: Array, anchor: Array, axis: Array) -> None:

@@ -30,9 +30,7 @@ import collections
 import copy
 import io
 import threading
-import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -45,6 +43,9 @@ from ..arm import Arm, sampling_ranges
 from ..engines import simulation
 from ..errors import MissingInertiaError, PoseError, RedundancyError
 from .control import JointPD
+from .drag import solve_ik
+from .readouts import LabReadouts, six_sigmas, velocity_ellipsoid
+from .runner import RealTimeRunner
 
 Array = NDArray[np.float64]
 
@@ -77,142 +78,6 @@ PUSH_MAX = 30.0
 #: Gain of the momentum observer that estimates the push [1/s]: it follows a step of
 #: external torque as 1 - exp(-K t), 95 % in 0.15 s.
 OBSERVER_GAIN = 20.0
-
-
-@dataclass(frozen=True)
-class LabReadouts:
-    """What the lab shows, at one instant of the simulation.
-
-    Attributes:
-        time: Simulated time since the start [s].
-        q: Joint positions [rad or m].
-        qdot: Joint speeds [rad/s or m/s].
-        targets: Target positions q* [rad or m].
-        kp: Stiffness [N m/rad].
-        kd: Damping gain [N m s/rad].
-        armature: Armature per joint in the simulated model [kg m^2].
-        contact_forces: Whether the links collide (True) or pass through each other (False).
-        sigma: The six singular values of the site Jacobian, descending [m/rad, rad/rad].
-        sigma_min: The smallest of them.
-        manipulability: Yoshikawa's measure, the product of the singular values.
-        lost: Tool directions (columns of U) whose singular value is below `LOST_SIGMA`, shape (6,
-            k): translation rows first, then rotation.
-        velocity_axes: Principal axes of the tool's translational velocity ellipsoid (left
-            singular vectors of J's position block), columns, shape (3, 3).
-        velocity_semi_axes: Its semi-axes, the singular values of J's position block
-            [m/s per rad/s], shape (3,).
-        tool_position: The tool site's position [m].
-        contact_pairs: Geom pairs in self-contact (``"link2 / link4"``), in pair-set order.
-        contact_bodies: Bodies carrying a geom in self-contact.
-        contact_points: Contact positions, world frame, shape (n, 3) [m].
-        contact_pair_points: The first contact position of each pair in ``contact_pairs``,
-            shape (len(contact_pairs), 3) [m].
-        watch_joint: Name of the joint whose speed is watched (the last one: j7 for arm7).
-        watch_speed: Its speed [rad/s].
-        watch_peak: Its largest |speed| over the last `PEAK_WINDOW` [rad/s].
-        watch_torque: The torque its motor applies, after clamping [N m].
-        watch_limit: Its motor's torque limit [N m].
-        contact_mass: Effective mass at the tool along its direction of motion, with the simulated
-            armature: what a contact in the tool's path would feel (`redundancy.Arm.effective_mass`)
-            [kg]; NaN while the tool is at rest.
-    """
-
-    time: float
-    q: Array
-    qdot: Array
-    targets: Array
-    kp: float
-    kd: float
-    armature: Array
-    contact_forces: bool
-    sigma: Array
-    sigma_min: float
-    manipulability: float
-    lost: Array
-    velocity_axes: Array
-    velocity_semi_axes: Array
-    tool_position: Array
-    contact_pairs: tuple[str, ...]
-    contact_bodies: frozenset[str]
-    contact_points: Array
-    contact_pair_points: Array
-    watch_joint: str
-    watch_speed: float
-    watch_peak: float
-    watch_torque: float
-    watch_limit: float
-    contact_mass: float = float("nan")
-
-    @property
-    def contacts_text(self) -> str:
-        """The self-contact pairs joined by commas, or ``"none"``."""
-        return ", ".join(self.contact_pairs) or "none"
-
-
-def six_sigmas(sigma: Array) -> Array:
-    """The six singular values of a site Jacobian, zeros for the directions past its columns.
-
-    An arm of n < 6 joints has n singular values; the 6 - n tool directions it cannot move
-    along (the last columns of U) have sigma 0.
-    """
-    out = np.zeros(6)
-    out[: len(sigma)] = sigma[:6]
-    return out
-
-
-def velocity_ellipsoid(J: Array) -> tuple[Array, Array]:
-    """Axes (columns, a rotation) and semi-axes of the tool's translational velocity ellipsoid.
-
-    The tool speeds reachable with joint speeds of unit norm, J_p qdot for |qdot| <= 1, fill
-    the ellipsoid whose semi-axes are the singular values of J's position block J_p (its
-    first three rows) along its left singular vectors.
-
-    Args:
-        J: Site Jacobian, shape (6, n), translation rows first.
-
-    Returns:
-        Axes, shape (3, 3) with determinant +1, and semi-axes [m/s per rad/s], shape (3,).
-    """
-    U, s, _ = np.linalg.svd(J[:3])
-    if np.linalg.det(U) < 0:
-        U = U.copy()
-        U[:, 2] = -U[:, 2]
-    return U, s
-
-
-def solve_ik(
-    arm: Arm,
-    q0: ArrayLike,
-    position: ArrayLike,
-    rotation: ArrayLike | None = None,
-    rest: ArrayLike | None = None,
-) -> tuple[Array, float]:
-    """The lab's drag: `Arm.solve_ik` from the current targets.
-
-    No random restarts (a drag must not make the arm jump to another branch), and the
-    posture pulled toward ``rest`` in the task's null space (the objective
-    |q - rest|^2 / 2), so the elbow stays where the user left it while the tool follows.
-
-    Args:
-        arm: The arm.
-        q0: Start pose, the current targets [rad or m].
-        position: Tool target position [m].
-        rotation: Tool target orientation (3 x 3), or None to keep the orientation at ``q0``.
-        rest: Rest posture for the null-space term (default ``q0``).
-
-    Returns:
-        The pose (inside the joint ranges) and the tool's remaining position error [m].
-    """
-    q = arm.pose(q0)
-    R_t = arm.site_pose(q)[1] if rotation is None else rotation
-    q_rest = q.copy() if rest is None else arm.pose(rest)
-
-    def toward_rest(x: Array) -> tuple[float, Array]:
-        d = x - q_rest
-        return 0.5 * float(d @ d), d
-
-    result = arm.solve_ik((position, R_t), q, objective=toward_rest, restarts=0)
-    return result.q, result.position_error
 
 
 class LabSim:
@@ -715,140 +580,6 @@ class LabSim:
         """Step ``seconds`` of simulated time (as fast as possible) and return the readouts."""
         self.step(round(seconds / self.timestep))
         return self.readouts()
-
-
-class RealTimeRunner:
-    """Steps a `LabSim` in a background thread, in step with a clock.
-
-    Each frame it steps ``rate * elapsed / timestep`` times (at most ``max_lag`` seconds' worth:
-    when the machine falls behind, simulated time slows down rather than piling up), then calls the
-    frame callbacks with the sim. `frame` is one such frame; the thread calls it ``fps`` times a
-    second, and tests call it with a fake ``clock``.
-
-    Args:
-        sim: The simulation.
-        fps: Frames per second (callback rate) [1/s].
-        max_lag: Largest simulated time stepped in one frame [s].
-        clock: Seconds from an arbitrary origin (default `time.perf_counter`).
-
-    Attributes:
-        paused: No steps while set (frames and callbacks go on); see `step_once`.
-        rate: Simulated seconds per clock second (1: real time; see `RATES`).
-        real_time_factor: Simulated time over clock time across the last ~2 s of frames
-            (``nan`` until two frames have run).
-    """
-
-    period: float
-    max_steps: int
-    frames: int
-    paused: bool
-    rate: float
-    real_time_factor: float
-
-    def __init__(
-        self,
-        sim: LabSim,
-        fps: float = 30.0,
-        max_lag: float = 0.1,
-        clock: Callable[[], float] = time.perf_counter,
-    ) -> None:
-        self.sim = sim
-        self.period = 1.0 / fps
-        self.max_steps = max(1, round(max_lag / sim.timestep))
-        self.callbacks: list[Callable[[LabSim], None]] = []
-        self.errors: list[BaseException] = []
-        self.frames = 0
-        self.paused = False
-        self.rate = 1.0
-        self.real_time_factor = float("nan")
-        self._clock = clock
-        self._last: float | None = None
-        self._owed = 0.0
-        self._single = 0
-        self._history: collections.deque[tuple[float, float]] = collections.deque()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-
-    def set_rate(self, rate: float) -> None:
-        """Simulated seconds per clock second, in (0, 1]."""
-        if not (np.isfinite(rate) and 0 < rate <= 1):
-            raise RedundancyError(f"rate must be in (0, 1], got {rate}")
-        self.rate = float(rate)
-        self._owed = 0.0
-        self._history.clear()
-
-    def step_once(self) -> None:
-        """Pause, and take exactly one timestep at the next frame."""
-        self.paused = True
-        self._single += 1
-
-    def frame(self) -> int:
-        """One frame: step what the clock owes (or one pending single step), run callbacks.
-
-        Returns:
-            Steps taken.
-        """
-        now = self._clock()
-        h = self.sim.timestep
-        elapsed = 0.0 if self._last is None else now - self._last
-        self._last = now
-        n = 0
-        if self.paused:
-            self._owed = 0.0
-            if self._single:
-                n, self._single = 1, self._single - 1
-        else:
-            self._owed += self.rate * elapsed
-            n = min(int(self._owed / h + 1e-9), self.max_steps)
-            # Behind by more than a step (max_lag reached): let it go.
-            self._owed = min(self._owed - n * h, h)
-        try:
-            if n:
-                self.sim.step(n)
-            for cb in self.callbacks:
-                cb(self.sim)
-        except Exception as err:  # a page error must not stop the physics
-            self.errors.append(err)
-            del self.errors[:-10]
-        self.frames += 1
-        self._measure(now)
-        return n
-
-    def _measure(self, now: float) -> None:
-        hist = self._history
-        t_sim = self.sim.time
-        if hist and (self.paused or t_sim < hist[-1][1]):  # paused or reset: start again
-            hist.clear()
-        hist.append((now, t_sim))
-        while len(hist) > 2 and now - hist[0][0] > 2.0:
-            hist.popleft()
-        if len(hist) >= 2 and hist[-1][0] > hist[0][0]:
-            self.real_time_factor = (hist[-1][1] - hist[0][1]) / (hist[-1][0] - hist[0][0])
-        else:
-            self.real_time_factor = float("nan")
-
-    def start(self) -> None:
-        """Start the thread (once)."""
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._run, name="lab-sim", daemon=True)
-            self._thread.start()
-
-    def stop(self, timeout: float = 5.0) -> None:
-        """Stop the thread and wait for it [s]."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-
-    @property
-    def running(self) -> bool:
-        """Whether the thread is alive."""
-        return self._thread is not None and self._thread.is_alive()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            start = self._clock()
-            self.frame()
-            self._stop.wait(max(0.0, self.period - (self._clock() - start)))
 
 
 __all__ = [

@@ -2,6 +2,7 @@
 
 * `sections`: the joint table, keyframes, gravity budget and self-collision statistics, each
   computed once (sweeps in chunks) from the Arm, the batched analyses and the collision package;
+  `pose_sections` holds the two taken pose by pose (the joint table, a row per keyframe);
 * `lesson`: the worked example ``redundancy example arm7``, lesson 5.2's six tables for arm7
   (formats the sections; tables (5) and (6) simulate through `redundancy.lab.control`);
 * [`audit`][redundancy.reports.audit]: the audit: the sections, the engines' agreement, and the

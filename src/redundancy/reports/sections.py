@@ -13,10 +13,9 @@ stays flat in the number of poses and the chunks are exactly the poses of
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,10 +33,18 @@ from ..collision import (
     keyframe_clearance,
 )
 from ..engines import REFERENCE
-from ..engines.mujoco import MujocoEngine
 from ..model import actuators
-from ..model.actuators import Simulation
 from ..model.scales import arm_scales
+from .pose_sections import (
+    ActuatorLoad,
+    JointSection,
+    KeyframeRow,
+    compared_engines,
+    joints,
+    keyframes,
+    reference_keyframe,
+)
+from .pose_sections import JointRow as JointRow  # the joint table's rows, named here too
 
 Array = NDArray[np.float64]
 
@@ -66,274 +73,7 @@ def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> 
         yield rng.uniform(lo, hi, size=(min(size, n - start), arm.nq))
 
 
-def reference_keyframe(arm: Arm) -> tuple[str | None, Array]:
-    """The pose the joint table is taken at: ``home``, else the first keyframe, else qpos0.
-
-    Returns:
-        The keyframe's name (``None`` for the model's reference pose qpos0) and its pose.
-    """
-    keys = arm.keyframes
-    name = "home" if "home" in keys else next(iter(keys), None)
-    if name is None:
-        return None, arm.mj_model.qpos0.copy()
-    return name, keys[name]
-
-
-# -- joints ---------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class JointRow:
-    """One joint at the reference pose.
-
-    Attributes:
-        name: Joint name.
-        type: ``"hinge"`` or ``"slide"``.
-        axis: ``"x"``, ``"y"`` or ``"z"``: the largest component of the joint axis (body frame).
-        lower: Lower range limit (``-inf``: unlimited) [rad or m].
-        upper: Upper range limit [rad or m].
-        armature: Armature as M sees it [kg m^2].
-        damping: Joint plus actuator damping b [N m s/rad].
-        servo_kv: A servo's velocity feedback on the joint [N m s/rad].
-        stiffness: Explicit stiffness, a servo's kp plus the joint's own [N m/rad].
-        kd: Controller damping written to ctrl that the bound assumes [N m s/rad].
-        effort_lower: Most negative torque the actuators give at the reference pose [N m].
-        effort_upper: Most positive torque [N m].
-        actuated: Whether an actuator drives the joint.
-        m_ii: Diagonal of M with armature [kg m^2].
-        m_ii_bare: Without armature [kg m^2].
-        implicit: Damping the integrator treats implicitly [N m s/rad].
-        explicit: Damping it treats explicitly, kd included [N m s/rad].
-        h_max: Largest stable timestep with armature [s] (``inf``: any).
-        h_max_bare: Without armature [s].
-    """
-
-    name: str
-    type: str
-    axis: str
-    lower: float
-    upper: float
-    armature: float
-    damping: float
-    servo_kv: float
-    stiffness: float
-    kd: float
-    effort_lower: float
-    effort_upper: float
-    actuated: bool
-    m_ii: float
-    m_ii_bare: float
-    implicit: float
-    explicit: float
-    h_max: float
-    h_max_bare: float
-
-    @property
-    def armature_share(self) -> float:
-        """Armature / M_ii [-]."""
-        return self.armature / self.m_ii if self.m_ii else 0.0
-
-    @property
-    def effort_limit(self) -> float:
-        """max(-lower, upper) effort [N m or N] (the lesson's symmetric "limit")."""
-        return max(-self.effort_lower, self.effort_upper)
-
-
-@dataclass(frozen=True)
-class JointSection:
-    """Joints at a reference pose, with the timestep bound for the model's integrator.
-
-    Attributes:
-        rows: One per joint.
-        keyframe: The keyframe the rows are taken at (``None``: the model's reference pose,
-            qpos0).
-        simulation: The model's simulation settings.
-        kd: The explicit kd asked about (``None``: the model's own, see `joints`).
-        note: How the integrator treats damping, in one sentence.
-        engine_diff: Largest |Pinocchio - MuJoCo| on M_ii, with and without armature [kg m^2].
-    """
-
-    rows: tuple[JointRow, ...]
-    keyframe: str | None
-    simulation: Simulation
-    kd: float | None
-    note: str
-    engine_diff: float
-
-
-def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSection:
-    """The joint table: ranges, armature, damping, effort, M_ii and the timestep bound.
-
-    Args:
-        arm: The arm.
-        kd: Controller damping written to ``ctrl`` on every joint [N m s/rad]. ``None``: no
-            controller is assumed (0): the damping is what the model itself has, the joint's
-            own and a servo's ``kv``.
-        key: Reference keyframe (default: `reference_keyframe`).
-    """
-    ref: str | None
-    if key is None:
-        ref, q = reference_keyframe(arm)
-    else:
-        ref, q = key, arm.keyframe(key)
-    m = arm.mj_model
-    sim = actuators.simulation(m)
-    if arm.missing_inertia:  # M is unknown: M_ii and the timestep bounds are NaN ("-")
-        M = bare = np.full(arm.nq, np.nan)
-        diff = float("nan")
-    else:
-        M = np.diag(arm.mass_matrix(q))
-        bare = np.diag(arm.mass_matrix(q, armature=False))
-        diff = max(
-            float(np.max(np.abs(np.diag(arm.mass_matrix(q, a, other)) - (M if a else bare))))
-            for a in (True, False)
-            for other in _compared(arm)
-        )
-    b = arm.damping()
-    kv = actuators.servo_damping(m)
-    kd_each = np.full(arm.nq, 0.0 if kd is None else float(kd))
-    stiffness = actuators.servo_stiffness(m)
-    split = actuators.damping_split(sim, b, kv, kd_each, stiffness)
-    if arm.missing_inertia:
-        h = hb = np.full(arm.nq, np.nan)
-    else:
-        h = actuators.max_stable_timestep(M, split)
-        hb = actuators.max_stable_timestep(bare, split)
-    effort = actuators.effort_range(m, q)
-    arma = arm.armature()
-    rows = tuple(
-        JointRow(
-            name,
-            arm.joint_types[i],
-            "xyz"[int(np.argmax(np.abs(m.jnt_axis[i])))],
-            float(arm.lower[i]),
-            float(arm.upper[i]),
-            float(arma[i]),
-            float(b[i]),
-            float(kv[i]),
-            float(stiffness[i]),
-            float(kd_each[i]),
-            float(effort.lower[i]),
-            float(effort.upper[i]),
-            bool(effort.actuated[i]),
-            float(M[i]),
-            float(bare[i]),
-            float(split.implicit[i]),
-            float(split.explicit[i]),
-            float(h[i]),
-            float(hb[i]),
-        )
-        for i, name in enumerate(arm.joint_names)
-    )
-    return JointSection(rows, ref, sim, kd, split.note, diff)
-
-
-# -- keyframes ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class KeyframeRow:
-    """The site Jacobian at a keyframe, and whether the actuators can hold it.
-
-    Attributes:
-        name: Keyframe name.
-        q: Its pose [rad or m].
-        svd: SVD of MuJoCo's site Jacobian.
-        engine_diff: Largest |Pinocchio - MuJoCo| singular value [m/rad or rad/rad].
-        hold: Torque the actuators must give to hold it still (gravity minus passive
-            gravity compensation) [N m or N].
-        effort_lower: Most negative torque they can give there [N m or N].
-        effort_upper: Most positive [N m or N].
-        moves_held: Held joints the keyframe puts elsewhere than the arm holds them -> the
-            keyframe's value [rad or m]; the row is computed there
-            (`at_keyframe`).
-    """
-
-    name: str
-    q: Array
-    svd: linalg.JacobianSVD
-    engine_diff: float
-    hold: Array
-    effort_lower: Array
-    effort_upper: Array
-    moves_held: dict[str, float | tuple[float, ...]] = field(default_factory=dict)
-
-    @property
-    def unheld(self) -> tuple[int, ...]:
-        """Joints whose actuators cannot give the holding torque."""
-        bad = (self.hold < self.effort_lower) | (self.hold > self.effort_upper)
-        return tuple(int(i) for i in np.flatnonzero(bad))
-
-
-def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeRow, ...]:
-    """Singular values and holding torque at each keyframe (all by default).
-
-    A keyframe that moves held joints is computed on the arm at it
-    (`at_keyframe`): the robot's real pose under the keyframe's name.
-    """
-    rows = []
-    loads = {id(arm): _Load(arm)}
-    for name in names if names is not None else arm.keyframe_names:
-        at = arm.at_keyframe(name)
-        load = loads.setdefault(id(at), _Load(at))
-        q = at.keyframe(name)
-        s = at.svd(q)
-        sp = at.svd(q, "pinocchio")
-        tau = np.full(at.nq, np.nan) if at.missing_inertia else at.gravity(q)
-        hold, effort = load(q[None, :], tau[None, :])
-        rows.append(
-            KeyframeRow(
-                name,
-                q,
-                s,
-                float(np.max(np.abs(s.sigma - sp.sigma))),
-                hold[0],
-                effort.lower[0],
-                effort.upper[0],
-                arm.keyframe_moves(name),
-            )
-        )
-    return tuple(rows)
-
-
 # -- gravity against the actuators ----------------------------------------------------------------
-class _Load:
-    """Holding torque and the actuators' range at a stack of poses, gravity compensation in.
-
-    MuJoCo's ``gravcomp`` applies ``gravcomp_b m_b`` of each body's weight upward at its
-    centre of mass; that is gravity's torque on an arm whose masses are scaled by the
-    factors, computed by a MuJoCo engine of such a copy (by one multiplication when every
-    body has the same factor: gravity's torque is linear in the masses). Passive
-    compensation relieves the motors; ``actuatorgravcomp`` sends it through the actuators,
-    where the joint's ``actuatorfrcrange`` clamps it with the motors' torque.
-    """
-
-    def __init__(self, arm: Arm) -> None:
-        m = arm.mj_model
-        self.model = m
-        self.routed = np.zeros(arm.nq, dtype=bool)
-        factors = m.body_gravcomp[1:][m.body_mass[1:] > 0]
-        self.uniform: float | None = None
-        self.engine: MujocoEngine | None = None
-        if not np.any(m.body_gravcomp):
-            self.uniform = 0.0
-        elif np.all(factors == factors[0]):
-            self.uniform = float(factors[0])
-        else:
-            scaled = copy.copy(m)
-            scaled.body_mass[:] = m.body_mass * m.body_gravcomp
-            self.engine = MujocoEngine(scaled, arm.frame, arm.armature())
-        self.routed[m.jnt_dofadr[m.jnt_actgravcomp.astype(bool)]] = True
-
-    def __call__(self, Q: Array, tau: Array) -> tuple[Array, actuators.EffortRange]:
-        """Torque the actuators must give at each pose, and what they can give."""
-        if self.engine is not None:
-            comp = np.array([self.engine.gravity(q) for q in Q]).reshape(tau.shape)
-        else:
-            comp = tau * self.uniform
-        routed = np.where(self.routed, comp, 0.0)
-        # With routed compensation the actuators' sum (motors + compensation) must equal
-        # gravity; otherwise the motors give gravity minus the passive compensation.
-        need = tau - np.where(self.routed, 0.0, comp)
-        return need, actuators.effort_range(self.model, Q, routed)
-
-
 @dataclass(frozen=True)
 class GravityBudget:
     """Gravity against the actuators over random poses, per joint and direction.
@@ -417,7 +157,7 @@ def gravity_budget(
     say = progress or _quiet
     say("gravity", 0, n_poses)
     nv = arm.nq
-    load = _Load(arm)
+    load = ActuatorLoad(arm)
     low, high = np.zeros(nv), np.zeros(nv)
     lim_lo, lim_hi = np.full(nv, -np.inf), np.full(nv, np.inf)
     lo_min, hi_max = np.full(nv, np.inf), np.full(nv, -np.inf)
@@ -429,7 +169,7 @@ def gravity_budget(
     scales = arm_scales(arm)
     for Q in pose_chunks(arm, n_poses, seed):
         tau = batch.gravities(arm, Q, REFERENCE)
-        for other in _compared(arm):
+        for other in compared_engines(arm):
             tau_p = batch.gravities(arm, Q, other)
             diff = max(diff, float(np.max(np.abs(tau - tau_p))))
             errors = quantity_errors("gravity", tau, tau_p, scales)
@@ -682,11 +422,6 @@ class ContactMass:
             f"{self.payload:g} kg = {self.estimate:.3g} kg, {self.estimate_over_median:.2f}x the "
             f"exact median; too low on {100 * self.below_estimate:.1f}% of the samples",
         ]
-
-
-def _compared(arm: Arm) -> list[str]:
-    """The engines checked against the reference, by name."""
-    return [name for name in arm.engines if name != REFERENCE]
 
 
 def contact_mass(arm: Arm, n_poses: int, seed: int | None = 0) -> ContactMass:
