@@ -86,7 +86,6 @@ ALLOWED = {
     "engines/": "the engine layer: every kinematics and dynamics quantity",
     "collision/": "MuJoCo's narrow phase (mj_collision, mj_geomDistance) and coal's "
     "geometry placed by Pinocchio: the collision package's own engines",
-    "lab/page.py": "drawing: geom poses of the running simulation for the browser",
 }
 
 
