@@ -129,6 +129,8 @@ def jacobians(
 ) -> Array:
     """Site Jacobians of a stack of poses, as `Arm.jacobian`.
 
+    The batch functions share these arguments; their docstrings refer here.
+
     Args:
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
@@ -202,13 +204,11 @@ def singular_values(
     another LAPACK path).
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
-        engine: ``"mujoco"`` or ``"pinocchio"``.
+        arm: As in `jacobians`.
+        Q: As in `jacobians`.
+        engine: As in `jacobians`.
         threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
-            results are the same, bit for bit.
+        executor: As in `jacobians`.
 
     Returns:
         Singular values, shape (n, min(6, nq)) [mixed units: m/rad and rad/rad].
@@ -236,18 +236,16 @@ def manipulabilities(
     [`linalg.yoshikawa`][redundancy.linalg.yoshikawa]).
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
-        engine: ``"mujoco"`` or ``"pinocchio"``.
+        arm: As in `jacobians`.
+        Q: As in `jacobians`.
+        engine: As in `jacobians`.
         kind: ``"full"`` (6 x n J, mixed units), ``"position"`` (linear rows [m^3/rad^3]),
             ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by ``length``,
             dimensionless); the fields of [`Manipulability`][redundancy.Manipulability].
         length: Characteristic length for ``"scaled"`` [m].
         threads: As in [`singular_values`][redundancy.analysis.batch.singular_values] (``"full"``
             only).
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
-            results are the same, bit for bit.
+        executor: As in `jacobians`.
 
     Returns:
         Manipulability per pose, shape (n,).
@@ -286,14 +284,12 @@ def mass_matrices(
     """Joint-space mass matrices, as `Arm.mass_matrix`.
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
+        arm: As in `jacobians`.
+        Q: As in `jacobians`.
         armature: Include armature on the diagonal.
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only).
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
-            results are the same, bit for bit.
+        engine: As in `jacobians`.
+        threads: As in `jacobians`.
+        executor: As in `jacobians`.
 
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
@@ -316,13 +312,11 @@ def gravities(
     """Gravity torques to hold each pose, as `Arm.gravity`.
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
+        arm: As in `jacobians`.
+        Q: As in `jacobians`.
         engine: ``"mujoco"`` or ``"pinocchio"`` (``rneaInParallel`` on ``threads`` threads).
         threads: Worker threads.
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
-            results are the same, bit for bit.
+        executor: As in `jacobians`.
 
     Returns:
         Torques, shape (n, nq) [N m or N].
@@ -346,13 +340,11 @@ def distances(
     by pose; the pairs are ``redundancy.collision.checker(arm).pairs``, in that order.
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
+        arm: As in `jacobians`.
+        Q: As in `jacobians`.
         engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
-        threads: Worker threads (MuJoCo only).
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
-            results are the same, bit for bit.
+        threads: As in `jacobians`.
+        executor: As in `jacobians`.
 
     Returns:
         Distances, shape (n, npairs), negative where the geoms overlap [m].

@@ -24,7 +24,7 @@ from ..checks import (
     check_threads,
 )
 from ..errors import ParameterError
-from .batch_executor import _check_executor, _map_chunks, _poses, scatter
+from .batch_executor import _poses, _scatter_rows, scatter
 from .observer import MomentumObserver, check_dt
 
 Array = NDArray[np.float64]
@@ -103,15 +103,16 @@ def operational_inertias(
 ) -> Array:
     """Lambda at each pose, as `redundancy.Arm.operational_inertia`.
 
+    The tool-mass functions share its arguments.
+
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
+        arm: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        Q: As in [`jacobians`][redundancy.analysis.batch.jacobians].
         armature: Include armature in M.
         joints: Names of the joints free to move (the others held); None: all.
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only).
-        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
-            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
+        engine: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        threads: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        executor: As in [`jacobians`][redundancy.analysis.batch.jacobians].
 
     Returns:
         Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
@@ -143,15 +144,14 @@ def effective_masses(
     """Effective mass at the tool at each pose, as `redundancy.Arm.effective_mass`.
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
+        arm: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        Q: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
         direction: One direction for every pose (3,) or one per pose (n, 3), world axes.
-        armature: Include armature in M.
-        joints: Names of the joints free to move (the others held); None: all.
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only).
-        executor: Run on this `concurrent.futures.Executor` in chunks of poses (see
-            [`jacobians`][redundancy.analysis.batch.jacobians]); None runs here.
+        armature: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        joints: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        engine: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        threads: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        executor: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
 
     Returns:
         Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
@@ -163,10 +163,8 @@ def effective_masses(
     if executor is not None:
         # Each pose travels with its direction: one row of (n, nq + 3).
         kwargs = {"armature": armature, "joints": joints, "engine": engine, "threads": threads}
-        _check_executor(executor, _effective_masses_of_rows, kwargs)
         QU = np.concatenate([Q, U], axis=1)
-        parts = _map_chunks(executor, _effective_masses_of_rows, arm, QU, None, kwargs)
-        return np.concatenate([r for _, r in parts]) if parts else np.empty(0)
+        return _scatter_rows(executor, _effective_masses_of_rows, arm, QU, np.empty(0), kwargs)
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     return kernels.effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
@@ -193,7 +191,7 @@ def effective_mass_ranges(
     """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
 
     As `Arm.effective_mass_range`'s ``min`` and ``max`` (arguments as
-    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
+    [`operational_inertias`][redundancy.analysis.batch.operational_inertias]).
     """
 
     def kernel(J: Array, X: Array, floor: float) -> Array:
@@ -217,7 +215,7 @@ def dynamic_manipulabilities(
     """Yoshikawa's dynamic manipulability at each pose, shape (n,).
 
     As `Arm.dynamic_manipulability` (arguments as
-    [`effective_masses`][redundancy.analysis.batch.effective_masses]).
+    [`operational_inertias`][redundancy.analysis.batch.operational_inertias]).
     """
 
     def kernel(J: Array, X: Array, floor: float) -> Array:
@@ -245,13 +243,12 @@ def coriolis(
     same order.
 
     Args:
-        arm: The arm.
-        Q: Poses, shape (n, nq) [rad or m].
+        arm: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        Q: As in [`jacobians`][redundancy.analysis.batch.jacobians].
         V: Joint velocities, one per pose, shape (n, nq) [rad/s or m/s].
-        engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
-        executor: Run on this `concurrent.futures.Executor` in chunks of states (see
-            `jacobians`); None runs here.
+        engine: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        threads: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        executor: As in `jacobians`, in chunks of states.
 
     Returns:
         Coriolis matrices in the Christoffel form, shape (n, nq, nq) [N m s/rad].
@@ -268,9 +265,8 @@ def coriolis(
     if executor is not None:
         # The poses and velocities travel side by side, (n, 2 nq), chunked as poses are.
         kwargs = {"engine": engine, "threads": threads}
-        _check_executor(executor, _coriolis_of_states, kwargs)
-        parts = _map_chunks(executor, _coriolis_of_states, arm, np.hstack((Q, V)), None, kwargs)
-        return np.concatenate([r for _, r in parts]) if parts else np.empty((0, nq, nq))
+        QV, empty = np.hstack((Q, V)), np.empty((0, nq, nq))
+        return _scatter_rows(executor, _coriolis_of_states, arm, QV, empty, kwargs)
     out = np.empty((len(Q), nq, nq))
     arm.engine(engine).coriolis_stack(Q, V, out, threads)
     return out
@@ -331,9 +327,8 @@ def external_torques(
         raise ParameterError("dt", dt, f"a number or one per step, shape ({n},) [s]")
     nq = arm.nq
     if executor is not None:
-        _check_executor(executor, _momentum_terms_of_states, {})
-        parts = _map_chunks(executor, _momentum_terms_of_states, arm, np.hstack((Q, V)), None, {})
-        terms = np.concatenate([r for _, r in parts]) if parts else np.empty((0, 2 * nq))
+        QV, empty = np.hstack((Q, V)), np.empty((0, 2 * nq))
+        terms = _scatter_rows(executor, _momentum_terms_of_states, arm, QV, empty, {})
     else:
         terms = _momentum_terms_of_states(arm, np.hstack((Q, V)))
     out = np.empty((n, nq))

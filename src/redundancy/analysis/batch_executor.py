@@ -175,6 +175,23 @@ def _map_chunks(
             f.cancel()
 
 
+def _scatter_rows(
+    executor: Executor,
+    fn: Callable[..., Array],
+    arm: Arm,
+    rows: Array,
+    empty: Array,
+    kwargs: dict[str, Any],
+) -> Array:
+    """``fn`` over checked rows (a pose and what travels beside it) in chunks on ``executor``.
+
+    The chunks' results concatenated in order; ``empty`` when there are no rows.
+    """
+    _check_executor(executor, fn, kwargs)
+    parts = _map_chunks(executor, fn, arm, rows, None, kwargs)
+    return np.concatenate([r for _, r in parts]) if parts else empty
+
+
 def _check_executor(executor: object, fn: object, kwargs: dict[str, Any]) -> None:
     """The executor, and ``fn`` callable as ``fn(arm, Q, **kwargs)``.
 

@@ -397,10 +397,7 @@ def crosscheck_batch(
     seed = check_count("seed", seed, 0)
     Q = check_pose_or_poses(Q, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
-    if executor is not None:
-        condition = _crosscheck_on(executor, arm, Q, names, tols, threads, chunk, seed, found)
-    else:
-        condition = _crosscheck_here(arm, Q, names, threads, chunk, seed, found)
+    condition = _crosscheck_chunks(executor, arm, Q, names, tols, threads, chunk, seed, found)
     agreements = tuple(
         Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
         for n in names
@@ -408,8 +405,8 @@ def crosscheck_batch(
     return CrossCheckReport(agreements, arm.bridges, len(Q), float(condition), skipped)
 
 
-def _crosscheck_on(
-    executor: Executor,
+def _crosscheck_chunks(
+    executor: Executor | None,
     arm: Arm,
     Q: Array,
     names: tuple[str, ...],
@@ -419,41 +416,25 @@ def _crosscheck_on(
     seed: int,
     found: dict[str, tuple[float, int]],
 ) -> float:
-    """`crosscheck_batch` in chunks cross-checked on the executor's workers.
+    """`crosscheck_batch` ``chunk`` poses at a time, on the executor's workers or (None) here.
 
     Each quantity's worst error and pose are merged into ``found``; returns the largest
     condition number of the mass matrix.
     """
     condition = np.nan
-    kwargs = {
-        "quantities": names,
-        "tolerances": tols,
-        "threads": threads,
-        "chunk": chunk,
-        "seed": seed,
-    }
-    for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
-        for a in part.agreements:
-            found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
-        condition = np.fmax(condition, part.mass_condition)
-    return condition
-
-
-def _crosscheck_here(
-    arm: Arm,
-    Q: Array,
-    names: tuple[str, ...],
-    threads: int,
-    chunk: int,
-    seed: int,
-    found: dict[str, tuple[float, int]],
-) -> float:
-    """`crosscheck_batch` in this process, ``chunk`` poses at a time.
-
-    Each quantity's worst error and pose are merged into ``found``; returns the largest
-    condition number of the mass matrix.
-    """
-    condition = np.nan
+    if executor is not None:
+        kwargs = {
+            "quantities": names,
+            "tolerances": tols,
+            "threads": threads,
+            "chunk": chunk,
+            "seed": seed,
+        }
+        for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
+            for a in part.agreements:
+                found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
+            condition = np.fmax(condition, part.mass_condition)
+        return condition
     scales = arm_scales(arm)
     for lo in range(0, len(Q), chunk):
         part = Q[lo : lo + chunk]

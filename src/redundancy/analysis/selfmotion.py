@@ -428,23 +428,24 @@ def _checked_walk(
         check_callable("stop", stop, "a callable q -> bool, or None")
     elbow_idx = arm.nq // 2 if elbow is None else arm.joint_index(elbow)
     p0, R0 = arm.site_pose(q, engine)
+    # By name: sixteen fields of alike types are easy to misplace by position.
     walk = _Walk(
-        arm,
-        total,
-        step,
-        direction,
-        correct,
-        checked,
-        elbow_idx,
-        engine,
-        stop,
-        integrator,
-        tol,
-        max_corrections,
-        fd_step,
-        respect_limits,
-        p0,
-        R0,
+        arm=arm,
+        total=total,
+        step=step,
+        direction=direction,
+        correct=correct,
+        objective=checked,
+        elbow_idx=elbow_idx,
+        engine=engine,
+        stop=stop,
+        integrator=integrator,
+        tol=tol,
+        max_corrections=max_corrections,
+        fd_step=fd_step,
+        respect_limits=respect_limits,
+        p0=p0,
+        R0=R0,
     )
     return walk, q
 
