@@ -25,7 +25,6 @@ Example:
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 try:
@@ -35,6 +34,7 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 
     raise MissingDependencyError("hypothesis", "test") from _err
 
+from ..errors import DeprecatedAlias
 from . import elements as el
 
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
@@ -134,15 +134,8 @@ class GeneratedArm:
     features: tuple[str, ...] = ()
     refused: str | None = None
 
-    @property
-    def site(self) -> str:
-        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
-        warnings.warn(
-            "GeneratedArm.site is deprecated: use GeneratedArm.frame",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return self.frame
+    site = DeprecatedAlias("frame")
+    """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     def __repr__(self) -> str:  # shown by hypothesis for a falsifying example
         head = f"GeneratedArm(n_joints={self.n_joints}, features={list(self.features)}"
