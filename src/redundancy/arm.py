@@ -8,7 +8,6 @@ itself only dispatches: every number comes from an engine of `redundancy.engines
 from __future__ import annotations
 
 import threading
-import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -31,7 +30,13 @@ from .engines import ENGINES, REFERENCE, EngineName
 from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
 from .engines.pinocchio import PinocchioEngine
-from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
+from .errors import (
+    DeprecatedAlias,
+    OutOfRangeError,
+    ParameterError,
+    PoseError,
+    UnknownNameError,
+)
 
 Array = NDArray[np.float64]
 
@@ -206,11 +211,8 @@ class Arm(_Keyframes, _ToolMass):
         return {a.name: a.reason for a in self.set_aside if a.what in FROZEN}
 
     # -- names, keyframes and poses --------------------------------------------------------
-    @property
-    def site(self) -> str:
-        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
-        warnings.warn("Arm.site is deprecated: use Arm.frame", DeprecationWarning, stacklevel=2)
-        return self.frame
+    site = DeprecatedAlias("frame")
+    """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     @property
     def mujoco(self) -> MujocoEngine:

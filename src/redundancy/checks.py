@@ -67,16 +67,38 @@ def _as_real(x: ArrayLike, what: str) -> Array:
 
 
 def _check_pose_slow(q: ArrayLike, names: Sequence[str]) -> Array:
-    arr = _as_real(q, "pose")
+    return _check_vector(q, names, "pose")
+
+
+def _check_vector(x: ArrayLike, names: Sequence[str], what: str) -> Array:
+    """`check_joint_vector` without its fast path (``what`` is ``"pose"`` for a pose)."""
+    arr = _as_real(x, what)
     if arr.shape != (len(names),):
         raise PoseError(
-            f"pose must have shape ({len(names)},) for joints {list(names)}, got shape {arr.shape}"
+            f"{what} must have shape ({len(names)},) for joints {list(names)}, "
+            f"got shape {arr.shape}"
         )
+    _check_finite(arr, names, what)
+    return arr
+
+
+def _check_finite(arr: Array, names: Sequence[str], label: str) -> None:
+    """Raise PoseError naming the joints whose values in ``arr`` (nq,) are not finite."""
     bad = ~np.isfinite(arr)
     if bad.any():
         which = [f"{names[i]}={arr[i]}" for i in np.flatnonzero(bad)]
-        raise PoseError(f"pose has non-finite values: {', '.join(which)}")
-    return arr
+        raise PoseError(f"{label} has non-finite values: {', '.join(which)}")
+
+
+def _check_finite_rows(arr: Array, names: Sequence[str], label: str) -> None:
+    """`_check_finite` for the first row of ``arr`` (n, nq) with a non-finite value.
+
+    ``label`` is formatted with that row's index (``"pose {}"``).
+    """
+    bad = ~np.isfinite(arr).all(axis=1)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        _check_finite(arr[row], names, label.format(row))
 
 
 def check_poses(Q: ArrayLike, names: Sequence[str]) -> Array:
@@ -92,11 +114,7 @@ def check_poses(Q: ArrayLike, names: Sequence[str]) -> Array:
         raise PoseError(
             f"poses must have shape (n, {nq}) for joints {list(names)}, got shape {arr.shape}"
         )
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row = int(np.flatnonzero(bad.any(axis=1))[0])
-        which = [f"{names[j]}={arr[row, j]}" for j in np.flatnonzero(bad[row])]
-        raise PoseError(f"pose {row} has non-finite values: {', '.join(which)}")
+    _check_finite_rows(arr, names, "pose {}")
     return np.ascontiguousarray(arr)
 
 
@@ -386,13 +404,7 @@ def check_direction(name: str, u: object, size: int = 3) -> Array:
         norm = math.sqrt(sum(x * x for x in u.tolist()))  # NaN or inf if any value is
         if 0.0 < norm < math.inf:
             return u / norm
-    try:
-        arr = np.asarray(u)
-        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
-            raise ParameterError(name, u, valid)
-        arr = np.asarray(arr, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise ParameterError(name, u, valid) from None
+    arr = _real_or_refused(name, u, valid)
     if arr.shape != (size,) or not np.all(np.isfinite(arr)):
         raise ParameterError(name, u, valid)
     top = float(np.max(np.abs(arr)))
@@ -475,6 +487,17 @@ def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArr
     return np.array(sorted(names.index(j) for j in given), dtype=np.intp)
 
 
+def _real_or_refused(name: str, value: object, valid: str) -> Array:
+    """``value`` as a float64 array; ParameterError(name, value, valid) unless real numbers."""
+    try:
+        arr = np.asarray(value)
+        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
+            raise ParameterError(name, value, valid)
+        return np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, value, valid) from None
+
+
 def check_directions(name: str, U: object, n: int) -> Array:
     """One direction (3,) for every pose, or one per pose (n, 3), as unit rows (n, 3).
 
@@ -482,13 +505,7 @@ def check_directions(name: str, U: object, n: int) -> Array:
         ParameterError: Not a real (3,) or (n, 3) array, non-finite, or a zero row.
     """
     valid = f"a finite nonzero real vector of shape (3,) or ({n}, 3)"
-    try:
-        arr = np.asarray(U)
-        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
-            raise ParameterError(name, U, valid)
-        arr = np.asarray(arr, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise ParameterError(name, U, valid) from None
+    arr = _real_or_refused(name, U, valid)
     if arr.shape == (3,):
         arr = np.broadcast_to(arr, (n, 3))
     if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
@@ -549,17 +566,7 @@ def check_joint_vector(what: str, x: ArrayLike, names: Sequence[str]) -> Array:
     if type(x) is np.ndarray and x.dtype is _F64 and x.shape == (len(names),):
         if math.isfinite(sum(x.tolist())):
             return x
-    arr = _as_real(x, what)
-    if arr.shape != (len(names),):
-        raise PoseError(
-            f"{what} must have shape ({len(names)},) for joints {list(names)}, "
-            f"got shape {arr.shape}"
-        )
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        which = [f"{names[i]}={arr[i]}" for i in np.flatnonzero(bad)]
-        raise PoseError(f"{what} has non-finite values: {', '.join(which)}")
-    return arr
+    return _check_vector(x, names, what)
 
 
 def check_joint_vectors(what: str, X: ArrayLike, names: Sequence[str], n: int) -> Array:
@@ -582,9 +589,5 @@ def check_joint_vectors(what: str, X: ArrayLike, names: Sequence[str], n: int) -
             f"{what} must have shape ({n}, {nq}), one row per pose, for joints "
             f"{list(names)}, got shape {arr.shape}"
         )
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row = int(np.flatnonzero(bad.any(axis=1))[0])
-        which = [f"{names[j]}={arr[row, j]}" for j in np.flatnonzero(bad[row])]
-        raise PoseError(f"{what} row {row} has non-finite values: {', '.join(which)}")
+    _check_finite_rows(arr, names, what + " row {}")
     return np.ascontiguousarray(arr)

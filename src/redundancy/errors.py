@@ -8,6 +8,7 @@ exceptions are re-raised as one of these with the original kept as ``__cause__``
 from __future__ import annotations
 
 import pickle
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -174,3 +175,32 @@ class SingularPoseError(PoseError):
             f"{quantity} is undefined at a singular pose: the tool cannot move along "
             f"{', '.join(self.lost)}{why}"
         )
+
+
+class DeprecatedAlias:
+    """A read-only class attribute that is an old name of another one (``site`` of ``frame``).
+
+    Reading it warns ``"<Class>.<old> is deprecated: use <Class>.<new>"`` with a
+    DeprecationWarning pointing at the reader's line, then returns the new attribute.
+
+    Args:
+        new: The attribute's current name.
+    """
+
+    def __init__(self, new: str) -> None:
+        self.new = new
+        self.__doc__ = f"Deprecated name of `{new}` (warns with a DeprecationWarning)."
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+        self.message = f"{owner.__name__}.{name} is deprecated: use {owner.__name__}.{self.new}"
+
+    def __get__(self, obj: object, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        warnings.warn(self.message, DeprecationWarning, stacklevel=2)
+        return getattr(obj, self.new)
+
+    def __set__(self, obj: object, value: object) -> None:
+        owner = type(obj).__name__
+        raise AttributeError(f"property {self.name!r} of {owner!r} object has no setter")

@@ -65,8 +65,20 @@ class KeyframeClearance:
     moves_held: dict[str, float | tuple[float, ...]] = field(default_factory=dict)
 
 
+class ContactShare:
+    """``share_with_contact`` of a sweep's counts ``poses_with_contact`` and ``n_poses``."""
+
+    poses_with_contact: int
+    n_poses: int
+
+    @property
+    def share_with_contact(self) -> float:
+        """``poses_with_contact`` over ``n_poses``, in [0, 1] (0 without poses)."""
+        return self.poses_with_contact / self.n_poses if self.n_poses else 0.0
+
+
 @dataclass(frozen=True, repr=False)
-class CollisionStatistics(Report):
+class CollisionStatistics(ContactShare, Report):
     """Self-collision over random poses, as the lesson's table (4), labelled honestly.
 
     ``print(stats)`` prints [`lines`][redundancy.collision.CollisionStatistics.lines]; a notebook
@@ -83,6 +95,7 @@ class CollisionStatistics(Report):
             pairs, not counting pairs within `AMBIGUITY_BAND` of their threshold (0 expected; -1
             without distances).
         seconds: Wall time of the sweep [s].
+        share_with_contact: Fraction of the poses with at least one contact, in [0, 1].
     """
 
     n_poses: int
@@ -93,11 +106,6 @@ class CollisionStatistics(Report):
     keyframes: tuple[KeyframeClearance, ...]
     disagreements: int
     seconds: float
-
-    @property
-    def share_with_contact(self) -> float:
-        """Fraction of the poses with at least one contact, in [0, 1]."""
-        return self.poses_with_contact / self.n_poses if self.n_poses else 0.0
 
     def of(self, name1: str, name2: str) -> PairStatistics:
         """The statistics of the pair of geoms so named (either order)."""

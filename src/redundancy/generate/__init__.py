@@ -25,7 +25,6 @@ Example:
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 try:
@@ -35,6 +34,7 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 
     raise MissingDependencyError("hypothesis", "test") from _err
 
+from ..errors import DeprecatedAlias
 from . import elements as el
 
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
@@ -134,15 +134,8 @@ class GeneratedArm:
     features: tuple[str, ...] = ()
     refused: str | None = None
 
-    @property
-    def site(self) -> str:
-        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
-        warnings.warn(
-            "GeneratedArm.site is deprecated: use GeneratedArm.frame",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return self.frame
+    site = DeprecatedAlias("frame")
+    """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     def __repr__(self) -> str:  # shown by hypothesis for a falsifying example
         head = f"GeneratedArm(n_joints={self.n_joints}, features={list(self.features)}"
@@ -439,7 +432,7 @@ def held_arms(
         features: Which features to draw from (a subset of `HELD_FEATURES`).
         max_joints: Largest number of hinge and slide joints.
     """
-    return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
+    return _one_feature(features, max_joints)
 
 
 def refused_arms(
@@ -447,11 +440,9 @@ def refused_arms(
 ) -> st.SearchStrategy[GeneratedArm]:
     """Random arms with one feature the loader refuses; ``refused`` names it.
 
-    Args:
-        features: Which refusals to draw from (a subset of `REFUSED_FEATURES`).
-        max_joints: Largest number of hinge and slide joints.
+    Arguments as `held_arms`'s, ``features`` drawn from `REFUSED_FEATURES`.
     """
-    return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
+    return _one_feature(features, max_joints)
 
 
 def resolved_arms(
@@ -459,12 +450,14 @@ def resolved_arms(
 ) -> st.SearchStrategy[GeneratedArm]:
     """Random arms with one feature Pinocchio's parser reads differently; ``refused`` names it.
 
-    The loader serves such an arm through MuJoCo's compiled model.
-
-    Args:
-        features: Which features to draw from (a subset of `RESOLVED_FEATURES`).
-        max_joints: Largest number of hinge and slide joints.
+    The loader serves such an arm through MuJoCo's compiled model. Arguments as `held_arms`'s,
+    ``features`` drawn from `RESOLVED_FEATURES`.
     """
+    return _one_feature(features, max_joints)
+
+
+def _one_feature(features: tuple[str, ...], max_joints: int) -> st.SearchStrategy[GeneratedArm]:
+    """Trees of up to ``max_joints`` joints, each with one of ``features``."""
     return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
 
 

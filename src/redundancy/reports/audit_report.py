@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -18,6 +17,7 @@ from ..analysis.crosscheck import CrossCheckReport
 from ..arm import FROZEN, Arm
 from ..display import Report, Table, json_ready, plural, to_json
 from ..display import table as html_table
+from ..errors import DeprecatedAlias
 from ..model.equivalence import EquivalenceReport
 from . import sections
 from .sections import Sections
@@ -136,15 +136,8 @@ class AuditReport(Report):
     robot: RobotPart | None = None
     contact_mass: sections.ContactMass | None = None
 
-    @property
-    def site(self) -> str:
-        """Deprecated name of `frame` (warns with a DeprecationWarning)."""
-        warnings.warn(
-            "AuditReport.site is deprecated: use AuditReport.frame",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return self.frame
+    site = DeprecatedAlias("frame")
+    """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     @property
     def exit_code(self) -> int:

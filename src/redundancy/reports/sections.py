@@ -32,6 +32,7 @@ from ..collision import (
     collision_statistics,
     keyframe_clearance,
 )
+from ..collision.statistics import ContactShare
 from ..engines import REFERENCE
 from ..model import actuators
 from ..model.scales import arm_scales
@@ -275,23 +276,19 @@ ALWAYS_TOUCHING = 0.99
 
 
 @dataclass(frozen=True)
-class TouchingEverywhere:
+class TouchingEverywhere(ContactShare):
     """Pairs in contact at (nearly) every pose, and how often the others touch.
 
     Attributes:
         pairs: The pairs in contact at `ALWAYS_TOUCHING` of the poses or more, most first.
         poses_with_contact: Poses in which some other pair is in contact.
         n_poses: Poses swept.
+        share_with_contact: Fraction of the poses with a contact of another pair, in [0, 1].
     """
 
     pairs: tuple[PairStatistics, ...]
     poses_with_contact: int
     n_poses: int
-
-    @property
-    def share_with_contact(self) -> float:
-        """Fraction of the poses with a contact of another pair, in [0, 1]."""
-        return self.poses_with_contact / self.n_poses if self.n_poses else 0.0
 
 
 def touching_everywhere(
