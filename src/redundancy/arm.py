@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -211,7 +211,7 @@ class Arm(_Keyframes, _ToolMass):
         return {a.name: a.reason for a in self.set_aside if a.what in FROZEN}
 
     # -- names, keyframes and poses --------------------------------------------------------
-    site = DeprecatedAlias("frame")
+    site: ClassVar[DeprecatedAlias] = DeprecatedAlias("frame")
     """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     @property

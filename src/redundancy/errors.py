@@ -72,7 +72,7 @@ class MissingInertiaError(ModelError):
 
     def __init__(self, quantity: str, links: Sequence[str]) -> None:
         self.quantity = quantity
-        self.links = tuple(links)
+        self.links: tuple[str, ...] = tuple(links)
         shown = ", ".join(repr(n) for n in self.links)
         super().__init__(
             f"{quantity} needs the inertia of every link the arm moves, and the model gives "
@@ -170,7 +170,7 @@ class SingularPoseError(PoseError):
 
     def __init__(self, quantity: str, lost: Sequence[str], why: str = "") -> None:
         self.quantity = quantity
-        self.lost = tuple(lost)
+        self.lost: tuple[str, ...] = tuple(lost)
         super().__init__(
             f"{quantity} is undefined at a singular pose: the tool cannot move along "
             f"{', '.join(self.lost)}{why}"
@@ -188,7 +188,9 @@ class DeprecatedAlias:
     """
 
     def __init__(self, new: str) -> None:
-        self.new = new
+        self.new: str = new
+        self.name: str = new
+        self.message: str = f"deprecated: use {new}"
         self.__doc__ = f"Deprecated name of `{new}` (warns with a DeprecationWarning)."
 
     def __set_name__(self, owner: type, name: str) -> None:

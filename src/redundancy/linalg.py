@@ -160,11 +160,6 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
     return JacobianSVD(sigma=s, U=U, V=Vt.T, rank=rank, rtol=rtol)
 
 
-def _measure(kind: str, doc: str) -> property:
-    """A read-only `Manipulability` measure, computed when first read."""
-    return property(lambda self: self._get(kind), doc=doc)
-
-
 class Manipulability(Report):
     """Yoshikawa's manipulability of the whole Jacobian and of its blocks (see `yoshikawa`).
 
@@ -197,12 +192,27 @@ class Manipulability(Report):
             )
         return value
 
-    full = _measure("full", "Product of the singular values of the 6 x n J [mixed units].")
-    position = _measure("position", "sqrt(det(J J^T)) of the 3 linear rows [m^3/rad^3].")
-    orientation = _measure("orientation", "sqrt(det(J J^T)) of the 3 angular rows [dimensionless].")
-    scaled = _measure(
-        "scaled", "sqrt(det(J J^T)) with the linear rows divided by ``length`` [dimensionless]."
-    )
+    # Typed properties, one per measure (a property factory would leave their type unknown
+    # to type checkers).
+    @property
+    def full(self) -> float:
+        """Product of the singular values of the 6 x n J [mixed units]."""
+        return self._get("full")
+
+    @property
+    def position(self) -> float:
+        """sqrt(det(J J^T)) of the 3 linear rows [m^3/rad^3]."""
+        return self._get("position")
+
+    @property
+    def orientation(self) -> float:
+        """sqrt(det(J J^T)) of the 3 angular rows [dimensionless]."""
+        return self._get("orientation")
+
+    @property
+    def scaled(self) -> float:
+        """sqrt(det(J J^T)) with the linear rows divided by ``length`` [dimensionless]."""
+        return self._get("scaled")
 
     def _rows(self) -> list[tuple[str, str, str]]:
         return [

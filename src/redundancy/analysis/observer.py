@@ -84,7 +84,7 @@ class MomentumObserver:
     """
 
     def __init__(self, arm: Arm, gain: object) -> None:
-        self.arm = check_arm(arm)
+        self.arm: Arm = check_arm(arm)
         self.gain: Array = check_gain(gain, arm.nq)
         #: The longest step [s]: the observer integrates r' = K (tau_ext - r) by forward
         #: Euler, r <- (1 - K dt) r + K dt tau_ext, which diverges at K dt >= 2.

@@ -154,7 +154,7 @@ class Support:
     """
 
     def __init__(self, model: mujoco.MjModel, geom: int) -> None:
-        self.type = int(model.geom_type[geom])
+        self.type: int = int(model.geom_type[geom])
         self.size = model.geom_size[geom].astype(float)
         self.points = mesh_hull(model, geom).points if self.type == _G.mjGEOM_MESH else None
         self._points_t = None if self.points is None else np.ascontiguousarray(self.points.T)

@@ -26,6 +26,7 @@ Example:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 try:
     from hypothesis import strategies as st
@@ -134,7 +135,7 @@ class GeneratedArm:
     features: tuple[str, ...] = ()
     refused: str | None = None
 
-    site = DeprecatedAlias("frame")
+    site: ClassVar[DeprecatedAlias] = DeprecatedAlias("frame")
     """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     def __repr__(self) -> str:  # shown by hypothesis for a falsifying example

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -136,7 +136,7 @@ class AuditReport(Report):
     robot: RobotPart | None = None
     contact_mass: sections.ContactMass | None = None
 
-    site = DeprecatedAlias("frame")
+    site: ClassVar[DeprecatedAlias] = DeprecatedAlias("frame")
     """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
     @property
