@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import redundancy as rd
-from redundancy import batch, ik
+from redundancy import batch, ik, linalg, objectives
+from redundancy.analysis import selfmotion as sm
 from redundancy.arm import random_poses
 
 TOL = 1e-6
@@ -291,3 +292,90 @@ def test_joint_limit_cost_gradient_and_its_finite_value_at_a_limit() -> None:
     middle, _ = cost(np.array([0.5, -0.5, 0.0]))
     at_limit, g = cost(np.array([2.0, -0.5, 0.0]))
     assert middle < value < at_limit < np.inf and np.all(np.isfinite(g))
+
+
+# -- one objective convention: a value to raise, as self_motion takes -----------------------
+
+
+def _toward_one(q: np.ndarray) -> float:
+    """Raised when j3 nears 1 rad."""
+    return -0.5 * (q[2] - 1.0) ** 2
+
+
+def _toward_one_gradient(q: np.ndarray) -> np.ndarray:
+    g = np.zeros(len(q))
+    g[2] = 1.0 - q[2]
+    return g
+
+
+def test_the_same_objective_drives_self_motion_and_solve_ik(arm7: rd.Arm) -> None:
+    toward = objectives.Objective("j3 near 1 rad [rad^2]", _toward_one, _toward_one_gradient)
+    assert sm.Objective is objectives.Objective  # the old import still works
+    qt = random_poses(arm7, 1, seed=4)[0]
+    path = sm.self_motion(arm7, qt, 0.5, 0.01, objective=toward)
+    assert path.objective[-1] > path.objective[0]
+    target = arm7.site_pose(qt)
+    q0 = random_poses(arm7, 1, seed=5)[0]
+    plain = arm7.solve_ik(target, q0)
+    for objective in (toward, _toward_one):  # analytic gradient, central differences
+        pulled = arm7.solve_ik(target, q0, objective=objective)
+        assert pulled.success and _toward_one(pulled.q) > _toward_one(plain.q)
+        assert pulled.objective == -_toward_one(pulled.q)  # the cost lowered: minus the value
+
+
+def test_a_legacy_tuple_objective_warns_and_matches_its_objective(arm7: rd.Arm) -> None:
+    target = arm7.site_pose(random_poses(arm7, 1, seed=4)[0])
+    q0 = random_poses(arm7, 1, seed=5)[0]
+
+    def legacy(q: np.ndarray) -> tuple[float, np.ndarray]:
+        return -_toward_one(q), -_toward_one_gradient(q)
+
+    with pytest.warns(DeprecationWarning) as caught:
+        old = arm7.solve_ik(target, q0, objective=legacy)
+    assert [str(w.message) for w in caught] == [ik.LEGACY_WARNING]
+    assert "pass an Objective or a callable returning the value to raise" in ik.LEGACY_WARNING
+    toward = objectives.Objective("j3 near 1 rad", _toward_one, _toward_one_gradient)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = arm7.solve_ik(target, q0, objective=toward)
+    np.testing.assert_array_equal(old.q, new.q)
+    assert (old.objective, old.iterations) == (new.objective, new.iterations)
+
+
+@pytest.mark.parametrize("name", ["arm7", "panda"])
+def test_named_objectives_take_the_steps_of_their_former_costs(name: str, request) -> None:
+    arm = request.getfixturevalue(name)
+    with pytest.warns(DeprecationWarning, match="use redundancy.objectives.joint_limits"):
+        limits = ik.joint_limit_objective(arm.lower, arm.upper)
+
+    def manipulability(q: np.ndarray) -> tuple[float, np.ndarray]:  # as solve_ik lowered it
+        J = arm.jacobian(q)
+        return -linalg.yoshikawa(J), -arm.manipulability_gradient(q)
+
+    Qt, Q0 = random_poses(arm, 8, seed=60), random_poses(arm, 8, seed=61)
+    for qt, q0 in zip(Qt, Q0, strict=True):
+        target = arm.site_pose(qt)
+        for named, former in (("joint_limits", limits), ("manipulability", manipulability)):
+            a = arm.solve_ik(target, q0, objective=named)
+            with pytest.warns(DeprecationWarning):
+                b = arm.solve_ik(target, q0, objective=former)
+            np.testing.assert_array_equal(a.q, b.q)
+            assert a.objective == b.objective
+
+
+def test_the_joint_limits_objective_is_minus_the_former_cost() -> None:
+    lo, hi = np.array([-1.0, -2.0, -np.inf]), np.array([2.0, 1.0, np.inf])
+    raised = objectives.joint_limits(lo, hi)
+    cost = objectives.joint_limit_cost(lo, hi)
+    for q in (np.array([0.3, -1.5, 4.0]), np.array([2.0, -0.5, 0.0])):
+        assert raised(q) == -cost(q)[0]
+        np.testing.assert_array_equal(raised.gradient(q), -cost(q)[1])
+
+
+def test_a_callable_returning_neither_a_number_nor_a_pair_is_blamed(arm7: rd.Arm) -> None:
+    good = arm7.site_pose(arm7.keyframe("home"))
+    with pytest.raises(
+        rd.ParameterError,
+        match=r"^objective must be a function of q returning a finite real number, got one",
+    ):
+        arm7.solve_ik(good, objective=lambda q: "high")

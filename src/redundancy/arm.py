@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import ik, linalg
+from . import ik, linalg, objectives
 from .arm_keyframes import _Keyframes
 from .arm_mass import _ToolMass
 from .checks import (
@@ -402,18 +402,21 @@ class Arm(_Keyframes, _ToolMass):
         return self.engine(engine).centroidal_momentum_matrix(q)
 
     # -- inverse kinematics -----------------------------------------------------------------
-    def ik_objective(self, objective: object, engine: EngineName = "mujoco") -> ik.Objective | None:
-        """The cost function behind an ``objective`` argument of `solve_ik`.
+    def ik_objective(
+        self, objective: object, engine: EngineName = "mujoco"
+    ) -> objectives.Objective | None:
+        """The objective (a value to raise) behind an ``objective`` argument of `solve_ik`.
 
         ``"joint_limits"`` is
-        [`redundancy.ik.joint_limit_objective`][redundancy.ik.joint_limit_objective] over the joint
-        ranges; ``"manipulability"`` is minus Yoshikawa's sqrt(det(J J^T)) with its analytic
-        gradient ([`manipulability_gradient`][redundancy.arm.Arm.manipulability_gradient]); a
-        callable is taken as the cost itself.
+        [`redundancy.objectives.joint_limits`][redundancy.objectives.joint_limits] over the
+        joint ranges; ``"manipulability"`` is Yoshikawa's sqrt(det(J J^T)) with its analytic
+        gradient ([`manipulability_gradient`][redundancy.arm.Arm.manipulability_gradient]); an
+        [`Objective`][redundancy.objectives.Objective] or a callable q -> float is taken as
+        it is (a callable returning a (cost, gradient) pair to lower is deprecated).
 
         Raises:
             UnknownNameError: A name that is not one of `redundancy.ik.OBJECTIVES`.
-            ParameterError: Neither None, a name nor a callable.
+            ParameterError: Neither None, a name, an Objective nor a callable.
         """
         if objective is None:
             return None
@@ -421,21 +424,21 @@ class Arm(_Keyframes, _ToolMass):
             if objective not in ik.OBJECTIVES:
                 raise UnknownNameError("objective", objective, ik.OBJECTIVES)
             if objective == "joint_limits":
-                return ik.joint_limit_objective(self.lower, self.upper)
+                return objectives.joint_limits(self.lower, self.upper)
             eng = self.engine(engine)
-
-            def manipulability(q: Array) -> tuple[float, Array]:
-                J = eng.site_jacobian(q)
-                return (
-                    -linalg.yoshikawa(J),
-                    -linalg.manipulability_gradient(J, eng.jacobian_derivatives(q)),
-                )
-
-            return manipulability
+            return objectives.Objective(
+                "manipulability sqrt(det(J J^T))",
+                lambda q: linalg.yoshikawa(eng.site_jacobian(q)),
+                lambda q: linalg.manipulability_gradient(
+                    eng.site_jacobian(q), eng.jacobian_derivatives(q)
+                ),
+            )
         if callable(objective):
-            return objective  # type: ignore[no-any-return]
+            return objectives.as_objective(objective)  # type: ignore[arg-type]
         raise ParameterError(
-            "objective", objective, f"None, one of {list(ik.OBJECTIVES)} or a callable"
+            "objective",
+            objective,
+            f"None, one of {list(ik.OBJECTIVES)}, {objectives.VALID}",
         )
 
     def solve_ik(
@@ -463,7 +466,8 @@ class Arm(_Keyframes, _ToolMass):
             q0: First start [rad or m]; None: the middle of the joint ranges.
             objective: Pursued in the task's null space once the task is met, never at its
                 expense: ``"joint_limits"`` (away from the limits), ``"manipulability"``
-                (Yoshikawa's measure up), or a callable q -> (cost, gradient (nq,)) to lower.
+                (Yoshikawa's measure up), an [`Objective`][redundancy.objectives.Objective]
+                or a callable q -> float to raise, as `self_motion` takes.
             position_only: Reach the position alone; the orientation is free.
             position_tol: Position tolerance [m], > 0.
             orientation_tol: Orientation tolerance [rad], > 0.

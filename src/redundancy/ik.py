@@ -16,11 +16,13 @@ The solver ([`solve`][redundancy.ik.solve], behind `Arm.solve_ik`):
   (MuJoCo's by default, the fastest); when they meet the tolerances, every other engine
   recomputes the tool pose, and only their (worst) errors decide ``success`` and are
   reported. A success is a success in every engine.
-* **Objectives in the null space**, after the task has converged: steps -N grad(f) with
-  N = I - J^+ J, each followed by a few Levenberg-Marquardt corrections that remove the
-  second-order drift, kept only when f decreases and the task still holds; the objective
-  never costs the task anything (the task-only answer is returned if the pursuit fails).
-  The objective is given a copy of each pose: changing its argument changes nothing here.
+* **Objectives in the null space**, after the task has converged: an objective is a value
+  to raise ([`Objective`][redundancy.objectives.Objective], as `self_motion` takes), and the
+  solver lowers its cost f = minus that value: steps -N grad(f) with N = I - J^+ J, each
+  followed by a few Levenberg-Marquardt corrections that remove the second-order drift, kept
+  only when f decreases and the task still holds; the objective never costs the task
+  anything (the task-only answer is returned if the pursuit fails). The objective is given
+  a copy of each pose: changing its argument changes nothing here.
 
 Nothing here calls an engine library: the engines' ``kinematics_kernel`` (unchecked, per
 thread) gives position, rotation and Jacobian at a pose.
@@ -29,22 +31,33 @@ thread) gives position, rotation and Jacobian at a pose.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import describe
+from .checks import check_matrix, check_returned, describe
 from .engines.contract import Engine
 from .engines.mujoco import damped_stepper
 from .errors import ParameterError
 from .kernels import rotation_vector
+from .objectives import Objective, joint_limit_cost
 
 Array = NDArray[np.float64]
 
-#: A cost to lower in the task's null space: q -> (value, gradient (nq,)).
-Objective = Callable[[Array], tuple[float, Array]]
+#: The former form of an objective, deprecated: a cost to lower, q -> (cost, gradient (nq,)).
+Cost = Callable[[Array], tuple[float, Array]]
+
+#: Why the former form warns: what to pass instead.
+LEGACY_WARNING = (
+    "an objective returning a (cost, gradient) tuple to lower is deprecated: pass an "
+    "Objective or a callable returning the value to raise"
+)
+
+#: Central-difference step of the gradient of an objective that has none [rad or m].
+FD_STEP = 1e-6
 
 #: Names of the built-in objectives.
 OBJECTIVES = ("joint_limits", "manipulability")
@@ -63,7 +76,8 @@ class IKResult:
         iterations: Levenberg-Marquardt iterations, over every attempt and the objective's
             corrections.
         restarts: Random restarts taken (0: the first start converged).
-        objective: The objective's value at ``q`` (None without an objective).
+        objective: The cost the solver lowered, at ``q``: minus the objective's value (the
+            cost itself for the deprecated (cost, gradient) form; None without an objective).
         engine: The engine whose kinematics the iterations used.
         checked_by: The engines that recomputed the answer and decided ``success``, by
             name, comma-separated.
@@ -137,29 +151,19 @@ def tool_errors(p_t: Array, R_t: Array, p: Array, R: Array) -> tuple[float, floa
     return math.hypot(*(p_t - p).tolist()), math.sqrt(x * x + y * y + z * z)
 
 
-def joint_limit_objective(lower: Array, upper: Array, margin: float = 1e-3) -> Objective:
-    """Chan and Dubey's joint-limit cost: the mean of r^2 / (4 (upper - q)(q - lower)).
+def joint_limit_objective(lower: Array, upper: Array, margin: float = 1e-3) -> Cost:
+    """Chan and Dubey's joint-limit cost q -> (cost, gradient), to lower (deprecated).
 
-    1 with every limited joint at the middle of its range (r, the range's width), growing
-    without bound toward a limit, so lowering it moves first the joints nearest their limits
-    (a quadratic cost would trade one joint at its limit for several nearer their middles).
-    The distances carry ``margin`` times the range, so a joint clamped at its limit still
-    has a finite cost and gradient.
+    Deprecated: [`objectives.joint_limits`][redundancy.objectives.joint_limits] is the same
+    as an [`Objective`][redundancy.objectives.Objective] to raise (minus this cost).
     """
-    limited = np.isfinite(lower) & np.isfinite(upper) & (upper > lower)
-    lo = np.where(limited, lower, -1.0)
-    hi = np.where(limited, upper, 1.0)
-    r = hi - lo
-    w = np.where(limited, 0.25 * r * r, 0.0) / max(1, int(limited.sum()))
-    pad = margin * r
-
-    def cost(q: Array) -> tuple[float, Array]:
-        x = np.where(limited, q, 0.5 * (lo + hi))
-        a, b = hi - x + pad, x - lo + pad
-        f = a * b
-        return float(np.sum(w / f)), w * (b - a) / (f * f)
-
-    return cost
+    warnings.warn(
+        "ik.joint_limit_objective is deprecated: use redundancy.objectives.joint_limits, "
+        "the Objective to raise (minus this cost)",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return joint_limit_cost(lower, upper, margin)
 
 
 def limit_clearance(q: Array, lower: Array, upper: Array) -> float:
@@ -185,6 +189,52 @@ def _checked(returned: object, nq: int) -> tuple[float, Array]:
     if not math.isfinite(v) or g.shape != (nq,) or not np.all(np.isfinite(g)):
         raise ParameterError("objective", (value, gradient), valid)
     return v, g
+
+
+class _Cost:
+    """The cost the solver lowers: minus an objective's value, with minus its gradient.
+
+    The objective gets copies of the pose. A value that is a (cost, gradient) pair is the
+    deprecated form, taken as the cost itself (with a DeprecationWarning, once).
+    """
+
+    def __init__(self, objective: Objective, nq: int) -> None:
+        self.objective = objective
+        self.nq = nq
+        self.warned = False
+        self.legacy_gradient: Array | None = None
+
+    def value(self, q: Array) -> float:
+        """The cost at ``q`` (its gradient, for the deprecated form, kept for `gradient`)."""
+        out = self.objective.value(q.copy())
+        if isinstance(out, tuple | list) and len(out) == 2:
+            if not self.warned:
+                self.warned = True
+                warnings.warn(LEGACY_WARNING, DeprecationWarning, stacklevel=2)
+            v, self.legacy_gradient = _checked(out, self.nq)
+            return v
+        self.legacy_gradient = None
+        return -check_returned("objective", out, q)
+
+    def gradient(self, q: Array) -> Array:
+        """The cost's gradient at ``q``, the pose `value` was last called at."""
+        if self.legacy_gradient is not None:
+            return self.legacy_gradient
+        g = self.objective.gradient
+        if g is not None:
+            return -check_matrix("objective gradient", g(q.copy()), (self.nq,))
+        h = FD_STEP
+        f = self.objective.value
+        rises = [
+            check_returned("objective", f(q + h * e), q)
+            - check_returned("objective", f(q - h * e), q)
+            for e in np.eye(self.nq)
+        ]
+        return np.array(rises) / (-2.0 * h)
+
+    def both(self, q: Array) -> tuple[float, Array]:
+        """Cost and gradient at ``q``."""
+        return self.value(q), self.gradient(q)
 
 
 class _Solver:
@@ -301,14 +351,14 @@ class _Solver:
         self.iterations += done
         return q, pp <= tp2 and rr <= tr2, E
 
-    def pursue(self, q: Array, objective: Objective) -> Array:
-        """Lower ``objective`` along the task's null space from the converged ``q``.
+    def pursue(self, q: Array, cost: _Cost) -> Array:
+        """Raise ``objective`` (lower its cost) along the task's null space from ``q``.
 
         The objective sees copies: one that changes its argument cannot move the solver's
         pose after its errors were computed.
         """
         nq = len(q)
-        value, grad = _checked(objective(q.copy()), nq)
+        value, grad = cost.both(q)
         scale = 0.25  # largest joint motion of the next trial step [rad, or half-lengths]
         for _ in range(self.s.objective_steps):
             J = self.error(q)[1]
@@ -320,10 +370,10 @@ class _Solver:
             trial = np.clip(q + (scale / top) * d, self.lower, self.upper)
             trial, ok, _ = self.descend(trial, _CORRECTIONS)
             if ok:
-                v, g = _checked(objective(trial.copy()), nq)
+                v = cost.value(trial)
                 if v < value - 1e-12 * max(1.0, abs(value)):
                     gain = value - v
-                    q, value, grad = trial, v, g
+                    q, value, grad = trial, v, cost.gradient(trial)
                     scale = min(2.0 * scale, 0.5)
                     if gain <= 1e-9 * max(1e-12, abs(value)):
                         break
@@ -366,7 +416,8 @@ def solve(
         q0: First start [rad or m] (clamped into the ranges).
         rng: Makes the restarts' random numbers (called on the first restart only: most
             solves need none, and a generator costs tens of microseconds to seed).
-        objective: A cost lowered in the null space after convergence, or None.
+        objective: Raised in the null space after convergence (its cost, minus its value,
+            lowered), or None.
         position_only: Solve for the position alone (3 rows of J).
         settings: The knobs (`Settings` defaults if None).
         length: The arm's length, which sets the unit of the iterations' positions [m] (see
@@ -375,6 +426,7 @@ def solve(
     """
     s = settings or Settings()
     solver = _Solver(engine, lower, upper, p_t, R_t, position_only, s, length, slide)
+    cost = None if objective is None else _Cost(objective, len(q0))
     q = np.minimum(np.maximum(q0, lower), upper)
     best: tuple[float, Array] | None = None
     restarts = 0
@@ -384,13 +436,13 @@ def solve(
         if ok:
             errors = _checked_errors(solver, checks, q)
             if errors[2]:
-                if objective is not None:
-                    better = solver.pursue(q, objective)
+                if cost is not None:
+                    better = solver.pursue(q, cost)
                     if better is not q:
                         better_errors = _checked_errors(solver, checks, better)
                         if better_errors[2]:
                             q, errors = better, better_errors
-                return _result(solver, checks, q, errors, restarts, objective, engine)
+                return _result(solver, checks, q, errors, restarts, cost, engine)
         if best is None or E < best[0] or not math.isfinite(best[0]):
             best = (E, q)
         if restarts >= s.restarts:
@@ -400,9 +452,7 @@ def solve(
             generator = rng()
         q = generator.uniform(sample_lower, sample_upper)
     q = best[1]
-    return _result(
-        solver, checks, q, _checked_errors(solver, checks, q), restarts, objective, engine
-    )
+    return _result(solver, checks, q, _checked_errors(solver, checks, q), restarts, cost, engine)
 
 
 def _checked_errors(
@@ -425,11 +475,11 @@ def _result(
     q: Array,
     errors: tuple[float, float, bool],
     restarts: int,
-    objective: Objective | None,
+    cost: _Cost | None,
     engine: Engine,
 ) -> IKResult:
     q = q.copy()  # the errors are this array's; the objective gets its own copy
-    value = None if objective is None else _checked(objective(q.copy()), len(q))[0]
+    value = None if cost is None else cost.value(q)
     return IKResult(
         q=q,
         success=bool(errors[2]),

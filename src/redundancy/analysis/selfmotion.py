@@ -41,10 +41,11 @@ from ..checks import (
     check_matrix,
     check_number,
     check_pose,
-    check_returned,
 )
 from ..errors import ParameterError
 from ..kernels import rotation_vector
+from ..objectives import Objective, Objectivelike
+from ..objectives import checked as _checked
 
 if TYPE_CHECKING:
     from ..collision import DistanceEngine, GeomPair
@@ -95,29 +96,6 @@ def pose_error(arm: Arm, q: Array, p0: Array, R0: Array, engine: EngineName = "m
 # ==========================================================================================
 # Objectives
 # ==========================================================================================
-
-
-@dataclass(frozen=True)
-class Objective:
-    """A scalar function of the pose to raise along the self-motion.
-
-    Calling the objective returns its value, so a plain ``Callable[[Array], float]`` can be used
-    wherever an [`Objective`][redundancy.analysis.selfmotion.Objective] is accepted.
-
-    Attributes:
-        name: Short description, with its unit.
-        value: q -> value.
-        gradient: q -> d value / dq, shape (nq,); ``None`` for central differences along
-            the null-space basis.
-    """
-
-    name: str
-    value: Callable[[Array], float]
-    gradient: Callable[[Array], Array] | None = None
-
-    def __call__(self, q: Array) -> float:
-        """The objective's value at ``q``."""
-        return float(self.value(q))
 
 
 def manipulability_objective(arm: Arm, engine: EngineName = "mujoco") -> Objective:
@@ -241,40 +219,6 @@ class SelfMotionPath:
         return float(np.max(self.orientation_drift))
 
 
-Objectivelike = Objective | Callable[[Array], float]
-
-
-def _checked(objective: Objectivelike) -> Objective:
-    """The objective with its values and gradients checked.
-
-    A NaN or a string it returns is the objective's fault (ParameterError naming it), not
-    the pose's or numpy's.
-
-    Raises:
-        ParameterError: ``objective`` is not callable (or its ``gradient`` neither).
-    """
-    want = "an Objective or a callable q -> float"
-    check_callable("objective", objective, want)
-    if isinstance(objective, Objective):
-        check_callable("objective", objective.value, want)
-        if objective.gradient is not None:
-            check_callable("objective gradient", objective.gradient, "a callable q -> array")
-        name, value, gradient = objective.name, objective.value, objective.gradient
-    else:
-        name, value, gradient = getattr(objective, "__name__", "objective"), objective, None
-
-    def checked_value(q: Array) -> float:
-        return check_returned("objective", value(q), q)
-
-    checked_gradient = None
-    if gradient is not None:
-
-        def checked_gradient(q: Array) -> Array:
-            return check_matrix("objective gradient", gradient(q), (len(q),))
-
-    return Objective(name, checked_value, checked_gradient)
-
-
 def _objective_direction(objective: Objectivelike, q: Array, basis: Array, fd_step: float) -> Array:
     """Gradient of the objective projected onto the null space (basis columns), shape (nq,)."""
     grad = objective.gradient if isinstance(objective, Objective) else None
@@ -327,7 +271,7 @@ def self_motion(
         correct: Pull the tool back to its start pose after every step (Newton steps
             ``J^+ e`` until ``|e| <= tol``), removing the drift.
         objective: Scalar function of q to raise (an
-            [`Objective`][redundancy.analysis.selfmotion.Objective], or any callable); each step
+            [`Objective`][redundancy.objectives.Objective], or any callable); each step
             goes along its gradient projected onto the null space; the motion stops where that
             direction reverses, at the better of the last two poses.
         elbow: Joint whose anchor height is reported; default the middle joint (j4 of a

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm
+from ..objectives import Objective
 
 Array = NDArray[np.float64]
 
@@ -21,7 +22,7 @@ def solve_ik(
 
     No random restarts (a drag must not make the arm jump to another branch), and the
     posture pulled toward ``rest`` in the task's null space (the objective
-    |q - rest|^2 / 2), so the elbow stays where the user left it while the tool follows.
+    -|q - rest|^2 / 2, raised), so the elbow stays where the user left it while the tool follows.
 
     Args:
         arm: The arm.
@@ -37,10 +38,11 @@ def solve_ik(
     R_t = arm.site_pose(q)[1] if rotation is None else rotation
     q_rest = q.copy() if rest is None else arm.pose(rest)
 
-    def toward_rest(x: Array) -> tuple[float, Array]:
+    def closeness(x: Array) -> float:
         d = x - q_rest
-        return 0.5 * float(d @ d), d
+        return -0.5 * float(d @ d)
 
+    toward_rest = Objective("closeness to rest [rad^2]", closeness, lambda x: q_rest - x)
     result = arm.solve_ik((position, R_t), q, objective=toward_rest, restarts=0)
     return result.q, result.position_error
 
