@@ -97,3 +97,14 @@ def test_a_third_engine_is_compared_with_the_reference_and_confirms_ik() -> None
         match=r"^unknown engine 'nope'; valid engine names: \['mujoco', 'pinocchio', 'skewed'\]$",
     ):
         arm.engine("nope")
+
+
+@pytest.mark.parametrize("quantities", [["jacobian"], ["operational inertia^-1"]])
+def test_a_report_equals_itself_through_a_pickle(arm7: rd.Arm, quantities: list[str]) -> None:
+    """A report is a value: the same after crossing to a worker or a file, whether or not a
+    quantity through M^-1 measured cond(M) (a NaN for "not measured" broke this)."""
+    import pickle
+
+    report = rd.crosscheck_batch(arm7, rd.random_poses(arm7, 4, seed=0), quantities)
+    assert (report.mass_condition is None) == (quantities == ["jacobian"])
+    assert pickle.loads(pickle.dumps(report)) == report

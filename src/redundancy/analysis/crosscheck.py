@@ -11,7 +11,6 @@ are one computation, over stacks of poses taken in chunks so memory stays flat i
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
@@ -47,7 +46,12 @@ CALIBRATED_CONDITION = 1e7
 DYNAMIC_QUANTITIES = tuple(q.name for q in QUANTITIES if q.dynamic)
 
 
-def conditioned_tolerance(name: str, tol: float, condition: float) -> float:
+def worse_condition(a: float | None, b: float | None) -> float | None:
+    """The larger of two condition numbers of M, either of which may be None (not measured)."""
+    return b if a is None else a if b is None else max(a, b)
+
+
+def conditioned_tolerance(name: str, tol: float, condition: float | None) -> float:
     """The tolerance of ``name`` at a mass matrix of condition number ``condition``.
 
     Solving with M multiplies the engines' rounding of M (relative, ~eps) by cond(M): links
@@ -55,7 +59,7 @@ def conditioned_tolerance(name: str, tol: float, condition: float) -> float:
     by ~1e-4 between two correct engines. A quantity computed through M^-1 is held to
     ``tol x max(1, condition / CALIBRATED_CONDITION)``; the others to ``tol``.
     """
-    if name not in M_INVERSE_QUANTITIES or not np.isfinite(condition):
+    if name not in M_INVERSE_QUANTITIES or condition is None:
         return tol
     return float(tol * max(1.0, condition / CALIBRATED_CONDITION))
 
@@ -96,21 +100,15 @@ class CrossCheckReport(Report):
         bridges: Values Pinocchio got from MuJoCo (not independent, so not compared).
         n_poses: Number of poses compared.
         mass_condition: Largest condition number of MuJoCo's M (armature in) over the poses
-            where a quantity computed through M^-1 was compared (NaN: none was).
+            where a quantity computed through M^-1 was compared (None: none was).
         skipped: Why quantities were left out (an arm whose links lack inertias), or "".
     """
 
     agreements: tuple[Agreement, ...]
     bridges: tuple[Bridge, ...]
     n_poses: int
-    mass_condition: float = math.nan
+    mass_condition: float | None = None
     skipped: str = ""
-
-    def __post_init__(self) -> None:
-        # One NaN object for "not compared", so that equal reports compare equal (a NaN is
-        # equal only to itself, and a report merged from a worker's chunks has its own).
-        if math.isnan(self.mass_condition):
-            object.__setattr__(self, "mass_condition", math.nan)
 
     @property
     def checked(self) -> bool:
@@ -172,7 +170,7 @@ class CrossCheckReport(Report):
         for a in self.agreements:
             flag = "ok" if a.ok else "DISAGREE"
             out.append(f"{a.quantity:<26}{a.max_error:>14.2e}{a.tol:>9.0e}  {flag}")
-        if np.isfinite(self.mass_condition) and self.mass_condition > CALIBRATED_CONDITION:
+        if self.mass_condition is not None and self.mass_condition > CALIBRATED_CONDITION:
             out.append(
                 f"cond(M) up to {self.mass_condition:.2g}: the M^-1 tolerances grow with it "
                 f"(x cond(M) / {CALIBRATED_CONDITION:.0e})"
@@ -402,7 +400,7 @@ def crosscheck_batch(
         Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
         for n in names
     )
-    return CrossCheckReport(agreements, arm.bridges, len(Q), float(condition), skipped)
+    return CrossCheckReport(agreements, arm.bridges, len(Q), condition, skipped)
 
 
 def _crosscheck_chunks(
@@ -415,13 +413,13 @@ def _crosscheck_chunks(
     chunk: int,
     seed: int,
     found: dict[str, tuple[float, int]],
-) -> float:
+) -> float | None:
     """`crosscheck_batch` ``chunk`` poses at a time, on the executor's workers or (None) here.
 
     Each quantity's worst error and pose are merged into ``found``; returns the largest
-    condition number of the mass matrix.
+    condition number of the mass matrix, None where no quantity through M^-1 was compared.
     """
-    condition = np.nan
+    condition: float | None = None
     if executor is not None:
         kwargs = {
             "quantities": names,
@@ -433,7 +431,7 @@ def _crosscheck_chunks(
         for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
             for a in part.agreements:
                 found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
-            condition = np.fmax(condition, part.mass_condition)
+            condition = worse_condition(condition, part.mass_condition)
         return condition
     scales = arm_scales(arm)
     for lo in range(0, len(Q), chunk):
@@ -445,7 +443,7 @@ def _crosscheck_chunks(
         if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
             # The reference's M with armature, when compared.
             M = out[arm.reference.name].get("mass matrix")
-            condition = np.fmax(condition, mass_condition(arm, part, M))
+            condition = worse_condition(condition, mass_condition(arm, part, M))
     return condition
 
 

@@ -15,8 +15,6 @@ damping of their own. The report's text and JSON are in `redundancy.reports.audi
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..analysis.crosscheck import (
     BATCH_QUANTITIES,
     DYNAMIC_QUANTITIES,
@@ -25,6 +23,7 @@ from ..analysis.crosscheck import (
     CrossCheckReport,
     crosscheck_batch,
     merge_worst,
+    worse_condition,
 )
 from ..arm import Arm
 from ..checks import check_count, check_number
@@ -123,7 +122,7 @@ def _engines(
     batched = tuple(q for q in BATCH_QUANTITIES if q not in skip)
     rest = tuple(q for q in TOLERANCES if q not in BATCH_QUANTITIES and q not in skip)
     merged: dict[str, Agreement] = {} if gravity is None else {gravity.quantity: gravity}
-    condition = np.nan
+    condition: float | None = None
     offset, second = 0, 0
     say("engine cross-check", 0, n_poses)
     for Q in sections.pose_chunks(arm, n_poses, seed):
@@ -134,7 +133,7 @@ def _engines(
             velocity_seed = 0 if seed is None else seed
             second_order = crosscheck_batch(arm, head, quantities=rest, seed=velocity_seed)
             parts += second_order.agreements
-            condition = np.fmax(condition, second_order.mass_condition)
+            condition = worse_condition(condition, second_order.mass_condition)
             second += len(head)
         for a in parts:
             merged[a.quantity] = _worse(merged.get(a.quantity), a, offset)
@@ -146,7 +145,7 @@ def _engines(
         if arm.missing_inertia
         else ""
     )
-    cc = CrossCheckReport(agreements, arm.bridges, n_poses, float(condition), skipped)
+    cc = CrossCheckReport(agreements, arm.bridges, n_poses, condition, skipped)
     return EngineAgreement(cc, second, compare_models(arm))
 
 

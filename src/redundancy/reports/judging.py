@@ -79,7 +79,7 @@ def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
         ):
             out.note("inertia", f"skipped {section}: the file gives no inertia for {links}")
     kappa = e.crosscheck.mass_condition
-    if np.isfinite(kappa) and kappa > ILL_CONDITIONED:
+    if kappa is not None and kappa > ILL_CONDITIONED:
         out.finding(
             "inertia",
             f"the mass matrix is ill-conditioned: cond(M) up to {kappa:.2g} (links with mass "
