@@ -19,7 +19,6 @@ Usage: ``python scripts/bench.py [--model arm7] [--n 10000] [--repeats 7] [--cal
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import time
 from collections.abc import Callable
@@ -32,7 +31,7 @@ import redundancy as rd
 from redundancy import batch, linalg
 from redundancy.collision import checker, random_poses
 from redundancy.reports.audit import audit
-from timing import machine, ms, ratio, rounds
+from timing import machine, ms, per_call_us, ratio, rounds
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -363,7 +362,7 @@ def controller_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
     t = rounds(cases, repeats)
 
     def us(k: str) -> float:
-        return 1e6 * statistics.median(t[k]) / calls
+        return per_call_us(t, k, calls)
 
     r = ratio(t, "lib step", "bare step")
     rj = ratio(t, "lib J", "bare J")
@@ -430,7 +429,7 @@ def motion_section(arm: rd.Arm, calls: int, repeats: int) -> list[str]:
     t = rounds(cases, repeats)
 
     def us(k: str) -> float:
-        return 1e6 * statistics.median(t[k]) / calls
+        return per_call_us(t, k, calls)
 
     rc = ratio(t, "arm.coriolis", "bare C")
     rb = ratio(t, "batch.coriolis", "arm.coriolis")
@@ -469,7 +468,7 @@ def rtb_section(calls: int, repeats: int) -> list[str]:
     r = ratio(t, "ours", "rtb")
 
     def us(k: str) -> float:
-        return 1e6 * statistics.median(t[k]) / calls
+        return per_call_us(t, k, calls)
 
     return [
         f"Manipulability on the Panda, {calls} random poses: arm.manipulability(q).full "

@@ -60,3 +60,8 @@ def ratio(times: dict[str, list[float]], num: str, den: str | list[str]) -> floa
 def ms(times: dict[str, list[float]], k: str) -> float:
     """Median wall time of case ``k`` [ms]."""
     return 1e3 * statistics.median(times[k])
+
+
+def per_call_us(times: dict[str, list[float]], k: str, calls: int) -> float:
+    """Median wall time of case ``k`` per call, for a case that makes ``calls`` calls [us]."""
+    return 1e6 * statistics.median(times[k]) / calls

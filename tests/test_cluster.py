@@ -367,12 +367,7 @@ EXECUTOR_CALLS: dict[str, Callable[..., object]] = {
     **{
         fn.__name__: lambda arm, Q, executor, fn=fn: fn(arm, Q, executor=executor)
         for fn in (
-            batch.jacobians,
-            batch.singular_values,
-            batch.manipulabilities,
-            batch.mass_matrices,
-            batch.gravities,
-            batch.distances,
+            *BATCH_FUNCTIONS,
             batch.operational_inertias,
             batch.effective_mass_ranges,
             batch.dynamic_manipulabilities,
