@@ -12,10 +12,12 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import copy
+import inspect
 import multiprocessing
 import pickle
 import re
 import threading
+import typing
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, ThreadPoolExecutor
 from pathlib import Path
@@ -75,17 +77,26 @@ def stack(arm7: rd.Arm) -> np.ndarray:
     return rd.random_poses(arm7, 2500, seed=7)
 
 
+def _keywords(f) -> set[str]:
+    """The keywords ``f`` takes, those of a ``**options: Unpack[SomeTypedDict]`` included."""
+    names = set(inspect.signature(f).parameters)
+    for name, hint in typing.get_type_hints(f).items():
+        if typing.get_origin(hint) is typing.Unpack:
+            names |= set(typing.get_args(hint)[0].__annotations__) - {name}
+    return names
+
+
 def test_every_batch_function_takes_an_executor() -> None:
     # The batch module's public functions, wherever they are defined (some live in the
     # batch_* modules it re-exports).
     public = [
         f
         for f in (getattr(batch, name) for name in batch.__all__)
-        if callable(f)
+        if inspect.isfunction(f)
         and getattr(f, "__module__", "").startswith(batch.__name__)
         and "Q" in f.__code__.co_varnames[: f.__code__.co_argcount]
     ]
-    missing = [f.__name__ for f in public if "executor" not in f.__code__.co_varnames]
+    missing = [f.__name__ for f in public if "executor" not in _keywords(f)]
     assert missing == ["poses"]  # validation only: nothing to distribute
     assert set(BATCH_FUNCTIONS) <= set(public)
 

@@ -24,6 +24,7 @@ from .analysis.crosscheck import (
 )
 from .analysis.observer import MomentumObserver
 from .arm import Arm, random_poses
+from .arm_mass import ToolMassOptions
 from .collision import (
     CollisionChecker,
     check_path,
@@ -79,6 +80,7 @@ __all__ = [
     "PoseError",
     "RedundancyError",
     "SingularPoseError",
+    "ToolMassOptions",
     "UnknownNameError",
     "UnsupportedFeatureError",
     "__version__",

@@ -7,17 +7,36 @@ manipulability, each with some joints held rigid if asked.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from typing import TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import kernels, linalg
-from .checks import check_direction, check_flag, check_joint_subset
+from .checks import check_direction, check_flag, check_joint_subset, check_options
 from .engines import EngineName
 from .engines.contract import Engine
 
 Array = NDArray[np.float64]
+
+
+class ToolMassOptions(TypedDict, total=False):
+    """The keywords the tool-mass methods share (`Arm.operational_inertia` and the others).
+
+    Each is optional; the defaults are the whole arm with its motors, seen by MuJoCo.
+
+    Attributes:
+        armature: Include the armature (the motors' rotor inertia) in M (default True).
+        joints: Names of the joints free to move; the others are held rigid (their column
+            leaves J, their row and column leave M). None (default): every joint.
+        engine: ``"mujoco"`` (default; sparse ``mj_solveM``) or ``"pinocchio"``
+            (``computeMinverse``).
+    """
+
+    armature: bool
+    joints: Iterable[str] | None
+    engine: EngineName
 
 
 class _ToolMass:
@@ -27,21 +46,17 @@ class _ToolMass:
     _floor: float
     engine: Callable[[EngineName], Engine]  # the Arm's method
 
-    def _mobility(
-        self, q: ArrayLike, armature: bool, joints: object, engine: EngineName
-    ) -> tuple[Array, Array]:
-        """J of the free joints and M_ff^-1 J_f^T from one engine (the inputs checked)."""
-        eng = self.engine(engine)
-        free = check_joint_subset("joints", joints, self.joint_names)
-        return eng.tool_mobility(q, check_flag("armature", armature), free)
+    def _mobility(self, q: ArrayLike, options: ToolMassOptions) -> tuple[Array, Array]:
+        """J of the free joints and M_ff^-1 J_f^T from one engine (the options checked)."""
+        check_options(options, ToolMassOptions)
+        eng = self.engine(options.get("engine", "mujoco"))
+        free = check_joint_subset("joints", options.get("joints"), self.joint_names)
+        return eng.tool_mobility(q, check_flag("armature", options.get("armature", True)), free)
 
     def operational_inertia(
         self,
         q: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
+        **options: Unpack[ToolMassOptions],
     ) -> Array:
         """Operational-space inertia Lambda = (J M^-1 J^T)^-1 at the tool, shape (6, 6).
 
@@ -50,30 +65,25 @@ class _ToolMass:
 
         Args:
             q: Pose [rad or m].
-            armature: Include the armature (the motors' rotor inertia) in M.
-            joints: Names of the joints free to move; the others are held rigid (their
-                column leaves J, their row and column leave M). None: every joint.
-            engine: ``"mujoco"`` (sparse ``mj_solveM``) or ``"pinocchio"``
-                (``computeMinverse``).
+            **options: ``armature``, ``joints`` and ``engine``, as
+                [`ToolMassOptions`][redundancy.arm_mass.ToolMassOptions] states.
 
         Raises:
             SingularPoseError: J M^-1 J^T is singular (J of the free joints has rank < 6, or
                 moves the tool by no more than `motion_floor` along
                 some direction); names the lost tool directions.
-            UnknownNameError: A joint or engine name the arm does not have.
+            UnknownNameError: A joint or engine name the arm does not have, or a keyword
+                that is not one of the options.
             ParameterError: ``joints`` empty, repeated or not names.
         """
-        J, X = self._mobility(q, armature, joints, engine)
+        J, X = self._mobility(q, options)
         return kernels.operational_inertia(J, X, atol=self._floor)
 
     def effective_mass(
         self,
         q: ArrayLike,
         direction: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
+        **options: Unpack[ToolMassOptions],
     ) -> float:
         """Mass a point contact at the tool feels pushing along ``direction`` [kg].
 
@@ -85,25 +95,18 @@ class _ToolMass:
         Args:
             q: Pose [rad or m].
             direction: Direction, world axes, any nonzero length (3,).
-            armature: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
-            joints: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
-            engine: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
+            **options: As [`operational_inertia`][redundancy.arm.Arm.operational_inertia].
 
         Raises:
             ParameterError: ``direction`` zero, non-finite or not a 3-vector.
         """
         u = check_direction("direction", direction)
-        return kernels.effective_mass(
-            *self._mobility(q, armature, joints, engine), u, atol=self._floor
-        )
+        return kernels.effective_mass(*self._mobility(q, options), u, atol=self._floor)
 
     def effective_mass_range(
         self,
         q: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
+        **options: Unpack[ToolMassOptions],
     ) -> linalg.EffectiveMassRange:
         """Least and greatest effective mass over all directions at ``q``, with directions.
 
@@ -112,20 +115,17 @@ class _ToolMass:
         along some direction, the least too where it cannot move at all (the floor as
         `effective_mass`'s).
         """
-        J, X = self._mobility(q, armature, joints, engine)
+        J, X = self._mobility(q, options)
         return kernels.effective_mass_range(J, X, atol=self._floor)
 
     def dynamic_manipulability(
         self,
         q: ArrayLike,
-        *,
-        armature: bool = True,
-        joints: object = None,
-        engine: EngineName = "mujoco",
+        **options: Unpack[ToolMassOptions],
     ) -> float:
         """Yoshikawa's dynamic manipulability sqrt(det(J M^-1 M^-T J^T)) at ``q``.
 
         Arguments as [`operational_inertia`][redundancy.arm.Arm.operational_inertia]; zero where
         fewer than six joints are free or at a singular pose [mixed units].
         """
-        return float(kernels.dynamic_manipulability(self._mobility(q, armature, joints, engine)[1]))
+        return float(kernels.dynamic_manipulability(self._mobility(q, options)[1]))

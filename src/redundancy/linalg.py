@@ -7,7 +7,7 @@ same code serves both engines and users' own matrices.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -160,6 +160,31 @@ def jacobian_svd(J: Array, rtol: float = RANK_RTOL) -> JacobianSVD:
     return JacobianSVD(sigma=s, U=U, V=Vt.T, rank=rank, rtol=rtol)
 
 
+class _Measure:
+    """One of `Manipulability`'s measures: read-only, computed when first read, a float.
+
+    A descriptor rather than four properties, so that the measures are one piece of code and
+    type checkers still read ``m.full`` as a float.
+    """
+
+    def __init__(self, doc: str) -> None:
+        self.__doc__ = doc
+        self.kind = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.kind = name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> _Measure: ...
+    @overload
+    def __get__(self, obj: Manipulability, owner: type | None = None) -> float: ...
+    def __get__(self, obj: Manipulability | None, owner: type | None = None) -> float | _Measure:
+        return self if obj is None else obj._get(self.kind)
+
+    def __set__(self, obj: Manipulability, value: object) -> None:
+        raise AttributeError(f"property {self.kind!r} of 'Manipulability' object has no setter")
+
+
 class Manipulability(Report):
     """Yoshikawa's manipulability of the whole Jacobian and of its blocks (see `yoshikawa`).
 
@@ -192,27 +217,16 @@ class Manipulability(Report):
             )
         return value
 
-    # Typed properties, one per measure (a property factory would leave their type unknown
-    # to type checkers).
-    @property
-    def full(self) -> float:
-        """Product of the singular values of the 6 x n J [mixed units]."""
-        return self._get("full")
-
-    @property
-    def position(self) -> float:
-        """sqrt(det(J J^T)) of the 3 linear rows [m^3/rad^3]."""
-        return self._get("position")
-
-    @property
-    def orientation(self) -> float:
-        """sqrt(det(J J^T)) of the 3 angular rows [dimensionless]."""
-        return self._get("orientation")
-
-    @property
-    def scaled(self) -> float:
-        """sqrt(det(J J^T)) with the linear rows divided by ``length`` [dimensionless]."""
-        return self._get("scaled")
+    full: ClassVar[_Measure] = _Measure(
+        "Product of the singular values of the 6 x n J [mixed units]."
+    )
+    position: ClassVar[_Measure] = _Measure("sqrt(det(J J^T)) of the 3 linear rows [m^3/rad^3].")
+    orientation: ClassVar[_Measure] = _Measure(
+        "sqrt(det(J J^T)) of the 3 angular rows [dimensionless]."
+    )
+    scaled: ClassVar[_Measure] = _Measure(
+        "sqrt(det(J J^T)) with the linear rows divided by ``length`` [dimensionless]."
+    )
 
     def _rows(self) -> list[tuple[str, str, str]]:
         return [

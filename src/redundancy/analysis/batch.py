@@ -62,6 +62,7 @@ from ..errors import ParameterError
 from ..ik import DEFAULT_SETTINGS, IKResult
 from ..linalg import MANIPULABILITY_KINDS, ManipulabilityKind
 from .batch_dynamics import (
+    BatchToolMassOptions,
     coriolis,
     dynamic_manipulabilities,
     effective_mass_ranges,
@@ -74,6 +75,7 @@ from .batch_executor import EXECUTOR_MAX_TASKS, EXECUTOR_MIN_CHUNK, map_chunks, 
 __all__ = [
     "EXECUTOR_MAX_TASKS",
     "EXECUTOR_MIN_CHUNK",
+    "BatchToolMassOptions",
     "coriolis",
     "distances",
     "dynamic_manipulabilities",

@@ -9,18 +9,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import Executor
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import kernels, linalg  # the unchecked kernels: the batch functions check input once
 from ..arm import ENGINES, Arm, EngineName, check_arm
+from ..arm_mass import ToolMassOptions
 from ..checks import (
     check_choice,
     check_directions,
     check_flag,
     check_joint_subset,
     check_joint_vectors,
+    check_options,
     check_threads,
 )
 from ..errors import ParameterError
@@ -30,8 +33,25 @@ from .observer import MomentumObserver, check_dt
 Array = NDArray[np.float64]
 
 
+class BatchToolMassOptions(ToolMassOptions, total=False):
+    """The keywords the batch tool-mass functions share: the single pose's, and where to run.
+
+    ``armature``, ``joints`` and ``engine`` as in
+    [`ToolMassOptions`][redundancy.arm_mass.ToolMassOptions], and:
+
+    Attributes:
+        threads: Worker threads (default 1), as in
+            [`jacobians`][redundancy.analysis.batch.jacobians].
+        executor: A `concurrent.futures.Executor` to compute chunks of poses on (default
+            None: here), as in [`jacobians`][redundancy.analysis.batch.jacobians].
+    """
+
+    threads: int
+    executor: Executor | None
+
+
 def _dynamics_inputs(
-    arm: Arm, Q: ArrayLike, armature: object, joints: object, engine: object, threads: object
+    arm: Arm, Q: ArrayLike, options: BatchToolMassOptions
 ) -> tuple[Array, bool, tuple[str, ...] | None, str, int]:
     """The inputs of the tool-mass functions checked, in this order, and made plain values.
 
@@ -40,12 +60,14 @@ def _dynamics_inputs(
     the serial path uses, so both give the same answer or the same error.
     """
     Q = _poses(arm, Q)  # the arm checked first
-    engine = check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
+    check_options(options, BatchToolMassOptions)
+    engine = check_choice("engine", options.get("engine", "mujoco"), ENGINES)
+    threads = check_threads(options.get("threads", 1))
+    joints = options.get("joints")
     if joints is not None and hasattr(joints, "__iter__") and not isinstance(joints, str | bytes):
-        joints = tuple(joints)  # type: ignore[call-overload]
+        joints = tuple(joints)
     check_joint_subset("joints", joints, arm.joint_names)
-    armature = check_flag("armature", armature)
+    armature = check_flag("armature", options.get("armature", True))
     return Q, armature, joints, engine, threads  # type: ignore[return-value]
 
 
@@ -62,57 +84,31 @@ def _mobility_stack(
     kernel: Callable[[Array, Array, float], Array],
     arm: Arm,
     Q: ArrayLike,
-    armature: object,
-    joints: object,
-    engine: object,
-    threads: object,
-    executor: Executor | None,
+    options: BatchToolMassOptions,
 ) -> Array:
     """A stack from the tool's mobilities: check, run ``fn`` on the executor's chunks, or here.
 
     ``kernel`` maps the stacks J, M^-1 J^T and the arm's motion floor (`linalg.motion_floor`)
     to the result.
     """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
-    )
+    Q, armature, joints, engine, threads = _dynamics_inputs(arm, Q, options)
+    executor = options.get("executor")
     if executor is not None:
-        return scatter(
-            executor,
-            fn,
-            arm,
-            Q,
-            armature=armature,
-            joints=joints,
-            engine=engine,
-            threads=threads,
-        )
+        kwargs = {"armature": armature, "joints": joints, "engine": engine, "threads": threads}
+        return scatter(executor, fn, arm, Q, **kwargs)
     J, X = _mobilities(arm, Q, armature, joints, engine, threads)
     return kernel(J, X, linalg.motion_floor(arm.length))
 
 
-def operational_inertias(
-    arm: Arm,
-    Q: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
+def operational_inertias(arm: Arm, Q: ArrayLike, **options: Unpack[BatchToolMassOptions]) -> Array:
     """Lambda at each pose, as `redundancy.Arm.operational_inertia`.
-
-    The tool-mass functions share its arguments.
 
     Args:
         arm: As in [`jacobians`][redundancy.analysis.batch.jacobians].
         Q: As in [`jacobians`][redundancy.analysis.batch.jacobians].
-        armature: Include armature in M.
-        joints: Names of the joints free to move (the others held); None: all.
-        engine: As in [`jacobians`][redundancy.analysis.batch.jacobians].
-        threads: As in [`jacobians`][redundancy.analysis.batch.jacobians].
-        executor: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        **options: ``armature``, ``joints``, ``engine``, ``threads`` and ``executor``, as
+            [`BatchToolMassOptions`][redundancy.analysis.batch.BatchToolMassOptions]
+            states; the other tool-mass functions take the same.
 
     Returns:
         Operational-space inertias, shape (n, 6, 6) [kg; kg m; kg m^2].
@@ -120,46 +116,33 @@ def operational_inertias(
     Raises:
         SingularPoseError: At the first singular pose (the message names it and the lost
             tool directions).
+        UnknownNameError: A joint or engine name the arm does not have, or a keyword that is
+            not one of the options.
     """
 
     def kernel(J: Array, X: Array, floor: float) -> Array:
         return kernels.operational_inertia(J, X, atol=floor) if len(J) else np.empty((0, 6, 6))
 
-    return _mobility_stack(
-        operational_inertias, kernel, arm, Q, armature, joints, engine, threads, executor
-    )
+    return _mobility_stack(operational_inertias, kernel, arm, Q, options)
 
 
 def effective_masses(
-    arm: Arm,
-    Q: ArrayLike,
-    direction: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    arm: Arm, Q: ArrayLike, direction: ArrayLike, **options: Unpack[BatchToolMassOptions]
 ) -> Array:
     """Effective mass at the tool at each pose, as `redundancy.Arm.effective_mass`.
 
     Args:
-        arm: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
-        Q: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        arm: As in [`jacobians`][redundancy.analysis.batch.jacobians].
+        Q: As in [`jacobians`][redundancy.analysis.batch.jacobians].
         direction: One direction for every pose (3,) or one per pose (n, 3), world axes.
-        armature: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
-        joints: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
-        engine: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
-        threads: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
-        executor: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
+        **options: As in [`operational_inertias`][redundancy.analysis.batch.operational_inertias].
 
     Returns:
         Effective masses, shape (n,) [kg]; ``inf`` where the tool cannot move along u.
     """
-    Q, armature, joints, engine, threads = _dynamics_inputs(
-        arm, Q, armature, joints, engine, threads
-    )
+    Q, armature, joints, engine, threads = _dynamics_inputs(arm, Q, options)
     U = check_directions("direction", direction, len(Q))
+    executor = options.get("executor")
     if executor is not None:
         # Each pose travels with its direction: one row of (n, nq + 3).
         kwargs = {"armature": armature, "joints": joints, "engine": engine, "threads": threads}
@@ -178,16 +161,7 @@ def _effective_masses_of_rows(
     return kernels.effective_masses(J, X, U, atol=linalg.motion_floor(arm.length))
 
 
-def effective_mass_ranges(
-    arm: Arm,
-    Q: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
-) -> Array:
+def effective_mass_ranges(arm: Arm, Q: ArrayLike, **options: Unpack[BatchToolMassOptions]) -> Array:
     """Least and greatest effective mass over directions at each pose, shape (n, 2) [kg].
 
     As `Arm.effective_mass_range`'s ``min`` and ``max`` (arguments as
@@ -197,20 +171,11 @@ def effective_mass_ranges(
     def kernel(J: Array, X: Array, floor: float) -> Array:
         return kernels.effective_mass_ranges(J, X, atol=floor) if len(J) else np.empty((0, 2))
 
-    return _mobility_stack(
-        effective_mass_ranges, kernel, arm, Q, armature, joints, engine, threads, executor
-    )
+    return _mobility_stack(effective_mass_ranges, kernel, arm, Q, options)
 
 
 def dynamic_manipulabilities(
-    arm: Arm,
-    Q: ArrayLike,
-    *,
-    armature: bool = True,
-    joints: object = None,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    arm: Arm, Q: ArrayLike, **options: Unpack[BatchToolMassOptions]
 ) -> Array:
     """Yoshikawa's dynamic manipulability at each pose, shape (n,).
 
@@ -223,9 +188,7 @@ def dynamic_manipulabilities(
             return np.zeros(0)
         return np.asarray(kernels.dynamic_manipulability(X), dtype=np.float64).reshape(len(J))
 
-    return _mobility_stack(
-        dynamic_manipulabilities, kernel, arm, Q, armature, joints, engine, threads, executor
-    )
+    return _mobility_stack(dynamic_manipulabilities, kernel, arm, Q, options)
 
 
 def coriolis(

@@ -1,5 +1,8 @@
 """The one set of input validators: poses, stacks of poses, numbers, counts, names, threads.
 
+Directions and tool poses are checked in `redundancy.checks.space`; this module re-exports
+them, so every validator is imported from here.
+
 Every public function validates its inputs through these helpers (MuJoCo's ``rollout``
 style), so a bad input gets the same error and text wherever it enters the library.
 """
@@ -8,12 +11,17 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
+from ..errors import OutOfRangeError, ParameterError, PoseError, UnknownNameError
+from .space import ROTATION_ATOL as ROTATION_ATOL
+from .space import check_direction as check_direction
+from .space import check_directions as check_directions
+from .space import check_tool_pose as check_tool_pose
 
 Array = NDArray[np.float64]
 
@@ -150,10 +158,24 @@ def check_in_range(
         )
 
 
-def _valid_range(
-    what: str, low: float, high: float, low_open: bool, high_open: bool, unit: str
-) -> str:
+class Ends(TypedDict, total=False):
+    """How `check_number` and `check_values` state a range's ends and unit.
+
+    Attributes:
+        low_open: ``low`` itself is outside the range (default False).
+        high_open: ``high`` itself is outside the range (default False).
+        unit: The unit the message names, e.g. ``"s"`` (default: none).
+    """
+
+    low_open: bool
+    high_open: bool
+    unit: str
+
+
+def _valid_range(what: str, low: float, high: float, ends: Ends) -> str:
     """``what`` with its range, as error messages state it: "a finite number >= 0 [s]"."""
+    low_open, high_open = ends.get("low_open", False), ends.get("high_open", False)
+    unit = ends.get("unit", "")
     if math.isinf(low) and math.isinf(high):
         valid = what
     elif math.isinf(high):
@@ -166,15 +188,18 @@ def _valid_range(
     return valid + (f" [{unit}]" if unit else "")
 
 
+def _outside(x: Any, low: float, high: float, ends: Ends) -> Any:
+    """Whether ``x`` (a float, or an array elementwise) is outside the range; NaN is not."""
+    out = (x < low) | (x > high)
+    if ends.get("low_open", False):
+        out = out | (x == low)
+    if ends.get("high_open", False):
+        out = out | (x == high)
+    return out
+
+
 def check_values(
-    name: str,
-    value: object,
-    low: float = -math.inf,
-    high: float = math.inf,
-    *,
-    low_open: bool = False,
-    high_open: bool = False,
-    unit: str = "",
+    name: str, value: object, low: float = -math.inf, high: float = math.inf, **ends: Unpack[Ends]
 ) -> Array:
     """A real number or array of them, every value finite and in [low, high], as float64.
 
@@ -184,7 +209,7 @@ def check_values(
         ParameterError: Not real numbers (strings, objects, complex, booleans), empty, or a
             value NaN, infinite or outside the range; the message states the valid range.
     """
-    valid = _valid_range("a finite number (or array of them)", low, high, low_open, high_open, unit)
+    valid = _valid_range("a finite number (or array of them)", low, high, ends)
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as err:  # ragged nested lists
@@ -192,11 +217,7 @@ def check_values(
     if arr.dtype.kind not in "iuf" or arr.size == 0:
         raise ParameterError(name, value, valid, describe(value))
     arr = np.asarray(arr, dtype=np.float64)
-    outside = ~np.isfinite(arr) | (arr < low) | (arr > high)
-    if low_open:
-        outside |= arr == low
-    if high_open:
-        outside |= arr == high
+    outside = ~np.isfinite(arr) | _outside(arr, low, high, ends)
     if outside.any():
         bad = arr.flat[int(np.flatnonzero(outside)[0])]
         raise ParameterError(name, value, valid, repr(float(bad)) if arr.ndim else None)
@@ -241,14 +262,7 @@ def check_callable(name: str, value: object, valid: str) -> None:
 
 
 def check_number(
-    name: str,
-    value: object,
-    low: float = -math.inf,
-    high: float = math.inf,
-    *,
-    low_open: bool = False,
-    high_open: bool = False,
-    unit: str = "",
+    name: str, value: object, low: float = -math.inf, high: float = math.inf, **ends: Unpack[Ends]
 ) -> float:
     """A finite real number in [low, high] (or the open ends), as a float.
 
@@ -256,13 +270,13 @@ def check_number(
         ParameterError: Not a real number, NaN, infinite, or outside the range; the message
             states the valid range.
     """
-    valid = _valid_range("a finite number", low, high, low_open, high_open, unit)
+    valid = _valid_range("a finite number", low, high, ends)
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ParameterError(name, value, valid)
     x = float(value)
     if not math.isfinite(x):
         raise ParameterError(name, value, valid)
-    if x < low or x > high or (low_open and x == low) or (high_open and x == high):
+    if _outside(x, low, high, ends):
         raise ParameterError(name, value, valid)
     return x
 
@@ -393,73 +407,19 @@ def check_choice(kind: str, value: object, choices: Sequence[str]) -> str:
     return value
 
 
-def check_direction(name: str, u: object, size: int = 3) -> Array:
-    """A direction as a unit float64 vector of shape (size,).
+def check_options(options: Mapping[str, object], allowed: type) -> None:
+    """Keyword options given as ``**options: Unpack[allowed]``, ``allowed`` a TypedDict.
+
+    Python lets any keyword into ``**options``; this is the check that it is one of them.
 
     Raises:
-        ParameterError: Not a real vector of that shape, non-finite, or of zero length.
+        UnknownNameError: A keyword that is not one of ``allowed``'s (the message lists
+            them).
     """
-    valid = f"a finite nonzero real vector of shape ({size},)"
-    if type(u) is np.ndarray and u.dtype is _F64 and u.shape == (size,):
-        norm = math.sqrt(sum(x * x for x in u.tolist()))  # NaN or inf if any value is
-        if 0.0 < norm < math.inf:
-            return u / norm
-    arr = _real_or_refused(name, u, valid)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise ParameterError(name, u, valid)
-    top = float(np.max(np.abs(arr)))
-    if not top > 0.0:
-        raise ParameterError(name, u, valid)
-    arr = arr / top  # scaled first: the norm of a vector of huge values would overflow
-    return arr / float(np.linalg.norm(arr))
-
-
-#: How far from orthonormal (max |R^T R - I|) a target rotation may be.
-ROTATION_ATOL = 1e-6
-
-
-def check_tool_pose(name: str, target: object) -> tuple[Array, Array]:
-    """A tool pose as (position (3,) [m], rotation (3, 3)): a 4 x 4 homogeneous matrix or a pair.
-
-    The pair is what `Arm.site_pose` returns. The rotation must be orthonormal with determinant +1
-    (to `ROTATION_ATOL`).
-
-    Raises:
-        ParameterError: Anything else (the message says what a target is).
-    """
-    valid = (
-        "a 4 x 4 homogeneous pose or a (position [m], 3 x 3 rotation matrix) pair, "
-        "finite, with an orthonormal rotation of determinant +1"
-    )
-    fast = _tool_pose_pair(target)
-    if fast is not None:
-        return fast
-    try:
-        if isinstance(target, tuple | list) and len(target) == 2:
-            p, R = (np.asarray(x) for x in target)
-        else:
-            T = np.asarray(target)
-            if T.shape != (4, 4) or np.iscomplexobj(T) or T.dtype.kind not in "biuf":
-                raise ParameterError(name, target, valid)
-            T = T.astype(np.float64)
-            if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=ROTATION_ATOL):
-                raise ParameterError(name, target, valid)
-            p, R = T[:3, 3], T[:3, :3]
-        if np.iscomplexobj(p) or np.iscomplexobj(R) or p.dtype.kind not in "biuf":
-            raise ParameterError(name, target, valid)
-        if R.dtype.kind not in "biuf":
-            raise ParameterError(name, target, valid)
-        p = np.array(p, dtype=np.float64)
-        R = np.array(R, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise ParameterError(name, target, valid) from None
-    if p.shape != (3,) or R.shape != (3, 3):
-        raise ParameterError(name, target, valid)
-    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(R))):
-        raise ParameterError(name, target, valid)
-    if np.abs(R.T @ R - np.eye(3)).max() > ROTATION_ATOL or np.linalg.det(R) <= 0.0:
-        raise ParameterError(name, target, valid)
-    return p, R
+    valid = allowed.__annotations__  # a TypedDict's keys, its bases' included, in order
+    if not options.keys() <= valid.keys():
+        unknown = next(k for k in options if k not in valid)
+        raise UnknownNameError("option", unknown, tuple(valid))
 
 
 def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArray[np.intp] | None:
@@ -485,71 +445,6 @@ def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArr
     if len(given) == len(names):
         return None
     return np.array(sorted(names.index(j) for j in given), dtype=np.intp)
-
-
-def _real_or_refused(name: str, value: object, valid: str) -> Array:
-    """``value`` as a float64 array; ParameterError(name, value, valid) unless real numbers."""
-    try:
-        arr = np.asarray(value)
-        if np.iscomplexobj(arr) or arr.dtype.kind not in "biuf":
-            raise ParameterError(name, value, valid)
-        return np.asarray(arr, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise ParameterError(name, value, valid) from None
-
-
-def check_directions(name: str, U: object, n: int) -> Array:
-    """One direction (3,) for every pose, or one per pose (n, 3), as unit rows (n, 3).
-
-    Raises:
-        ParameterError: Not a real (3,) or (n, 3) array, non-finite, or a zero row.
-    """
-    valid = f"a finite nonzero real vector of shape (3,) or ({n}, 3)"
-    arr = _real_or_refused(name, U, valid)
-    if arr.shape == (3,):
-        arr = np.broadcast_to(arr, (n, 3))
-    if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
-        raise ParameterError(name, U, valid)
-    norms = np.linalg.norm(arr, axis=1)
-    if not np.all((norms > 0) & np.isfinite(norms)):
-        raise ParameterError(name, U, valid)
-    return arr / norms[:, None]
-
-
-def _tool_pose_pair(target: object) -> tuple[Array, Array] | None:
-    """The common target, a (position, rotation) pair of float64 arrays, checked in floats.
-
-    `check_tool_pose`'s fast path (an inverse-kinematics solve takes ~0.3 ms, of which the NumPy
-    checks of the slow path took a tenth); None sends anything else, and any failure, to the slow
-    path, which names the error.
-    """
-    if not (isinstance(target, tuple | list) and len(target) == 2):
-        return None
-    p, R = target
-    if not (
-        type(p) is np.ndarray
-        and type(R) is np.ndarray
-        and p.dtype is _F64
-        and R.dtype is _F64
-        and p.shape == (3,)
-        and R.shape == (3, 3)
-    ):
-        return None
-    a, b, c, d, e, f, g, h, i = R.ravel().tolist()
-    if not math.isfinite(sum(p.tolist()) + a + b + c + d + e + f + g + h + i):
-        return None
-    worst = max(
-        abs(a * a + b * b + c * c - 1.0),
-        abs(d * d + e * e + f * f - 1.0),
-        abs(g * g + h * h + i * i - 1.0),
-        abs(a * d + b * e + c * f),
-        abs(a * g + b * h + c * i),
-        abs(d * g + e * h + f * i),
-    )
-    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    if worst > ROTATION_ATOL or not det > 0.0:
-        return None
-    return p, R
 
 
 def check_joint_vector(what: str, x: ArrayLike, names: Sequence[str]) -> Array:
