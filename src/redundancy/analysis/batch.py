@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import itertools
 import queue
-from concurrent.futures import Executor
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -70,12 +70,20 @@ from .batch_dynamics import (
     external_torques,
     operational_inertias,
 )
-from .batch_executor import EXECUTOR_MAX_TASKS, EXECUTOR_MIN_CHUNK, map_chunks, scatter
+from .batch_executor import (
+    EXECUTOR_MAX_TASKS,
+    EXECUTOR_MIN_CHUNK,
+    RunOptions,
+    check_run,
+    map_chunks,
+    scatter,
+)
 
 __all__ = [
     "EXECUTOR_MAX_TASKS",
     "EXECUTOR_MIN_CHUNK",
     "BatchToolMassOptions",
+    "RunOptions",
     "coriolis",
     "distances",
     "dynamic_manipulabilities",
@@ -123,11 +131,7 @@ def _stack(
 
 
 def jacobians(
-    arm: Arm,
-    Q: ArrayLike,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", **run: Unpack[RunOptions]
 ) -> Array:
     """Site Jacobians of a stack of poses, as `Arm.jacobian`.
 
@@ -137,14 +141,13 @@ def jacobians(
         arm: The arm.
         Q: Poses, shape (n, nq) [rad or m].
         engine: ``"mujoco"`` or ``"pinocchio"``.
-        threads: Worker threads (MuJoCo only; Pinocchio holds the GIL).
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool) in chunks of poses; None runs here. The
-            results are the same, bit for bit.
+        **run: ``threads`` (MuJoCo only; Pinocchio holds the GIL) and ``executor``, as
+            [`RunOptions`][redundancy.analysis.batch.RunOptions] states.
 
     Returns:
         Jacobians, shape (n, 6, nq): linear rows [m/rad] then angular [rad/rad], world axes.
     """
+    threads, executor = check_run(run)
     if executor is not None:
         return scatter(executor, jacobians, arm, Q, engine=engine, threads=threads)
     return _stack(arm, Q, engine, threads, "J")
@@ -193,11 +196,7 @@ def _jacobians_and_singular_values(
 
 
 def singular_values(
-    arm: Arm,
-    Q: ArrayLike,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", **run: Unpack[RunOptions]
 ) -> Array:
     """Singular values of the site Jacobian at each pose, descending.
 
@@ -205,20 +204,16 @@ def singular_values(
     and to `Arm.svd`'s ``sigma`` to rounding (1e-15 relative: that SVD also computes the vectors, by
     another LAPACK path).
 
-    Args:
-        arm: As in `jacobians`.
-        Q: As in `jacobians`.
-        engine: As in `jacobians`.
-        threads: With 2 or more, the Jacobians run on a worker thread alongside the SVDs.
-        executor: As in `jacobians`.
+    Arguments as `jacobians`; with 2 or more ``threads`` the Jacobians run on a worker thread
+    alongside the SVDs.
 
     Returns:
         Singular values, shape (n, min(6, nq)) [mixed units: m/rad and rad/rad].
     """
+    threads, executor = check_run(run)
     if executor is not None:
         return scatter(executor, singular_values, arm, Q, engine=engine, threads=threads)
     check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
     return _jacobians_and_singular_values(arm, poses(arm, Q), engine, threads)[1]
 
 
@@ -228,8 +223,7 @@ def manipulabilities(
     engine: EngineName = "mujoco",
     kind: ManipulabilityKind = "full",
     length: float = 1.0,
-    threads: int = 1,
-    executor: Executor | None = None,
+    **run: Unpack[RunOptions],
 ) -> Array:
     """Yoshikawa's manipulability at each pose, as `linalg.manipulability`.
 
@@ -245,13 +239,13 @@ def manipulabilities(
             ``"orientation"`` (angular rows) or ``"scaled"`` (linear rows divided by ``length``,
             dimensionless); the fields of [`Manipulability`][redundancy.Manipulability].
         length: Characteristic length for ``"scaled"`` [m].
-        threads: As in [`singular_values`][redundancy.analysis.batch.singular_values] (``"full"``
-            only).
-        executor: As in `jacobians`.
+        **run: As in `jacobians`; ``threads`` as in
+            [`singular_values`][redundancy.analysis.batch.singular_values] (``"full"`` only).
 
     Returns:
         Manipulability per pose, shape (n,).
     """
+    threads, executor = check_run(run)
     if executor is not None:
         return scatter(
             executor,
@@ -264,7 +258,6 @@ def manipulabilities(
             threads=threads,
         )
     check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
     check_choice("manipulability kind", kind, MANIPULABILITY_KINDS)
     length = check_number("length", length, 0.0, low_open=True, unit="m")
     Q = poses(arm, Q)
@@ -280,23 +273,18 @@ def mass_matrices(
     Q: ArrayLike,
     armature: bool = True,
     engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    **run: Unpack[RunOptions],
 ) -> Array:
     """Joint-space mass matrices, as `Arm.mass_matrix`.
 
-    Args:
-        arm: As in `jacobians`.
-        Q: As in `jacobians`.
-        armature: Include armature on the diagonal.
-        engine: As in `jacobians`.
-        threads: As in `jacobians`.
-        executor: As in `jacobians`.
+    With ``armature`` (default True) the motors' armature is on the diagonal; the other
+    arguments are `jacobians`'.
 
     Returns:
         Mass matrices, shape (n, nq, nq) [kg m^2].
     """
     armature = check_flag("armature", armature)
+    threads, executor = check_run(run)
     if executor is not None:
         return scatter(
             executor, mass_matrices, arm, Q, armature=armature, engine=engine, threads=threads
@@ -305,35 +293,24 @@ def mass_matrices(
 
 
 def gravities(
-    arm: Arm,
-    Q: ArrayLike,
-    engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    arm: Arm, Q: ArrayLike, engine: EngineName = "mujoco", **run: Unpack[RunOptions]
 ) -> Array:
-    """Gravity torques to hold each pose, as `Arm.gravity`.
+    """Gravity torques to hold each pose, as `Arm.gravity` (arguments as `jacobians`).
 
-    Args:
-        arm: As in `jacobians`.
-        Q: As in `jacobians`.
-        engine: ``"mujoco"`` or ``"pinocchio"`` (``rneaInParallel`` on ``threads`` threads).
-        threads: Worker threads.
-        executor: As in `jacobians`.
+    Pinocchio runs ``rneaInParallel`` on ``threads`` threads; MuJoCo runs that many threads,
+    each with its own ``MjData``.
 
     Returns:
         Torques, shape (n, nq) [N m or N].
     """
+    threads, executor = check_run(run)
     if executor is not None:
         return scatter(executor, gravities, arm, Q, engine=engine, threads=threads)
     return _stack(arm, Q, engine, threads, "G")
 
 
 def distances(
-    arm: Arm,
-    Q: ArrayLike,
-    engine: DistanceEngine = "coal",
-    threads: int = 1,
-    executor: Executor | None = None,
+    arm: Arm, Q: ArrayLike, engine: DistanceEngine = "coal", **run: Unpack[RunOptions]
 ) -> Array:
     """Signed distance of every collision pair at each pose.
 
@@ -341,16 +318,13 @@ def distances(
     [`CollisionChecker.distance_values`][redundancy.collision.CollisionChecker.distance_values] pose
     by pose; the pairs are ``redundancy.collision.checker(arm).pairs``, in that order.
 
-    Args:
-        arm: As in `jacobians`.
-        Q: As in `jacobians`.
-        engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
-        threads: As in `jacobians`.
-        executor: As in `jacobians`.
+    Arguments as `jacobians`, but for ``engine``: ``"coal"`` (default; the geoms placed by
+    Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
 
     Returns:
         Distances, shape (n, npairs), negative where the geoms overlap [m].
     """
+    threads, executor = check_run(run)
     if executor is not None:
         return scatter(executor, distances, arm, Q, engine=engine, threads=threads)
     # distance_stack checks the engine, the poses and the threads.

@@ -27,27 +27,20 @@ from ..checks import (
     check_threads,
 )
 from ..errors import ParameterError
-from .batch_executor import _poses, _scatter_rows, scatter
+from .batch_executor import RunOptions, _poses, _scatter_rows, check_run, scatter
 from .observer import MomentumObserver, check_dt
 
 Array = NDArray[np.float64]
 
 
-class BatchToolMassOptions(ToolMassOptions, total=False):
-    """The keywords the batch tool-mass functions share: the single pose's, and where to run.
+class BatchToolMassOptions(ToolMassOptions, RunOptions, total=False):
+    """The keywords the batch tool-mass functions share: the single pose's and where to run.
 
     ``armature``, ``joints`` and ``engine`` as in
-    [`ToolMassOptions`][redundancy.arm_mass.ToolMassOptions], and:
-
-    Attributes:
-        threads: Worker threads (default 1), as in
-            [`jacobians`][redundancy.analysis.batch.jacobians].
-        executor: A `concurrent.futures.Executor` to compute chunks of poses on (default
-            None: here), as in [`jacobians`][redundancy.analysis.batch.jacobians].
+    [`ToolMassOptions`][redundancy.arm_mass.ToolMassOptions]; ``threads`` (MuJoCo's calls, or
+    Pinocchio's stacked ones) and ``executor`` as in
+    [`RunOptions`][redundancy.analysis.batch.RunOptions].
     """
-
-    threads: int
-    executor: Executor | None
 
 
 def _dynamics_inputs(
@@ -197,8 +190,7 @@ def coriolis(
     V: ArrayLike,
     *,
     engine: EngineName = "mujoco",
-    threads: int = 1,
-    executor: Executor | None = None,
+    **run: Unpack[RunOptions],
 ) -> Array:
     """Coriolis matrices of a stack of states, as `Arm.coriolis <redundancy.Arm.coriolis>`.
 
@@ -210,8 +202,7 @@ def coriolis(
         Q: As in [`jacobians`][redundancy.analysis.batch.jacobians].
         V: Joint velocities, one per pose, shape (n, nq) [rad/s or m/s].
         engine: As in [`jacobians`][redundancy.analysis.batch.jacobians].
-        threads: As in [`jacobians`][redundancy.analysis.batch.jacobians].
-        executor: As in `jacobians`, in chunks of states.
+        **run: As in [`jacobians`][redundancy.analysis.batch.jacobians], in chunks of states.
 
     Returns:
         Coriolis matrices in the Christoffel form, shape (n, nq, nq) [N m s/rad].
@@ -221,7 +212,7 @@ def coriolis(
     """
     arm = check_arm(arm)
     check_choice("engine", engine, ENGINES)
-    threads = check_threads(threads)
+    threads, executor = check_run(run)
     Q = _poses(arm, Q)
     V = check_joint_vectors("velocities", V, arm.joint_names, len(Q))
     nq = arm.nq

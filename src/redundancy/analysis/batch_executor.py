@@ -14,17 +14,13 @@ import inspect
 import threading
 from collections.abc import Callable
 from concurrent.futures import Executor, Future
-from typing import Any, TypeVar
+from typing import Any, TypedDict, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm, check_arm
-from ..checks import (
-    check_callable,
-    check_count,
-    check_poses,
-)
+from ..checks import check_callable, check_count, check_options, check_poses, check_threads
 from ..errors import ModelError, ParameterError, RedundancyError
 from ..model.content import ContentUnavailable, Recipe
 from ..model.loading import rebuild_arm
@@ -37,6 +33,32 @@ R = TypeVar("R")
 EXECUTOR_MIN_CHUNK = 1024
 #: ... and a stack is cut into at most this many chunks (so 10^8 poses are 256 tasks).
 EXECUTOR_MAX_TASKS = 256
+
+
+class RunOptions(TypedDict, total=False):
+    """Where a batch function runs: the keywords every one of them takes.
+
+    Attributes:
+        threads: Worker threads (default 1). MuJoCo's calls release the GIL, Pinocchio's
+            do not: each function says what its threads run.
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool) in chunks of poses; None
+            (default) runs here. The results are the same, bit for bit.
+    """
+
+    threads: int
+    executor: Executor | None
+
+
+def check_run(run: RunOptions) -> tuple[int, Executor | None]:
+    """The thread count checked, and the executor (`scatter` checks it when it is used).
+
+    Raises:
+        UnknownNameError: A keyword that is not one of `RunOptions`.
+        ParameterError: ``threads`` not an integer >= 1 (more than `max_threads` run as many).
+    """
+    check_options(run, RunOptions)
+    return check_threads(run.get("threads", 1)), run.get("executor")
 
 
 def _poses(arm: Arm, Q: ArrayLike) -> Array:
