@@ -5,8 +5,9 @@ One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the
 [`redundancy.model.scales`][redundancy.model.scales]), and its maximum over the poses
 ([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors],
 [`worst`][redundancy.analysis.crosscheck.worst]), serves the single-pose and the stacked cross-check
-alike: [`crosscheck`][redundancy.crosscheck] and [`crosscheck_batch`][redundancy.crosscheck_batch]
-are one computation, over stacks of poses taken in chunks so memory stays flat in their number.
+alike: [`crosscheck`][redundancy.crosscheck] (also named
+[`crosscheck_batch`][redundancy.crosscheck_batch]) is one computation, over stacks of poses
+taken in chunks so memory stays flat in their number.
 """
 
 from __future__ import annotations
@@ -339,9 +340,9 @@ def _agreement_errors(
     return errors[0] if len(errors) == 1 else np.maximum.reduce(errors)  # a NaN stays NaN
 
 
-def crosscheck_batch(
+def crosscheck(
     arm: Arm,
-    Q: ArrayLike,
+    poses: ArrayLike,
     quantities: Iterable[str] | None = None,
     tolerances: dict[str, float] | None = None,
     threads: int = 1,
@@ -350,14 +351,15 @@ def crosscheck_batch(
     *,
     seed: int = 0,
 ) -> CrossCheckReport:
-    """Compare MuJoCo and Pinocchio over a stack of poses (or one pose).
+    """Compare each engine with the reference at one pose or over a stack of poses.
 
-    The stacks are taken ``chunk`` poses at a time, so memory does not grow with the number
-    of poses; errors, worst poses and the report do not depend on ``chunk`` or ``threads``.
+    `crosscheck_batch` is the same function, named for stacks. The stacks are taken ``chunk``
+    poses at a time, so memory does not grow with the number of poses; errors, worst poses
+    and the report do not depend on ``chunk`` or ``threads``.
 
     Args:
         arm: The arm.
-        Q: Poses, shape (n, nq), or one pose (nq,) [rad or m].
+        poses: One pose, shape (nq,), or many, shape (n, nq) [rad or m].
         quantities: Subset of `TOLERANCES` keys; all by default.
         tolerances: Overrides for `TOLERANCES` (finite, >= 0).
         threads: With 2 or more (and at least ``MIN_POSES_PER_THREAD`` poses in a chunk),
@@ -393,7 +395,7 @@ def crosscheck_batch(
     threads = check_threads(threads)
     chunk = check_count("chunk", chunk, 1)
     seed = check_count("seed", seed, 0)
-    Q = check_pose_or_poses(Q, arm.joint_names)
+    Q = check_pose_or_poses(poses, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
     condition = _crosscheck_chunks(executor, arm, Q, names, tols, threads, chunk, seed, found)
     agreements = tuple(
@@ -401,6 +403,10 @@ def crosscheck_batch(
         for n in names
     )
     return CrossCheckReport(agreements, arm.bridges, len(Q), condition, skipped)
+
+
+crosscheck_batch = crosscheck
+"""[`crosscheck`][redundancy.crosscheck] under the name that says it takes stacks: one function."""
 
 
 def _crosscheck_chunks(
@@ -414,7 +420,7 @@ def _crosscheck_chunks(
     seed: int,
     found: dict[str, tuple[float, int]],
 ) -> float | None:
-    """`crosscheck_batch` ``chunk`` poses at a time, on the executor's workers or (None) here.
+    """`crosscheck` ``chunk`` poses at a time, on the executor's workers or (None) here.
 
     Each quantity's worst error and pose are merged into ``found``; returns the largest
     condition number of the mass matrix, None where no quantity through M^-1 was compared.
@@ -428,7 +434,7 @@ def _crosscheck_chunks(
             "chunk": chunk,
             "seed": seed,
         }
-        for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
+        for lo, part in map_chunks(executor, crosscheck, arm, Q, **kwargs):
             for a in part.agreements:
                 found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
             condition = worse_condition(condition, part.mass_condition)
@@ -457,23 +463,3 @@ def mass_condition(arm: Arm, Q: Array, M: Array | None = None) -> float:
         arm.reference.evaluate(Q, stacks)
         M = stacks.M
     return float(np.max(np.linalg.cond(M)))
-
-
-def crosscheck(
-    arm: Arm,
-    poses: ArrayLike,
-    quantities: Iterable[str] | None = None,
-    tolerances: dict[str, float] | None = None,
-    *,
-    seed: int = 0,
-) -> CrossCheckReport:
-    """Compare MuJoCo and Pinocchio at one pose or many (`crosscheck_batch`, 1 thread).
-
-    Args:
-        arm: The loaded arm.
-        poses: One pose, shape (nq,), or many, shape (n, nq) [rad or m].
-        quantities: Subset of `TOLERANCES` keys; all by default.
-        tolerances: Overrides for `TOLERANCES`.
-        seed: Seed of the velocities for ``"coriolis"`` (see `crosscheck_batch`).
-    """
-    return crosscheck_batch(arm, poses, quantities, tolerances, seed=seed)

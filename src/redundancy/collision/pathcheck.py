@@ -392,10 +392,7 @@ def _walk_on(
 
 
 def check_path(
-    arm: Arm,
-    waypoints: ArrayLike,
-    tol: float = DEFAULT_TOL,
-    engine: DistanceEngine = "coal",
+    arm: Arm, waypoints: ArrayLike, tol: float = DEFAULT_TOL, engine: DistanceEngine = "coal"
 ) -> PathCheck:
     """Whether the straight joint-space segments between waypoints are free of self-contact.
 
