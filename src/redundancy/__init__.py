@@ -49,7 +49,7 @@ from .inertia import max_stable_kd, max_stable_timestep, reflected_inertia, roto
 from .linalg import EffectiveMassRange, JacobianSVD, Manipulability
 from .model.bridges import Bridge
 from .model.equivalence import Difference, EquivalenceReport, compare_models
-from .model.loading import load, load_string
+from .model.loading import LoadOptions, load, load_string
 from .models import example_robot_data, model_path
 
 try:  # the installed distribution's version: one number, in pyproject.toml
@@ -70,6 +70,7 @@ __all__ = [
     "EquivalenceReport",
     "IKResult",
     "JacobianSVD",
+    "LoadOptions",
     "Manipulability",
     "MissingDependencyError",
     "MissingInertiaError",

@@ -324,23 +324,24 @@ class Simulation:
     """What MuJoCo simulates beyond the rigid-body numbers both engines compute.
 
     Attributes:
-        timestep: h [s].
-        integrator: ``"Euler"``, ``"RK4"``, ``"implicit"`` or ``"implicitfast"``.
-        eulerdamp: Euler integrates joint damping implicitly (the flag is not disabled).
         gravity: Gravity vector [m/s^2].
         gravity_enabled: False under ``<flag gravity="disable"/>``.
         gravcomp: (body name, ``gravcomp`` factor) per body that has one [-].
         gravcomp_to_actuators: Joints with ``actuatorgravcomp``: the compensation goes
             through the actuators and the joint's ``actuatorfrcrange`` clamps it.
+        timestep: h [s].
+        integrator: ``"Euler"``, ``"RK4"``, ``"implicit"`` or ``"implicitfast"``.
+        eulerdamp: Euler integrates joint damping implicitly (the flag is not disabled).
     """
 
-    timestep: float
-    integrator: str
-    eulerdamp: bool
+    # What holds the arm up, then how it steps.
     gravity: tuple[float, ...]
     gravity_enabled: bool
     gravcomp: tuple[tuple[str, float], ...]
     gravcomp_to_actuators: tuple[str, ...]
+    timestep: float
+    integrator: str
+    eulerdamp: bool
 
 
 def simulation(model: mujoco.MjModel) -> Simulation:
@@ -354,15 +355,15 @@ def simulation(model: mujoco.MjModel) -> Simulation:
         if model.body_gravcomp[b] != 0.0
     )
     return Simulation(
-        timestep=float(model.opt.timestep),
-        integrator=_INTEGRATORS[mujoco.mjtIntegrator(model.opt.integrator)],
-        eulerdamp=not dis & mujoco.mjtDisableBit.mjDSBL_EULERDAMP,
         gravity=tuple(float(x) for x in model.opt.gravity),
         gravity_enabled=not dis & mujoco.mjtDisableBit.mjDSBL_GRAVITY,
         gravcomp=gravcomp,
         gravcomp_to_actuators=tuple(
             joints[j] for j in range(model.njnt) if model.jnt_actgravcomp[j] and gravcomp
         ),
+        timestep=float(model.opt.timestep),
+        integrator=_INTEGRATORS[mujoco.mjtIntegrator(model.opt.integrator)],
+        eulerdamp=not dis & mujoco.mjtDisableBit.mjDSBL_EULERDAMP,
     )
 
 

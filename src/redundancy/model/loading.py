@@ -12,11 +12,13 @@ import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TypedDict, Unpack
 
 import numpy as np
 
 from .. import models
 from ..arm import Arm
+from ..checks import check_options
 from ..errors import ModelError, ParameterError
 from .assembly import LoadState
 from .content import Recipe, rebuild, record, recording
@@ -62,9 +64,13 @@ def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
         raise ModelError(f"cannot read the model file {str(p)!r}: {err.strerror}") from err
 
 
-def _warn_site(site: str | None) -> None:
-    """Warn the caller of `load` or `load_string` who named the tool frame ``site=``."""
-    if site is not None:
+def _check_load_options(options: LoadOptions) -> None:
+    """Refuse an unknown keyword; warn the caller who named the tool frame ``site=``.
+
+    Called by `load` and `load_string` first (the warning points at their caller).
+    """
+    check_options(options, LoadOptions)
+    if options.get("site") is not None:
         warnings.warn(
             "site= is deprecated: name the tool frame with frame=", DeprecationWarning, stacklevel=3
         )
@@ -81,14 +87,40 @@ def _tool(site: str | None, frame: str | None) -> str | None:
     return None
 
 
+class LoadOptions(TypedDict, total=False):
+    """The keywords `load` and `load_string` take after the tool ``frame``.
+
+    Attributes:
+        strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
+            (``<frame>``, ``<replicate>``, a class inside another childclass...: see
+            `redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
+            compiled model instead, reported in ``arm.bridges`` (default True). False:
+            Pinocchio reads the file itself and `redundancy.compare_models` shows the
+            differences. MJCF only.
+        site: Deprecated name of ``frame`` (from when the tool had to be an MJCF site):
+            warns with a DeprecationWarning; ``frame`` wins when both are given.
+        disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
+            ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
+            joined by a joint are always excluded. An SRDF of a whole robot serves a part of
+            it: its pairs naming links the URDF lacks are skipped and listed in
+            ``arm.set_aside`` (an error when none applies); listed pairs must all exist.
+        base: A body (MJCF) or link (URDF) on the chain to the tool: the arm starts below it,
+            its own joints and those above it are held. None (default): the world.
+        rest: The held joints' values: None (default) for the model's reference configuration
+            (MuJoCo's ``qpos0``: each joint's ``ref``, a free body at its pose in the file),
+            a keyframe name, or a dict joint name -> value [rad or m] (a ball joint's
+            quaternion, a free joint's position and quaternion in MuJoCo's w x y z order).
+    """
+
+    strict: bool
+    site: str | None
+    disabled_collisions: DisabledPairs | None
+    base: str | None
+    rest: RestSpec
+
+
 def load(
-    path: str | os.PathLike[str],
-    frame: str | None = None,
-    strict: bool = True,
-    site: str | None = None,
-    disabled_collisions: DisabledPairs | None = None,
-    base: str | None = None,
-    rest: RestSpec = None,
+    path: str | os.PathLike[str], frame: str | None = None, **options: Unpack[LoadOptions]
 ) -> Arm:
     """Load a robot from an MJCF or URDF file; its arm is the chain to the tool.
 
@@ -106,25 +138,9 @@ def load(
             model's one chain end (a leaf with a moving joint above it; see
             `redundancy.model.ends`), else its frame named ``"ee"``, else a ModelError listing
             the chain ends.
-        strict: Where Pinocchio's MJCF parser reads the file differently from MuJoCo
-            (``<frame>``, ``<replicate>``, a class inside another childclass...: see
-            `redundancy.model.resolved.resolve_causes`), give Pinocchio MuJoCo's
-            compiled model instead, reported in ``arm.bridges``. False: Pinocchio reads the
-            file itself and `redundancy.compare_models` shows the differences. MJCF
-            only.
-        site: Deprecated name of ``frame`` (from when the tool had to be an MJCF site):
-            warns with a DeprecationWarning; ``frame`` wins when both are given.
-        disabled_collisions: URDF only: link pairs that never collide, as an SRDF file (its
-            ``<disable_collisions>`` elements) or an iterable of (link, link) pairs. Links
-            joined by a joint are always excluded. An SRDF of a whole robot serves a part of
-            it: its pairs naming links the URDF lacks are skipped and listed in
-            ``arm.set_aside`` (an error when none applies); listed pairs must all exist.
-        base: A body (MJCF) or link (URDF) on the chain to the tool: the arm starts below it,
-            its own joints and those above it are held. None: the world.
-        rest: The held joints' values: None for the model's reference configuration
-            (MuJoCo's ``qpos0``: each joint's ``ref``, a free body at its pose in the file),
-            a keyframe name, or a dict joint name -> value [rad or m] (a ball joint's
-            quaternion, a free joint's position and quaternion in MuJoCo's w x y z order).
+        **options: ``strict``, ``disabled_collisions`` (URDF), ``base`` and ``rest`` (where
+            the arm starts, and the held joints' values), as
+            [`LoadOptions`][redundancy.model.loading.LoadOptions] states.
 
     Raises:
         ModelError: The file is missing, not XML, not decodable, XML text instead of a path,
@@ -132,27 +148,25 @@ def load(
         UnsupportedFeatureError: The arm uses something the engines may not agree on (the
             message names the joint or body of this arm that matters).
         UnknownNameError: The tool is not a frame of the model, ``base`` not a body on its
-            chain, ``rest`` not a keyframe or held joint (the message lists the valid names).
+            chain, ``rest`` not a keyframe or held joint, a keyword not one of the options
+            (the message lists the valid names).
     """
-    _warn_site(site)
+    _check_load_options(options)
     p, data = _read_file(path)
-    options = _options(site, strict, frame, disabled_collisions, base, rest)
-    return _from_file(p, data, options, str(p))
+    return _from_file(p, data, _options(frame, options), str(p))
 
 
-def _options(
-    site: str | None,
-    strict: bool,
-    frame: str | None,
-    disabled_collisions: DisabledPairs | None,
-    base: str | None,
-    rest: RestSpec,
-) -> tuple[object, ...]:
-    """The load's options as they pickle with the recipe (an SRDF path made absolute)."""
-    pairs = None if disabled_collisions is None else _frozen_pairs(disabled_collisions)
+def _options(frame: str | None, options: LoadOptions) -> tuple[object, ...]:
+    """The load's options as they pickle with the recipe (an SRDF path made absolute).
+
+    The defaults are set here, once: ``strict`` True, the others None.
+    """
+    pairs = options.get("disabled_collisions")
+    pairs = None if pairs is None else _frozen_pairs(pairs)
     if isinstance(pairs, str):
         pairs = os.path.abspath(pairs)
-    return (site, strict, frame, pairs, base, _frozen_rest(rest))
+    site, strict = options.get("site"), options.get("strict", True)
+    return (site, strict, frame, pairs, options.get("base"), _frozen_rest(options.get("rest")))
 
 
 def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) -> Arm:
@@ -209,32 +223,23 @@ def rebuild_arm(recipe: Recipe) -> Arm:
     return arm
 
 
-def load_string(
-    xml: str | bytes,
-    frame: str | None = None,
-    strict: bool = True,
-    site: str | None = None,
-    disabled_collisions: DisabledPairs | None = None,
-    base: str | None = None,
-    rest: RestSpec = None,
-) -> Arm:
+def load_string(xml: str | bytes, frame: str | None = None, **options: Unpack[LoadOptions]) -> Arm:
     """Load MJCF or URDF text into MuJoCo and Pinocchio (see [`load`][redundancy.load]).
 
-    The arguments after ``xml`` are `load`'s (``site=`` its deprecated name of ``frame=``).
+    The arguments after ``xml`` are `load`'s.
 
     Bytes are decoded as XML says. Pinocchio's MJCF parser reads files, so MJCF text is
     written to a temporary file for it and must not refer to other files (meshes, includes)
     by relative path; a URDF's relative mesh paths count from the current directory.
     """
-    _warn_site(site)
+    _check_load_options(options)
     if isinstance(xml, bytes | bytearray):
         xml, _ = decode_xml(bytes(xml), "<string>")
     elif isinstance(xml, str):
         xml = strip_declaration(xml)
     else:
         raise ModelError(f"model text must be a str or bytes, got {type(xml).__name__}")
-    options = _options(site, strict, frame, disabled_collisions, base, rest)
-    return _from_text(xml, Path.cwd(), options)
+    return _from_text(xml, Path.cwd(), _options(frame, options))
 
 
 def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
