@@ -5,9 +5,8 @@ One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the
 [`redundancy.model.scales`][redundancy.model.scales]), and its maximum over the poses
 ([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors],
 [`worst`][redundancy.analysis.crosscheck.worst]), serves the single-pose and the stacked cross-check
-alike: [`crosscheck`][redundancy.crosscheck] (also named
-[`crosscheck_batch`][redundancy.crosscheck_batch]) is one computation, over stacks of poses
-taken in chunks so memory stays flat in their number.
+alike: [`crosscheck`][redundancy.crosscheck] and [`crosscheck_batch`][redundancy.crosscheck_batch]
+are one computation, over stacks of poses taken in chunks so memory stays flat in their number.
 """
 
 from __future__ import annotations
@@ -15,12 +14,20 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm, check_arm
-from ..checks import check_choice, check_count, check_number, check_pose_or_poses, check_threads
+from ..checks import (
+    check_choice,
+    check_count,
+    check_number,
+    check_options,
+    check_pose_or_poses,
+    check_threads,
+)
 from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
@@ -30,6 +37,7 @@ from ..model.scales import Scales, arm_scales, scaled_errors
 from ..quantities import QUANTITIES, QUANTITY, Evaluation
 from ..quantities import crosscheck_velocities as crosscheck_velocities  # its old home
 from .batch import map_chunks
+from .batch_executor import RunOptions
 
 Array = NDArray[np.float64]
 
@@ -340,40 +348,47 @@ def _agreement_errors(
     return errors[0] if len(errors) == 1 else np.maximum.reduce(errors)  # a NaN stays NaN
 
 
+class CrossCheckOptions(RunOptions, total=False):
+    """How `crosscheck` takes its poses, and where it runs.
+
+    Attributes:
+        threads: With 2 or more (and at least ``MIN_POSES_PER_THREAD`` poses in a chunk),
+            the reference engine runs in a worker thread (MuJoCo's ``mj_*`` calls release
+            the GIL) beside the other in the caller's thread, and Pinocchio's gravity uses
+            the other ``threads - 1`` as OpenMP threads (default 1).
+        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
+            ``Client(...).get_executor()``, a process pool), in chunks of poses each
+            cross-checked on a worker (`redundancy.batch.map_chunks`); None (default) runs
+            here. The report is the same, bit for bit: the worst pose of the chunks is
+            merged as within one process.
+        chunk: Poses per chunk (>= 1; default `CHUNK`).
+        seed: Seed of the joint velocities paired with the poses for ``"coriolis"``
+            (`crosscheck_velocities`), an integer >= 0 (default 0).
+    """
+
+    chunk: int
+    seed: int
+
+
 def crosscheck(
     arm: Arm,
     poses: ArrayLike,
     quantities: Iterable[str] | None = None,
     tolerances: dict[str, float] | None = None,
-    threads: int = 1,
-    chunk: int = CHUNK,
-    executor: Executor | None = None,
-    *,
-    seed: int = 0,
+    **options: Unpack[CrossCheckOptions],
 ) -> CrossCheckReport:
     """Compare each engine with the reference at one pose or over a stack of poses.
 
-    `crosscheck_batch` is the same function, named for stacks. The stacks are taken ``chunk``
-    poses at a time, so memory does not grow with the number of poses; errors, worst poses
-    and the report do not depend on ``chunk`` or ``threads``.
+    The stacks are taken ``chunk`` poses at a time, so memory does not grow with the number
+    of poses; errors, worst poses and the report do not depend on ``chunk`` or ``threads``.
 
     Args:
         arm: The arm.
         poses: One pose, shape (nq,), or many, shape (n, nq) [rad or m].
         quantities: Subset of `TOLERANCES` keys; all by default.
         tolerances: Overrides for `TOLERANCES` (finite, >= 0).
-        threads: With 2 or more (and at least ``MIN_POSES_PER_THREAD`` poses in a chunk),
-            MuJoCo runs in a worker thread (its ``mj_*`` calls release the GIL) beside
-            Pinocchio in the caller's thread, and Pinocchio's gravity uses the other
-            ``threads - 1`` as OpenMP threads.
-        chunk: Poses per chunk (>= 1).
-        executor: Run on this `concurrent.futures.Executor` (a Dask cluster's
-            ``Client(...).get_executor()``, a process pool), in chunks of poses each
-            cross-checked on a worker (`redundancy.batch.map_chunks`); None runs here.
-            The report is the same, bit for bit: the worst pose of the chunks is merged as
-            within one process.
-        seed: Seed of the joint velocities paired with the poses for ``"coriolis"``
-            (`crosscheck_velocities`), an integer >= 0.
+        **options: ``threads``, ``executor``, ``chunk`` and ``seed``, as
+            [`CrossCheckOptions`][redundancy.analysis.crosscheck.CrossCheckOptions] states.
 
     Returns:
         The report; over zero poses it says that nothing was checked and is not ``ok``.
@@ -392,9 +407,10 @@ def crosscheck(
             repr(n) for n in arm.missing_inertia
         )
     tols = tolerances_for(names, tolerances)
-    threads = check_threads(threads)
-    chunk = check_count("chunk", chunk, 1)
-    seed = check_count("seed", seed, 0)
+    check_options(options, CrossCheckOptions)
+    threads, executor = check_threads(options.get("threads", 1)), options.get("executor")
+    chunk = check_count("chunk", options.get("chunk", CHUNK), 1)
+    seed = check_count("seed", options.get("seed", 0), 0)
     Q = check_pose_or_poses(poses, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
     condition = _crosscheck_chunks(executor, arm, Q, names, tols, threads, chunk, seed, found)
@@ -405,8 +421,23 @@ def crosscheck(
     return CrossCheckReport(agreements, arm.bridges, len(Q), condition, skipped)
 
 
-crosscheck_batch = crosscheck
-"""[`crosscheck`][redundancy.crosscheck] under the name that says it takes stacks: one function."""
+def crosscheck_batch(
+    arm: Arm,
+    Q: ArrayLike,
+    quantities: Iterable[str] | None = None,
+    tolerances: dict[str, float] | None = None,
+    threads: int = 1,
+    chunk: int = CHUNK,
+    executor: Executor | None = None,
+    *,
+    seed: int = 0,
+) -> CrossCheckReport:
+    """`crosscheck` with its options also by position: the same computation, the same report.
+
+    Arguments as [`crosscheck`][redundancy.crosscheck] (``Q`` is its ``poses``).
+    """
+    options = CrossCheckOptions(threads=threads, chunk=chunk, executor=executor, seed=seed)
+    return crosscheck(arm, Q, quantities, tolerances, **options)
 
 
 def _crosscheck_chunks(
@@ -420,7 +451,7 @@ def _crosscheck_chunks(
     seed: int,
     found: dict[str, tuple[float, int]],
 ) -> float | None:
-    """`crosscheck` ``chunk`` poses at a time, on the executor's workers or (None) here.
+    """`crosscheck_batch` ``chunk`` poses at a time, on the executor's workers or (None) here.
 
     Each quantity's worst error and pose are merged into ``found``; returns the largest
     condition number of the mass matrix, None where no quantity through M^-1 was compared.
@@ -434,7 +465,7 @@ def _crosscheck_chunks(
             "chunk": chunk,
             "seed": seed,
         }
-        for lo, part in map_chunks(executor, crosscheck, arm, Q, **kwargs):
+        for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
             for a in part.agreements:
                 found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
             condition = worse_condition(condition, part.mass_condition)
