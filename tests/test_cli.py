@@ -101,6 +101,26 @@ def test_new_file_gets_the_umask_default(tmp_path):
     assert stat.S_IMODE((tmp_path / "new.json").stat().st_mode) == 0o640
 
 
+def test_a_new_file_never_sets_the_process_umask(tmp_path, monkeypatch):
+    # Setting the umask to read it races with every other thread creating files; the mode
+    # must come from the kernel, with or without /proc.
+    calls = []
+    real = os.umask
+    monkeypatch.setattr(files.os, "umask", lambda m: calls.append(m) or real(m))
+
+    def no_proc(self, *args, **kwargs):
+        raise OSError("no /proc here")
+
+    monkeypatch.setattr(files.Path, "read_text", no_proc)
+    old = real(0o077)
+    try:
+        files.write_atomic(tmp_path / "new.json", "{}")
+    finally:
+        real(old)
+    assert calls == []
+    assert stat.S_IMODE((tmp_path / "new.json").stat().st_mode) == 0o600
+
+
 def test_json_report_is_written_atomically(tmp_path, monkeypatch):
     target = tmp_path / "report.json"
     target.write_text("old")

@@ -394,7 +394,8 @@ def crosscheck(
         The report; over zero poses it says that nothing was checked and is not ``ok``.
 
     Raises:
-        UnknownNameError: A quantity that is not a key of `TOLERANCES`.
+        UnknownNameError: A quantity that is not a key of `TOLERANCES`, or a keyword that is
+            not one of the options.
         ParameterError: A bad tolerance, thread count or chunk size.
         PoseError: Bad poses.
     """

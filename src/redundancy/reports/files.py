@@ -16,6 +16,7 @@ Rules (checked by `check_target` before any work, so a bad path fails at once):
 from __future__ import annotations
 
 import os
+import secrets
 import stat
 import tempfile
 from pathlib import Path
@@ -77,17 +78,19 @@ def check_target(path: str | os.PathLike[str]) -> Path:
     return p
 
 
-def _umask() -> int:
-    """The process umask, read without changing it where /proc allows."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+def _new_temporary(folder: Path) -> tuple[int, str]:
+    """A new file beside the target, opened for writing, with the mode ``open()`` gives.
+
+    Created with 0o666 for the kernel to apply the umask: reading the umask would mean
+    setting it (``os.umask``), which races with every other thread creating files.
+    """
+    for _ in range(100):
+        name = str(folder / f"{_TMP_PREFIX}{secrets.token_hex(8)}.tmp")
+        try:
+            return os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), name
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"no free temporary name in {str(folder)!r}")
 
 
 def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
@@ -101,13 +104,17 @@ def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
             (an ``OSError`` too; the old file is left whole).
     """
     p = check_target(path)
-    mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else 0o666 & ~_umask()
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=_TMP_PREFIX, suffix=".tmp")
+    mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else None
+    try:
+        fd, tmp = _new_temporary(p.parent)
+    except OSError as err:
+        raise OutputPathError(f"cannot write {str(path)!r}: {err}") from err
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
             f.flush()
-            os.fchmod(f.fileno(), mode)
+            if mode is not None:  # an existing file keeps its permission bits
+                os.fchmod(f.fileno(), mode)
             os.fsync(f.fileno())
         os.replace(tmp, p)  # atomic on POSIX within one filesystem
     except OSError as err:
