@@ -199,3 +199,36 @@ def test_body_and_joint_may_share_a_name():
     arm = rd.load_string(xml, frame="tip")
     assert "site placement" in {b.quantity for b in arm.bridges}  # looks the body frame up
     assert rd.crosscheck(arm, np.array([0.3, -0.4])).ok
+
+
+def test_a_misspelt_shared_keyword_is_refused_naming_the_valid_ones(arm7: rd.Arm):
+    """Keywords that several functions share (``**options: Unpack[...]``) are checked: Python
+    would let any name into ``**options`` silently."""
+    q = arm7.keyframe("home")
+    calls = [
+        (
+            lambda: arm7.effective_mass(q, [1, 0, 0], joint=["q1"]),
+            "joint",
+            "['armature', 'joints', 'engine']",
+        ),
+        (lambda: rd.batch.jacobians(arm7, q[None], threds=2), "threds", "['threads', 'executor']"),
+        (
+            lambda: rd.batch.operational_inertias(arm7, q[None], armatures=False),
+            "armatures",
+            "['armature', 'joints', 'engine', 'threads', 'executor']",
+        ),
+        (
+            lambda: rd.crosscheck(arm7, q, chunks=2),
+            "chunks",
+            "['threads', 'executor', 'chunk', 'seed']",
+        ),
+        (
+            lambda: rd.load("arm7", rests="home"),
+            "rests",
+            "['strict', 'site', 'disabled_collisions', 'base', 'rest']",
+        ),
+    ]
+    for call, name, valid in calls:
+        with pytest.raises(rd.UnknownNameError) as info:
+            call()
+        assert str(info.value) == f"unknown option {name!r}; valid option names: {valid}"
