@@ -169,7 +169,7 @@ class _Measure:
 
     def __init__(self, doc: str) -> None:
         self.__doc__ = doc
-        self.kind = ""
+        self.kind: str = ""
 
     def __set_name__(self, owner: type, name: str) -> None:
         self.kind = name
