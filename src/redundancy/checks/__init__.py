@@ -416,6 +416,8 @@ def check_options(options: Mapping[str, object], allowed: type) -> None:
         UnknownNameError: A keyword that is not one of ``allowed``'s (the message lists
             them).
     """
+    if not options:  # the common call: every option at its default
+        return
     valid = allowed.__annotations__  # a TypedDict's keys, its bases' included, in order
     if not options.keys() <= valid.keys():
         unknown = next(k for k in options if k not in valid)
