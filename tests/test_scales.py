@@ -156,3 +156,28 @@ def test_a_link_spinning_at_its_joint_is_measured_by_its_own_inertia() -> None:
     assert sc.inertia == pytest.approx(own, rel=1e-12)
     report = rd.crosscheck(arm, np.linspace(-3, 3, 13)[:, None], ["coriolis", "mass matrix"])
     assert report.ok, report
+
+
+def test_the_manipulability_of_a_short_arm_is_sized_by_its_units() -> None:
+    # Three joints and 6 cm: w = sqrt(det(J^T J)) is 0.062 here, not of L^3 = 2.4e-4 (its
+    # angular factors are rad/rad), so Pinocchio's 2.7e-15 on a zero gradient is rounding.
+    arm = rd.load_string(
+        """<mujoco><worldbody>
+          <body name="b0"><joint name="j0" type="slide"/><geom type="sphere" size="0.062"/>
+            <body name="b1" quat="0 0 1 1"><joint name="j1"/><geom type="sphere" size="0.062"/>
+              <body name="b2" pos="0 0.062 0"><joint name="j2"/>
+                <geom type="sphere" size="0.062"/><site name="tip"/>
+              </body>
+            </body>
+          </body>
+        </worldbody></mujoco>""",
+        frame="tip",
+    )
+    report = rd.crosscheck(arm, np.zeros(3), ["manipulability gradient"])
+    assert report.ok, "\n".join(report.lines())
+    assert report.agreements[0].max_error < 1e-10
+    s = arm_scales(arm)
+    assert s.joints == 3 and s.manipulability == 1.0
+    assert rd.Manipulability(arm.jacobian(np.zeros(3))).full == pytest.approx(0.062, rel=1e-12)
+    six = rd.load("arm7")
+    assert arm_scales(six).manipulability == pytest.approx(six.length**3, rel=1e-15)

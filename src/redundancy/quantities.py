@@ -188,7 +188,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     Quantity("gravity", "(nv,)", "N m", 1e-9, "gravity",
              lambda e: e.stacks.G, _whole(lambda s: s.torque), field="G", dynamic=True),
     Quantity("manipulability gradient", "(nv,)", "m^3", 1e-8, "jacobian_derivatives",
-             _gradient, _whole(lambda s: s.length**3)),
+             _gradient, _whole(lambda s: s.manipulability)),
     # J M^-1 J^T (the inverse of the operational-space inertia, defined at singular poses
     # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse), per block: [1/kg]
     # linear, [1/(kg m^2)] angular, [1/(kg m)] between. M^-1 multiplies the engines' rounding

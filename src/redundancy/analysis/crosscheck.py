@@ -234,7 +234,8 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
     max |a - b| / max(max |a|, FLOOR x size) over one pose's value
     ([`scaled_errors`][redundancy.model.scales.scaled_errors]), the size being the quantity's size
     on the arm: its length L for the site position, 1 for the rotation, ``m L^2`` for the mass
-    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient. The Jacobian and its
+    matrices, ``m g L`` for gravity, L^3 for the manipulability gradient (six joints or more;
+    `Scales.manipulability`). The Jacobian and its
     derivatives are measured per block of rows, linear (size L) and angular (size 1), since their
     units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and the dynamic
     manipulability through its factors, the singular values of M^-1 J^T.

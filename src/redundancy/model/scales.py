@@ -44,4 +44,4 @@ def arm_scales(arm: Arm) -> Scales:
     mass = float(m.body_mass[moved].sum())
     own = float(m.body_inertia[moved].max(axis=1).sum()) if len(moved) else 0.0
     g = float(np.linalg.norm(effective_gravity(m)))
-    return Scales(arm.length, mass if mass > 0 else 1.0, g if g > 0 else 1.0, own)
+    return Scales(arm.length, mass if mass > 0 else 1.0, g if g > 0 else 1.0, own, arm.nq)
