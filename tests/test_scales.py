@@ -181,3 +181,28 @@ def test_the_manipulability_of_a_short_arm_is_sized_by_its_units() -> None:
     assert rd.Manipulability(arm.jacobian(np.zeros(3))).full == pytest.approx(0.062, rel=1e-12)
     six = rd.load("arm7")
     assert arm_scales(six).manipulability == pytest.approx(six.length**3, rel=1e-15)
+
+
+def test_rounding_carried_through_m_inverse_is_measured_at_its_size() -> None:
+    # A 1.7e-7 kg m^2 tip body makes M^-1 6e6 in the angular block; MuJoCo's 7e-18 m of
+    # rounding in J_v (the site on an axis) comes out as 4e-11 in the block between, which is
+    # 1.5e-8 of that block's own size (1/(m L)), but 5e-17 of the matrix's.
+    arm = rd.load_string(
+        """<mujoco><worldbody>
+          <body name="b0"><joint name="j0"/>
+            <inertial pos="0 0 0" mass="1" diaginertia="0.0104 0.0104 0.0104"/>
+            <geom type="sphere" size="0.062"/>
+            <body name="b1"><joint name="j1"/><geom type="sphere" size="0.062"/>
+              <body name="b2"><joint name="j2"/><geom type="sphere" size="0.062"/>
+                <body name="b3" quat="0 0 1 1"><joint name="j3" pos="0 0 0.062"/>
+                  <geom type="sphere" size="0.01"/><site name="tip"/>
+                </body>
+              </body>
+            </body>
+          </body>
+        </worldbody></mujoco>""",
+        frame="tip",
+    )
+    report = rd.crosscheck(arm, np.zeros(4), ["operational inertia^-1"])
+    assert report.ok, "\n".join(report.lines())
+    assert report.agreements[0].max_error < 1e-12

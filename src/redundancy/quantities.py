@@ -110,6 +110,9 @@ class Quantity:
         m_inverse: Computed through M^-1: the tolerance grows with cond(M)
             (`redundancy.analysis.crosscheck.conditioned_tolerance`).
         velocity: Needs a joint velocity besides the pose.
+        one_scale: Its blocks differ only in unit: each block is divided by its size and
+            the whole is measured against one scale, the largest so divided (see
+            `redundancy.analysis.crosscheck.quantity_errors`).
     """
 
     name: str
@@ -123,6 +126,7 @@ class Quantity:
     dynamic: bool = False
     m_inverse: bool = False
     velocity: bool = False
+    one_scale: bool = False
 
     @property
     def batched(self) -> bool:
@@ -193,10 +197,13 @@ QUANTITIES: tuple[Quantity, ...] = (
     # too: MuJoCo's sparse mj_solveM against Pinocchio's computeMinverse), per block: [1/kg]
     # linear, [1/(kg m^2)] angular, [1/(kg m)] between. M^-1 multiplies the engines' rounding
     # of M by M's condition number: the bundled arms agree to 1e-13, but a generated arm with
-    # a 4 g tip body on a 1 kg chain (cond(M) ~ 1e7) differed by 1.3e-9, hence 1e-8.
+    # a 4 g tip body on a 1 kg chain (cond(M) ~ 1e7) differed by 1.3e-9, hence 1e-8. One
+    # scale over the blocks: M^-1 carries J's rounding into every block at M^-1's size (a
+    # 1.7e-7 kg m^2 tip body: J_v's 7e-18 m on an axis became 4e-11 between, 1.5e-8 of that
+    # block's own size, while the angular block is 6e6).
     Quantity("operational inertia^-1", "(6, 6)", "1/kg; 1/(kg m^2); 1/(kg m)", 1e-8,
              "tool_mobility", lambda e: mobility(*e.mobilities), _inertia_blocks,
-             dynamic=True, m_inverse=True),
+             dynamic=True, m_inverse=True, one_scale=True),
     # Yoshikawa's dynamic manipulability, compared through its factors, the singular values
     # of M^-1 J^T, each against the largest: the product itself near a singular pose is the
     # tiny factor times others, and carries that factor's rounding (eps sigma_max) as a

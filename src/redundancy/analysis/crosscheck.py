@@ -237,8 +237,10 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
     matrices, ``m g L`` for gravity, L^3 for the manipulability gradient (six joints or more;
     `Scales.manipulability`). The Jacobian and its
     derivatives are measured per block of rows, linear (size L) and angular (size 1), since their
-    units differ; J M^-1 J^T per block too ([1/m], [1/(m L^2)], [1/(m L)]), and the dynamic
-    manipulability through its factors, the singular values of M^-1 J^T.
+    units differ. J M^-1 J^T's blocks ([1/m], [1/(m L^2)], [1/(m L)]) are each divided by their
+    size and measured as one value (M^-1 carries the engines' rounding of J from one block into
+    the others at its own size). The dynamic manipulability is measured through its factors,
+    the singular values of M^-1 J^T.
 
     Args:
         name: A key of `TOLERANCES`.
@@ -249,9 +251,16 @@ def quantity_errors(name: str, a: Array, b: Array, scales: Scales) -> Array:
     Returns:
         Errors, shape (n,); NaN or inf where a value is not finite.
     """
-    blocks = QUANTITY[name].blocks(scales)
+    quantity = QUANTITY[name]
+    blocks = quantity.blocks(scales)
     if len(blocks) == 1 and blocks[0][0] == ():
         return scaled_errors(a, b, blocks[0][1])
+    if quantity.one_scale:  # each block in units of its size, then one value of size 1
+
+        def in_sizes(x: Array) -> Array:
+            return np.concatenate([(x[(..., *i)] / s).reshape(len(x), -1) for i, s in blocks], 1)
+
+        return scaled_errors(in_sizes(a), in_sizes(b), 1.0)
     # A NaN in any block stays NaN.
     return np.maximum.reduce([scaled_errors(a[(..., *i)], b[(..., *i)], s) for i, s in blocks])
 
