@@ -158,24 +158,27 @@ def test_a_link_spinning_at_its_joint_is_measured_by_its_own_inertia() -> None:
     assert report.ok, report
 
 
+def _agreement_at_zero(bodies: str, quantity: str) -> tuple[rd.Arm, float]:
+    """The arm of ``bodies`` (its tool the site "tip") and its error on ``quantity`` at q = 0."""
+    arm = rd.load_string(f"<mujoco><worldbody>{bodies}</worldbody></mujoco>", frame="tip")
+    report = rd.crosscheck(arm, np.zeros(arm.nq), [quantity])
+    assert report.ok, "\n".join(report.lines())
+    return arm, report.agreements[0].max_error
+
+
 def test_the_manipulability_of_a_short_arm_is_sized_by_its_units() -> None:
     # Three joints and 6 cm: w = sqrt(det(J^T J)) is 0.062 here, not of L^3 = 2.4e-4 (its
     # angular factors are rad/rad), so Pinocchio's 2.7e-15 on a zero gradient is rounding.
-    arm = rd.load_string(
-        """<mujoco><worldbody>
-          <body name="b0"><joint name="j0" type="slide"/><geom type="sphere" size="0.062"/>
-            <body name="b1" quat="0 0 1 1"><joint name="j1"/><geom type="sphere" size="0.062"/>
-              <body name="b2" pos="0 0.062 0"><joint name="j2"/>
-                <geom type="sphere" size="0.062"/><site name="tip"/>
+    ball = '<geom type="sphere" size="0.062"/>'
+    arm, error = _agreement_at_zero(
+        f"""<body name="b0"><joint name="j0" type="slide"/>{ball}
+              <body name="b1" quat="0 0 1 1"><joint name="j1"/>{ball}
+                <body name="b2" pos="0 0.062 0"><joint name="j2"/>{ball}<site name="tip"/></body>
               </body>
-            </body>
-          </body>
-        </worldbody></mujoco>""",
-        frame="tip",
+            </body>""",
+        "manipulability gradient",
     )
-    report = rd.crosscheck(arm, np.zeros(3), ["manipulability gradient"])
-    assert report.ok, "\n".join(report.lines())
-    assert report.agreements[0].max_error < 1e-10
+    assert error < 1e-10
     s = arm_scales(arm)
     assert s.joints == 3 and s.manipulability == 1.0
     assert rd.Manipulability(arm.jacobian(np.zeros(3))).full == pytest.approx(0.062, rel=1e-12)
@@ -187,22 +190,17 @@ def test_rounding_carried_through_m_inverse_is_measured_at_its_size() -> None:
     # A 1.7e-7 kg m^2 tip body makes M^-1 6e6 in the angular block; MuJoCo's 7e-18 m of
     # rounding in J_v (the site on an axis) comes out as 4e-11 in the block between, which is
     # 1.5e-8 of that block's own size (1/(m L)), but 5e-17 of the matrix's.
-    arm = rd.load_string(
-        """<mujoco><worldbody>
-          <body name="b0"><joint name="j0"/>
-            <inertial pos="0 0 0" mass="1" diaginertia="0.0104 0.0104 0.0104"/>
-            <geom type="sphere" size="0.062"/>
-            <body name="b1"><joint name="j1"/><geom type="sphere" size="0.062"/>
-              <body name="b2"><joint name="j2"/><geom type="sphere" size="0.062"/>
-                <body name="b3" quat="0 0 1 1"><joint name="j3" pos="0 0 0.062"/>
-                  <geom type="sphere" size="0.01"/><site name="tip"/>
+    ball = '<geom type="sphere" size="0.062"/>'
+    inertial = '<inertial pos="0 0 0" mass="1" diaginertia="0.0104 0.0104 0.0104"/>'
+    tip = '<geom type="sphere" size="0.01"/><site name="tip"/>'
+    _, error = _agreement_at_zero(
+        f"""<body name="b0"><joint name="j0"/>{inertial}{ball}
+              <body name="b1"><joint name="j1"/>{ball}
+                <body name="b2"><joint name="j2"/>{ball}
+                  <body name="b3" quat="0 0 1 1"><joint name="j3" pos="0 0 0.062"/>{tip}</body>
                 </body>
               </body>
-            </body>
-          </body>
-        </worldbody></mujoco>""",
-        frame="tip",
+            </body>""",
+        "operational inertia^-1",
     )
-    report = rd.crosscheck(arm, np.zeros(4), ["operational inertia^-1"])
-    assert report.ok, "\n".join(report.lines())
-    assert report.agreements[0].max_error < 1e-12
+    assert error < 1e-12
