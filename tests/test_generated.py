@@ -425,45 +425,22 @@ def test_mujoco_geom_distance_puts_coincident_boxes_at_zero() -> None:
 
 #: Class 4: two capsules whose axes are 7.3e-6 rad from parallel (3.1416 for pi), 0.25 m
 #: apart (the shrunk model of a 7-joint generated arm, thorough profile, seed 7).
-NEARLY_PARALLEL_CAPSULES = """
-<mujoco>
-  <compiler angle="radian" autolimits="true" eulerseq="zxz"/>
-  <default>
-    <default class="A"><joint type="hinge"/><geom/></default>
-  </default>
-  <worldbody>
-    <body name="b0" childclass="A">
-      <joint name="j0"/>
-      <geom type="sphere" size="0.062"/>
-      <body name="b1">
-        <joint name="j1"/>
-        <geom type="sphere" size="0.062"/>
-        <body name="b2">
-          <joint name="j2"/>
-          <geom type="sphere" size="0.062"/>
-          <body name="b3">
-            <joint name="j3"/>
-            <geom type="sphere" size="0.062"/>
-            <body name="b4">
-              <joint name="j4"/>
-              <geom type="sphere" size="0.062"/>
-              <body name="b5">
-                <joint name="j5"/>
-                <geom type="capsule" size="0.062 0.031"/>
-              </body>
-            </body>
-          </body>
-          <body name="b6" pos="0 0.25 0">
-            <joint name="j6"/>
-            <geom type="capsule" size="0.062 0.125" euler="0 3.1416 0"/>
-            <site name="tip"/>
-          </body>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+_BALL = '<geom type="sphere" size="0.062"/>'
+NEARLY_PARALLEL_CAPSULES = "".join(
+    [
+        '<mujoco><compiler angle="radian" eulerseq="zxz"/>',
+        '<default><default class="A"><joint type="hinge"/><geom/></default></default>',
+        '<worldbody><body name="b0" childclass="A">',
+        *(f'<joint name="j{k}"/>{_BALL}<body name="b{k + 1}">' for k in range(2)),
+        f'<joint name="j2"/>{_BALL}',
+        *(f'<body name="b{k}"><joint name="j{k}"/>{_BALL}' for k in (3, 4)),
+        '<body name="b5"><joint name="j5"/><geom type="capsule" size="0.062 0.031"/>',
+        "</body></body></body>",
+        '<body name="b6" pos="0 0.25 0"><joint name="j6"/><site name="tip"/>',
+        '<geom type="capsule" size="0.062 0.125" euler="0 3.1416 0"/></body>',
+        "</body></body></body></worldbody></mujoco>",
+    ]
+)
 
 
 def test_nearly_parallel_capsules_are_held_to_their_rounding_bound() -> None:
