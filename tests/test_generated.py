@@ -15,6 +15,8 @@ parallel capsules).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -68,6 +70,16 @@ def _segment_crosses_box(p0: np.ndarray, p1: np.ndarray, half: np.ndarray) -> bo
     return True
 
 
+def _placed(arm: rd.Arm, q: np.ndarray) -> Any:
+    """A fresh MjData of the arm's model with its geoms placed at ``q`` (mj_kinematics)."""
+    import mujoco
+
+    d = mujoco.MjData(arm.mj_model)
+    d.qpos[:] = q
+    mujoco.mj_kinematics(arm.mj_model, d)
+    return d
+
+
 def _capsule_through_box(arm: rd.Arm, pair: col.GeomPair, q: np.ndarray) -> bool:
     """True when a capsule's segment passes through a box: they overlap by at least its radius.
 
@@ -78,10 +90,7 @@ def _capsule_through_box(arm: rd.Arm, pair: col.GeomPair, q: np.ndarray) -> bool
         return False
     import mujoco
 
-    m = arm.mj_model
-    d = mujoco.MjData(m)
-    d.qpos[:] = q
-    mujoco.mj_kinematics(m, d)
+    m, d = arm.mj_model, _placed(arm, q)
     cap, box = (pair.geom1, pair.geom2)
     if int(m.geom_type[cap]) != int(mujoco.mjtGeom.mjGEOM_CAPSULE):
         cap, box = box, cap
@@ -102,12 +111,7 @@ def _coincident_in_contact(arm: rd.Arm, pair: col.GeomPair, q: np.ndarray) -> bo
     """
     ch = col.checker(arm)
     contacts = [c for c in ch.contacts(q) if c.pair == pair]
-    m = arm.mj_model
-    import mujoco
-
-    d = mujoco.MjData(m)
-    d.qpos[:] = q
-    mujoco.mj_kinematics(m, d)
+    d = _placed(arm, q)
     same = np.array_equal(d.geom_xpos[pair.geom1], d.geom_xpos[pair.geom2])
     return same and any(c.distance < 0 for c in contacts)
 
@@ -120,12 +124,7 @@ def _parallel_capsules_tol(arm: rd.Arm, pair: col.GeomPair, q: np.ndarray) -> fl
     sin theta = 7.3e-6 coal and MuJoCo each missed the exact 0.126 m by 2.3e-7, one on each
     side. Four times that bound; exactly parallel axes take the engines' own parallel branch.
     """
-    import mujoco
-
-    m = arm.mj_model
-    d = mujoco.MjData(m)
-    d.qpos[:] = q
-    mujoco.mj_kinematics(m, d)
+    m, d = arm.mj_model, _placed(arm, q)
     g1, g2 = pair.geom1, pair.geom2
     axes = [d.geom_xmat[g].reshape(3, 3)[:, 2] for g in (g1, g2)]
     sin2 = float(np.sum(np.cross(*axes) ** 2))

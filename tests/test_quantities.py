@@ -21,23 +21,9 @@ from redundancy.engines import REFERENCE
 from redundancy.engines.contract import Engine, Stacks
 from redundancy.quantities import QUANTITIES, QUANTITY
 
-GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide" / "from-python.md"
+from .models import chain
 
-TWO_LINKS = """
-<mujoco>
-  <worldbody>
-    <body name="a">
-      <joint name="j1" type="hinge" axis="0 0 1"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>
-      <body name="b" pos="0.3 0 0">
-        <joint name="j2" type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.5"/>
-        <site name="tip" pos="0.2 0 0"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide" / "from-python.md"
 
 
 def test_the_crosschecks_constants_are_read_from_the_registry() -> None:
@@ -81,7 +67,7 @@ class Skewed:
 
 
 def test_a_third_engine_is_compared_with_the_reference_and_confirms_ik() -> None:
-    arm = rd.load_string(TWO_LINKS, frame="tip")
+    arm = rd.load_string(chain(), frame="tip")
     arm.engines["skewed"] = Skewed(arm.pinocchio)
     assert arm.reference is arm.engines[REFERENCE] is arm.mujoco
     Q = np.array([[0.3, -0.4], [1.0, 0.5], [-2.0, 1.2]])
