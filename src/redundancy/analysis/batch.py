@@ -125,9 +125,9 @@ def _fill(arm: Arm, Q: Array, engine: str, threads: int, what: str, armature: bo
 def _stack(
     arm: Arm, Q: ArrayLike, engine: str, threads: int, what: str, armature: bool = True
 ) -> Array:
-    """One quantity over a stack: validate the inputs, then `_fill`."""
+    """One quantity over a stack: the engine and poses checked, then `_fill` (threads checked)."""
     check_choice("engine", engine, ENGINES)
-    return _fill(arm, poses(arm, Q), engine, check_threads(threads), what, armature)
+    return _fill(arm, poses(arm, Q), engine, threads, what, armature)
 
 
 def jacobians(
