@@ -421,15 +421,20 @@ def test_broken_collada_mesh_is_the_librarys_error(tmp_path: Path) -> None:
     )
 
 
-def test_unresolved_mesh_is_named(tmp_path: Path) -> None:
+def test_unresolved_mesh_is_named_by_collision_not_by_the_load(tmp_path: Path) -> None:
+    """A mesh found nowhere gives no collision geometry; the arm is served without it."""
+    from redundancy import collision
+
     urdf = tmp_path / "robot.urdf"
     urdf.write_text(_mesh_urdf("package://nopkg/meshes/arm.stl"))
-    with pytest.raises(rd.ModelError) as err:
-        rd.load(urdf, frame="tool")
+    arm = rd.load(urdf, frame="tool")
+    with pytest.raises(rd.MissingMeshError) as err:
+        collision.checker(arm)
     message = str(err.value)
     assert message.startswith(
-        f"URDF {urdf}: mesh file 'package://nopkg/meshes/arm.stl' not found (looked for: "
+        "collision needs the meshes the model names, and these are found nowhere: link "
     )
+    assert "'package://nopkg/meshes/arm.stl' (looked for: " in message
     assert str(tmp_path / "nopkg" / "meshes" / "arm.stl") in message
 
 

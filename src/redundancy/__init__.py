@@ -35,6 +35,7 @@ from .collision import (
 from .errors import (
     MissingDependencyError,
     MissingInertiaError,
+    MissingMeshError,
     ModelError,
     OutOfRangeError,
     ParameterError,
@@ -74,6 +75,7 @@ __all__ = [
     "Manipulability",
     "MissingDependencyError",
     "MissingInertiaError",
+    "MissingMeshError",
     "ModelError",
     "MomentumObserver",
     "OutOfRangeError",

@@ -121,6 +121,9 @@ class Arm(_Keyframes, _ToolMass):
         missing_inertia: Links the arm moves that the file gives no inertia (a URDF link
             without ``<inertial>``): kinematic quantities are served, dynamic ones raise
             `MissingInertiaError` naming them.
+        missing_meshes: Meshes the file names that are found nowhere
+            (`redundancy.model.selection.MissingMesh`: link, file, places looked in): their
+            geoms are left out, and collision queries raise `MissingMeshError` naming them.
         robot_model: MuJoCo's compiled model of the whole robot (all joints).
         frame_type: ``"site"`` (an MJCF site) or ``"body"`` (an MJCF body, a URDF link).
         base: The body the arm's chain starts below (None: the world).
@@ -149,6 +152,7 @@ class Arm(_Keyframes, _ToolMass):
         set_aside: tuple[Any, ...] = (),
         defects: tuple[str, ...] = (),
         missing_inertia: tuple[str, ...] = (),
+        missing_meshes: tuple[Any, ...] = (),
         robot_model: mujoco.MjModel | None = None,
         frame_type: str = "site",
         base: str | None = None,
@@ -184,6 +188,7 @@ class Arm(_Keyframes, _ToolMass):
         self.missing_inertia: tuple[str, ...] = tuple(missing_inertia)
         for engine in self.engines.values():
             engine.missing_inertia = self.missing_inertia  # their dynamic quantities refuse
+        self.missing_meshes: tuple[Any, ...] = tuple(missing_meshes)
         self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
         self.frame_type: str = frame_type
         self.base: str | None = base

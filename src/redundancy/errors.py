@@ -82,6 +82,30 @@ class MissingInertiaError(ModelError):
         )
 
 
+class MissingMeshError(ModelError):
+    """A collision query on an arm whose file names meshes that are found nowhere.
+
+    The arm is served without those meshes' geoms (every kinematic and dynamic quantity is
+    defined by the file); what collides them is refused.
+
+    Attributes:
+        meshes: The missing meshes (`redundancy.model.selection.MissingMesh`: link, file name
+            as written, the places looked in).
+    """
+
+    def __init__(self, meshes: Sequence[Any]) -> None:
+        self.meshes: tuple[Any, ...] = tuple(meshes)
+        shown = "; ".join(
+            f"link {m.link!r}: {m.file!r} (looked for: {', '.join(m.looked) or 'nowhere'})"
+            for m in self.meshes
+        )
+        super().__init__(
+            f"collision needs the meshes the model names, and these are found nowhere: "
+            f"{shown}; install the package that ships them (or put it on "
+            "ROS_PACKAGE_PATH) and load again"
+        )
+
+
 class UnknownNameError(RedundancyError, KeyError):
     """A site, joint, body, geom or keyframe name that the model does not have.
 

@@ -29,7 +29,7 @@ from ..arm import check_arm
 from ..caching import PerObject
 from ..checks import check_choice
 from ..engines.threads import PerThread
-from ..errors import ModelError, UnsupportedFeatureError
+from ..errors import MissingMeshError, ModelError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
 from .pairs import (
@@ -137,6 +137,7 @@ class CollisionChecker:
         pairs: The pair set, shared by both engines.
 
     Raises:
+        MissingMeshError: The file names meshes found nowhere (``arm.missing_meshes``).
         UnsupportedFeatureError: Flex objects, height-field or SDF geoms in a pair, a flat
             mesh, or a geom on an unnamed body.
         ModelError: Pinocchio's geom placements differ from MuJoCo's (self-check at build).
@@ -149,6 +150,8 @@ class CollisionChecker:
         self, arm: Arm, pairs: Sequence[GeomPair] | None = None, *, weak: bool = False
     ) -> None:
         m = arm.mj_model
+        if arm.missing_meshes:  # the file's collision geometry is not all there
+            raise MissingMeshError(arm.missing_meshes)
         if m.nflex:
             raise UnsupportedFeatureError(
                 "flex", f"{m.nflex} in the model", "only rigid geoms are checked"

@@ -16,6 +16,7 @@ from ..engines.mujoco import joint_limits, object_names
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .robot import ArmSelection, RestSpec, SetAside, keyframe_moves, reduce_pinocchio
+from .selection import MissingMesh
 
 
 class LoadState:
@@ -27,6 +28,7 @@ class LoadState:
         self.set_aside: list[SetAside] = []
         self.defects: list[str] = []  # defects of the file on bodies the arm moves
         self.missing_inertia: list[str] = []  # links the arm moves without inertial data
+        self.missing_meshes: list[MissingMesh] = []  # meshes found nowhere (geoms left out)
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
@@ -86,6 +88,7 @@ def build_arm(
         set_aside=tuple(robot.set_aside),
         defects=tuple(robot.defects),
         missing_inertia=tuple(robot.missing_inertia),
+        missing_meshes=tuple(robot.missing_meshes),
         robot_model=full,
         frame_type=frame_type,
         base=sel.base,

@@ -248,42 +248,59 @@ def _root_body(mm: mujoco.MjModel, site: int) -> int | None:
     return root if root > 0 else None
 
 
-def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel, site: int) -> list[Bridge]:
-    """Place a posed fixed root body where MuJoCo places it.
+def _pinocchio_root_placement(pm: pin.Model, name: str) -> pin.SE3:
+    """Where Pinocchio's parser put the root body ``name`` in the world (identity: not at all).
 
-    Pinocchio's parser attaches a root body without joints to the world at the identity and
-    drops its ``pos``/``quat`` (``addRootJoint``), so everything below it sits where the root
-    pose would have put it without the pose (measured: a site 1.65 m off on a UR5e). Every
-    joint and frame attached to Pinocchio's world is moved by that pose: the joint
-    placements of the root's child joints and the frames (bodies, fixed bodies, sites)
-    whose parent joint is the world.
+    Pinocchio's MJCF parser attaches a fixed root body at the identity (``addRootJoint``) and
+    drops its ``pos``/``quat``; its URDF parser places a link fixed below a ``world`` link at
+    the fixed joint's origin. The frame says which happened.
+    """
+    for f in range(1, len(pm.frames)):
+        frame = pm.frames[f]
+        if frame.name == name and frame.parentJoint == 0 and frame.type == pin.FrameType.BODY:
+            return pin.SE3(frame.placement)
+    return pin.SE3.Identity()
+
+
+def _bridge_root_pose(pm: pin.Model, mm: mujoco.MjModel, site: int) -> list[Bridge]:
+    """Place a posed fixed root body where MuJoCo places it, moving only what is misplaced.
+
+    MuJoCo's root body (a child of the world without joints) sits at its ``pos``/``quat``;
+    Pinocchio's parser may have placed its frame there already (a URDF whose root link is
+    ``world``, with a fixed joint to the robot's base) or at the identity (an MJCF root body:
+    measured, a site 1.65 m off on a UR5e). The correction is the difference between the
+    two placements, never the pose itself, so an offset is applied once. Every joint and frame
+    attached to Pinocchio's world is moved by it: the joint placements of the root's child
+    joints and the frames (bodies, fixed bodies, sites) whose parent joint is the world.
     """
     root = _root_body(mm, site)
     if root is None or mm.body_jntnum[root] > 0:
         return []  # a root with a joint: Pinocchio composes its pose into the joint placement
     pos, quat = mm.body_pos[root].copy(), mm.body_quat[root].copy()
-    if not (np.any(pos != 0) or np.any(quat != [1, 0, 0, 0])):
-        return []
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, quat)
-    pose = pin.SE3(rot.reshape(3, 3), pos)
+    there = _pinocchio_root_placement(pm, body_name(mm, root))
+    fix = pin.SE3(rot.reshape(3, 3), pos) * there.inverse()
+    if np.allclose(fix.homogeneous, np.eye(4), rtol=0.0, atol=1e-15):
+        return []
     for j in range(1, pm.njoints):
         if pm.parents[j] == 0:
-            pm.jointPlacements[j] = pose * pm.jointPlacements[j]
+            pm.jointPlacements[j] = fix * pm.jointPlacements[j]
     for f in range(1, len(pm.frames)):
         frame = pm.frames[f]
         if frame.parentJoint == 0:
-            frame.placement = pose * frame.placement
+            frame.placement = fix * frame.placement
             pm.frames[f] = frame
-    # The root body's own mass, which the parser adds to the world's inertia in the root's
-    # frame (the whole robot's centre of mass counts it).
-    pm.inertias[0] = pose.act(pm.inertias[0])
+    # The root body's own mass, which the parser adds to the world's inertia where it placed
+    # the root (the whole robot's centre of mass counts it).
+    pm.inertias[0] = fix.act(pm.inertias[0])
     return [
         Bridge(
             "root pose",
             body_name(mm, root),
             tuple(float(x) for x in (*pos, *quat)),
-            "body_pos and body_quat of the fixed root body (pos, then quat w x y z)",
+            "body_pos and body_quat of the fixed root body (pos, then quat w x y z), where "
+            "Pinocchio's parser placed it elsewhere",
         )
     ]
 

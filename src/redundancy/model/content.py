@@ -94,10 +94,11 @@ def mujoco_assets(spec: mujoco.MjSpec, folder: Path) -> list[Path]:
     def place(name: str, subdir: str) -> Path | None:
         if not name:
             return None
+        name, subdir = name.replace("\\", "/"), subdir.replace("\\", "/")  # as MuJoCo reads
         if spec.strippath:
             name = os.path.basename(name)
         p = model_dir / subdir / name  # an absolute subdir or name discards what precedes
-        return p if p.is_file() else None
+        return Path(os.path.normpath(os.path.abspath(p))) if p.is_file() else None
 
     names = [(m.file, spec.meshdir) for m in spec.meshes]
     names += [(h.file, spec.meshdir) for h in spec.hfields]
@@ -113,14 +114,17 @@ def feed_assets(spec: mujoco.MjSpec, paths: list[Path]) -> None:
 
     MuJoCo's asset cache knows a file by its name and modification time in whole seconds,
     so a mesh edited within a second of being compiled would compile as it was before; the
-    bytes given in the spec's assets are known by their content. They are keyed by the
-    path MuJoCo looks up (an absolute one, for an exact match).
+    bytes given in the spec's assets are known by their content. Each is keyed once, by its
+    absolute path with ``.`` and ``..`` folded (MuJoCo folds the path it looks up the same
+    way, and refuses two keys that fold to one name).
     """
     for p in paths:
-        data = p.read_bytes()
-        record(p, data)
-        spec.assets[str(p)] = data
-        spec.assets[os.path.abspath(p)] = data
+        key = os.path.normpath(os.path.abspath(p))
+        if key in spec.assets:
+            continue
+        data = Path(key).read_bytes()
+        record(key, data)
+        spec.assets[key] = data
 
 
 def _sha(data: bytes) -> str:

@@ -104,7 +104,7 @@ def default_tool_frame(path: str | os.PathLike[str]) -> str:
         ModelError: The file is missing or not XML; no chain end, or several and no frame
             named ``"ee"`` (the message lists them).
     """
-    whole, _ = expanded(_root(path), Path(path).resolve().parent)
+    whole, _ = expanded(_root(path), Path(os.path.abspath(path)).parent)
     return frame_for(whole, str(path))
 
 

@@ -27,7 +27,7 @@ from .mjcf_loading import load_mjcf, read_mujoco
 from .robot import RestSpec, SetAside
 from .urdf import DisabledPairs, is_urdf
 from .urdf_loading import load_urdf
-from .xmlfile import decode_xml, expanded, parse_xml, strip_declaration
+from .xmlfile import decode_xml, expand_includes, expanded, parse_xml, strip_declaration
 
 
 def _read_file(path: str | os.PathLike[str]) -> tuple[Path, bytes]:
@@ -172,11 +172,14 @@ def _options(frame: str | None, options: LoadOptions) -> tuple[object, ...]:
 def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) -> Arm:
     """`load` of the file ``p`` (bytes ``data``), named ``shown`` in messages."""
     site, strict, frame, pairs, base, rest = options
+    # The path as the user gave it, made absolute but not resolved: MuJoCo reads includes and
+    # assets beside it (through a symbolic link: beside the link, not its target).
+    p = Path(os.path.abspath(p))
     with recording() as reading:
-        record(p.resolve(), data)
+        record(p, data)
         text, as_is = decode_xml(data, shown)
         root = parse_xml(text)
-        folder = p.resolve().parent
+        folder = p.parent
         tool, whole = _tool(site, frame), None  # type: ignore[arg-type]
         if tool is None:  # the model's default, from its chain ends, includes read
             whole = expanded(root, folder)
@@ -186,16 +189,19 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
             arm = load_urdf(text, root, folder, pairs, robot)  # type: ignore[arg-type]
         else:
             _check_mjcf(pairs)  # type: ignore[arg-type]
+            as_is = as_is and p.is_file()  # a pipe's bytes are gone once read
             if as_is:
                 # By its absolute path: MuJoCo then looks its assets up by theirs.
-                spec, mj, kind = read_mujoco(None, p.resolve(), folder, tool)
+                spec, mj, kind = read_mujoco(None, p, folder, tool)
             else:
-                spec, mj, kind = read_mujoco(text, None, folder, tool)
+                # Handed text, MuJoCo would look for the includes in the current directory.
+                inlined = ET.tostring(expand_includes(root, folder, []), encoding="unicode")
+                spec, mj, kind = read_mujoco(inlined, None, folder, tool)
             # After MuJoCo, whose errors name a missing include first.
             mjcf = _edited(robot, whole or expanded(root, folder))
             path_for_pin = None if robot.changed or not as_is else p
             arm = load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)  # type: ignore[arg-type]
-    recipe = Recipe.made("load", str(p.resolve()), str(folder), options, shown, reading.files)
+    recipe = Recipe.made("load", str(p), str(folder), options, shown, reading.files)
     arm._recipe = (rebuild_arm, (recipe,))
     return arm
 

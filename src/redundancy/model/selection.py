@@ -49,6 +49,24 @@ class SetAside:
 
 
 @dataclass(frozen=True)
+class MissingMesh:
+    """A mesh the file names that is found nowhere: its link's geom is left out.
+
+    Attributes:
+        link: The link (body) whose collision geom names it.
+        file: The file name as written (``package://...``, a relative path...).
+        looked: The places looked in, in order.
+    """
+
+    link: str
+    file: str
+    looked: tuple[str, ...]
+
+    def __str__(self) -> str:
+        return f"link {self.link!r}: mesh {self.file!r} found nowhere"
+
+
+@dataclass(frozen=True)
 class ArmSelection:
     """The arm inside a robot: its joints, and the joints held at rest.
 

@@ -49,7 +49,7 @@ import numpy as np
 from ..engines.mujoco import captured_warnings
 from ..errors import ModelError, UnknownNameError
 from .content import feed_assets, record
-from .selection import SetAside
+from .selection import MissingMesh, SetAside
 from .urdf_inertia import prepare_urdf
 from .urdf_pinocchio import build_pinocchio, continuous_joints
 from .urdf_tree import UrdfTree, chain_joints, check_urdf, is_urdf, resolve_frame
@@ -65,6 +65,7 @@ __all__ = [
     "chain_joints",
     "check_urdf",
     "continuous_joints",
+    "find_mesh",
     "is_urdf",
     "prepare_urdf",
     "read_disabled_pairs",
@@ -84,33 +85,51 @@ def _package_dirs(base: Path) -> list[Path]:
     return dirs
 
 
-def resolve_mesh(filename: str, base: Path, source: str) -> Path:
-    """Absolute path of a URDF mesh file name.
+def find_mesh(
+    filename: str, base: Path, mujoco_dir: str | None = None, strip: bool = False
+) -> tuple[Path | None, list[Path]]:
+    """Where a URDF mesh file name is, and the places looked in.
 
-    ``package://pkg/rest`` is looked up as ``pkg/rest`` in the URDF's directory, each of its
-    parents and each ``ROS_PACKAGE_PATH`` entry (and as ``rest`` in a directory named ``pkg``
-    among them); ``file://`` and plain relative names are taken from the URDF's directory.
+    With the URDF's MuJoCo extension naming a ``meshdir`` (``<mujoco><compiler meshdir=...>``),
+    MuJoCo's own place comes first: the name as written (its last part alone with
+    ``strippath``) in ``meshdir``, counted from the URDF's directory, as MuJoCo compiles the
+    file from disk. Then ``package://pkg/rest`` is looked up as
+    ``pkg/rest`` in the URDF's directory, each of its parents and each ``ROS_PACKAGE_PATH``
+    entry (and as ``rest`` in a directory named ``pkg`` among them); ``file://`` and plain
+    relative names are taken from the URDF's directory.
 
-    Raises:
-        ModelError: No such file (the message names the mesh and where it was looked for).
+    Returns:
+        The file's absolute path (None: found nowhere), and every place looked in.
     """
     tried: list[Path] = []
+    if mujoco_dir is not None:
+        name = Path(filename.replace("\\", "/")).name if strip else filename
+        if "://" not in name:  # MuJoCo opens "package://..." as a plain path and fails
+            tried.append(base / mujoco_dir / name)
     if filename.startswith("package://"):
         rest = filename[len("package://") :]
         pkg, _, inner = rest.partition("/")
         for d in _package_dirs(base):
-            for candidate in (d / rest, d / pkg / inner) + ((d / inner,) if d.name == pkg else ()):
-                tried.append(candidate)
-                if candidate.is_file():
-                    return candidate.resolve()
+            tried += [d / rest, d / pkg / inner] + ([d / inner] if d.name == pkg else [])
     else:
         name = filename[len("file://") :] if filename.startswith("file://") else filename
-        candidate = Path(name) if Path(name).is_absolute() else base / name
-        tried.append(candidate)
-        if candidate.is_file():
-            return candidate.resolve()
-    shown = ", ".join(str(t) for t in dict.fromkeys(tried))
-    raise ModelError(f"URDF {source}: mesh file {filename!r} not found (looked for: {shown})")
+        tried.append(Path(name) if Path(name).is_absolute() else base / name)
+    tried = list(dict.fromkeys(tried))
+    found = next((t for t in tried if t.is_file()), None)
+    return (None if found is None else Path(os.path.abspath(found))), tried
+
+
+def resolve_mesh(filename: str, base: Path, source: str) -> Path:
+    """Absolute path of a URDF mesh file name (see `find_mesh`).
+
+    Raises:
+        ModelError: No such file (the message names the mesh and where it was looked for).
+    """
+    found, tried = find_mesh(filename, base)
+    if found is None:
+        shown = ", ".join(str(t) for t in tried)
+        raise ModelError(f"URDF {source}: mesh file {filename!r} not found (looked for: {shown})")
+    return found
 
 
 def read_disabled_pairs(
@@ -212,10 +231,13 @@ def build_mujoco(
     tool_link: str,
     site: str,
     disabled: Sequence[tuple[str, str]],
+    missing: list[MissingMesh],
 ) -> tuple[mujoco.MjSpec, mujoco.MjModel, list[SetAside]]:
     """Compile a URDF with MuJoCo, keeping fixed links as bodies, with a site on the tool link.
 
-    Collada (``.dae``) meshes, which MuJoCo has no decoder for, are read with trimesh and
+    A mesh found nowhere (see `find_mesh`) is left out with its geoms and added to
+    ``missing``. Collada (``.dae``) and glTF (``.glb``, ``.gltf``) meshes, which MuJoCo has
+    no decoder for, are read with trimesh and
     handed to MuJoCo as vertices and faces (coal then collides the same vertices); each is
     reported. Meshes whose volume MuJoCo finds too small to take an inertia from get
     ``inertia="shell"``: URDF inertials are explicit (``inertiafromgeom`` is off), so no
@@ -229,6 +251,7 @@ def build_mujoco(
         tool_link: Link that carries the tool frame.
         site: Name of the site added at the tool link's origin.
         disabled: Extra link pairs excluded from collision.
+        missing: Where the meshes found nowhere are listed (their geoms left out).
 
     Returns:
         An uncompiled copy of the spec (to hold joints in), its compiled model, and the notes
@@ -246,7 +269,7 @@ def build_mujoco(
             # A link without <inertial> has no mass in URDF (and in Pinocchio); MuJoCo's
             # default would infer one from the link's collision geoms.
             spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-            notes = _resolve_meshes(spec, base, source)
+            notes = _resolve_meshes(spec, base, source, missing)
             _name_geoms(spec)
             body = spec.body(tool_link)
             if body is None:
@@ -271,17 +294,37 @@ def build_mujoco(
         raise _compile_error(err, source) from err
 
 
-def _resolve_meshes(spec: mujoco.MjSpec, base: Path, source: str) -> list[SetAside]:
-    """Give MuJoCo each mesh by its absolute path, a Collada one as vertices; note the latter."""
+#: Mesh formats MuJoCo has no decoder for, read with trimesh and given as vertices.
+_TRIMESH_FORMATS = {".dae": "Collada", ".glb": "glTF", ".gltf": "glTF"}
+
+
+def _resolve_meshes(
+    spec: mujoco.MjSpec, base: Path, source: str, missing: list[MissingMesh]
+) -> list[SetAside]:
+    """Give MuJoCo each mesh by its absolute path, a Collada or glTF one as vertices.
+
+    A mesh found nowhere is left out with the geoms that use it, and listed in ``missing``
+    (meshes give collision geometry only: URDF inertials are explicit).
+    """
     notes: list[SetAside] = []
-    for mesh in spec.meshes:
-        path = resolve_mesh(mesh.file, base, source)
-        if path.suffix.lower() == ".dae":
+    meshdir = _extension_meshdir(spec)
+    for mesh in list(spec.meshes):
+        path, tried = find_mesh(mesh.file, base, meshdir, bool(spec.strippath))
+        if path is None:
+            users = [g for g in spec.geoms if g.meshname == mesh.name]
+            for link in dict.fromkeys(g.parent.name for g in users) or ("",):
+                missing.append(MissingMesh(link, mesh.file, tuple(str(t) for t in tried)))
+            for g in users:
+                spec.delete(g)
+            spec.delete(mesh)
+            continue
+        kind = _TRIMESH_FORMATS.get(path.suffix.lower())
+        if kind is not None:
             record(path)
-            _collada_mesh(mesh, path, source)
+            _trimesh_mesh(mesh, path, kind, source)
             notes.append(
                 SetAside(
-                    "Collada mesh",
+                    f"{kind} mesh",
                     path.name,
                     "read with trimesh; MuJoCo and coal get the same vertices",
                     reaches_arm=True,
@@ -291,6 +334,15 @@ def _resolve_meshes(spec: mujoco.MjSpec, base: Path, source: str) -> list[SetAsi
             mesh.file = str(path)
             feed_assets(spec, [path])
     return notes
+
+
+def _extension_meshdir(spec: mujoco.MjSpec) -> str | None:
+    """Where MuJoCo looks for meshes by the URDF's ``<mujoco><compiler>`` extension.
+
+    None: the extension names neither ``meshdir`` nor ``strippath`` (MuJoCo would open the
+    names as written, which a ``package://`` name is not).
+    """
+    return spec.meshdir if spec.meshdir or spec.strippath else None
 
 
 def _compile_error(err: Exception, source: str) -> ModelError:
@@ -307,25 +359,22 @@ def _compile_error(err: Exception, source: str) -> ModelError:
     return ModelError(f"MuJoCo could not compile the URDF {source}: {err}")
 
 
-def _collada_mesh(mesh: mujoco.MjsMesh, path: Path, source: str) -> None:
-    """Give MuJoCo a Collada mesh's triangles as vertex data (MuJoCo cannot decode .dae)."""
-    try:
-        import trimesh
-    except ImportError as err:  # pragma: no cover - trimesh comes with the lab extra
-        raise ModelError(
-            f"URDF {source}: the mesh {path.name!r} is Collada (.dae); reading it needs "
-            "trimesh and pycollada (pip install 'redundancy[meshes]')"
-        ) from err
+def _trimesh_mesh(mesh: mujoco.MjsMesh, path: Path, kind: str, source: str) -> None:
+    """Give MuJoCo a mesh's triangles as vertex data (MuJoCo cannot decode .dae, .glb, .gltf).
+
+    A glTF scene's nodes are placed by their transforms and joined into one mesh.
+    """
+    import trimesh  # a dependency, imported on first use: most URDFs have STL meshes
+
     try:
         loaded = trimesh.load(str(path), force="mesh", process=False)
         vertices = np.asarray(loaded.vertices, dtype=float)
         faces = np.asarray(loaded.faces, dtype=int)
-    except Exception as err:  # trimesh and pycollada raise many kinds of errors
-        raise ModelError(
-            f"URDF {source}: cannot read the Collada mesh {str(path)!r}: {err}"
-        ) from err
+    except Exception as err:  # trimesh and its readers raise many kinds of errors
+        shown = f"URDF {source}: cannot read the {kind} mesh {str(path)!r}"
+        raise ModelError(f"{shown}: {err}") from err
     if len(vertices) < 4 or len(faces) == 0:
-        raise ModelError(f"URDF {source}: the Collada mesh {str(path)!r} has no triangles")
+        raise ModelError(f"URDF {source}: the {kind} mesh {str(path)!r} has no triangles")
     mesh.file = ""
     mesh.uservert = vertices.ravel().tolist()
     mesh.userface = faces.ravel().tolist()

@@ -49,7 +49,9 @@ def load_urdf(
         robot.set_aside += notes
     robot.defects += defects
     pm, continuous = build_pinocchio(text, source)
-    spec, full, meshes = build_mujoco(text, base, source, tree, tool_link, tool_link, disabled)
+    spec, full, meshes = build_mujoco(
+        text, base, source, tree, tool_link, tool_link, disabled, robot.missing_meshes
+    )
     robot.set_aside += meshes
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
     made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import codecs
 import copy
+import os
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -16,7 +17,14 @@ from ..errors import ModelError
 from .content import record
 from .robot import SetAside
 
-__all__ = ["decode_xml", "expanded", "parse_xml", "strip_declaration"]
+__all__ = [
+    "decode_xml",
+    "expand_includes",
+    "expanded",
+    "include_path",
+    "parse_xml",
+    "strip_declaration",
+]
 
 
 def parse_xml(text: str) -> ET.Element:
@@ -86,17 +94,31 @@ def expanded(root: ET.Element, folder: Path) -> tuple[ET.Element, list[SetAside]
     if root.tag != "mujoco":
         return root, []
     edits: list[SetAside] = []
-    return _merge_worldbodies(_expand_includes(root, folder, edits), edits), edits
+    return _merge_worldbodies(expand_includes(root, folder, edits), edits), edits
 
 
-def _expand_includes(
-    root: ET.Element, base: Path, edits: list[SetAside], depth: int = 0
+def include_path(name: str, main: Path, here: Path) -> Path:
+    """The file an ``<include file=name>`` reads, found as MuJoCo finds it.
+
+    MuJoCo looks in the model file's directory (``main``) first, then beside the file that
+    holds the ``<include>`` (``here``); backslashes separate folders as slashes do. The first
+    place is returned when the file is in neither (the error then names it).
+    """
+    name = name.replace("\\", "/")
+    places = [Path(os.path.normpath(d / name)) for d in dict.fromkeys((main, here))]
+    return next((p for p in places if p.is_file()), places[0])
+
+
+def expand_includes(
+    root: ET.Element, main: Path, edits: list[SetAside], here: Path | None = None, depth: int = 0
 ) -> ET.Element:
     """The MJCF with each ``<include file=...>`` replaced by the included file's elements.
 
     MuJoCo follows includes itself; Pinocchio's parser does not, so Pinocchio (and the
-    library's checks of the text) read this expanded copy. Paths count from the model file's
-    directory, as MuJoCo counts them.
+    library's checks of the text) read this expanded copy, and so does MuJoCo when it is
+    handed text (a file in another encoding than UTF-8, a pipe), which would otherwise look
+    for the includes in the current directory. Each file is found as MuJoCo finds it
+    (`include_path`), decoded as XML says (any encoding) and recorded.
     """
     if root.find(".//include") is None:
         return root
@@ -108,13 +130,14 @@ def _expand_includes(
             if child.tag != "include":
                 continue
             name = child.get("file", "")
+            path = include_path(name, main, here or main)
             try:
-                data = (base / name).read_bytes()
-                inner = parse_xml(data.decode("utf-8"))
-            except (OSError, UnicodeDecodeError) as err:
+                data = path.read_bytes()
+            except OSError as err:
                 raise ModelError(f"cannot read the included file {name!r}: {err}") from err
-            record(base / name, data)
-            inner = _expand_includes(inner, base, edits, depth + 1)
+            inner = parse_xml(decode_xml(data, str(path))[0])
+            record(path, data)
+            inner = expand_includes(inner, main, edits, path.parent, depth + 1)
             parent.remove(child)
             for k, el in enumerate(list(inner)):
                 parent.insert(i + k, el)
