@@ -8,6 +8,7 @@ keeps its body): the tool position and J of the library's both engines must equa
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import mujoco
@@ -205,3 +206,240 @@ def test_meshes_found_nowhere_leave_everything_but_collision(tmp_path: Path) -> 
     )
     copy = __import__("pickle").loads(__import__("pickle").dumps(arm))
     assert copy.missing_meshes == arm.missing_meshes
+
+
+# ------------------------------------------------------------------------------------------
+# MJCF files: which bytes are read (includes, attached models, meshes, encodings, links)
+# ------------------------------------------------------------------------------------------
+
+ARM_BODY = (
+    '<mujoco><worldbody><body name="b1" pos="0 0 0.1"><joint name="j1" axis="0 0 1"/>'
+    '<geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03" mass="{m1}"/>'
+    '<body name="b2" pos="0 0 0.3"><joint name="j2" axis="0 1 0"/>'
+    '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="{m2}"/>'
+    '<site name="tool" pos="0.3 0 0"/></body></body></worldbody></mujoco>'
+)
+
+
+def _arm_body(m1: float = 1.0, m2: float = 2.0) -> str:
+    return ARM_BODY.format(m1=m1, m2=m2)
+
+
+def raw_gravity(path: str | Path, q: np.ndarray) -> np.ndarray:
+    """Raw MuJoCo's gravity torque (qfrc_bias at zero velocity) on the file as written."""
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    return d.qfrc_bias.copy()
+
+
+def _same_gravity(arm: rd.Arm, truth_file: str | Path) -> None:
+    q = np.array([0.4, -0.7])
+    truth = raw_gravity(truth_file, q)
+    for engine in arm.engines:
+        np.testing.assert_allclose(arm.gravity(q, engine=engine), truth, rtol=1e-12, atol=1e-12)
+
+
+def test_a_mesh_named_through_dotdot_or_backslashes_compiles_as_mujoco_compiles_it(
+    tmp_path: Path,
+) -> None:
+    """Fed under its written and its absolute name, MuJoCo refused the repeated file name."""
+    import pickle
+
+    _box(tmp_path / "assets" / "a.stl", 0.05)
+    (tmp_path / "model").mkdir()
+    for k, (name, compiler) in enumerate(
+        [("../assets/a.stl", ""), ("a.stl", 'meshdir="../assets"'), ("..\\assets\\a.stl", "")]
+    ):
+        path = tmp_path / "model" / f"m{k}.xml"
+        path.write_text(
+            f'<mujoco><compiler {compiler}/><asset><mesh name="a" file="{name}"/></asset>'
+            + _arm_body().replace('mass="1"', 'mass="1"/><geom type="mesh" mesh="a"')[8:]
+        )
+        arm = rd.load(path, frame="tool")
+        _same_gravity(arm, path)
+        assert _vertices(pickle.loads(pickle.dumps(arm)).robot_model)[0].shape == (8, 3)
+
+
+def test_includes_are_read_beside_the_path_given_not_beside_a_links_target(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "real").mkdir()
+    (tmp_path / "real" / "model.xml").write_text('<mujoco><include file="body.xml"/></mujoco>')
+    (tmp_path / "real" / "body.xml").write_text(_arm_body(1.0, 2.0))
+    (tmp_path / "view").mkdir()
+    (tmp_path / "view" / "body.xml").write_text(_arm_body(3.0, 5.0))
+    link = tmp_path / "view" / "model.xml"
+    link.symlink_to(tmp_path / "real" / "model.xml")
+    arm = rd.load(link, frame="tool")
+    _same_gravity(arm, link)  # MuJoCo reads view/body.xml
+    assert not np.allclose(
+        raw_gravity(link, np.zeros(2)), raw_gravity(tmp_path / "real" / "model.xml", np.zeros(2))
+    )
+
+
+def test_an_include_of_an_include_is_found_beside_its_includer(tmp_path: Path) -> None:
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "model.xml").write_text('<mujoco><include file="parts/robot.xml"/></mujoco>')
+    (tmp_path / "parts" / "robot.xml").write_text('<mujoco><include file="body.xml"/></mujoco>')
+    (tmp_path / "parts" / "body.xml").write_text(_arm_body())
+    arm = rd.load(tmp_path / "model.xml", frame="tool")
+    _same_gravity(arm, tmp_path / "model.xml")
+
+
+def test_a_model_in_another_encoding_reads_its_includes_from_its_own_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Handed the decoded text, MuJoCo looked for the include in the current directory."""
+    (tmp_path / "robot").mkdir()
+    text = '<?xml version="1.0" encoding="ISO-8859-1"?>\n<!-- bras léger --><mujoco><include file="body.xml"/></mujoco>'
+    (tmp_path / "robot" / "model.xml").write_bytes(text.encode("latin-1"))
+    (tmp_path / "robot" / "body.xml").write_text(_arm_body(1.0, 2.0))
+    (tmp_path / "body.xml").write_text(_arm_body(4.0, 9.0))  # a decoy in the working directory
+    monkeypatch.chdir(tmp_path)
+    arm = rd.load(tmp_path / "robot" / "model.xml", frame="tool")
+    same = tmp_path / "robot" / "utf8.xml"
+    same.write_text('<mujoco><include file="body.xml"/></mujoco>')
+    _same_gravity(arm, same)
+
+
+def test_an_mjcf_read_from_a_pipe_is_served(tmp_path: Path) -> None:
+    (tmp_path / "model.xml").write_text(_arm_body())
+    r, w = os.pipe()
+    os.write(w, (tmp_path / "model.xml").read_bytes())
+    os.close(w)
+    try:
+        arm = rd.load(f"/dev/fd/{r}", frame="tool")
+    finally:
+        os.close(r)
+    _same_gravity(arm, tmp_path / "model.xml")
+
+
+def test_a_copy_of_an_attached_robot_keeps_the_bytes_it_was_loaded_from(tmp_path: Path) -> None:
+    """The recipe recorded the main file only: a copy read the attached file as changed."""
+    import copy
+    import pickle
+
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "arm.xml").write_text('<mujoco><include file="inc.xml"/></mujoco>')
+    (tmp_path / "parts" / "inc.xml").write_text(_arm_body(1.0, 2.0))
+    main = tmp_path / "scene.xml"
+    main.write_text(
+        '<mujoco><asset><model name="arm" file="parts/arm.xml"/></asset><worldbody>'
+        '<body name="mount" pos="0 0 0.5"><attach model="arm" body="b1" prefix="a_"/></body>'
+        "</worldbody></mujoco>"
+    )
+    arm = rd.load(main, frame="a_tool")
+    before = tmp_path / "before.xml"
+    before.write_text(main.read_text())
+    _same_gravity(arm, main)
+    old = raw_gravity(main, np.array([0.4, -0.7]))
+    (tmp_path / "parts" / "inc.xml").write_text(_arm_body(5.0, 7.0))
+    for again in (copy.deepcopy(arm), pickle.loads(pickle.dumps(arm))):
+        np.testing.assert_allclose(again.gravity([0.4, -0.7]), old, rtol=1e-12)
+        np.testing.assert_allclose(again.gravity([0.4, -0.7], engine="pinocchio"), old, rtol=1e-12)
+
+
+# ------------------------------------------------------------------------------------------
+# URDF text both engines load as published
+# ------------------------------------------------------------------------------------------
+
+
+def test_an_undeclared_namespace_prefix_is_tolerated_as_the_engines_tolerate_it(
+    tmp_path: Path,
+) -> None:
+    """``drake:`` tags without their declaration: the XML parser refused the file."""
+    extra = (
+        '<link name="base"/><drake:collision_filter_group name="g">'
+        '<drake:member link="l1"/></drake:collision_filter_group>'
+    )
+    text = two_link_urdf(extra=extra).replace(
+        '<joint name="j2" type="revolute">',
+        '<joint name="j2" type="revolute"><drake:rotor_inertia value="0.1"/>',
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(text)
+    arm = rd.load(path, frame="tool")
+    m = raw_mujoco(path)
+    assert_matches_raw(arm, m, "tool", np.array([0.3, -0.2]))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)  # raw MuJoCo at q = 0: the same mass matrix
+    full = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, full)
+    for engine in arm.engines:
+        np.testing.assert_allclose(arm.mass_matrix(np.zeros(2), engine=engine), full, atol=1e-14)
+
+
+def test_a_moving_link_with_an_inertial_of_mass_0_is_named_not_a_mujoco_error(
+    tmp_path: Path,
+) -> None:
+    """The loader added a second <inertial>: "repeated element" at a line not in the file."""
+    zero = (
+        '<inertial><mass value="0"/>'
+        '<inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"/></inertial>'
+    )
+    text = two_link_urdf(extra='<link name="base"/>')
+    text = text.replace(f'<link name="l2">{INERTIAL}', f'<link name="l2">{zero}')
+    path = tmp_path / "r.urdf"
+    path.write_text(text)
+    arm = rd.load(path, frame="tool")
+    assert arm.missing_inertia == ("l2",)
+    named = [a for a in arm.set_aside if a.what == "links of mass 0"]
+    assert [a.name for a in named] == ["l2"]
+    with pytest.raises(rd.MissingInertiaError):
+        arm.gravity(np.zeros(2))
+    stripped = tmp_path / "kinematic.urdf"
+    stripped.write_text(text.replace(zero, INERTIAL))  # the same kinematics
+    assert_matches_raw(arm, raw_mujoco(stripped), "tool", np.array([0.5, 0.25]))
+
+
+def test_a_mimic_follower_of_a_massless_leader_is_held_at_its_rules_value(
+    tmp_path: Path,
+) -> None:
+    """The leader is made fixed at 0 (it moves no mass): the follower is held at
+    ``multiplier x 0 + offset``, not at 0 with its mimic dropped."""
+    gripper = (
+        '<link name="base"/><link name="finger_a"/>'
+        + _joint("fa", "tool", "finger_a", "0 0 0.02", "1 0 0", "prismatic")
+        + _link("finger_b")
+        + _joint("fb", "tool", "finger_b", "0 0 0.02", "1 0 0", "prismatic").replace(
+            "</joint>", '<mimic joint="fa" multiplier="-1" offset="0.013"/></joint>'
+        )
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(two_link_urdf(extra=gripper))
+    arm = rd.load(path, frame="tool")
+    assert arm.held["fb"] == pytest.approx(0.013, abs=1e-15)
+    assert any(a.what == "mimic" and a.name == "fb" for a in arm.set_aside)
+
+
+# ------------------------------------------------------------------------------------------
+# MJCF patterns both engines load: shared names
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("tool", ["b2", "j2"])
+def test_sites_named_like_a_body_or_a_joint_are_served(tmp_path: Path, tool: str) -> None:
+    """A site named after its body (simulation suites' pattern) or after a joint."""
+    text = _arm_body().replace(
+        '<site name="tool" pos="0.3 0 0"/>',
+        '<site name="b2" pos="0.3 0 0"/><site name="j2" pos="0.1 0.05 0"/>',
+    )
+    text = text.replace(
+        '<joint name="j1" axis="0 0 1"/>', '<joint name="j1" axis="0 0 1"/><site name="b1"/>'
+    )
+    path = tmp_path / "m.xml"
+    path.write_text(text)
+    arm = rd.load(path, frame=tool)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    q = np.array([0.3, -0.8])
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    jp, jr = np.zeros((3, 2)), np.zeros((3, 2))
+    mujoco.mj_jacSite(m, d, jp, jr, m.site(tool).id)
+    for engine in arm.engines:
+        np.testing.assert_allclose(arm.site_pose(q, engine)[0], d.site(tool).xpos, atol=1e-14)
+        np.testing.assert_allclose(arm.jacobian(q, engine), np.vstack([jp, jr]), atol=1e-14)

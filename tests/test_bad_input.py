@@ -319,22 +319,6 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             )
             + "$",
         ),
-        "site named like a body": Case(
-            _load(chain(body_extra='<site name="l1"/>')),
-            rd.UnsupportedFeatureError,
-            "^"
-            + re.escape(
-                UF + "site named like another frame (site 'l1' and body 'l1'): Pinocchio "
-                "makes one frame per body, joint and site and finds a site by name; give the "
-                "site a name of its own"
-            )
-            + "$",
-        ),
-        "site named like a joint": Case(
-            _load(chain(body_extra='<site name="a"/>'), frame="a"),
-            rd.UnsupportedFeatureError,
-            r"^unsupported feature: site named like another frame \(site 'a' and joint 'a'\)",
-        ),
         "sdf geom": Case(
             _load(
                 chain(body_extra='<geom name="blob" type="sdf" mesh="cube"/>').replace(

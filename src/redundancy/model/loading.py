@@ -23,7 +23,7 @@ from ..errors import ModelError, ParameterError
 from .assembly import LoadState
 from .content import Recipe, rebuild, record, recording
 from .ends import frame_for
-from .mjcf_loading import load_mjcf, read_mujoco
+from .mjcf_loading import load_mjcf, read_mujoco, record_models
 from .robot import RestSpec, SetAside
 from .urdf import DisabledPairs, is_urdf
 from .urdf_loading import load_urdf
@@ -199,6 +199,7 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
                 spec, mj, kind = read_mujoco(inlined, None, folder, tool)
             # After MuJoCo, whose errors name a missing include first.
             mjcf = _edited(robot, whole or expanded(root, folder))
+            record_models(mjcf, folder)
             path_for_pin = None if robot.changed or not as_is else p
             arm = load_mjcf(spec, mj, kind, mjcf, strict, robot, path_for_pin)  # type: ignore[arg-type]
     recipe = Recipe.made("load", str(p), str(folder), options, shown, reading.files)
@@ -264,6 +265,7 @@ def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
             _check_mjcf(pairs)  # type: ignore[arg-type]
             spec, mj, kind = read_mujoco(xml, None, folder, tool)
             mjcf = _edited(robot, whole or expanded(root, folder))
+            record_models(mjcf, folder)
             arm = load_mjcf(spec, mj, kind, mjcf, strict, robot, None)  # type: ignore[arg-type]
     recipe = Recipe.made("load_string", xml, str(folder), options, "<string>", reading.files)
     arm._recipe = (rebuild_arm, (recipe,))

@@ -8,6 +8,7 @@ it, Pinocchio gets MuJoCo's compiled model written out as plain MJCF
 from __future__ import annotations
 
 import copy
+import os
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -20,11 +21,12 @@ from ..engines.mujoco import captured_warnings
 from ..errors import ModelError, UnknownNameError
 from .assembly import LoadState, build_arm
 from .bridges import Bridge
-from .content import feed_assets, mujoco_assets
+from .content import feed_assets, mujoco_assets, record
 from .names import display_names
 from .resolved import resolve_causes, resolved_mjcf
 from .robot import SetAside, reduce_mujoco, select_arm
 from .support import check_robot_values, check_supported
+from .xmlfile import decode_xml, expand_includes, parse_xml
 
 
 def read_mujoco(
@@ -65,6 +67,31 @@ def read_mujoco(
             model = pristine.compile()
         pristine = edited
     return pristine, model, kind
+
+
+def record_models(root: ET.Element, folder: Path, depth: int = 0) -> None:
+    """Record the files of every ``<model>`` asset (what ``<attach>`` attaches) and theirs.
+
+    MuJoCo reads an attached model's file from the model's folder, and that file's includes
+    and meshes from its own folder; the recipe carries them all, so a copy of the arm is
+    the robot that was loaded even after one of them changes on disk.
+    """
+    for el in root.iter("model"):
+        name = el.get("file")
+        path = Path(os.path.normpath(folder / name.replace("\\", "/"))) if name else None
+        if path is None or not path.is_file() or depth > 20:
+            continue  # MuJoCo has refused a missing one already
+        data = path.read_bytes()
+        record(path, data)
+        inner = expand_includes(parse_xml(decode_xml(data, str(path))[0]), path.parent, [])
+        try:
+            with captured_warnings():
+                spec = mujoco.MjSpec.from_file(str(path))
+        except ValueError:
+            continue
+        for asset in mujoco_assets(spec, path.parent):
+            record(asset)
+        record_models(inner, path.parent, depth + 1)
 
 
 def _read_pinocchio(path: Path) -> object:

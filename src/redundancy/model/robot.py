@@ -84,6 +84,7 @@ def select_arm(
     base: str | None = None,
     rest: RestSpec = None,
     made_fixed: Mapping[str, str] | None = None,
+    follows: Mapping[str, float] | None = None,
 ) -> ArmSelection:
     """The arm joints on the path to ``tool_body`` and the held joints with their rest values.
 
@@ -100,6 +101,8 @@ def select_arm(
             4 / 7 numbers for a ball / free joint in MuJoCo's w x y z order).
         made_fixed: Joints of the file the loader made fixed -> why (a ``rest`` value for
             one is refused saying so).
+        follows: Held joints whose coupling the loader resolved -> the value it gives (a
+            mimic follower of a joint made fixed), unless ``rest`` gives one.
 
     Raises:
         UnknownNameError: ``base`` is not a body on the chain, ``rest`` names no keyframe or a
@@ -124,6 +127,10 @@ def select_arm(
             "no joints", where, "an arm needs at least one hinge or slide joint on its chain"
         )
     qpos, rest_name, given = _rest_qpos(model, rest, set(arm_ids), made_fixed or {})
+    for name, value in (follows or {}).items():
+        j = joint_names.index(name)
+        if j not in given and j not in arm_ids:
+            qpos[model.jnt_qposadr[j]] = value
     follow_couplings(model, qpos, set(arm_ids), given)
     held = held_values(model, qpos, set(arm_ids))
     for j in arm_ids:  # the arm's own joints rest at qpos0 (their ref)

@@ -301,16 +301,19 @@ def _check_xml_values(root: ET.Element) -> None:
 
 
 def check_names(model: mujoco.MjModel, tool_site: str | None = None) -> None:
-    """Refuse names Pinocchio cannot tell apart, before Pinocchio reads the model.
+    """Refuse names Pinocchio cannot take, before Pinocchio reads the model.
 
-    Pinocchio makes one frame per body, joint and site (and ``<body>_fixed`` for a body
-    without a joint) and finds a site's frame by name: a site named like another frame makes
-    that lookup ambiguous ("Several frames match the filter"). A joint named ``universe``
-    aborts Pinocchio's parser. Bodies and joints may share a name: the library looks their
-    frames up with the frame type.
+    A joint named ``universe`` aborts Pinocchio's parser. Bodies, joints and sites may share
+    names (common in simulation suites: a site named after its body): Pinocchio makes one
+    frame of each type, and the library looks every frame up with its type (the tool site as
+    an ``OP_FRAME``, bodies as ``BODY``).
+
+    Args:
+        model: MuJoCo's compiled model.
+        tool_site: Unused; kept for the callers' signature.
 
     Raises:
-        UnsupportedFeatureError: A reserved joint name or a site named like another frame.
+        UnsupportedFeatureError: A reserved joint name.
     """
     joints = _names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for n in joints:
@@ -320,25 +323,6 @@ def check_names(model: mujoco.MjModel, tool_site: str | None = None) -> None:
                 f"joint {n!r}",
                 f"Pinocchio reserves the name {n!r} for its world joint (its parser aborts on "
                 "it); rename the joint",
-            )
-    bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY)
-    owners: dict[str, str] = {}
-    for b in range(1, model.nbody):
-        if bodies[b]:
-            owners.setdefault(bodies[b], f"body {bodies[b]!r}")
-            if model.body_jntnum[b] == 0:
-                owners.setdefault(
-                    f"{bodies[b]}_fixed", f"the frame Pinocchio names after body {bodies[b]!r}"
-                )
-    for n in joints:
-        owners.setdefault(n, f"joint {n!r}")
-    for s in _names(model, mujoco.mjtObj.mjOBJ_SITE):
-        if s and s in owners and s != tool_site:  # the site the library puts on a tool body
-            raise UnsupportedFeatureError(
-                "site named like another frame",
-                f"site {s!r} and {owners[s]}",
-                "Pinocchio makes one frame per body, joint and site and finds a site by name; "
-                "give the site a name of its own",
             )
 
 

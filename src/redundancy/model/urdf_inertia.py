@@ -50,7 +50,7 @@ def _inertia_state(m: Sequence[Sequence[float]]) -> str:
 
 def prepare_urdf(
     root: ET.Element, tree: UrdfTree, tool_link: str, base: str | None, source: str
-) -> tuple[ET.Element, list[SetAside], list[str], list[str]]:
+) -> tuple[ET.Element, list[SetAside], list[str], list[str], dict[str, float]]:
     """The URDF as both engines read it, with what they would refuse mended off the arm.
 
     * A joint off the arm's chain that moves links without mass (MuJoCo refuses a moving
@@ -65,8 +65,9 @@ def prepare_urdf(
       the arm moves is also a defect of the file, returned for the audit.
 
     Returns:
-        The (possibly) mended URDF, what was set aside, the defects on the arm's bodies, and
-        the links the arm moves that have no mass (their dynamics are refused).
+        The (possibly) mended URDF, what was set aside, the defects on the arm's bodies, the
+        links the arm moves that have no mass (their dynamics are refused), and the held
+        values of mimic followers whose leader was made fixed.
     """
     chain = chain_joints(tree, tool_link, base)
     moved = _moved_links(tree, chain)
@@ -74,11 +75,23 @@ def prepare_urdf(
     out = copy.deepcopy(root)
     notes: list[SetAside] = []
     defects: list[str] = []
-    missing = _massless_joints(out, tree, chain, mass, notes)
+    follows: dict[str, float] = {}
+    missing = _massless_joints(out, tree, chain, mass, notes, follows)
     for link in out.findall("link"):
         name, inertia = link.get("name", ""), link.find("inertial/inertia")
         if inertia is not None and mass.get(name, 0.0) > 0:
             _mend_inertia(inertia, name, name in moved, notes, defects)
+    zero = [n for n in missing if root.find(f"link[@name='{n}']/inertial") is not None]
+    if zero:
+        notes.append(
+            SetAside(
+                "links of mass 0",
+                ", ".join(zero),
+                "an <inertial> with mass 0 on a link the arm moves: read as no inertia "
+                "(a body MuJoCo cannot move without mass)",
+                reaches_arm=True,
+            )
+        )
     if missing:
         notes.append(
             SetAside(
@@ -89,7 +102,7 @@ def prepare_urdf(
                 "inertia keeps MuJoCo compiling",
             )
         )
-    return out, notes, defects, missing
+    return out, notes, defects, missing, follows
 
 
 def _moved_links(tree: UrdfTree, chain: list[str]) -> set[str]:
@@ -113,11 +126,13 @@ def _massless_joints(
     chain: list[str],
     mass: dict[str, float],
     notes: list[SetAside],
+    follows: dict[str, float],
 ) -> list[str]:
     """Mend the joints that move no mass in ``out``; return the arm's links left without any.
 
-    Off the chain, such a joint becomes fixed (noted in ``notes``); on it, its link gets the
-    placeholder inertial.
+    Off the chain, such a joint becomes fixed (noted in ``notes``) and its mimic followers
+    are held at their rule's value (``follows``); on it, its link gets the placeholder
+    inertial in place of an ``<inertial>`` of mass 0.
     """
     missing: list[str] = []
     joints = {el.get("name", ""): el for el in out.findall("joint")}
@@ -129,6 +144,8 @@ def _massless_joints(
             # Kinematics needs no mass, but MuJoCo refuses a moving body without one: a
             # placeholder in the text both engines read, and every dynamic quantity refused.
             link = next(el for el in out.findall("link") if el.get("name") == child)
+            for empty in link.findall("inertial"):  # mass 0: replaced, never a second one
+                link.remove(empty)
             link.append(ET.fromstring(_PLACEHOLDER_INERTIAL))
             missing.append(child)
             continue
@@ -139,7 +156,33 @@ def _massless_joints(
         notes.append(
             SetAside("joint", joint, f"moves link {child!r}, which has no mass: held as fixed at 0")
         )
+        _hold_followers(out, joint, notes, follows)
     return missing
+
+
+def _hold_followers(
+    out: ET.Element, leader: str, notes: list[SetAside], follows: dict[str, float]
+) -> None:
+    """Followers of a joint made fixed at 0 take the value their mimic gives: the offset.
+
+    The ``<mimic>`` (which would name a joint that no longer moves) is removed and the
+    follower's held value, ``multiplier x 0 + offset``, put in ``follows``.
+    """
+    for el in out.findall("joint"):
+        mimic = el.find("mimic")
+        if mimic is None or mimic.get("joint") != leader:
+            continue
+        offset = float(mimic.get("offset", "0"))
+        el.remove(mimic)
+        follows[el.get("name", "")] = offset
+        notes.append(
+            SetAside(
+                "mimic",
+                el.get("name", ""),
+                f"follows {leader!r}, held fixed at 0 (no mass): held at its rule's value, "
+                f"offset {offset:g} + multiplier x 0",
+            )
+        )
 
 
 def _mend_inertia(

@@ -42,7 +42,9 @@ def load_urdf(
     disabled, skipped = read_disabled_pairs(pairs, tree)
     if skipped is not None:
         robot.set_aside.append(skipped)
-    mended, notes, defects, missing = prepare_urdf(root, tree, tool_link, base_link, source)
+    mended, notes, defects, missing, follows = prepare_urdf(
+        root, tree, tool_link, base_link, source
+    )
     robot.missing_inertia += missing
     if notes:
         text = ET.tostring(mended, encoding="unicode")
@@ -56,7 +58,7 @@ def load_urdf(
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
     made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}
     sel = select_arm(
-        full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest, made_fixed
+        full, robot.tool, int(full.site_bodyid[sid]), base_link, robot.rest, made_fixed, follows
     )
     mj, aside = reduce_mujoco(spec, full, sel)
     robot.set_aside += aside

@@ -28,11 +28,36 @@ __all__ = [
 
 
 def parse_xml(text: str) -> ET.Element:
-    """The root element of XML text, or a ModelError saying it is not well-formed."""
+    """The root element of XML text, or a ModelError saying it is not well-formed.
+
+    A namespace prefix the file uses without declaring it (``<drake:joint_damping>`` in a
+    URDF) is tolerated as both engines' parsers tolerate it: it is declared for this parse,
+    and the library, like the engines, reads no element or attribute of that namespace.
+    """
     try:
         return ET.fromstring(text)
     except ET.ParseError as err:
+        if "unbound prefix" in str(err):
+            declared = _declared(text)
+            if declared is not text:
+                return parse_xml(declared)
         raise ModelError(f"not well-formed XML: {err}") from err
+
+
+_PREFIXED = re.compile(r"</?\s*([A-Za-z_][\w.-]*):[A-Za-z_]|\s([A-Za-z_][\w.-]*):[\w.-]+\s*=")
+_ROOT_TAG = re.compile(r"<(?![?!])\s*[A-Za-z_][\w.:-]*")
+
+
+def _declared(text: str) -> str:
+    """The text with its undeclared namespace prefixes declared on the root element."""
+    used = {a or b for a, b in _PREFIXED.findall(text)} - {"xml", "xmlns"}
+    known = set(re.findall(r"xmlns:([A-Za-z_][\w.-]*)\s*=", text))
+    missing = sorted(used - known)
+    root = _ROOT_TAG.search(text)
+    if not missing or root is None:
+        return text
+    names = "".join(f' xmlns:{p}="urn:redundancy:undeclared:{p}"' for p in missing)
+    return text[: root.end()] + names + text[root.end() :]
 
 
 _BOMS = (
