@@ -443,3 +443,125 @@ def test_sites_named_like_a_body_or_a_joint_are_served(tmp_path: Path, tool: str
     for engine in arm.engines:
         np.testing.assert_allclose(arm.site_pose(q, engine)[0], d.site(tool).xpos, atol=1e-14)
         np.testing.assert_allclose(arm.jacobian(q, engine), np.vstack([jp, jr]), atol=1e-14)
+
+
+MOBILE = """<mujoco><worldbody>
+  <body name="base" pos="0.2 -0.1 0.1" euler="0 0 20">
+    <joint name="x" type="slide" axis="1 0 0" range="-2 2"/>
+    <joint name="y" type="slide" axis="0 1 0" range="-2 2"/>
+    <joint name="yaw" pos="0.05 0.02 0" axis="0 0.2 1" range="-3 3"/>
+    <geom type="box" size="0.2 0.2 0.05" mass="10"/>
+    <body name="arm_base" pos="0.1 0 0.1">
+      <body name="l1"><joint name="j1" axis="0 0 1"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03" mass="1"/>
+        <body name="l2" pos="0 0 0.3"><joint name="j2" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1.5"/>
+          <site name="tool" pos="0.3 0 0"/></body></body></body></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("base", [None, "arm_base"])
+def test_a_mobile_base_with_its_joints_in_one_body_is_served(
+    tmp_path: Path, base: str | None
+) -> None:
+    """TidyBot's pattern: x, y and yaw in the base's one body, MuJoCo's chain at one origin."""
+    path = tmp_path / "mobile.xml"
+    path.write_text(MOBILE)
+    arm = rd.load(path, frame="tool", base=base)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    for q in rd.random_poses(arm, 5, seed=5):
+        d.qpos[:] = 0
+        for name, v in zip(arm.joint_names, q, strict=True):
+            d.qpos[m.joint(name).qposadr[0]] = v
+        mujoco.mj_forward(m, d)
+        jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jacSite(m, d, jp, jr, m.site("tool").id)
+        cols = [m.joint(n).dofadr[0] for n in arm.joint_names]
+        for engine in arm.engines:
+            np.testing.assert_allclose(arm.site_pose(q, engine)[0], d.site("tool").xpos, atol=1e-13)
+            np.testing.assert_allclose(
+                arm.jacobian(q, engine), np.vstack([jp, jr])[:, cols], atol=1e-13
+            )
+            np.testing.assert_allclose(arm.gravity(q, engine=engine), d.qfrc_bias[cols], atol=1e-11)
+
+
+@pytest.mark.parametrize(
+    ("kind", "base"), [("floating", None), ("floating", "mid"), ("planar", "mid")]
+)
+def test_a_floating_or_planar_urdf_base_is_held_where_the_file_puts_it(
+    tmp_path: Path, kind: str, base: str | None
+) -> None:
+    stand = (
+        '<link name="world"/>'
+        + _link("body")
+        + f'<joint name="fb" type="{kind}"><parent link="world"/><child link="body"/>'
+        '<origin xyz="0.1 0 0.2" rpy="0.2 0 0.3"/><axis xyz="0 0 1"/></joint>'
+        '<joint name="fm" type="fixed"><parent link="body"/><child link="mid"/>'
+        '<origin xyz="0 0 0.1"/></joint>' + _link("mid")
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(two_link_urdf("mid", stand))
+    arm = rd.load(path, frame="tool", base=base)
+    assert arm.joint_names == ("j1", "j2")
+    m = raw_mujoco(path)
+    for q in rd.random_poses(arm, 4, seed=6):
+        assert_matches_raw(arm, m, "tool", q)
+
+
+def test_a_planar_joint_on_the_chain_names_the_base_that_holds_it(tmp_path: Path) -> None:
+    stand = (
+        '<link name="world"/>'
+        + _link("body")
+        + '<joint name="fb" type="planar"><parent link="world"/><child link="body"/>'
+        '<axis xyz="0 0 1"/></joint><joint name="fm" type="fixed"><parent link="body"/>'
+        '<child link="mid"/></joint>' + _link("mid")
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(two_link_urdf("mid", stand))
+    with pytest.raises(rd.UnsupportedFeatureError) as err:
+        rd.load(path, frame="tool")
+    assert str(err.value) == (
+        f"unsupported feature: planar joint on the arm's chain (joint 'fb' in {path}): the arm "
+        "is a chain of revolute and prismatic joints; a planar base is held where the file "
+        "puts it when the arm starts below it (base='body')"
+    )
+
+
+ROBOT_IN_DEGREES = """<mujoco><compiler angle="degree"/><worldbody>
+  <body name="b1" pos="0 0 0.1" euler="0 0 30"><joint name="j1" axis="0 0 1" range="-90 90"/>
+    <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.03" mass="1"/>
+    <body name="b2" pos="0 0 0.3" euler="20 0 0"><joint name="j2" axis="0 1 0" range="-45 45"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="2"/>
+      <site name="tool" pos="0.3 0 0"/></body></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("strict", [True, False])
+@pytest.mark.parametrize(
+    "scene",
+    [
+        '<mujoco><compiler angle="radian"/><include file="robot.xml"/></mujoco>',
+        '<mujoco><include file="robot.xml"/><compiler angle="radian"/></mujoco>',
+    ],
+)
+def test_a_scene_and_its_robot_in_different_angle_units_are_read_in_mujocos(
+    tmp_path: Path, scene: str, strict: bool
+) -> None:
+    """MuJoCo reads the whole model with the last <compiler angle>; Pinocchio's parser read
+    each part with its own (the robot's degrees as radians, or the reverse)."""
+    (tmp_path / "robot.xml").write_text(ROBOT_IN_DEGREES)
+    path = tmp_path / "scene.xml"
+    path.write_text(scene)
+    arm = rd.load(path, frame="tool", strict=strict)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    np.testing.assert_array_equal(arm.upper, m.jnt_range[:, 1])
+    d = mujoco.MjData(m)
+    for q in rd.random_poses(arm, 4, seed=7):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        jp, jr = np.zeros((3, 2)), np.zeros((3, 2))
+        mujoco.mj_jacSite(m, d, jp, jr, m.site("tool").id)
+        for engine in arm.engines:
+            np.testing.assert_allclose(arm.site_pose(q, engine)[0], d.site("tool").xpos, atol=1e-13)
+            np.testing.assert_allclose(arm.jacobian(q, engine), np.vstack([jp, jr]), atol=1e-13)

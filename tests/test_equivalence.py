@@ -265,11 +265,15 @@ def test_frame_contents_are_bridged_where_they_feed_the_inertia():
     _agree(arm)
 
 
-def test_several_joints_in_one_body_are_refused():
-    # Pinocchio merges them into one composite joint named after the first; the others vanish.
+def test_several_joints_in_one_body_are_given_to_pinocchio_as_a_chain():
+    # Pinocchio's parser merges them into one composite joint named after the first; it
+    # gets MuJoCo's compiled model with one body per joint instead, in either mode.
     xml = chain(joints='<joint name="a" axis="0 1 0"/><joint name="a2" axis="1 0 0"/>')
-    with pytest.raises(rd.UnsupportedFeatureError, match="several joints in one body"):
-        rd.load_string(xml, frame="tip", strict=False)
+    for strict in (True, False):
+        arm = rd.load_string(xml, frame="tip", strict=strict)
+        assert arm.joint_names == ("a", "a2", "b")
+        assert [b.quantity for b in arm.bridges][:1] == ["whole model"]
+        assert rd.crosscheck(arm, rd.random_poses(arm, 20, seed=4)).ok
 
 
 @pytest.mark.parametrize("first", [True, False])

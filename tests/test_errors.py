@@ -108,11 +108,6 @@ def test_malformed_models(xml, match):
             "one hinge or slide joint on its chain",
         ),
         (
-            chain(joints='<joint name="a" axis="0 1 0"/><joint name="a2" axis="1 0 0"/>'),
-            "unsupported feature: several joints in one body (body 'l1'): Pinocchio's MJCF parser "
-            "merges them into one joint; give each joint its own body",
-        ),
-        (
             chain(joints='<joint axis="0 1 0"/>'),
             "unsupported feature: unnamed joint (joint 'l1 joint 0'): joints are matched across engines by "
             "name; name every joint",

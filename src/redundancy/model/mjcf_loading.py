@@ -23,7 +23,7 @@ from .assembly import LoadState, build_arm
 from .bridges import Bridge
 from .content import feed_assets, mujoco_assets, record
 from .names import display_names
-from .resolved import resolve_causes, resolved_mjcf
+from .resolved import forced_causes, resolve_causes, resolved_mjcf, unit_causes
 from .robot import SetAside, reduce_mujoco, select_arm
 from .support import check_robot_values, check_supported
 from .xmlfile import decode_xml, expand_includes, parse_xml
@@ -174,7 +174,8 @@ def load_mjcf(
         robot.changed = True
     check_supported(mj, pin_root, strict, tool_site=robot.tool if kind == "body" else None)
     check_robot_values(full)
-    causes = resolve_causes(pin_root) if strict else []
+    causes = forced_causes(full, tree_root, sel.joints) + unit_causes(pin_root)
+    causes += resolve_causes(pin_root) if strict else []
     pm = None
     if not causes:
         try:

@@ -13,6 +13,7 @@ inertial is explicit; collision shapes come from MuJoCo's model).
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -69,6 +70,30 @@ def resolve_causes(root: ET.Element) -> list[str]:
                 "the axis)"
             )
             break
+    return causes
+
+
+#: Compiler options that change how angles and orientations in the text are read.
+_UNIT_OPTIONS = ("angle", "eulerseq")
+
+
+def unit_causes(root: ET.Element) -> list[str]:
+    """Compiler options set differently in several places (a scene and the robot it includes).
+
+    MuJoCo applies the last value of ``angle`` and ``eulerseq`` to the whole model;
+    Pinocchio's parser reads each part with the option in force where it stands. The
+    resolved model is given to Pinocchio for these in either mode, so no number is read in
+    two units.
+    """
+    causes = []
+    for option in _UNIT_OPTIONS:
+        values = [c.get(option) for c in root.iter("compiler") if c.get(option) is not None]
+        if len(set(values)) > 1:
+            shown = ", then ".join(f"{option}={v!r}" for v in values)
+            causes.append(
+                f"<compiler> {shown} (MuJoCo reads the whole model with the last, Pinocchio's "
+                "parser each part with its own)"
+            )
     return causes
 
 
@@ -140,12 +165,25 @@ def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, i: int) -> dict[str, str]:
 
 
 def _body(model: mujoco.MjModel, b: int, parent: ET.Element) -> ET.Element:
+    """Body ``b`` under ``parent``; several joints in it become a chain of bodies.
+
+    MuJoCo applies a body's joints one after the other, each about its own anchor and axis in
+    the frame the previous ones moved: a chain of bodies at one origin, one joint each.
+    Pinocchio's parser would merge them into one joint, so each joint but the last gets a
+    massless body of its own, named ``"<body>/<joint>"``; the last joint, the inertia and the
+    sites stay on the body, under its own name.
+    """
+    pos, quat = _numbers(model.body_pos[b]), _numbers(model.body_quat[b])
+    lo, n = int(model.body_jntadr[b]), int(model.body_jntnum[b])
+    body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body {b}"
+    for j in range(lo, lo + n - 1):
+        joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint {j}"
+        parent = ET.SubElement(parent, "body", name=f"{body}/{joint}", pos=pos, quat=quat)
+        ET.SubElement(parent, "inertial", pos="0 0 0", mass="0", diaginertia="0 0 0")
+        _joint(model, j, parent)
+        pos, quat = "0 0 0", "1 0 0 0"
     el = ET.SubElement(
-        parent,
-        "body",
-        _name(model, mujoco.mjtObj.mjOBJ_BODY, b),
-        pos=_numbers(model.body_pos[b]),
-        quat=_numbers(model.body_quat[b]),
+        parent, "body", _name(model, mujoco.mjtObj.mjOBJ_BODY, b), pos=pos, quat=quat
     )
     ET.SubElement(
         el,
@@ -155,9 +193,8 @@ def _body(model: mujoco.MjModel, b: int, parent: ET.Element) -> ET.Element:
         mass=repr(float(model.body_mass[b])),
         diaginertia=_numbers(model.body_inertia[b]),
     )
-    lo = int(model.body_jntadr[b])
-    for j in range(lo, lo + int(model.body_jntnum[b])):
-        _joint(model, j, el)
+    if n:
+        _joint(model, lo + n - 1, el)
     for s in range(model.nsite):
         if model.site_bodyid[s] == b:
             ET.SubElement(
@@ -168,6 +205,28 @@ def _body(model: mujoco.MjModel, b: int, parent: ET.Element) -> ET.Element:
                 quat=_numbers(model.site_quat[s]),
             )
     return el
+
+
+def forced_causes(model: mujoco.MjModel, tree_root: int, arm: Sequence[str]) -> list[str]:
+    """What in MuJoCo's compiled tree Pinocchio's parser cannot represent from the file.
+
+    Several joints in one body of which one is an arm joint (``arm``: their names): the
+    parser would merge them (held ones are locked whole, merged or not). The resolved model is
+    given to Pinocchio for these in either mode (``strict`` or not): there is no reading of
+    the file to compare.
+    """
+    bodies = [b for b in range(1, model.nbody) if model.body_rootid[b] == tree_root]
+    named = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)}
+    ids = [model.joint(n).id for n in arm if n in named]
+    several = [b for b in bodies if model.body_jntnum[b] > 1 and b in model.jnt_bodyid[ids]]
+    if not several:
+        return []
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body {b}" for b in several]
+    shown = ", ".join(repr(n) for n in names[:3]) + (" ..." if len(names) > 3 else "")
+    return [
+        f"several joints in one body ({shown}; Pinocchio's parser merges them into one joint: "
+        "given as a chain of bodies, one joint each)"
+    ]
 
 
 def _joint(model: mujoco.MjModel, j: int, body: ET.Element) -> None:

@@ -128,8 +128,8 @@ def select_arm(
         )
     qpos, rest_name, given = _rest_qpos(model, rest, set(arm_ids), made_fixed or {})
     for name, value in (follows or {}).items():
-        j = joint_names.index(name)
-        if j not in given and j not in arm_ids:
+        j = joint_names.index(name) if name in joint_names else -1  # -1: itself made fixed
+        if j >= 0 and j not in given and j not in arm_ids:
             qpos[model.jnt_qposadr[j]] = value
     follow_couplings(model, qpos, set(arm_ids), given)
     held = held_values(model, qpos, set(arm_ids))

@@ -43,8 +43,9 @@ def check_supported(
 ) -> None:
     """Raise `UnsupportedFeatureError` for anything the engines may not agree on.
 
-    Supported: one fixed-base serial or branching tree of named hinge and slide joints, one
-    joint per body, primitive geoms, sites, actuators on joints (bridged), keyframes.
+    Supported: one fixed-base serial or branching tree of named hinge and slide joints
+    (several in one body: Pinocchio gets them as a chain, `redundancy.model.resolved`),
+    primitive geoms, sites, actuators on joints (bridged), keyframes.
 
     Args:
         model: MuJoCo's compiled model.
@@ -166,16 +167,9 @@ def _check_joint_values(model: mujoco.MjModel, names: Sequence[str]) -> None:
 def _check_structure(model: mujoco.MjModel, bodies: Sequence[str], geoms: Sequence[str]) -> None:
     """Refuse what Pinocchio's parser cannot represent.
 
-    Several joints in a body, several kinematic trees, tendons, equality constraints, sdf and
+    Several kinematic trees, tendons, equality constraints, sdf and
     height-field geoms.
     """
-    for b in range(model.nbody):
-        if model.body_jntnum[b] > 1:
-            raise UnsupportedFeatureError(
-                "several joints in one body",
-                f"body {bodies[b]!r}",
-                "Pinocchio's MJCF parser merges them into one joint; give each joint its own body",
-            )
     roots = {int(model.body_rootid[model.jnt_bodyid[j]]) for j in range(model.njnt)}
     if len(roots) > 1:
         raise UnsupportedFeatureError(

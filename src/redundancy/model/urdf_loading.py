@@ -20,11 +20,13 @@ from .urdf import (
     DisabledPairs,
     build_mujoco,
     build_pinocchio,
+    chain_joints,
     check_urdf,
     prepare_urdf,
     read_disabled_pairs,
     resolve_frame,
 )
+from .urdf_tree import check_chain
 
 
 def load_urdf(
@@ -39,6 +41,8 @@ def load_urdf(
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
+    if base_link is None or base_link in tree.links:
+        check_chain(tree, chain_joints(tree, tool_link, base_link), source)
     disabled, skipped = read_disabled_pairs(pairs, tree)
     if skipped is not None:
         robot.set_aside.append(skipped)

@@ -132,14 +132,6 @@ def _joints(root: ET.Element, links: list[str], source: str) -> dict[str, tuple[
                 f"URDF {source}: joint {name!r} has type {kind!r}; "
                 f"valid URDF joint types: {list(_JOINT_TYPES)}"
             )
-        where = f"joint {name!r} in {source}"
-        if kind in ("floating", "planar"):
-            raise UnsupportedFeatureError(
-                f"{kind} joint",
-                where,
-                "only revolute, continuous, prismatic and fixed joints are supported "
-                "(a fixed-base arm)",
-            )
         # A <mimic> becomes an equality constraint in MuJoCo (none on a fixed joint) and is
         # ignored by Pinocchio's parser: it is set aside when it couples held joints and
         # refused when it reaches an arm joint (redundancy.model.robot).
@@ -284,6 +276,29 @@ def chain_joints(tree: UrdfTree, link: str, base: str | None = None) -> list[str
             out.append(name)
         link = parent
     return out[::-1]
+
+
+def check_chain(tree: UrdfTree, chain: list[str], source: str) -> None:
+    """Refuse a planar joint on the arm's chain (a floating one is held, as an MJCF free joint).
+
+    A robot's floating or planar base is held at its zero (the base where the file puts it)
+    when ``base=`` starts the arm below it; MuJoCo reads a planar joint as three joints
+    (``_TX``, ``_TY``, ``_RZ``), Pinocchio as one, so on the chain it has no arm coordinates
+    both engines share.
+
+    Raises:
+        UnsupportedFeatureError: A planar joint on the chain (the message names the link to
+            start the arm below).
+    """
+    for name in chain:
+        kind, _, child = tree.joints[name]
+        if kind == "planar":
+            raise UnsupportedFeatureError(
+                "planar joint on the arm's chain",
+                f"joint {name!r} in {source}",
+                "the arm is a chain of revolute and prismatic joints; a planar base is "
+                f"held where the file puts it when the arm starts below it (base={child!r})",
+            )
 
 
 def resolve_frame(tree: UrdfTree, frame: str) -> str:
