@@ -565,3 +565,78 @@ def test_a_scene_and_its_robot_in_different_angle_units_are_read_in_mujocos(
         for engine in arm.engines:
             np.testing.assert_allclose(arm.site_pose(q, engine)[0], d.site("tool").xpos, atol=1e-13)
             np.testing.assert_allclose(arm.jacobian(q, engine), np.vstack([jp, jr]), atol=1e-13)
+
+
+def test_a_worker_without_ros_package_path_rebuilds_from_the_carried_meshes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The mesh was found through ROS_PACKAGE_PATH at load; the worker has none."""
+    import pickle
+    import subprocess
+    import sys
+
+    _box(tmp_path / "ws" / "my_pkg" / "meshes" / "a.stl", 0.05)
+    _box(tmp_path / "ws" / "my_pkg" / "meshes" / "b.stl", 0.07)
+    (tmp_path / "robot").mkdir()
+    path = tmp_path / "robot" / "r.urdf"
+    path.write_text(_with_meshes("package://my_pkg/meshes/a.stl", "package://my_pkg/meshes/b.stl"))
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ws"))
+    arm = rd.load(path, frame="tool")
+    assert arm.missing_meshes == ()
+    blob = tmp_path / "arm.pickle"
+    blob.write_bytes(pickle.dumps(arm))
+    env = {k: v for k, v in os.environ.items() if k != "ROS_PACKAGE_PATH"}
+    script = (
+        "import pickle, sys; import numpy as np\n"
+        "arm = pickle.loads(open(sys.argv[1], 'rb').read())\n"
+        "print(len(arm.missing_meshes), arm.robot_model.nmesh, arm.robot_model.mesh_vert.max())"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script, str(blob)],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        check=False,
+    )
+    assert out.returncode == 0, out.stderr
+    missing, nmesh, extent = out.stdout.split()
+    assert (missing, nmesh) == ("0", "2")
+    assert float(extent) == pytest.approx(0.07, abs=1e-7)  # b.stl's half height, float32
+
+
+@pytest.mark.parametrize(
+    ("compiler", "izz"),
+    [('balanceinertia="true"', "0.05"), ('boundmass="1.5"', "0.01"), ('settotalmass="7"', "0.01")],
+)
+def test_the_urdf_mujoco_extensions_mass_options_are_mujocos_masses_in_both(
+    tmp_path: Path, compiler: str, izz: str
+) -> None:
+    """MuJoCo applies them to the inertials; Pinocchio gets MuJoCo's compiled masses, bridged.
+
+    Ground truth: raw MuJoCo's mass matrix and gravity on the file as written.
+    """
+    bad = (
+        '<inertial><origin xyz="0 0 0.1"/><mass value="1"/>'
+        f'<inertia ixx="0.01" iyy="0.01" izz="{izz}" ixy="0" ixz="0" iyz="0"/></inertial>'
+    )
+    text = two_link_urdf(extra='<link name="base"/>').replace(
+        f'<link name="l2">{INERTIAL}', f'<link name="l2">{bad}'
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(
+        text.replace('<robot name="r">', f'<robot name="r"><mujoco><compiler {compiler}/></mujoco>')
+    )
+    arm = rd.load(path, frame="tool")
+    m = raw_mujoco(path)
+    d = mujoco.MjData(m)
+    q = np.array([0.4, -0.9])
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    full = np.zeros((2, 2))
+    mujoco.mj_fullM(m, d, full)
+    for engine in arm.engines:
+        np.testing.assert_allclose(arm.mass_matrix(q, engine=engine), full, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(
+            arm.gravity(q, engine=engine), d.qfrc_bias, rtol=1e-12, atol=1e-14
+        )

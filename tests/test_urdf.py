@@ -536,15 +536,6 @@ def test_inertial_on_a_fixed_child_is_enough() -> None:
             lambda t: t.replace('<child link="tool"/>', '<child link="tol"/>'),
             "unknown link 'tol'; valid link names: ['base', 'l1', 'tool']",
         ),
-        (
-            lambda t: t.replace(
-                '<robot name="tiny">',
-                '<robot name="tiny"><mujoco><compiler boundmass="0.1"/></mujoco>',
-            ),
-            "unsupported feature: MuJoCo compiler boundmass (<mujoco><compiler boundmass='0.1'> "
-            "in <string>): it changes MuJoCo's masses only (Pinocchio reads the inertials as "
-            "written)",
-        ),
     ],
 )
 def test_bad_urdf(change: object, expected: str) -> None:

@@ -29,6 +29,7 @@ class LoadState:
         self.defects: list[str] = []  # defects of the file on bodies the arm moves
         self.missing_inertia: list[str] = []  # links the arm moves without inertial data
         self.missing_meshes: list[MissingMesh] = []  # meshes found nowhere (geoms left out)
+        self.inertia_causes: dict[int, tuple[str, ...]] = {}  # bodies whose masses MuJoCo sets
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
 
 
@@ -50,7 +51,14 @@ def build_arm(
     frame's placement) is bridged before the held joints are locked; per-joint values after.
     """
     site = robot.tool
-    robot_bridges = bridge_robot(pm_full, full, site, frame_type, xml_root)  # type: ignore[arg-type]
+    robot_bridges = bridge_robot(
+        pm_full,  # type: ignore[arg-type]
+        full,
+        site,
+        frame_type,
+        xml_root,
+        robot.inertia_causes,
+    )
     pm = reduce_pinocchio(pm_full, full, sel)
     joint_names = object_names(mj, mujoco.mjtObj.mjOBJ_JOINT)
     check_pinocchio(pm, joint_names, site, frame_type)  # type: ignore[arg-type]

@@ -90,14 +90,16 @@ def bridge_robot(
     site: str,
     frame_type: str = "site",
     xml_root: ET.Element | None = None,
+    causes: dict[int, tuple[str, ...]] | None = None,
 ) -> tuple[Bridge, ...]:
     """Copy into Pinocchio's model of the whole robot what its MJCF parser reads differently.
 
     Done before the held joints are locked (the values are the robot's, not the arm's): the pose of
     a fixed root body; the mass, centre of mass and inertia of bodies whose inertia Pinocchio
     derives from what it reads differently (see `redundancy.model.support.inertia_causes`, which
-    needs ``xml_root``); a tool site placed by site defaults. Each value is compared first and
-    copied only when Pinocchio's differs.
+    needs ``xml_root``, and ``causes``: body id -> why MuJoCo's masses differ from the file's,
+    a URDF's MuJoCo compiler options); a tool site placed by site defaults. Each value is
+    compared first and copied only when Pinocchio's differs.
     """
     bridges: list[Bridge] = []
     rest = rest_data(mm)  # MuJoCo's world placements at qpos0, for the bridges below
@@ -105,7 +107,8 @@ def bridge_robot(
     sid = mujoco.mj_name2id(mm, mujoco.mjtObj.mjOBJ_SITE, site)
     bridges += _bridge_root_pose(pm, mm, sid)
     if xml_root is not None:
-        bridges += _bridge_inertia(pm, mm, inertia_causes(xml_root, mm), rest)
+        causes = {**inertia_causes(xml_root, mm), **(causes or {})}
+    bridges += _bridge_inertia(pm, mm, causes or {}, rest)
     bridges += _bridge_site(pm, mm, site, frame_type, rest)
     return tuple(bridges)
 

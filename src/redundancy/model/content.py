@@ -28,6 +28,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +36,7 @@ import mujoco
 
 from ..errors import ModelError
 
-__all__ = ["Recipe", "feed_assets", "mujoco_assets", "record", "recording"]
+__all__ = ["Recipe", "feed_assets", "known_files", "mujoco_assets", "record", "recording"]
 
 
 class _Reading:
@@ -58,6 +59,26 @@ class _Reading:
 _READING: contextvars.ContextVar[_Reading | None] = contextvars.ContextVar(
     "redundancy_reading", default=None
 )
+
+#: During a rebuild: where the recipe's files now are (a worker may lack the environment,
+#: ``ROS_PACKAGE_PATH``, that found them at load).
+_KNOWN: contextvars.ContextVar[tuple[str, ...]] = contextvars.ContextVar(
+    "redundancy_known_files", default=()
+)
+
+
+def known_files() -> tuple[str, ...]:
+    """The files of the recipe being rebuilt, where they now are (empty outside a rebuild)."""
+    return _KNOWN.get()
+
+
+@contextlib.contextmanager
+def _knowing(recipe: Recipe, at: Callable[[str], str]) -> Iterator[None]:
+    token = _KNOWN.set(tuple(at(p) for p, _ in recipe.files))
+    try:
+        yield
+    finally:
+        _KNOWN.reset(token)
 
 
 @contextlib.contextmanager
@@ -203,6 +224,10 @@ def _changed(files: tuple[tuple[str, str], ...]) -> str | None:
     return None
 
 
+def _mirrored_str(root: Path, path: str) -> str:
+    return str(_mirrored(root, path))
+
+
 def _mirrored(root: Path, path: str) -> Path:
     p = Path(path)
     return root.joinpath(*p.parts[1:]) if p.is_absolute() else root / p
@@ -229,7 +254,7 @@ def rebuild(recipe: Recipe, loader: Loader) -> tuple[Any, Recipe]:
     """
     why = _changed(recipe.files)
     if why is None:
-        with recording(fresh=True) as reading:
+        with recording(fresh=True) as reading, _knowing(recipe, lambda p: p):
             arm = loader(recipe, lambda p: p)
         why = _differs(recipe, reading.files)
         if why is None:
@@ -245,9 +270,10 @@ def rebuild(recipe: Recipe, loader: Loader) -> tuple[Any, Recipe]:
             place.parent.mkdir(parents=True, exist_ok=True)
             place.write_bytes(data)
             back[str(place)] = path
-        with recording(back, fresh=True) as reading:
+        mirrored = partial(_mirrored_str, root)
+        with recording(back, fresh=True) as reading, _knowing(recipe, mirrored):
             try:
-                arm = loader(recipe, lambda p: str(_mirrored(root, p)))
+                arm = loader(recipe, mirrored)
             except ModelError as err:
                 # A file named by absolute path is read where it is: gone or changed there?
                 unread = tuple(f for f in recipe.files if f[0] not in reading.files)

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..engines.mujoco import captured_warnings
 from ..errors import ModelError, UnknownNameError
-from .content import feed_assets, record
+from .content import feed_assets, known_files, record
 from .selection import MissingMesh, SetAside
 from .urdf_inertia import prepare_urdf
 from .urdf_pinocchio import build_pinocchio, continuous_joints
@@ -111,6 +111,8 @@ def find_mesh(
         pkg, _, inner = rest.partition("/")
         for d in _package_dirs(base):
             tried += [d / rest, d / pkg / inner] + ([d / inner] if d.name == pkg else [])
+        # Rebuilding a copy: the file the load found, carried by the recipe.
+        tried += [Path(k) for k in known_files() if k.endswith("/" + rest)]
     else:
         name = filename[len("file://") :] if filename.startswith("file://") else filename
         tried.append(Path(name) if Path(name).is_absolute() else base / name)

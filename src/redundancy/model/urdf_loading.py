@@ -26,7 +26,7 @@ from .urdf import (
     read_disabled_pairs,
     resolve_frame,
 )
-from .urdf_tree import check_chain
+from .urdf_tree import check_chain, mass_settings
 
 
 def load_urdf(
@@ -59,6 +59,9 @@ def load_urdf(
         text, base, source, tree, tool_link, tool_link, disabled, robot.missing_meshes
     )
     robot.set_aside += meshes
+    settings = tuple(mass_settings(root))
+    if settings:  # MuJoCo's compiled masses are the robot's: bridged wherever they differ
+        robot.inertia_causes = {b: settings for b in range(1, full.nbody)}
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, tool_link)
     made_fixed = {a.name: a.reason for a in notes if a.what == "joint"}
     sel = select_arm(

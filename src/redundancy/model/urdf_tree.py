@@ -251,19 +251,27 @@ def _check_inertials(root: ET.Element, tree: UrdfTree, source: str) -> None:
 
 def _check_mujoco_extension(root: ET.Element, source: str) -> None:
     for compiler in root.iterfind("mujoco/compiler"):
-        for attr in _MASS_SETTINGS:
-            if compiler.get(attr) is not None:
-                raise UnsupportedFeatureError(
-                    f"MuJoCo compiler {attr}",
-                    f"<mujoco><compiler {attr}={compiler.get(attr)!r}> in {source}",
-                    "it changes MuJoCo's masses only (Pinocchio reads the inertials as written)",
-                )
         if compiler.get("inertiafromgeom") == "true":
             raise UnsupportedFeatureError(
                 "MuJoCo compiler inertiafromgeom",
                 f"<mujoco><compiler inertiafromgeom='true'> in {source}",
                 "MuJoCo would replace the inertials by its geoms' (Pinocchio reads the inertials)",
             )
+
+
+def mass_settings(root: ET.Element) -> list[str]:
+    """The URDF's MuJoCo extension options that change the masses MuJoCo compiles.
+
+    ``boundmass``, ``boundinertia``, ``settotalmass``, ``balanceinertia`` in
+    ``<mujoco><compiler>``: MuJoCo applies them to the inertials as written, Pinocchio's
+    parser does not; the loader gives Pinocchio MuJoCo's compiled masses, each a bridge.
+    """
+    return [
+        f"<mujoco><compiler {attr}={compiler.get(attr)!r}> (MuJoCo applies it to the inertials)"
+        for compiler in root.iterfind("mujoco/compiler")
+        for attr in _MASS_SETTINGS
+        if compiler.get(attr) is not None
+    ]
 
 
 def chain_joints(tree: UrdfTree, link: str, base: str | None = None) -> list[str]:
