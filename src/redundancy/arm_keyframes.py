@@ -133,6 +133,34 @@ class _Keyframes:
         return {**self.held, **self.keyframe_moves(name)}
 
 
+def held_value_distance(a: float | tuple[float, ...], b: float | tuple[float, ...]) -> float:
+    """How far apart two values of one held joint put the robot [rad or m].
+
+    A hinge's or slide's values are compared as numbers. A ball joint's (w x y z) or a free
+    joint's (x y z, then w x y z) quaternion is compared as the rotation it stands for, as
+    MuJoCo's kinematics read it: normalised (a zero quaternion is the identity,
+    ``mju_normalize4``), and q and -q are one rotation. The distance is the largest
+    coordinate difference, the quaternion's taken with the nearer sign.
+
+    Returns:
+        The distance; inf when the values have different sizes.
+    """
+    x, y = np.atleast_1d(np.asarray(a, float)), np.atleast_1d(np.asarray(b, float))
+    if x.shape != y.shape:
+        return float("inf")
+    if x.size not in (4, 7):
+        return float(np.max(np.abs(x - y), initial=0.0))
+    p, r = _unit_quaternion(x[-4:]), _unit_quaternion(y[-4:])
+    turn = min(np.max(np.abs(p - r)), np.max(np.abs(p + r)))
+    return float(max(np.max(np.abs(x[:-4] - y[:-4]), initial=0.0), turn))
+
+
+def _unit_quaternion(q: Array) -> Array:
+    """``q`` normalised as MuJoCo's ``mju_normalize4`` does (below 1e-15 in norm: identity)."""
+    norm = float(np.linalg.norm(q))
+    return q / norm if norm >= mujoco.mjMINVAL else np.array([1.0, 0.0, 0.0, 0.0])
+
+
 def _value(v: float | tuple[float, ...]) -> str:
     """A held joint's value for a message: ``1.2`` or ``(0, 0, 0.8, 1, 0, 0, 0)``."""
     if isinstance(v, tuple):
