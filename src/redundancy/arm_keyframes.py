@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import NameDict
 from .engines.mujoco import object_names
 from .errors import PoseError, UnknownNameError
 
@@ -56,14 +57,16 @@ class _Keyframes:
 
         A keyframe is the whole robot's: one that puts a held joint elsewhere than this arm
         holds it (`keyframe_moves`) is a pose of another arm, `at_keyframe`, and
-        is not listed here (`keyframe_names` lists every keyframe).
+        is not listed here (`keyframe_names` lists every keyframe). An unknown name looked
+        up in it raises `UnknownNameError` naming those listed.
         """
         m = self.mj_model
-        return {
-            name: m.key_qpos[k].copy()
+        keys = (
+            (name, m.key_qpos[k].copy())
             for k, name in enumerate(self.keyframe_names)
             if not self.keyframe_moves(name)
-        }
+        )
+        return NameDict(keys, "arm keyframe")
 
     def keyframe(self, name: str) -> Array:
         """Joint configuration of a named keyframe [rad or m].
@@ -96,7 +99,8 @@ class _Keyframes:
         names = self.keyframe_names
         if not isinstance(name, str) or name not in names:
             raise UnknownNameError("keyframe", name, list(names))
-        return dict(self._key_moves[names.index(name)]) if self._key_moves else {}
+        moves = self._key_moves[names.index(name)] if self._key_moves else {}
+        return NameDict(moves, "moved held joint")
 
     def at_keyframe(self, name: str) -> Self:
         """This arm with its held joints where keyframe ``name`` puts them.

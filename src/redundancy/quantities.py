@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import NameDict
 from .engines.contract import Engine, Stacks, remove_armature
 from .kernels import Scales, mobility
 from .linalg import manipulability_gradient
@@ -254,4 +255,4 @@ QUANTITIES: tuple[Quantity, ...] = (
 # fmt: on
 
 #: The quantities by name.
-QUANTITY: dict[str, Quantity] = {q.name: q for q in QUANTITIES}
+QUANTITY: dict[str, Quantity] = NameDict(((q.name, q) for q in QUANTITIES), "quantity")
