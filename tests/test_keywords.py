@@ -284,23 +284,12 @@ def test_the_registry_and_the_tolerances_name_their_quantities() -> None:
     assert pickle.loads(pickle.dumps(rd.TOLERANCES)) == rd.TOLERANCES
 
 
-KEYED = """<mujoco>
-  <worldbody>
-    <body name="b1">
-      <joint name="j1" axis="0 0 1"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="1"/>
-      <site name="tip" pos="0.3 0 0"/>
-    </body>
-    <body name="hand" pos="0 0.5 0">
-      <joint name="finger" type="slide" axis="1 0 0" range="0 0.04"/>
-      <geom type="sphere" size="0.02" mass="0.1"/>
-    </body>
-  </worldbody>
-  <keyframe>
-    <key name="home" qpos="0.5 0"/>
-    <key name="open" qpos="0 0.03"/>
-  </keyframe>
-</mujoco>"""
+# The chain's two joints and a finger held at 0; keyframe "open" moves the finger.
+KEYED = chain(
+    body_extra='<body name="hand"><joint name="finger" type="slide" axis="1 0 0" '
+    'range="0 0.04"/><geom type="sphere" size="0.02" mass="0.1"/></body>',
+    extra='<keyframe><key name="home" qpos="0.5 0 0"/><key name="open" qpos="0 0 0.03"/></keyframe>',
+)
 
 
 def test_the_arms_mappings_name_their_keys() -> None:

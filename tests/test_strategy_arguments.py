@@ -7,7 +7,8 @@ The largest margin is read from MuJoCo's own joint ranges of the file (outside t
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import re
+from contextlib import AbstractContextManager
 
 import mujoco
 import numpy as np
@@ -17,21 +18,10 @@ from hypothesis import given, settings
 import redundancy as rd
 from redundancy import generate, testing
 
-# Two hinges: j1 in [-0.5, 0.7] (narrowest, 1.2 rad wide), j2 in [-2, 2].
-TWO = """<mujoco>
-  <compiler angle="radian"/>
-  <worldbody>
-    <body name="l1">
-      <joint name="j1" axis="0 0 1" range="-0.5 0.7"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
-      <body name="l2" pos="0.3 0 0">
-        <joint name="j2" axis="0 1 0" range="-2 2"/>
-        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/>
-        <site name="tip" pos="0.2 0 0"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>"""
+from .models import chain
+
+# Joint a in [-30, 40] degrees (MuJoCo's default unit), b unlimited.
+TWO = chain(joints='<joint name="a" axis="0 1 0" range="-30 40"/>')
 
 
 @pytest.fixture(scope="module")
@@ -39,164 +29,84 @@ def arm() -> rd.Arm:
     return rd.load_string(TWO, frame="tip")
 
 
-NOT_AN_ARM = r"^arm must be an Arm \(from redundancy.load or load_string\), got 'arm.xml'$"
-MARGIN = r"^margin must be a finite number >= 0 \[rad or m\], got "
-SPEED = r"^speed must be a finite number >= 0 \[rad/s or m/s\], got "
-
-CASES: list[tuple[str, Callable[[rd.Arm], object], type[Exception], str]] = [
-    ("poses arm", lambda a: testing.poses("arm.xml"), rd.ParameterError, NOT_AN_ARM),  # type: ignore[arg-type]
-    (
-        "poses margin < 0",
-        lambda a: testing.poses(a, margin=-0.1),
-        rd.ParameterError,
-        MARGIN + r"-0.1$",
-    ),
-    (
-        "poses margin nan",
-        lambda a: testing.poses(a, margin=float("nan")),
-        rd.ParameterError,
-        MARGIN + "nan$",
-    ),
-    (
-        "poses margin str",
-        lambda a: testing.poses(a, margin="0.1"),
-        rd.ParameterError,
-        MARGIN + "'0.1'$",
-    ),  # type: ignore[arg-type]
-    (
-        "poses margin too wide",
-        lambda a: testing.poses(a, margin=0.61),
-        rd.ParameterError,
-        r"^margin must be a finite number in \[0, 0.6\] \[rad or m\], got 0.61$",
-    ),
-    (
-        "poses unlimited",
-        lambda a: testing.poses(a, unlimited=0.0),
-        rd.ParameterError,
-        r"^unlimited must be a finite number > 0 \[rad\], got 0.0$",
-    ),
-    ("velocities arm", lambda a: testing.velocities("arm.xml"), rd.ParameterError, NOT_AN_ARM),  # type: ignore[arg-type]
-    (
-        "velocities speed < 0",
-        lambda a: testing.velocities(a, speed=-1.0),
-        rd.ParameterError,
-        SPEED + r"-1.0$",
-    ),
-    (
-        "velocities speed inf",
-        lambda a: testing.velocities(a, speed=float("inf")),
-        rd.ParameterError,
-        SPEED + "inf$",
-    ),
-    (
-        "velocities speed str",
-        lambda a: testing.velocities(a, speed="fast"),
-        rd.ParameterError,
-        SPEED + "'fast'$",
-    ),  # type: ignore[arg-type]
-    (
-        "states speed nan",
-        lambda a: testing.states(a, speed=float("nan")),
-        rd.ParameterError,
-        SPEED + "nan$",
-    ),
-    ("states margin", lambda a: testing.states(a, margin=-1), rd.ParameterError, MARGIN + "-1$"),
-    (
-        "register_profiles",
-        lambda a: testing.register_profiles(5),  # type: ignore[arg-type]
-        rd.UnknownNameError,
-        r"^unknown hypothesis profile '5'; valid hypothesis profile names: "
-        r"\['redundancy-ci', 'redundancy-thorough'\]$",
-    ),
-    (
-        "arms max_joints 0",
-        lambda a: generate.arms(max_joints=0),
-        rd.ParameterError,
-        r"^max_joints must be an integer >= 1, got 0$",
-    ),
-    (
-        "arms max_joints float",
-        lambda a: generate.arms(max_joints=2.5),  # type: ignore[arg-type]
-        rd.ParameterError,
-        r"^max_joints must be an integer >= 1, got 2.5$",
-    ),
-    (
-        "arms max_joints str",
-        lambda a: generate.arms(max_joints="3"),  # type: ignore[arg-type]
-        rd.ParameterError,
-        r"^max_joints must be an integer >= 1, got '3'$",
-    ),
-    (
-        "arms branching",
-        lambda a: generate.arms(branching="no"),  # type: ignore[arg-type]
-        rd.ParameterError,
-        r"^branching must be True or False, got 'no'$",
-    ),
-    (
-        "held_arms unknown feature",
-        lambda a: generate.held_arms(("tail",)),
-        rd.UnknownNameError,
-        r"^unknown held feature 'tail'; valid held feature names: \['several root bodies', "
-        r"'several kinematic trees', 'ball joint', 'free joint'\]$",
-    ),
-    (
-        "held_arms a string",
-        lambda a: generate.held_arms("ball joint"),  # type: ignore[arg-type]
-        rd.ParameterError,
-        r"^features must be a nonempty tuple of names from \['several root bodies', "
-        r"'several kinematic trees', 'ball joint', 'free joint'\], got 'ball joint'$",
-    ),
-    (
-        "held_arms none",
-        lambda a: generate.held_arms(()),
-        rd.ParameterError,
-        r"^features must be a nonempty tuple of names from \['several root bodies', "
-        r"'several kinematic trees', 'ball joint', 'free joint'\], got \(\)$",
-    ),
-    (
-        "refused_arms a held feature",
-        lambda a: generate.refused_arms(("ball joint",)),
-        rd.UnknownNameError,
-        r"^unknown refused feature 'ball joint'; valid refused feature names: "
-        r"\['several joints in one body', 'tendon on an arm joint', 'joint coupling on the "
-        r"arm', 'unnamed joint', 'no joints', 'shell inertia'\]$",
-    ),
-    (
-        "resolved_arms not names",
-        lambda a: generate.resolved_arms(5),  # type: ignore[arg-type]
-        rd.ParameterError,
-        r"^features must be a nonempty tuple of names from \['extrinsic eulerseq', "
-        r"'axisangle with a non-unit axis', '<frame> element', 'class inside a different "
-        r"childclass', 'joint pos in a default class', '<replicate> element'\], got 5$",
-    ),
-    (
-        "resolved_arms max_joints",
-        lambda a: generate.resolved_arms(max_joints=-2),
-        rd.ParameterError,
-        r"^max_joints must be an integer >= 1, got -2$",
-    ),
-]
+def _refused(error: type[Exception], text: str) -> AbstractContextManager[object]:
+    return pytest.raises(error, match="^" + re.escape(text) + "$")
 
 
-@pytest.mark.parametrize(
-    ("call", "error", "text"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
-)
-def test_a_bad_argument_is_the_librarys_error_when_the_strategy_is_made(
-    arm: rd.Arm, call: Callable[[rd.Arm], object], error: type[Exception], text: str
-) -> None:
-    with pytest.raises(error, match=text):
-        call(arm)
+def _half_narrowest_range() -> float:
+    model = mujoco.MjModel.from_xml_string(TWO)
+    return float((model.jnt_range[0, 1] - model.jnt_range[0, 0]) / 2)  # b has no range
+
+
+def test_poses_velocities_and_states_check_their_arguments(arm: rd.Arm) -> None:
+    not_an_arm = "arm must be an Arm (from redundancy.load or load_string), got 'arm.xml'"
+    for strategy in (testing.poses, testing.velocities, testing.states):
+        with _refused(rd.ParameterError, not_an_arm):
+            strategy("arm.xml")  # type: ignore[arg-type]
+    for bad in (-0.1, float("nan"), "0.1"):
+        text = f"margin must be a finite number >= 0 [rad or m], got {bad!r}"
+        with _refused(rd.ParameterError, text):
+            testing.poses(arm, margin=bad)  # type: ignore[arg-type]
+        with _refused(rd.ParameterError, text):
+            testing.states(arm, margin=bad)  # type: ignore[arg-type]
+    half = _half_narrowest_range()
+    wide = f"margin must be a finite number in [0, {half:g}] [rad or m], got 0.7"
+    with _refused(rd.ParameterError, wide):
+        testing.poses(arm, margin=0.7)
+    with _refused(rd.ParameterError, "unlimited must be a finite number > 0 [rad], got 0.0"):
+        testing.poses(arm, unlimited=0.0)
+    for bad in (-1.0, float("inf"), float("nan"), "fast"):
+        text = f"speed must be a finite number >= 0 [rad/s or m/s], got {bad!r}"
+        with _refused(rd.ParameterError, text):
+            testing.velocities(arm, speed=bad)  # type: ignore[arg-type]
+        with _refused(rd.ParameterError, text):
+            testing.states(arm, speed=bad)  # type: ignore[arg-type]
+
+
+def test_register_profiles_names_the_profiles() -> None:
+    text = (
+        "unknown hypothesis profile '5'; valid hypothesis profile names: "
+        "['redundancy-ci', 'redundancy-thorough']"
+    )
+    with _refused(rd.UnknownNameError, text):
+        testing.register_profiles(5)  # type: ignore[arg-type]
+
+
+def test_the_generated_arms_check_their_arguments() -> None:
+    for bad in (0, -2, 2.5, "3", True):
+        text = f"max_joints must be an integer >= 1, got {bad!r}"
+        with _refused(rd.ParameterError, text):
+            generate.arms(max_joints=bad)  # type: ignore[arg-type]
+        with _refused(rd.ParameterError, text):
+            generate.resolved_arms(max_joints=bad)  # type: ignore[arg-type]
+    with _refused(rd.ParameterError, "branching must be True or False, got 'no'"):
+        generate.arms(branching="no")  # type: ignore[arg-type]
+    strategies = (
+        (generate.held_arms, "held feature", generate.HELD_FEATURES),
+        (generate.refused_arms, "refused feature", generate.REFUSED_FEATURES),
+        (generate.resolved_arms, "resolved feature", generate.RESOLVED_FEATURES),
+    )
+    for strategy, kind, valid in strategies:
+        for bad in ((), "ball joint", 5, None):
+            text = f"features must be a nonempty tuple of names from {list(valid)}, got {bad!r}"
+            with _refused(rd.ParameterError, text):
+                strategy(bad)  # type: ignore[arg-type]
+        # A feature of another strategy (or none) is not drawn as a plain arm labelled with it.
+        other = "tail" if kind == "held feature" else "ball joint"
+        with pytest.raises(rd.UnknownNameError) as info:
+            strategy((valid[0], other))
+        names = ", ".join(repr(v) for v in valid)
+        assert str(info.value) == f"unknown {kind} {other!r}; valid {kind} names: [{names}]"
 
 
 def test_the_widest_margin_is_half_the_narrowest_range_and_still_draws(arm: rd.Arm) -> None:
-    model = mujoco.MjModel.from_xml_string(TWO)
-    half = float(np.min(model.jnt_range[:, 1] - model.jnt_range[:, 0]) / 2)
-    assert half == pytest.approx(0.6, abs=1e-15)
+    half = _half_narrowest_range()
+    assert half == pytest.approx(np.radians(35), abs=1e-15)
 
     @settings(max_examples=20, database=None)
     @given(testing.poses(arm, margin=half))
     def draws(q: np.ndarray) -> None:
-        assert q[0] == pytest.approx(0.1, abs=1e-12)  # the middle of j1's range
-        assert -2 + half <= q[1] <= 2 - half
+        assert q[0] == pytest.approx(np.radians(5), abs=1e-12)  # the middle of a's range
+        assert -np.pi <= q[1] <= np.pi  # b unlimited: no margin
 
     draws()

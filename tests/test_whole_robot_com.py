@@ -14,46 +14,39 @@ import pytest
 
 import redundancy as rd
 
-# Arm: j1 (z) and j2 (y) to the tip. Held: the finger's slide, at 0. Not moving with the arm: a
-# pedestal welded to the world (a tree Pinocchio's parser does not read), a mocap target and a
-# marker welded to it (MuJoCo's weld group of the mocap body, not the world's).
-ROBOT = """<mujoco>
-  <worldbody>
-    <body name="pedestal" pos="0 0 -0.2">
-      <inertial pos="0 0 0" mass="3" diaginertia="0.1 0.1 0.1"/>
-    </body>
-    <body name="a" pos="0 0 0.1">
-      <joint name="j1" axis="0 0 1"/>
-      <inertial pos="0.15 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>
-      <body name="b" pos="0.3 0 0">
-        <joint name="j2" axis="0 1 0"/>
-        <inertial pos="0.1 0 0" mass="0.5" diaginertia="0.004 0.004 0.004"/>
-        <site name="tip" pos="0.2 0 0"/>
-      </body>
-      <body name="finger" pos="0 0.05 0">
-        <joint name="f" type="slide" axis="0 1 0" range="0 0.04"/>
-        <inertial pos="0 0 0" mass="0.25" diaginertia="0.001 0.001 0.001"/>
-      </body>
-    </body>
+from .models import chain
+from .test_quantities import Skewed
+
+# The chain's joints a and b (both about y) to the tip, its capsules of 1000 kg/m^3. Held: the
+# finger's slide, at 0. Not moving with the arm: a pedestal welded to the world (a tree
+# Pinocchio's parser does not read), a mocap target and a marker welded to it (MuJoCo's weld
+# group of the mocap body, not the world's).
+INERTIA = 'diaginertia="0.01 0.01 0.01"'
+ROBOT = chain(
+    body_extra='<body name="finger" pos="0 0.05 0"><joint name="f" type="slide" axis="0 1 0" '
+    f'range="0 0.04"/><inertial pos="0 0 0" mass="0.25" {INERTIA}/></body>',
+    extra=f"""<worldbody>
+    <body name="pedestal" pos="0 0 -0.2"><inertial pos="0 0 0" mass="3" {INERTIA}/></body>
     <body name="target" mocap="true" pos="0.5 0.4 0.3">
-      <inertial pos="0 0 0" mass="2" diaginertia="0.02 0.02 0.02"/>
-      <body name="marker" pos="0 0 0.1">
-        <inertial pos="0 0 0" mass="0.1" diaginertia="0.001 0.001 0.001"/>
-      </body>
+      <inertial pos="0 0 0" mass="2" {INERTIA}/>
+      <body name="marker" pos="0 0 0.1"><inertial pos="0 0 0" mass="0.1" {INERTIA}/></body>
     </body>
-  </worldbody>
-</mujoco>"""
+  </worldbody>""",
+)
+#: Each capsule of the chain: radius 0.04 m, 0.3 m between its ends.
+CAPSULE = 1000 * (np.pi * 0.04**2 * 0.3 + 4 / 3 * np.pi * 0.04**3)
 
 ENGINES = ("mujoco", "pinocchio")
 
 
 def hand_com(q: np.ndarray) -> np.ndarray:
-    """The masses of the file placed by hand: 1 + 0.5 + 0.25 + 3 + 2 + 0.1 = 6.85 kg."""
-    c1, s1, c2, s2 = np.cos(q[0]), np.sin(q[0]), np.cos(q[1]), np.sin(q[1])
+    """The masses of the file placed by hand (the chain swings in the xz plane)."""
+    s1, c1, s12, c12 = np.sin(q[0]), np.cos(q[0]), np.sin(q[0] + q[1]), np.cos(q[0] + q[1])
+    l2 = np.array([0.3 * s1, 0.0, 0.1 + 0.3 * c1])  # the second body's origin
     parts = (
-        (1.0, (0.15 * c1, 0.15 * s1, 0.1)),
-        (0.5, (0.3 * c1 + 0.1 * c2 * c1, 0.3 * s1 + 0.1 * c2 * s1, 0.1 - 0.1 * s2)),
-        (0.25, (-0.05 * s1, 0.05 * c1, 0.1)),
+        (CAPSULE, (0.15 * s1, 0.0, 0.1 + 0.15 * c1)),
+        (CAPSULE, l2 + np.array([0.15 * s12, 0.0, 0.15 * c12])),
+        (0.25, l2 + np.array([0.0, 0.05, 0.0])),
         (3.0, (0.0, 0.0, -0.2)),
         (2.0, (0.5, 0.4, 0.3)),
         (0.1, (0.5, 0.4, 0.4)),
@@ -80,7 +73,7 @@ POSES = np.array([[0.0, 0.0], [0.3, -0.4], [1.2, 0.9], [-2.5, 2.0]])
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_mocap_body_counts_in_the_centre_of_mass_of_both_engines(engine: str) -> None:
     arm = rd.load_string(ROBOT, frame="tip")
-    assert arm.joint_names == ("j1", "j2") and arm.held == {"f": 0.0}
+    assert arm.joint_names == ("a", "b") and arm.held == {"f": 0.0}
     v = np.array([0.7, -1.3])
     for q in POSES:
         com, J, momentum = raw_mujoco(q, v)
@@ -111,19 +104,13 @@ def test_the_crosscheck_compares_the_centre_of_mass_and_the_momentum() -> None:
     np.testing.assert_allclose(bridge.value, (5.1, *(centre / 5.1)), rtol=0, atol=1e-15)
 
 
-class _Shifted:
+class _Shifted(Skewed):
     """Pinocchio's numbers with the centre of mass moved 1 mm along x: a disagreement to find."""
 
     name = "shifted"
 
-    def __init__(self, inner: object) -> None:
-        self._inner = inner
-
-    def __getattr__(self, attr: str) -> object:
-        return getattr(self._inner, attr)
-
     def com(self, q: np.ndarray) -> np.ndarray:
-        return self._inner.com(q) + np.array([1e-3, 0.0, 0.0])  # type: ignore[attr-defined]
+        return self._inner.com(q) + np.array([1e-3, 0.0, 0.0])  # type: ignore[no-any-return]
 
 
 def test_a_centre_of_mass_that_differs_is_reported() -> None:
