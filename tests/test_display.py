@@ -56,7 +56,7 @@ def reports(arm7: rd.Arm) -> dict[str, object]:
 
 def test_reprs_are_one_short_line(reports: dict[str, object]) -> None:
     reprs = {k: repr(v) for k, v in reports.items()}
-    assert reprs["crosscheck"] == "<CrossCheckReport: ok, 11 quantities over 2 poses>"
+    assert reprs["crosscheck"] == "<CrossCheckReport: ok, 14 quantities over 2 poses>"
     assert reprs["svd"] == "<JacobianSVD: rank 3 of 6, manipulability 0, condition inf>"
     assert reprs["comparison"] == "<Comparison: same robot: 0 differences, 7 joints matched>"
     assert reprs["equivalence"].startswith("<EquivalenceReport: equivalent, ")
@@ -87,9 +87,9 @@ def test_str_is_the_readable_table(reports: dict[str, object]) -> None:
 def test_html_tables(reports: dict[str, object]) -> None:
     html = reports["crosscheck"]._repr_html_()  # type: ignore[attr-defined]
     assert html.startswith(
-        "<div><p><b>CrossCheckReport: ok, 11 quantities over 2 poses</b></p><table>"
+        "<div><p><b>CrossCheckReport: ok, 14 quantities over 2 poses</b></p><table>"
     )
-    assert html.count("<tr>") == 1 + 11  # header and one row per quantity
+    assert html.count("<tr>") == 1 + 14  # header and one row per quantity
     assert '<td style="text-align:left">mass matrix (bare)</td>' in html
     for name, report in reports.items():
         doc = report._repr_html_()  # type: ignore[attr-defined]

@@ -65,7 +65,7 @@ def test_the_notebook_runs_and_shows_its_results(executed: list) -> None:
     }
     table = _outputs(by["crosscheck_batch"], "text/html")
     assert len(table) == 1 and "<table>" in table[0]
-    assert "CrossCheckReport: ok, 11 quantities over 500 poses" in table[0]
+    assert "CrossCheckReport: ok, 14 quantities over 500 poses" in table[0]
     assert "rank 5 of 6" in _outputs(by["arm.svd(q0)"], "text/html")[0]
     for key in (
         "manipulability_figure(arm, path",

@@ -19,6 +19,7 @@ from . import ik, linalg, objectives
 from .arm_keyframes import _Keyframes
 from .arm_mass import _ToolMass
 from .checks import (
+    NameDict,
     check_count,
     check_flag,
     check_number,
@@ -182,7 +183,7 @@ class Arm(_Keyframes, _ToolMass):
         self._slides: Array = np.array([t == "slide" for t in self.joint_types])
         self._recipe = recipe
         self.model_format = model_format
-        self.held: dict[str, float | tuple[float, ...]] = dict(held or {})
+        self.held: dict[str, float | tuple[float, ...]] = NameDict(held or {}, "held joint")
         self.set_aside: tuple[Any, ...] = tuple(set_aside)
         self.defects: tuple[str, ...] = tuple(defects)
         self.missing_inertia: tuple[str, ...] = tuple(missing_inertia)
@@ -213,7 +214,8 @@ class Arm(_Keyframes, _ToolMass):
         hinges and slides), and a joint the loader made fixed (a URDF joint whose child link
         has no mass). The other held joints are in `held`.
         """
-        return {a.name: a.reason for a in self.set_aside if a.what in FROZEN}
+        frozen = ((a.name, a.reason) for a in self.set_aside if a.what in FROZEN)
+        return NameDict(frozen, "frozen joint")
 
     # -- names, keyframes and poses --------------------------------------------------------
     site: ClassVar[DeprecatedAlias] = DeprecatedAlias("frame")

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import NameDict
 from .engines.mujoco import object_names
 from .errors import PoseError, UnknownNameError
 
@@ -56,14 +57,16 @@ class _Keyframes:
 
         A keyframe is the whole robot's: one that puts a held joint elsewhere than this arm
         holds it (`keyframe_moves`) is a pose of another arm, `at_keyframe`, and
-        is not listed here (`keyframe_names` lists every keyframe).
+        is not listed here (`keyframe_names` lists every keyframe). An unknown name looked
+        up in it raises `UnknownNameError` naming those listed.
         """
         m = self.mj_model
-        return {
-            name: m.key_qpos[k].copy()
+        keys = (
+            (name, m.key_qpos[k].copy())
             for k, name in enumerate(self.keyframe_names)
             if not self.keyframe_moves(name)
-        }
+        )
+        return NameDict(keys, "arm keyframe")
 
     def keyframe(self, name: str) -> Array:
         """Joint configuration of a named keyframe [rad or m].
@@ -96,7 +99,8 @@ class _Keyframes:
         names = self.keyframe_names
         if not isinstance(name, str) or name not in names:
             raise UnknownNameError("keyframe", name, list(names))
-        return dict(self._key_moves[names.index(name)]) if self._key_moves else {}
+        moves = self._key_moves[names.index(name)] if self._key_moves else {}
+        return NameDict(moves, "moved held joint")
 
     def at_keyframe(self, name: str) -> Self:
         """This arm with its held joints where keyframe ``name`` puts them.
@@ -131,6 +135,34 @@ class _Keyframes:
     def _key_held(self, name: str) -> dict[str, float | tuple[float, ...]]:
         """The held values an unnamed keyframe gives (its couplings followed)."""
         return {**self.held, **self.keyframe_moves(name)}
+
+
+def held_value_distance(a: float | tuple[float, ...], b: float | tuple[float, ...]) -> float:
+    """How far apart two values of one held joint put the robot [rad or m].
+
+    A hinge's or slide's values are compared as numbers. A ball joint's (w x y z) or a free
+    joint's (x y z, then w x y z) quaternion is compared as the rotation it stands for, as
+    MuJoCo's kinematics read it: normalised (a zero quaternion is the identity,
+    ``mju_normalize4``), and q and -q are one rotation. The distance is the largest
+    coordinate difference, the quaternion's taken with the nearer sign.
+
+    Returns:
+        The distance; inf when the values have different sizes.
+    """
+    x, y = np.atleast_1d(np.asarray(a, float)), np.atleast_1d(np.asarray(b, float))
+    if x.shape != y.shape:
+        return float("inf")
+    if x.size not in (4, 7):
+        return float(np.max(np.abs(x - y), initial=0.0))
+    p, r = _unit_quaternion(x[-4:]), _unit_quaternion(y[-4:])
+    turn = min(np.max(np.abs(p - r)), np.max(np.abs(p + r)))
+    return float(max(np.max(np.abs(x[:-4] - y[:-4]), initial=0.0), turn))
+
+
+def _unit_quaternion(q: Array) -> Array:
+    """``q`` normalised as MuJoCo's ``mju_normalize4`` does (below 1e-15 in norm: identity)."""
+    norm = float(np.linalg.norm(q))
+    return q / norm if norm >= mujoco.mjMINVAL else np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def _value(v: float | tuple[float, ...]) -> str:

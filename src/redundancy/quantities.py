@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import NameDict
 from .engines.contract import Engine, Stacks, remove_armature
 from .kernels import Scales, mobility
 from .linalg import manipulability_gradient
@@ -153,6 +154,28 @@ def _inertia_blocks(s: Scales) -> tuple[tuple[Index, float], ...]:
     )
 
 
+def _momentum_rows(s: Scales) -> tuple[tuple[Index, float], ...]:
+    """The momentum matrix's linear rows (size m L) and angular rows (size m L^2)."""
+    return (
+        ((slice(None, 3), slice(None)), s.mass * s.length),
+        ((slice(3, None), slice(None)), s.inertia),
+    )
+
+
+def _per_pose(method: str, rows: int, columns: bool) -> Callable[[Evaluation], Array]:
+    """The stack of an `Engine` method of one pose, (n, rows) or (n, rows, nv), pose by pose."""
+
+    def stack(e: Evaluation) -> Array:
+        shape = (len(e.Q), rows, e.engine.nv) if columns else (len(e.Q), rows)
+        out = np.empty(shape)
+        compute = getattr(e.engine, method)
+        for i, q in enumerate(e.Q):
+            out[i] = compute(q)
+        return out
+
+    return stack
+
+
 def _bare_mass(e: Evaluation) -> Array:
     bare = e.stacks.M.copy()  # type: ignore[union-attr]
     remove_armature(bare, e.engine.armature)
@@ -216,8 +239,20 @@ QUANTITIES: tuple[Quantity, ...] = (
     # computeCoriolisMatrix. [N m s/rad]: an inertia times the drawn velocities' size, 1 rad/s.
     Quantity("coriolis", "(nv, nv)", "N m s/rad", 1e-9, "coriolis",
              _coriolis, _whole(lambda s: s.inertia), dynamic=True, velocity=True),
+    # The whole robot's centre of mass (every body with mass: the arm's, the held ones at
+    # rest, those welded to the world and mocap bodies), its Jacobian for the arm's joints and
+    # the centroidal momentum matrix: MuJoCo's subtree_com, mj_jacSubtreeCom and
+    # mj_angmomMat of the world body against Pinocchio's centerOfMass, jacobianCenterOfMass
+    # and computeCentroidalMap with the world's inertia added back. Pose by pose.
+    Quantity("centre of mass", "(3,)", "m", 1e-9, "com",
+             _per_pose("com", 3, False), _whole(lambda s: s.length), dynamic=True),
+    Quantity("centre of mass jacobian", "(3, nv)", "m/rad", 1e-9, "com_jacobian",
+             _per_pose("com_jacobian", 3, True), _whole(lambda s: s.length), dynamic=True),
+    Quantity("centroidal momentum", "(6, nv)", "kg m/rad; kg m^2/rad", 1e-9,
+             "centroidal_momentum_matrix", _per_pose("centroidal_momentum_matrix", 6, True),
+             _momentum_rows, dynamic=True),
 )
 # fmt: on
 
 #: The quantities by name.
-QUANTITY: dict[str, Quantity] = {q.name: q for q in QUANTITIES}
+QUANTITY: dict[str, Quantity] = NameDict(((q.name, q) for q in QUANTITIES), "quantity")

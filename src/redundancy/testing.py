@@ -24,7 +24,8 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 
     raise MissingDependencyError("hypothesis", "test") from _err
 
-from .arm import Arm, sampling_ranges
+from .arm import Arm, check_arm, sampling_ranges
+from .checks import check_choice, check_number
 
 #: The library's profiles, by name: examples per property. "redundancy-ci" is fast enough
 #: for CI and derandomized; "redundancy-thorough" runs >= 1000 examples per property.
@@ -49,10 +50,8 @@ def register_profiles(default: str | None = None) -> str:
     Raises:
         UnknownNameError: ``default`` is not one of `PROFILES`.
     """
-    if default is not None and default not in PROFILES:
-        from .errors import UnknownNameError
-
-        raise UnknownNameError("hypothesis profile", default, list(PROFILES))
+    if default is not None:
+        check_choice("hypothesis profile", default, tuple(PROFILES))
     common = {
         "deadline": None,  # engines warm up their caches on the first call
         "suppress_health_check": [HealthCheck.too_slow, HealthCheck.differing_executors],
@@ -84,13 +83,24 @@ def poses(arm: Arm, margin: float = 0.0, unlimited: float = np.pi) -> st.SearchS
 
     Args:
         arm: The arm whose ranges to use.
-        margin: Keep this far inside each limit [rad or m].
+        margin: Keep this far inside each limit [rad or m]: at least 0, at most what leaves
+            every joint a range to draw from.
         unlimited: Half-width of the interval used for unlimited joints [rad or m] (hinges as
             [`sampling_ranges`][redundancy.arm.sampling_ranges] draws them; slides too).
+
+    Raises:
+        ParameterError: Not an Arm, or ``margin`` or ``unlimited`` not a finite number in
+            its range (the message states it).
     """
+    arm = check_arm(arm)
+    margin = check_number("margin", margin, 0.0, unit="rad or m")
     lo, hi = sampling_ranges(arm, unlimited, unlimited_slide=unlimited)
+    ends = np.isfinite(arm.lower).astype(int) + np.isfinite(arm.upper)
+    widest = min((float((b - a) / k) for a, b, k in zip(lo, hi, ends, strict=True) if k), default=0)
+    if ends.any():
+        check_number("margin", margin, 0.0, widest, unit="rad or m")
     lo = np.where(np.isfinite(arm.lower), lo + margin, lo)
-    hi = np.where(np.isfinite(arm.upper), hi - margin, hi)
+    hi = np.where(np.isfinite(arm.upper), np.maximum(hi - margin, lo), hi)
     elements = [
         st.floats(float(a), float(b), allow_nan=False, allow_infinity=False, width=64)
         for a, b in zip(lo, hi, strict=True)
@@ -102,7 +112,12 @@ def velocities(arm: Arm, speed: float = 2.0) -> st.SearchStrategy[np.ndarray]:
     """Joint velocities in [-speed, speed] per joint, shape (nq,), float64 [rad/s or m/s].
 
     Each joint is drawn independently (shrinking toward rest, one joint at a time).
+
+    Raises:
+        ParameterError: Not an Arm, or ``speed`` not a finite number >= 0.
     """
+    arm = check_arm(arm)
+    speed = check_number("speed", speed, 0.0, unit="rad/s or m/s")
     elements = [
         st.floats(-speed, speed, allow_nan=False, allow_infinity=False, width=64)
         for _ in arm.joint_names
@@ -113,7 +128,7 @@ def velocities(arm: Arm, speed: float = 2.0) -> st.SearchStrategy[np.ndarray]:
 def states(
     arm: Arm, margin: float = 0.0, unlimited: float = np.pi, speed: float = 2.0
 ) -> st.SearchStrategy[tuple[np.ndarray, np.ndarray]]:
-    """(pose, velocity) pairs: `poses` and `velocities` drawn together."""
+    """(pose, velocity) pairs: `poses` and `velocities` drawn together (arguments as theirs)."""
     return st.tuples(poses(arm, margin, unlimited), velocities(arm, speed))
 
 

@@ -39,7 +39,8 @@ from __future__ import annotations
 
 import itertools
 import queue
-from typing import Unpack
+from concurrent.futures import Executor
+from typing import Any, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -52,7 +53,6 @@ from ..checks import (
     check_flag,
     check_number,
     check_poses,
-    check_threads,
     check_tool_pose,
 )
 from ..collision import DistanceEngine, checker, distance_stack
@@ -74,6 +74,8 @@ from .batch_executor import (
     EXECUTOR_MAX_TASKS,
     EXECUTOR_MIN_CHUNK,
     RunOptions,
+    _check_executor,
+    _map_chunks,
     check_run,
     map_chunks,
     scatter,
@@ -348,44 +350,113 @@ def solve_ik(
     restarts: int = DEFAULT_SETTINGS.restarts,
     seed: int | None = 0,
     engine: EngineName = "mujoco",
-    threads: int = 1,
+    **run: Unpack[RunOptions],
 ) -> tuple[IKResult, ...]:
-    """`Arm.solve_ik` for many targets, on ``threads`` threads.
+    """`Arm.solve_ik` for many targets, on ``threads`` threads or an executor's workers.
 
     Result ``i`` is ``arm.solve_ik(targets[i], Q0[i], seed=seed + i, ...)`` whatever the
-    thread count (each target is solved by one thread, start to end).
+    thread count or the executor (each target is solved by one thread, start to end).
 
     Args:
         arm: The arm.
         targets: A sequence of targets (each a 4 x 4 pose or a (position, rotation) pair),
             or an array of poses (n, 4, 4).
         Q0: Starts, shape (n, nq) [rad or m]; None: each from the middle of the ranges.
-        objective: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
+        objective: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] (with an executor
+            of other processes, it must pickle).
         position_only: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
         position_tol: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] [m].
         orientation_tol: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik] [rad].
         restarts: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
         seed: Target ``i`` uses ``seed + i`` (None: fresh entropy for each).
         engine: As [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik].
-        threads: Worker threads. The solver is mostly Python, which holds the GIL, so
-            threads gain little beyond MuJoCo's own calls.
+        **run: ``threads`` (worker threads; the solver is mostly Python, which holds the
+            GIL, so threads gain little beyond MuJoCo's own calls) and ``executor`` (the
+            targets in chunks on its workers), as in `jacobians`.
 
     Returns:
         One [`IKResult`][redundancy.IKResult] per target.
 
     Raises:
         ParameterError: A bad target (named by its index), a bad count of starts.
+        UnknownNameError: A keyword that is not one of the above.
     """
     arm = check_arm(arm)
-    threads = check_threads(threads)
+    threads, executor = check_run(run)
     check_choice("engine", engine, ENGINES)
     check_flag("position_only", position_only)
     _ik_settings(position_tol, orientation_tol, restarts)  # bad ones fail here, not in a thread
     goals, starts = _ik_targets(arm, targets, Q0)
-    n = len(goals)
     if seed is not None:
         seed = check_count("seed", seed, 0)
     arm.ik_objective(objective, engine)  # a bad objective fails here, not in a worker
+    settings = {
+        "objective": objective,
+        "position_only": position_only,
+        "position_tol": position_tol,
+        "orientation_tol": orientation_tol,
+        "restarts": restarts,
+        "engine": engine,
+    }
+    if executor is None:
+        return _solve_targets(arm, goals, starts, 0, seed, threads, settings)
+    return _solve_on(executor, arm, goals, starts, seed, threads, settings)
+
+
+def _solve_on(
+    executor: Executor,
+    arm: Arm,
+    goals: list[tuple[Array, Array]],
+    starts: Array | None,
+    seed: int | None,
+    threads: int,
+    settings: dict[str, object],
+) -> tuple[IKResult, ...]:
+    """`solve_ik`'s checked targets in chunks on ``executor``, the results in order."""
+    # A row per target: its index, its start (zeros for none), its position and rotation.
+    n, nq = len(goals), arm.nq
+    rows = np.zeros((n, 13 + nq))
+    rows[:, 0] = np.arange(n)
+    if starts is not None:
+        rows[:, 1 : 1 + nq] = starts
+    for row, (p, R) in zip(rows, goals, strict=True):
+        row[1 + nq : 4 + nq], row[4 + nq :] = p, R.ravel()
+    kwargs = {"has_starts": starts is not None, "seed": seed, "threads": threads}
+    kwargs["settings"] = settings
+    _check_executor(executor, _solve_ik_rows, kwargs)
+    # A solve takes milliseconds: chunks of a few targets are worth a task.
+    chunk = max(4, -(-n // EXECUTOR_MAX_TASKS))
+    parts = _map_chunks(executor, _solve_ik_rows, arm, rows, chunk, kwargs)
+    return tuple(r for _, part in parts for r in part)
+
+
+def _solve_ik_rows(
+    arm: Arm,
+    rows: Array,
+    has_starts: bool,
+    seed: int | None,
+    threads: int,
+    settings: dict[str, object],
+) -> tuple[IKResult, ...]:
+    """`solve_ik` of a chunk of rows (index, start, position, rotation), on a worker."""
+    nq = arm.nq
+    goals = [(r[1 + nq : 4 + nq].copy(), r[4 + nq :].reshape(3, 3).copy()) for r in rows]
+    starts = np.ascontiguousarray(rows[:, 1 : 1 + nq]) if has_starts else None
+    first = int(rows[0, 0]) if len(rows) else 0
+    return _solve_targets(arm, goals, starts, first, seed, threads, settings)
+
+
+def _solve_targets(
+    arm: Arm,
+    goals: list[tuple[Array, Array]],
+    starts: Array | None,
+    first: int,
+    seed: int | None,
+    threads: int,
+    settings: dict[str, Any],
+) -> tuple[IKResult, ...]:
+    """Checked targets solved on ``threads`` threads; target ``i`` is ``first + i`` overall."""
+    n = len(goals)
     out: list[IKResult | None] = [None] * n
 
     def span(lo: int, hi: int) -> None:
@@ -393,13 +464,8 @@ def solve_ik(
             out[i] = arm.solve_ik(
                 goals[i],
                 None if starts is None else starts[i],
-                objective=objective,
-                position_only=position_only,
-                position_tol=position_tol,
-                orientation_tol=orientation_tol,
-                restarts=restarts,
-                seed=None if seed is None else seed + i,
-                engine=engine,
+                seed=None if seed is None else seed + first + i,
+                **settings,
             )
 
     if n:

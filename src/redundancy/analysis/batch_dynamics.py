@@ -8,7 +8,6 @@ to workers (`redundancy.analysis.batch_executor`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from concurrent.futures import Executor
 from typing import Unpack
 
 import numpy as np
@@ -26,6 +25,7 @@ from ..checks import (
     check_options,
     check_threads,
 )
+from ..engines.threads import run_split
 from ..errors import ParameterError
 from .batch_executor import RunOptions, _poses, _scatter_rows, check_run, scatter
 from .observer import MomentumObserver, check_dt
@@ -239,8 +239,7 @@ def external_torques(
     TAU: ArrayLike,
     dt: object,
     gain: object,
-    *,
-    executor: Executor | None = None,
+    **run: Unpack[RunOptions],
 ) -> Array:
     """A recorded trajectory through a `MomentumObserver`, step by step.
 
@@ -258,17 +257,21 @@ def external_torques(
         dt: Time from each step to the next [s], one number or one per step (n,), in
             (0, 2 / gain).
         gain: The observer's gain K [1/s], a number or one per joint.
-        executor: Compute the model's terms on this `concurrent.futures.Executor`
-            in chunks of steps (see `jacobians`); None: here.
+        **run: ``threads`` (MuJoCo's model terms of the steps, split over that many
+            threads; the observer then advances through them in order) and ``executor``
+            (compute the model's terms on this `concurrent.futures.Executor` in chunks of
+            steps), as in `jacobians`.
 
     Returns:
         The estimated external joint torque at each step, shape (n, nq) [N m or N].
 
     Raises:
         PoseError: ``Q``, ``V`` or ``TAU`` not finite, or of different shapes.
-        ParameterError: A bad ``dt`` or ``gain``.
+        ParameterError: A bad ``dt``, ``gain`` or thread count.
+        UnknownNameError: A keyword that is not one of `RunOptions`.
     """
     arm = check_arm(arm)
+    threads, executor = check_run(run)
     observer = MomentumObserver(arm, gain)
     Q = _poses(arm, Q)
     n = len(Q)
@@ -282,26 +285,33 @@ def external_torques(
     nq = arm.nq
     if executor is not None:
         QV, empty = np.hstack((Q, V)), np.empty((0, 2 * nq))
-        terms = _scatter_rows(executor, _momentum_terms_of_states, arm, QV, empty, {})
+        kwargs = {"threads": threads}
+        terms = _scatter_rows(executor, _momentum_terms_of_states, arm, QV, empty, kwargs)
     else:
-        terms = _momentum_terms_of_states(arm, np.hstack((Q, V)))
+        terms = _momentum_terms_of_states(arm, np.hstack((Q, V)), threads)
     out = np.empty((n, nq))
     for k in range(n):
         out[k] = observer.advance(terms[k, :nq], terms[k, nq:], TAU[k], float(steps[k]))
     return out
 
 
-def _momentum_terms_of_states(arm: Arm, QV: Array) -> Array:
+def _momentum_terms_of_states(arm: Arm, QV: Array, threads: int = 1) -> Array:
     """The observer's terms of states laid side by side, (n, 2 nq) -> (n, 2 nq).
 
     Each row [q, v] gives [p, beta] (`MujocoEngine.momentum_terms
-    <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`).
+    <redundancy.engines.mujoco.MujocoEngine.momentum_terms>`), each computed by one thread
+    in its own engine data (the same numbers for any ``threads``).
     """
     nq = arm.nq
     out = np.empty((len(QV), 2 * nq))
     terms = arm.mujoco.momentum_terms
-    for row, qv in zip(out, QV, strict=True):
-        p, beta = terms(qv[:nq], qv[nq:])
-        row[:nq] = p
-        row[nq:] = beta
+
+    def span(lo: int, hi: int) -> None:
+        for row, qv in zip(out[lo:hi], QV[lo:hi], strict=True):
+            p, beta = terms(qv[:nq], qv[nq:])
+            row[:nq] = p
+            row[nq:] = beta
+
+    if len(QV):
+        run_split(len(QV), threads, span)
     return out

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arm import Arm, check_arm
 from ..checks import (
+    NameDict,
     check_choice,
     check_count,
     check_number,
@@ -31,7 +32,7 @@ from ..checks import (
 from ..display import Report, Table, plural, table
 from ..engines.contract import Engine, Stacks
 from ..engines.threads import MIN_POSES_PER_THREAD, run_beside
-from ..errors import ParameterError
+from ..errors import ParameterError, UnknownNameError
 from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
 from ..quantities import QUANTITIES, QUANTITY, Evaluation
@@ -44,7 +45,7 @@ Array = NDArray[np.float64]
 #: Tolerance per quantity, on max |mujoco - pinocchio| / the quantity's scale (see
 #: [`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]), from the registry
 #: ([`redundancy.quantities`][redundancy.quantities], where each is declared and explained).
-TOLERANCES: dict[str, float] = {q.name: q.tol for q in QUANTITIES}
+TOLERANCES: dict[str, float] = NameDict(((q.name, q.tol) for q in QUANTITIES), "quantity")
 
 #: Quantities computed through M^-1: their tolerance holds for cond(M) up to
 #: `CALIBRATED_CONDITION` and grows with it beyond (`conditioned_tolerance`).
@@ -133,10 +134,15 @@ class CrossCheckReport(Report):
         return self.checked and all(a.ok for a in self.agreements)
 
     def __getitem__(self, quantity: str) -> Agreement:
+        """The agreement on one compared quantity.
+
+        Raises:
+            UnknownNameError: A quantity this report did not compare (lists those it did).
+        """
         for a in self.agreements:
             if a.quantity == quantity:
                 return a
-        raise KeyError(quantity)
+        raise UnknownNameError("compared quantity", quantity, [a.quantity for a in self.agreements])
 
     def summary(self) -> str:
         """``"ok, 8 quantities over 200 poses"`` (or ``DISAGREE`` naming the quantities)."""

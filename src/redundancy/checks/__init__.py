@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
-from typing import Any, TypedDict, Unpack
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any, Generic, TypedDict, TypeVar, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -405,6 +405,35 @@ def check_choice(kind: str, value: object, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise UnknownNameError(kind, str(value), choices)
     return value
+
+
+_V = TypeVar("_V")
+
+
+class NameDict(dict[str, _V], Generic[_V]):
+    """A dict of names whose lookup of a missing one is the library's error listing the names.
+
+    Every public mapping by name (the registry of quantities, the tolerances, an arm's held
+    joints and keyframes) is one: ``d[name]`` of a name it lacks raises `UnknownNameError`
+    (still a `KeyError`) naming ``kind`` and the names it has, where a dict's `KeyError`
+    names none. Otherwise a plain dict: equal to one with the same items, ``get`` and ``in``
+    as usual, pickled with its ``kind``.
+
+    Args:
+        items: The mapping's items (a mapping or (name, value) pairs).
+        kind: What a key is, for the message (``"quantity"``, ``"held joint"``).
+    """
+
+    kind: str = "name"
+
+    def __init__(
+        self, items: Mapping[str, _V] | Iterable[tuple[str, _V]] = (), kind: str = "name"
+    ) -> None:
+        super().__init__(items)
+        self.kind = kind
+
+    def __missing__(self, key: str) -> _V:
+        raise UnknownNameError(self.kind, key, tuple(self))
 
 
 def check_options(options: Mapping[str, object], allowed: type) -> None:

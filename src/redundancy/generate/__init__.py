@@ -25,6 +25,7 @@ Example:
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -35,7 +36,8 @@ except ImportError as _err:  # pragma: no cover - exercised only without the ext
 
     raise MissingDependencyError("hypothesis", "test") from _err
 
-from ..errors import DeprecatedAlias
+from ..checks import check_choice, check_count, check_flag
+from ..errors import DeprecatedAlias, ParameterError
 from . import elements as el
 
 #: Intrinsic (lowercase) euler sequences MuJoCo accepts and Pinocchio reads the same way.
@@ -418,10 +420,14 @@ def arms(max_joints: int = 9, branching: bool = True) -> st.SearchStrategy[Gener
     """Random MJCF arms the loader accepts and on which both engines must agree.
 
     Args:
-        max_joints: Largest number of hinge and slide joints (at least 1).
+        max_joints: Largest number of hinge and slide joints (an integer >= 1).
         branching: Also draw trees (bodies with several children), not only chains.
+
+    Raises:
+        ParameterError: ``max_joints`` not an integer >= 1, ``branching`` not a bool.
     """
-    return _model(max(1, max_joints), branching, None)
+    max_joints = check_count("max_joints", max_joints, 1)
+    return _model(max_joints, check_flag("branching", branching), None)
 
 
 def held_arms(
@@ -430,10 +436,15 @@ def held_arms(
     """Random robots with one feature off the arm (see `HELD_FEATURES`); ``refused`` names it.
 
     Args:
-        features: Which features to draw from (a subset of `HELD_FEATURES`).
-        max_joints: Largest number of hinge and slide joints.
+        features: Which features to draw from (a nonempty subset of `HELD_FEATURES`).
+        max_joints: Largest number of hinge and slide joints (an integer >= 1).
+
+    Raises:
+        UnknownNameError: A feature not in `HELD_FEATURES` (the message lists them).
+        ParameterError: ``features`` not a nonempty collection of names, ``max_joints``
+            not an integer >= 1.
     """
-    return _one_feature(features, max_joints)
+    return _one_feature("held feature", features, HELD_FEATURES, max_joints)
 
 
 def refused_arms(
@@ -441,9 +452,9 @@ def refused_arms(
 ) -> st.SearchStrategy[GeneratedArm]:
     """Random arms with one feature the loader refuses; ``refused`` names it.
 
-    Arguments as `held_arms`'s, ``features`` drawn from `REFUSED_FEATURES`.
+    Arguments and errors as `held_arms`'s, ``features`` drawn from `REFUSED_FEATURES`.
     """
-    return _one_feature(features, max_joints)
+    return _one_feature("refused feature", features, REFUSED_FEATURES, max_joints)
 
 
 def resolved_arms(
@@ -451,15 +462,26 @@ def resolved_arms(
 ) -> st.SearchStrategy[GeneratedArm]:
     """Random arms with one feature Pinocchio's parser reads differently; ``refused`` names it.
 
-    The loader serves such an arm through MuJoCo's compiled model. Arguments as `held_arms`'s,
-    ``features`` drawn from `RESOLVED_FEATURES`.
+    The loader serves such an arm through MuJoCo's compiled model. Arguments and errors as
+    `held_arms`'s, ``features`` drawn from `RESOLVED_FEATURES`.
     """
-    return _one_feature(features, max_joints)
+    return _one_feature("resolved feature", features, RESOLVED_FEATURES, max_joints)
 
 
-def _one_feature(features: tuple[str, ...], max_joints: int) -> st.SearchStrategy[GeneratedArm]:
-    """Trees of up to ``max_joints`` joints, each with one of ``features``."""
-    return st.sampled_from(features).flatmap(lambda f: _model(max(1, max_joints), True, f))
+def _one_feature(
+    kind: str, features: object, valid: tuple[str, ...], max_joints: object
+) -> st.SearchStrategy[GeneratedArm]:
+    """Trees of up to ``max_joints`` joints, each with one of ``features`` (``valid``'s)."""
+    shown = f"a nonempty tuple of names from {list(valid)}"
+    if isinstance(features, str | bytes) or not isinstance(features, Iterable):
+        raise ParameterError("features", features, shown)
+    chosen = tuple(features)
+    if not chosen:
+        raise ParameterError("features", features, shown)
+    for f in chosen:
+        check_choice(kind, f, valid)
+    n = check_count("max_joints", max_joints, 1)
+    return st.sampled_from(chosen).flatmap(lambda f: _model(n, True, f))
 
 
 __all__ = [

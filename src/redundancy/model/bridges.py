@@ -177,10 +177,13 @@ def _bridge_world_mass(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
     joints do not). Pinocchio's parser reads one tree (a table or a second robot in the
     file are not in its model) and puts a fixed base link's mass in the world's inertia;
     when its mass or centre differs from MuJoCo's bodies welded to the world (held ones
-    included), MuJoCo's is copied.
+    included), MuJoCo's is copied. A mocap body (and what is welded to it) is a weld group of
+    its own in MuJoCo but moves with no joint: it is counted here, at its pose in the file
+    (where a fresh ``MjData`` puts ``mocap_pos`` and ``mocap_quat``).
     """
     data = rest_data(mm)
-    welded = [b for b in range(1, mm.nbody) if mm.body_weldid[b] == 0 and mm.body_mass[b] > 0]
+    still = (mm.body_weldid == 0) | (mm.body_mocapid[mm.body_weldid] >= 0)
+    welded = [b for b in range(1, mm.nbody) if still[b] and mm.body_mass[b] > 0]
     ours = pin.Inertia.Zero()
     for b in welded:
         R = data.ximat[b].reshape(3, 3)
@@ -196,7 +199,10 @@ def _bridge_world_mass(pm: pin.Model, mm: mujoco.MjModel) -> list[Bridge]:
     value = (float(ours.mass), *(float(x) for x in ours.lever))
     return [
         Bridge(
-            "world mass", "world", value, "body_mass and xipos of the bodies welded to the world"
+            "world mass",
+            "world",
+            value,
+            "body_mass and xipos of the bodies welded to the world (mocap bodies included)",
         )
     ]
 

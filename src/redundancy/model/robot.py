@@ -32,6 +32,7 @@ from collections.abc import Mapping, Sequence
 import mujoco
 import numpy as np
 
+from ..arm_keyframes import held_value_distance
 from ..engines.mujoco import object_names, rest_data, whole_model_quantities
 from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFeatureError
 from ..kernels import scaled_error
@@ -206,7 +207,8 @@ def keyframe_moves(
 
     Returns:
         Held joint name -> the keyframe's value (its couplings followed), for each joint
-        more than 1e-9 away from its held value.
+        more than 1e-9 away from its held value (`held_value_distance`: a quaternion and its
+        negation are one rotation).
     """
     names = object_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     arm = {names.index(n) for n in joints}
@@ -214,7 +216,8 @@ def keyframe_moves(
     follow_couplings(model, qpos, arm)
     out = {}
     for name, value in held_values(model, qpos, arm).items():
-        if name in held and not np.allclose(value, held[name], rtol=0, atol=1e-9):  # type: ignore[arg-type]
+        # A ball or free joint's quaternion as a rotation: q and -q put the robot in one pose.
+        if name in held and held_value_distance(value, held[name]) > 1e-9:  # type: ignore[arg-type]
             out[name] = value
     return out
 
