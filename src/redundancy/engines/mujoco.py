@@ -352,7 +352,8 @@ class MujocoEngine:
     def link_inertias(self, q: ArrayLike) -> tuple[Array, Array, Array]:
         """Mass [kg], centre of mass [m] and world inertia about it [kg m^2] per dof's body.
 
-        Bodies welded to a moving body are lumped into it, as Pinocchio does.
+        Bodies welded to a moving body are lumped into it, as Pinocchio does. Of several
+        joints in one body, the last carries it; the others carry nothing, at their anchor.
         """
         check_dynamics(self, "link inertias")
         m = self.model
@@ -361,7 +362,12 @@ class MujocoEngine:
         coms = np.zeros((self.nv, 3))
         inertias = np.zeros((self.nv, 3, 3))
         for k in range(self.nv):
-            owner = m.dof_bodyid[k]
+            owner, j = m.dof_bodyid[k], m.dof_jntid[k]
+            if j != m.body_jntadr[owner] + m.body_jntnum[owner] - 1:
+                # A joint before its body's last (several in one body) moves the body only
+                # through the ones after it, as a massless link of a chain would.
+                coms[k] = d.xanchor[j]
+                continue
             bodies = [b for b in range(1, m.nbody) if m.body_weldid[b] == owner]
             mass = sum(m.body_mass[b] for b in bodies)
             com = (

@@ -56,7 +56,6 @@ HELD_FEATURES = (
 #:  Features [`refused_arms`][redundancy.generate.refused_arms] can add, each the ``feature`` of the
 #: loader's refusal.
 REFUSED_FEATURES = (
-    "several joints in one body",
     "tendon on an arm joint",
     "joint coupling on the arm",
     "unnamed joint",
@@ -74,6 +73,7 @@ RESOLVED_FEATURES = (
     "class inside a different childclass",
     "joint pos in a default class",
     "<replicate> element",
+    "several joints in one body",
 )
 
 #:  Features Pinocchio's parser reads differently and the loader bridges:

@@ -391,18 +391,24 @@ def _compare_joints(arm: Arm, q: np.ndarray, t: _Tally) -> None:
 
 
 def joint_of_body(arm: Arm, body: int) -> str:
-    """Name of the joint that moves ``body`` (walking up welded bodies), '' for the base."""
+    """Name of the joint that moves ``body`` (walking up welded bodies), '' for the base.
+
+    Of several joints in one body, the last: MuJoCo applies them one after the other.
+    """
     m = arm.mj_model
     while body > 0 and m.body_jntnum[body] == 0:
         body = m.body_parentid[body]
     if body == 0:
         return ""
-    return arm.joint_names[m.body_jntadr[body]]
+    return arm.joint_names[m.body_jntadr[body] + m.body_jntnum[body] - 1]
 
 
 def parent_joint(arm: Arm, i: int) -> str:
-    """Name of the joint that moves joint ``i``'s parent body ('' for the base)."""
+    """Name of the joint that moves joint ``i``: the one before it in its body, else the
+    parent body's ('' for the base)."""
     m = arm.mj_model
+    if i > m.body_jntadr[m.jnt_bodyid[i]]:
+        return arm.joint_names[i - 1]
     return joint_of_body(arm, int(m.body_parentid[m.jnt_bodyid[i]]))
 
 
