@@ -17,6 +17,8 @@ from redundancy.cli import main
 from redundancy.model import loading
 from redundancy.reports import files
 
+from .test_urdf import write_stl
+
 PANDA = str(rd.model_path("panda"))
 
 
@@ -570,3 +572,215 @@ def test_site_option_is_a_deprecated_name_of_frame(load_calls, capsys):
         assert main(["audit", PANDA, "--site", "ee"]) == 3
     assert capsys.readouterr().err.startswith(f"redundancy: warning: {message}\n")
     assert [k for _, k in load_calls] == [{"frame": "ee", "strict": True}]
+
+
+# -- what a command reads, it never writes (issue 35) --------------------------------------
+def _png() -> bytes:
+    """A 1x1 red PNG."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        crc = zlib.crc32(kind + body) & 0xFFFFFFFF
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", 1, 1, 8, 2, 0, 0, 0)
+    pixels = zlib.compress(b"\x00\xff\x00\x00")
+    return (
+        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", pixels) + chunk(b"IEND", b"")
+    )
+
+
+@pytest.fixture
+def many_files(tmp_path):
+    """An MJCF that reads six files: an include of an include, an attached model with a
+    mesh, and a texture named in an included file. Returns (the model, {name: path})."""
+    (tmp_path / "sub").mkdir()
+    written = {
+        "top.xml": """<mujoco><compiler angle="radian"/><include file="mid.xml"/>
+  <asset><model name="hand" file="hand.xml"/></asset>
+  <worldbody><body name="l1"><joint name="j1" axis="0 1 0" range="-2 2"/>
+    <geom type="capsule" fromto="0 0 0 0 0 0.5" size="0.05"/>
+    <body name="mount" pos="0 0 0.5"><attach model="hand" body="palm" prefix="h_"/></body>
+  </body></worldbody></mujoco>""",
+        "mid.xml": '<mujoco><include file="sub/looks.xml"/></mujoco>',
+        "sub/looks.xml": '<mujoco><asset><texture name="t" type="2d" file="red.png"/></asset>'
+        "</mujoco>",
+        "hand.xml": """<mujoco><asset><mesh name="tet" file="tet.stl"/></asset><worldbody>
+  <body name="palm"><joint name="j2" axis="0 0 1" range="-1 1"/>
+    <geom type="mesh" mesh="tet" mass="0.1"/><site name="tip" pos="0 0 0.1"/></body>
+</worldbody></mujoco>""",
+    }
+    paths = {}
+    for name, text in written.items():
+        paths[name] = tmp_path / name
+        paths[name].write_text(text)
+    paths["tet.stl"], paths["red.png"] = tmp_path / "tet.stl", tmp_path / "red.png"
+    write_stl(paths["tet.stl"])
+    paths["red.png"].write_bytes(_png())
+    return paths["top.xml"], paths
+
+
+def test_json_never_replaces_a_file_the_model_reads(many_files, tmp_path, capsys, monkeypatch):
+    """Issue 35: ``--json`` an included file destroyed the user's model. Every file the load
+    read (includes at any depth, an attached model, its mesh, a texture) is refused, by
+    any spelling (a symbolic link, ``..``), before the audit runs."""
+    from redundancy.reports import audit
+
+    model, paths = many_files
+    # Ground truth outside the library: MuJoCo compiles the model from the file.
+    assert mujoco_model(model).nq == 2
+    before = {p: p.read_bytes() for p in paths.values()}
+
+    def no_audit(*args, **kwargs):
+        raise AssertionError("the audit ran before the --json target was checked")
+
+    monkeypatch.setattr(audit, "audit", no_audit)
+    link = tmp_path / "link.json"
+    link.symlink_to(paths["sub/looks.xml"])
+    targets = {str(paths[name]): paths[name] for name in paths if name != "top.xml"}
+    targets[str(link)] = paths["sub/looks.xml"]
+    targets[f"{tmp_path}/sub/../hand.xml"] = paths["hand.xml"]
+    for target, read in targets.items():
+        assert main(["audit", str(model), "--frame", "h_tip", "--json", target]) == 2
+        assert capsys.readouterr().err == (
+            f"redundancy: error: --json {target!r} is {str(read)!r}, a file the model "
+            f"{str(model)!r} reads: not replaced\n"
+        )
+    assert {p: p.read_bytes() for p in paths.values()} == before
+
+
+def mujoco_model(path):
+    import mujoco
+
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def _urdf_with_mesh(tmp_path):
+    write_stl(tmp_path / "tet.stl")
+    (tmp_path / "arm.srdf").write_text(
+        '<robot name="r"><disable_collisions link1="base" link2="a" reason="Adjacent"/></robot>'
+    )
+    path = tmp_path / "arm.urdf"
+    path.write_text(
+        '<robot name="r"><link name="base"/><link name="a"><inertial><mass value="1"/>'
+        '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+        '<collision><geometry><mesh filename="tet.stl"/></geometry></collision></link>'
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="a"/>'
+        '<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        "</robot>"
+    )
+    return path
+
+
+def test_json_never_replaces_the_srdf(tmp_path, capsys, no_work):
+    model = _urdf_with_mesh(tmp_path)
+    srdf = tmp_path / "arm.srdf"
+    again = f"{tmp_path}/./arm.srdf"
+    assert main(["audit", str(model), "--srdf", str(srdf), "--json", again]) == 2
+    assert capsys.readouterr().err == (
+        f"redundancy: error: --json {again!r} is the SRDF file {str(srdf)!r}: not replaced\n"
+    )
+    assert "disable_collisions" in srdf.read_text()
+
+
+def test_json_never_replaces_a_urdf_mesh(tmp_path, capsys):
+    model = _urdf_with_mesh(tmp_path)
+    mesh = tmp_path / "tet.stl"
+    before = mesh.read_bytes()
+    assert main(["audit", str(model), "--json", str(mesh)]) == 2
+    assert capsys.readouterr().err == (
+        f"redundancy: error: --json {str(mesh)!r} is {str(mesh)!r}, a file the model "
+        f"{str(model)!r} reads: not replaced\n"
+    )
+    assert mesh.read_bytes() == before
+
+
+def test_compare_json_never_replaces_an_input(many_files, tmp_path, capsys, no_work):
+    """compare's --json: neither model, nor the joint map (checked before loading)."""
+    model, _ = many_files
+    joint_map = tmp_path / "map.txt"
+    joint_map.write_text("j1 j1\n")
+    for target, what in (
+        (model, f"the model file {str(model)!r}"),
+        (joint_map, f"the joint map {str(joint_map)!r}"),
+    ):
+        args = ["compare", str(model), PANDA, "--joint-map", str(joint_map)]
+        assert main([*args, "--json", str(target)]) == 2
+        assert capsys.readouterr().err == (
+            f"redundancy: error: --json {str(target)!r} is {what}: not replaced\n"
+        )
+    assert joint_map.read_text() == "j1 j1\n"
+
+
+def test_compare_json_never_replaces_a_file_b_includes(many_files, capsys):
+    model, paths = many_files
+    mid = paths["mid.xml"]
+    before = mid.read_bytes()
+    assert main(["compare", str(model), str(model), "--frame", "h_tip", "--json", str(mid)]) == 2
+    assert capsys.readouterr().err == (
+        f"redundancy: error: --json {str(mid)!r} is {str(mid)!r}, a file the model "
+        f"{str(model)!r} reads: not replaced\n"
+    )
+    assert mid.read_bytes() == before
+
+
+@pytest.mark.parametrize("order", [("--frame", "--site"), ("--site", "--frame")])
+def test_frame_and_site_naming_two_frames_are_refused(order, capsys, no_work):
+    """Issue 35: ``--frame A --site B`` audited B (the last won); the Python API says frame
+    wins. Two names for one option, two frames: refused naming both."""
+    first, second = order
+    assert main(["audit", PANDA, first, "ee", second, "link7"]) == 2
+    assert capsys.readouterr().err == (
+        f"redundancy audit: error: {first} 'ee' and {second} 'link7' name two tool frames "
+        "(--site is the deprecated name of --frame): give one\n"
+    )
+
+
+def test_frame_and_site_naming_one_frame_load_it(load_calls, capsys):
+    with pytest.warns(DeprecationWarning):
+        assert main(["audit", PANDA, "--frame", "ee", "--site", "ee"]) == 3
+    capsys.readouterr()
+    assert [k for _, k in load_calls] == [{"frame": "ee", "strict": True}]
+
+
+def _piped(text: bytes) -> str:
+    """A /dev/fd path whose reader gets ``text`` (a shell's ``<(cat file)``)."""
+    read, write = os.pipe()
+    os.write(write, text)  # below the pipe's buffer: no writer thread needed
+    os.close(write)
+    return f"/dev/fd/{read}"
+
+
+def test_an_mjcf_from_a_pipe_is_audited_as_from_its_file(tmp_path, capsys):
+    """``redundancy audit <(cat model.xml)``: an MJCF through a pipe, in Latin-1 too, gives
+    its file's report, as a URDF does (issue 35 saw a decoder error)."""
+    latin1 = two_links("\xe9paule", "coude").encode("latin-1")
+    xml = b'<?xml version="1.0" encoding="latin-1"?>\n' + latin1
+    path = tmp_path / "arm.xml"
+    path.write_bytes(xml)
+    urdf = rd.model_path("panda").with_suffix(".urdf")
+    reports = []
+    for data, source in ((xml, path), (urdf.read_bytes(), urdf)):
+        for given in (str(source), _piped(data)):
+            assert main(["audit", given, "--poses", "10", "--json", "-"]) in (0, 1)
+            document = json.loads(capsys.readouterr().out)
+            reports.append({k: v for k, v in document.items() if k != "model"})
+    assert reports[0] == reports[1] and reports[2] == reports[3]
+    assert [r["format"] for r in reports] == ["MJCF", "MJCF", "URDF", "URDF"]
+    assert [j["name"] for j in reports[1]["joints"]] == ["\xe9paule", "coude"]
+
+
+def test_a_pipe_names_where_its_relative_paths_count_from(tmp_path, capsys):
+    """A piped model's relative paths count from /dev/fd (where MuJoCo looks, and a URDF's
+    meshes): the error says the model came through a pipe."""
+    (tmp_path / "body.xml").write_text(
+        two_links().replace('<mujoco><compiler angle="radian"/>', "<mujoco>")
+    )
+    pipe = _piped(b'<mujoco><compiler angle="radian"/><include file="body.xml"/></mujoco>')
+    assert main(["audit", pipe, "--poses", "10"]) == 2
+    assert capsys.readouterr().err == (
+        "redundancy: error: cannot read the included file 'body.xml': [Errno 2] No such file "
+        f"or directory: '/dev/fd/body.xml' ({pipe!r} is a pipe, not a file: the paths in it "
+        "count from '/dev/fd'; give the model's own file)\n"
+    )

@@ -581,3 +581,83 @@ def test_springs_and_gravcomp_are_what_urdf_cannot_express(tmp_path: Path) -> No
     }
     assert listed["gravity compensation"].b == {"l1": 0.5, "l2": 0.5}
     assert not {"joint stiffness", "gravity compensation"} & set(quantities(result))
+
+
+# -- MuJoCo's damping polynomial (issue 35) ------------------------------------------------
+def _motor(xml: str, damping: str) -> str:
+    """``xml`` with a gear-2 motor on j1 whose ``damping`` is given."""
+    motor = f'<actuator><motor joint="j1" gear="2" damping="{damping}"/></actuator>'
+    return xml.replace("</worldbody>", "</worldbody>" + motor)
+
+
+def _mujoco_damper(path: Path, v: float) -> float:
+    """Raw MuJoCo: joint j1's damping force at speed ``v`` (the others still) [N m]."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qvel[0] = v
+    mujoco.mj_forward(m, d)
+    return float(d.qfrc_damper[0])
+
+
+@pytest.mark.parametrize(
+    ("b", "poly", "joints"),
+    [
+        (two_links(joint='damping="0 2 3"'), [2.0, 3.0], ["j1", "j2"]),
+        (_motor(two_links(), "0 0.5"), [2.0, 0.0], ["j1"]),  # gear^2 x 0.5
+    ],
+    ids=["joint", "actuator"],
+)
+def test_a_damping_polynomial_is_named(
+    b: str, poly: list[float], joints: list[str], tmp_path: Path
+) -> None:
+    """Issue 35: a difference in MuJoCo's damping polynomial was a "spring and fluid force"
+    difference while the damping row read 0. It is named, with MuJoCo's coefficients."""
+    (tmp_path / "a.xml").write_text(two_links())
+    (tmp_path / "b.xml").write_text(b)
+    # Ground truth outside the library: MuJoCo's damping force is -(b1 v|v| + b2 v^3).
+    for v in (0.5, -2.0):
+        expected = -(poly[0] * v * abs(v) + poly[1] * v**3)
+        assert _mujoco_damper(tmp_path / "b.xml", v) == pytest.approx(expected, rel=1e-12)
+    result = compare(tmp_path / "a.xml", tmp_path / "b.xml")
+    found = [(d.quantity, d.where, list(d.a), list(d.b)) for d in result.differences]
+    assert found == [("damping polynomial", f"joint {j!r}", [0, 0], poly) for j in joints]
+    assert result.differences[0].note == (
+        "coefficients of v|v| and v^3 in MuJoCo's damping force, the actuators' included"
+    )
+    assert result.largest["damping"] == 0.0 and result.largest["spring and fluid force"] < 1e-12
+
+
+def test_an_actuator_damping_difference_is_reported_once(tmp_path: Path) -> None:
+    """An actuator's damping is in the damping row (gear^2 x it): it was in the spring and
+    fluid force too."""
+    (tmp_path / "a.xml").write_text(_motor(two_links(), "0.5"))
+    (tmp_path / "b.xml").write_text(_motor(two_links(), "0.7"))
+    assert _mujoco_damper(tmp_path / "b.xml", 0.5) == pytest.approx(-4 * 0.7 * 0.5)
+    result = compare(tmp_path / "a.xml", tmp_path / "b.xml")
+    assert [str(d) for d in result.differences] == [
+        "damping of joint 'j1': A 2, B 2.8 (|diff| 0.4)"
+    ]
+
+
+def test_a_stiffness_polynomial_is_named(tmp_path: Path) -> None:
+    (tmp_path / "a.xml").write_text(two_links())
+    (tmp_path / "b.xml").write_text(two_links(joint='stiffness="0 0 5"'))
+    result = compare(tmp_path / "a.xml", tmp_path / "b.xml")
+    found = [d for d in result.differences if d.quantity == "stiffness polynomial"]
+    assert [(d.where, list(d.b)) for d in found] == [("joint 'j1'", [0, 5]), ("joint 'j2'", [0, 5])]
+    assert result.largest["joint stiffness"] == 0.0
+
+
+def test_a_damping_polynomial_is_what_urdf_cannot_express(tmp_path: Path) -> None:
+    (tmp_path / "two.urdf").write_text(two_links_urdf(2.0))
+    (tmp_path / "two.xml").write_text(two_links(joint='damping="0 2 3" stiffness="0 1"'))
+    result = compare(tmp_path / "two.urdf", tmp_path / "two.xml")
+    listed = {n.quantity: n for n in result.not_expressible}
+    assert listed["damping polynomial"].b == {"j1": "[2 3]", "j2": "[2 3]"}
+    assert listed["joint spring"].b == {
+        "j1": "stiffness=0, springref=0, stiffness polynomial=[1 0]",
+        "j2": "stiffness=0, springref=0, stiffness polynomial=[1 0]",
+    }
+    assert "damping polynomial" not in quantities(result)

@@ -353,7 +353,19 @@ class Arm(_Keyframes, _ToolMass):
         return self.engine(engine).armature
 
     def damping(self, engine: EngineName = "mujoco") -> Array:
-        """Damping b per joint: dof damping plus gear^2 x actuator damping [N m s/rad]."""
+        """Linear viscous damping b per joint, the force -b v [N m s/rad or N s/m].
+
+        The joint's ``damping`` plus gear^2 x its actuators' (reflected through the gear),
+        as bridged into both engines. Left out, though MuJoCo simulates them: the damping
+        polynomial's higher terms (``damping="b0 b1 b2"`` on a joint or actuator is the
+        force -(b0 v + b1 v|v| + b2 v^3): this is b0; b1, b2 are ``mj_model.dof_dampingpoly``
+        and ``actuator_dampingpoly``, compared by [`redundancy.compare`][redundancy.compare]),
+        tendon damping, the friction loss (a constraint), and a servo's ``kv`` (counted on
+        its own where the audit judges the timestep).
+
+        Args:
+            engine: ``"mujoco"`` or ``"pinocchio"``.
+        """
         return self.engine(engine).damping
 
     # -- motion: the Coriolis matrix, the centre of mass and momentum ---------------------

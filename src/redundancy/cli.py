@@ -201,7 +201,10 @@ _EXIT = "exit status: 0 no findings, 1 findings, 2 bad input, 3 internal error"
 
 
 class _FrameOption(argparse.Action):
-    """``--frame NAME``; its old name ``--site`` still works, with a warning."""
+    """``--frame NAME``; its old name ``--site`` still works (`_warn_site`).
+
+    The two naming two frames are refused: the user says which (Python's ``frame=`` wins).
+    """
 
     def __call__(
         self,
@@ -210,11 +213,24 @@ class _FrameOption(argparse.Action):
         values: Any,
         option_string: str | None = None,
     ) -> None:
-        if option_string == "--site":
-            message = "--site is deprecated: name the tool frame with --frame"
-            warnings.warn(message, DeprecationWarning, stacklevel=2)
-            _error(f"redundancy: warning: {message}")
+        given: dict[str, Any] = dict(getattr(namespace, "frame_options", {}))
+        given[option_string or "--frame"] = values
+        if len(given) > 1 and len(set(given.values())) > 1:
+            (first, a), (second, b) = given.items()
+            parser.error(
+                f"{first} {a!r} and {second} {b!r} name two tool frames (--site is the "
+                "deprecated name of --frame): give one"
+            )
+        namespace.frame_options = given
         setattr(namespace, self.dest, values)
+
+
+def _warn_site(args: argparse.Namespace) -> None:
+    """The deprecation warning of ``--site``, once the arguments are known to be good."""
+    if "--site" in getattr(args, "frame_options", {}):
+        message = "--site is deprecated: name the tool frame with --frame"
+        warnings.warn(message, DeprecationWarning, stacklevel=3)
+        _error(f"redundancy: warning: {message}")
 
 
 def _model_arguments(p: argparse.ArgumentParser) -> None:
@@ -370,21 +386,33 @@ def _compare_parser(sub: Any) -> None:
     cmp.add_argument("--tol", type=float, default=1e-9, help="tolerance (default: 1e-9)")
 
 
-def _check_files(args: argparse.Namespace) -> None:
-    """The JSON target must obey reports.files' rules and not be an input model file.
+#: The input files a command line names, by argparse attribute: what each is, for a message.
+_NAMED = {"model": "the model file", "a": "the model file", "b": "the model file"}
+_NAMED |= {"srdf": "the SRDF file", "joint_map": "the joint map"}
 
-    The loader checks the model files themselves.
+
+def _check_output(args: argparse.Namespace, inputs: list[tuple[str, str]]) -> None:
+    """Refuse a ``--json`` FILE that is one of ``inputs`` (by any name: a link, ``..``)."""
+    from .reports.files import input_named
+
+    target = getattr(args, "json", None)
+    what = None if target in (None, "-") else input_named(target, inputs)
+    if what is not None:
+        raise _BadInput(f"--json {target!r} is {what}: not replaced")
+
+
+def _check_files(args: argparse.Namespace) -> None:
+    """The JSON target must obey reports.files' rules and be none of the named inputs.
+
+    The loader checks the input files themselves; the files a model reads are known once it
+    is loaded (`redundancy.reports.files.read_by`).
     """
     if getattr(args, "json", None) not in (None, "-"):
-        import os
-
         from .reports.files import check_target
 
-        target = check_target(args.json)
-        inputs = [getattr(args, name, None) for name in ("model", "a", "b")]
-        for model in (m for m in inputs if isinstance(m, str) and os.path.isfile(m)):
-            if target.exists() and os.path.samefile(target, model):
-                raise _BadInput(f"--json {args.json!r} is the model file {model!r}: not replaced")
+        check_target(args.json)
+        named = ((getattr(args, k, None), what) for k, what in _NAMED.items())
+        _check_output(args, [(p, f"{what} {p!r}") for p, what in named if isinstance(p, str)])
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -410,6 +438,7 @@ def _main(argv: Sequence[str] | None) -> int:
 
         try:
             _check_files(args)
+            _warn_site(args)
             return _run(args)
         except (_BadInput, RedundancyError) as err:
             _error(f"redundancy: error: {err}")
@@ -429,10 +458,10 @@ def _main(argv: Sequence[str] | None) -> int:
         return INTERNAL_ERROR
 
 
-def _load(args: argparse.Namespace, strict: bool = True) -> object:
+def _load(args: argparse.Namespace, strict: bool = True) -> Any:
     """The arm of ``audit`` or ``lab``: the file, its tool frame, and how to load it."""
-    from .model.loading import load
     from .models import model_path
+    from .reports.files import read_by
 
     extra: dict[str, object] = {}
     if args.srdf is not None:
@@ -445,16 +474,43 @@ def _load(args: argparse.Namespace, strict: bool = True) -> object:
         extra["rest"] = args.rest
     path = args.model or model_path("arm7")
     # No --frame: load's default (the file's one chain end, else its frame "ee").
-    return load(path, frame=args.frame, strict=strict, **extra)
+    arm = _load_file(path, frame=args.frame, strict=strict, **extra)
+    _check_output(args, read_by(arm))  # before any work: the files it read are known
+    return arm
+
+
+def _load_file(path: str | os.PathLike[str], **options: Any) -> Any:
+    """`redundancy.load`; a model through a pipe (``<(cat arm.xml)``) that fails says so.
+
+    A pipe loads as its file would, but the files it names by relative path count from the
+    pipe's folder (``/dev/fd``), not the model's.
+    """
+    import stat
+
+    from .errors import MissingInertiaError, ModelError, UnsupportedFeatureError
+    from .model.loading import load
+
+    try:
+        return load(path, **options)
+    except (UnsupportedFeatureError, MissingInertiaError):
+        raise
+    except ModelError as err:
+        with contextlib.suppress(OSError):
+            if stat.S_ISFIFO(os.stat(path).st_mode):
+                folder = os.path.dirname(os.path.abspath(path))
+                raise ModelError(
+                    f"{err} ({str(path)!r} is a pipe, not a file: the paths in it count from "
+                    f"{folder!r}; give the model's own file)"
+                ) from err
+        raise
 
 
 def _run(args: argparse.Namespace) -> int:
     if args.command == "example":
-        from .model.loading import load
         from .models import model_path
         from .reports import lesson
 
-        arm = load(args.model or model_path("arm7"), frame="ee")
+        arm = _load_file(args.model or model_path("arm7"), frame="ee")
         lesson.print_tables(arm, n_poses=args.poses)
         return OK
     if args.command == "lab":
@@ -476,16 +532,18 @@ def _compare(args: argparse.Namespace) -> int:
     from .analysis.compare import compare, read_joint_map
     from .display import to_json
     from .errors import ModelError
-    from .reports.files import write_atomic
+    from .reports.files import read_by, write_atomic
 
     if not (math.isfinite(args.tol) and args.tol > 0):
         raise ModelError(f"--tol must be a finite number > 0, got {args.tol}")
     joint_map = read_joint_map(args.joint_map) if args.joint_map else None
+    # Loaded here, not by compare: the files each read are known before any work.
+    arm_a = _load_file(args.a, frame=args.frame_a or args.frame)  # None: load's default
+    arm_b = _load_file(args.b, frame=args.frame_b or args.frame)
+    _check_output(args, read_by(arm_a) + read_by(arm_b))
     result = compare(
-        args.a,
-        args.b,
-        frame_a=args.frame_a or args.frame,  # None: compare's (load's) default
-        frame_b=args.frame_b or args.frame,
+        arm_a,
+        arm_b,
         joint_map=joint_map,
         n_poses=args.poses,
         seed=args.seed,

@@ -7,15 +7,16 @@ compares the two arms with each other. Joints are matched by name or by a joint 
 * **Structure**, at a reference pose (zeros clipped into the ranges), in the world frame so
   that each file's choice of body frames does not matter: each joint's parent, type, axis
   (with its sign) and axis line, range, effort limit, damping, friction; armature, spring
-  stiffness and reference, gravity compensation (per body, and whether it goes through the
-  actuators) and velocity limits where both formats carry them; mass, centre of mass and
-  inertia of the body each joint moves (links welded to it lumped in); the tool frame's
-  placement; gravity.
+  stiffness and reference, MuJoCo's damping and stiffness polynomials (``damping="b0 b1 b2"``:
+  b1 and b2, the v|v| and v^3 terms; ``stiffness="k0 k1 k2"``: k1 and k2), gravity
+  compensation (per body, and whether it goes through the actuators) and velocity limits
+  where both formats carry them; mass, centre of mass and inertia of the body each joint
+  moves (links welded to it lumped in); the tool frame's placement; gravity.
 * **Poses**: tool pose, Jacobian, mass matrix and gravity torques over random poses drawn
   in the ranges both share, and every keyframe of either file; between two files of one
-  format also MuJoCo's passive force less the joint damping and the gravity compensation
-  (springs, fluid forces), and the gravity compensation, at random joint velocities:
-  anything else the simulation adds.
+  format also MuJoCo's passive force less the joint damping (all its terms, the actuators'
+  included) and the gravity compensation (springs, tendons, fluid forces), and the gravity
+  compensation, at random joint velocities: anything else the simulation adds.
 
 First, a **rigid offset**: when B is A placed elsewhere (its base moved or turned) or with
 its tool mounted elsewhere on the last link, the transform is found from the joint axes (and
@@ -24,8 +25,8 @@ to it; what still differs comes after.
 
 Each difference names the quantity, the joint or body, both values, and the first joint
 where the two kinematic chains part. What a format cannot express (armature, springs,
-gravity compensation, keyframes and gravity in URDF; velocity limits in MJCF) is listed as
-such, not as a difference.
+gravity compensation, a damping polynomial, keyframes and gravity in URDF; velocity limits in
+MJCF) is listed as such, not as a difference.
 """
 
 from __future__ import annotations
@@ -45,7 +46,15 @@ from ..model.bridges import effective_gravity
 from ..model.equivalence import fit_rigid, parent_joint
 from ..model.names import display_names
 from ..model.scales import arm_scales, scaled_error, scaled_errors
-from .compare_poses import mujoco_stacks, passive_forces, shared_poses
+from .compare_poses import (
+    POLY_NOTE,
+    STIFFNESS_NOTE,
+    damping_polynomial,
+    mujoco_stacks,
+    passive_forces,
+    passive_listing,
+    shared_poses,
+)
 from .comparison import Comparison, Finding, RigidOffset, match_joints, read_joint_map
 
 Array = NDArray[np.float64]
@@ -137,13 +146,18 @@ class _Comparer:
         self.pairs = pairs
         sc = self.scales = arm_scales(a)
         L = sc.length
-        #: Each quantity's size on A (model.scales): what its differences are divided by.
-        self.sizes = {
+        rate = math.sqrt(sc.gravity / L)  # the arm's natural rate [rad/s]
+        #: Each quantity's size on A (model.scales): what its differences are divided by; a
+        #: polynomial's, one per coefficient (each term's force at the natural rate or an
+        #: angle of 1 rad: the torque scale).
+        self.sizes: dict[str, float | tuple[float, ...]] = {
             "joint axis (world)": 1.0,
             "joint axis line (world)": L,
             "joint anchor (world)": L,
             "effort limit": sc.torque,
-            "damping": sc.inertia * math.sqrt(sc.gravity / L),
+            "damping": sc.inertia * rate,
+            "damping polynomial": (sc.inertia, sc.inertia / rate),
+            "stiffness polynomial": (sc.torque, sc.torque),
             "friction": sc.torque,
             "body mass": sc.mass,
             "centre of mass (world)": L,
@@ -250,9 +264,15 @@ class _Comparer:
     ) -> bool:
         """Record a difference when it exceeds tol relative to the quantity's scale.
 
-        Returns True when they differ.
+        A quantity with one size per entry (a polynomial's coefficients) takes the largest
+        of its entries' errors. Returns True when they differ.
         """
-        err = scaled_error(va, vb, size or self.sizes[quantity])
+        sizes = size or self.sizes[quantity]
+        if isinstance(sizes, tuple):
+            errs = (scaled_error(x, y, s) for x, y, s in zip(va, vb, sizes, strict=True))
+            err = max(errs)
+        else:
+            err = scaled_error(va, vb, sizes)
         self.largest[quantity] = max(self.largest.get(quantity, 0.0), err)
         if err > self.tol:
             self.diffs.append(Finding(quantity, where, va, vb, err, note))
@@ -382,33 +402,29 @@ class _Comparer:
             self.cannot("armature", "joints", va, vb, "URDF")
 
     def passive(self) -> None:
-        """Joint springs and gravity compensation: compared in one format, listed across two."""
+        """Joint springs, damping polynomials and gravity compensation.
+
+        Compared in one format, listed across two (URDF has none of them).
+        """
         a, b = self.a, self.b
         ma, mb = a.mj_model, b.mj_model
-        if self.fmt_a != self.fmt_b:  # URDF has neither: list the MJCF side's
-            arm, side = (b, "b") if self.fmt_a == "URDF" else (a, "a")
-            m = arm.mj_model
-            springs = {
-                n: f"stiffness={k:g}, springref={m.qpos_spring[m.jnt_qposadr[i]]:g}"
-                for i, (n, k) in enumerate(zip(arm.joint_names, m.jnt_stiffness, strict=True))
-                if k != 0
-            }
-            bodies = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
-            gravcomp = {bodies[k]: float(g) for k, g in enumerate(m.body_gravcomp) if g != 0}
-            for quantity, where, values in (
-                ("joint spring", "joints", springs),
-                ("gravity compensation", "bodies", gravcomp),
-            ):
+        if self.fmt_a != self.fmt_b:  # URDF has none: list the MJCF side's
+            side = "b" if self.fmt_a == "URDF" else "a"
+            for quantity, (where, values) in passive_listing(b if side == "b" else a).items():
                 if values:
                     va, vb = (values, None) if side == "a" else (None, values)
                     self.cannot(quantity, where, va, vb, "URDF")
             return
+        poly_a, poly_b = damping_polynomial(a), damping_polynomial(b)
         with_gravcomp = bool(np.any(ma.body_gravcomp) or np.any(mb.body_gravcomp))
         for i, j in zip(self.ia, self.ib, strict=True):
             w = self.where(i)
+            self.check("damping polynomial", w, poly_a[i], poly_b[j], POLY_NOTE)
             k_a, k_b = float(ma.jnt_stiffness[i]), float(mb.jnt_stiffness[j])
             self.check("joint stiffness", w, k_a, k_b)
-            if k_a and k_b:  # a reference matters only to a spring (one alone: stiffness)
+            ks_a, ks_b = ma.jnt_stiffnesspoly[i], mb.jnt_stiffnesspoly[j]
+            self.check("stiffness polynomial", w, ks_a, ks_b, STIFFNESS_NOTE)
+            if (k_a or any(ks_a)) and (k_b or any(ks_b)):  # a reference matters to a spring
                 unit = 1.0 if a.joint_types[i] == "hinge" else self.scales.length
                 ref_a = float(ma.qpos_spring[ma.jnt_qposadr[i]])
                 ref_b = float(mb.qpos_spring[mb.jnt_qposadr[j]])
@@ -561,8 +577,6 @@ class _Comparer:
 
 def _joint_bodies(arm: Arm) -> list[str]:
     """Per joint, the display name of the body it moves (see `redundancy.model.names`)."""
-    import mujoco
-
     m = arm.mj_model
     names = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
     return [names[int(b)] for b in m.jnt_bodyid]

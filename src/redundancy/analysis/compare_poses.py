@@ -3,16 +3,23 @@
 `redundancy.analysis.compare` compares two descriptions of one robot pose by pose over
 `shared_poses`: random poses in the ranges both share, and every keyframe of either. At them,
 `mujoco_stacks` gives each arm's tool poses, Jacobians, mass matrices and gravity in one stacked
-pass, and `passive_forces` what else the simulation adds at random joint velocities.
+pass, and `passive_forces` what else the simulation adds at random joint velocities, less the
+joint damping (`damping_polynomial` gives its terms beyond the linear one), compared on its own;
+`passive_listing` is what of it a URDF cannot express.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
 from ..engines.contract import Stacks
+from ..model.actuators import _reflected_per_dof
+from ..model.names import display_names
 
 Array = NDArray[np.float64]
 
@@ -60,6 +67,57 @@ def mujoco_stacks(
     return X, R, J, M, G
 
 
+def damping_polynomial(arm: Arm) -> Array:
+    """MuJoCo's joint damping beyond its linear term: per dof, the coefficients of v|v| and v^3.
+
+    MuJoCo reads ``damping="b0 b1 b2"`` on a joint or an actuator as the force
+    -(b0 v + b1 v|v| + b2 v^3); b0 is in `Arm.damping`, b1 and b2 here: the joint's own
+    (``dof_dampingpoly``) plus gear^2 times its actuators' (``actuator_dampingpoly``), which
+    MuJoCo applies to the joint velocity as it does their linear damping (measured on
+    MuJoCo 4.0: gear 3, ``damping="1 2 3"``, v = 0.5 rad/s gives 9 x 1.375 N m).
+
+    Returns:
+        Shape (nv, 2) [N m s^2/rad^2 and N m s^3/rad^3; N s^2/m^2 and N s^3/m^3 on a slide].
+    """
+    m = arm.mj_model
+    per_actuator = m.actuator_dampingpoly
+    reflected = [_reflected_per_dof(m, per_actuator[:, k]) for k in range(per_actuator.shape[1])]
+    return np.array(m.dof_dampingpoly) + np.stack(reflected, axis=1).reshape(m.nv, -1)
+
+
+#: What the compared polynomials' numbers are (their linear terms are rows of their own).
+POLY_NOTE = "coefficients of v|v| and v^3 in MuJoCo's damping force, the actuators' included"
+STIFFNESS_NOTE = "MuJoCo's jnt_stiffnesspoly: the spring's coefficients beyond its stiffness"
+
+
+def _terms(coefficients: Array) -> str:
+    """A polynomial's higher coefficients as ``[b1 b2]``."""
+    return "[" + " ".join(f"{float(c):g}" for c in coefficients) + "]"
+
+
+def passive_listing(arm: Arm) -> dict[str, tuple[str, dict[str, Any]]]:
+    """What URDF cannot express of an MJCF arm's passive forces: quantity -> (where, values).
+
+    Joint springs (with their polynomials), damping polynomials (`damping_polynomial`) and
+    gravity compensation, each empty where the arm has none.
+    """
+    m, names = arm.mj_model, arm.joint_names
+    springs = {}
+    for i, (n, k, more) in enumerate(zip(names, m.jnt_stiffness, m.jnt_stiffnesspoly, strict=True)):
+        if k != 0 or any(more):
+            springs[n] = f"stiffness={k:g}, springref={m.qpos_spring[m.jnt_qposadr[i]]:g}"
+            springs[n] += f", stiffness polynomial={_terms(more)}" if any(more) else ""
+    poly = damping_polynomial(arm)
+    dampers = {n: _terms(c) for n, c in zip(names, poly, strict=True) if any(c)}
+    bodies = display_names(m, mujoco.mjtObj.mjOBJ_BODY)
+    gravcomp = {bodies[k]: float(g) for k, g in enumerate(m.body_gravcomp) if g != 0}
+    return {
+        "joint spring": ("joints", springs),
+        "damping polynomial": ("joints", dampers),
+        "gravity compensation": ("bodies", gravcomp),
+    }
+
+
 def passive_forces(
     a: Arm,
     b: Arm,
@@ -70,12 +128,14 @@ def passive_forces(
     length: float,
     seed: int,
 ) -> tuple[tuple[Array, Array], ...]:
-    """Each arm's passive force less damping and gravity compensation, and the latter.
+    """Each arm's passive force less joint damping and gravity compensation, and the latter.
 
     At the poses ``qa`` (A's) and ``qb`` (the same, B's) with random velocities in +-1 rad/s
-    (+-1 arm length per second on a slide), the same for the joints both have. The damping
-    (compared on its own) and the gravity compensation (the second array) are taken out of the
-    passive force, so that no difference is reported twice.
+    (+-1 arm length per second on a slide), the same for the joints both have. The joint
+    damping, its own and its actuators' (`Arm.damping` and `damping_polynomial`, compared on
+    their own), and the gravity compensation (the second array) are taken out of the passive
+    force, so that no difference is reported twice: what is left is springs, tendons and
+    fluid forces.
 
     Args:
         a: Arm A.
@@ -101,8 +161,19 @@ def passive_forces(
         P, C = arm.mujoco.passive_forces(Q, V)
         # The compensation is in qfrc_passive except on joints that send it to actuators.
         passive_gc = C * (m.jnt_actgravcomp[m.dof_jntid] == 0)
-        out.append((P + m.dof_damping * V - passive_gc, C))
+        poly = damping_polynomial(arm)
+        # MuJoCo's damping force is -(b0 v + b1 v|v| + b2 v^3): added back, it is gone.
+        damper = arm.damping() * V + poly[:, 0] * V * np.abs(V) + poly[:, 1] * V**3
+        out.append((P + damper - passive_gc, C))
     return tuple(out)
 
 
-__all__ = ["mujoco_stacks", "passive_forces", "shared_poses"]
+__all__ = [
+    "POLY_NOTE",
+    "STIFFNESS_NOTE",
+    "damping_polynomial",
+    "mujoco_stacks",
+    "passive_forces",
+    "passive_listing",
+    "shared_poses",
+]

@@ -10,7 +10,10 @@ Rules (checked by `check_target` before any work, so a bad path fails at once):
   ``open()`` would give it;
 * the new content goes to a temporary file in the same directory (``.redundancy-*.tmp``, a
   short name whatever the target's length), is flushed to disk, then renamed over the
-  target: a crash leaves the old content or the new, never half of one.
+  target: a crash leaves the old content or the new, never half of one;
+* a report never replaces a file its command read: `input_named` says which input a path
+  is (the same file by ``os.path.samefile``: through a symbolic link, a hard link or
+  another spelling), for the caller to refuse it before any work.
 """
 
 from __future__ import annotations
@@ -19,9 +22,14 @@ import os
 import secrets
 import stat
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import RedundancyError
+
+if TYPE_CHECKING:
+    from ..arm import Arm
 
 #: Start of the temporary file's name beside the target: short and fixed, so any legal
 #: target name (up to 255 bytes) works; a name built from the target's overflowed there.
@@ -76,6 +84,46 @@ def check_target(path: str | os.PathLike[str]) -> Path:
             f"cannot create files in directory {str(parent)!r} of {shown!r}: {err.strerror}"
         ) from err
     return p
+
+
+def input_named(path: str | os.PathLike[str], inputs: Iterable[tuple[str, str]]) -> str | None:
+    """What ``path`` is among the files a command read, or None when it is none of them.
+
+    Args:
+        path: Where a report would be written.
+        inputs: (path, what it is, for a message) of each file read.
+
+    Returns:
+        The ``what`` of the first input that is the same file as ``path``.
+    """
+    if not os.path.exists(path):  # a new file is no input
+        return None
+    for file, what in inputs:
+        try:
+            if os.path.samefile(path, file):
+                return what
+        except OSError:  # an input gone since it was read: nothing there to replace
+            continue
+    return None
+
+
+def read_by(arm: Arm) -> list[tuple[str, str]]:
+    """Every file the load of ``arm`` read, as its recipe lists them: (path, what it is).
+
+    The model, its includes at any depth, the models it attaches, the meshes, textures and
+    height fields MuJoCo read, a URDF's meshes, the SRDF (`redundancy.model.content`).
+    """
+    _, (recipe,) = arm.__reduce__()  # an Arm travels as its recipe
+    shown = arm.source
+    return [
+        (
+            path,
+            f"the model file {shown!r}"
+            if path == recipe.model
+            else f"{path!r}, a file the model {shown!r} reads",
+        )
+        for path, _ in recipe.files
+    ]
 
 
 def _new_temporary(folder: Path) -> tuple[int, str]:
