@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 
 import mujoco
+import pinocchio as pin
 import numpy as np
 import pytest
 
@@ -640,3 +641,86 @@ def test_the_urdf_mujoco_extensions_mass_options_are_mujocos_masses_in_both(
         np.testing.assert_allclose(
             arm.gravity(q, engine=engine), d.qfrc_bias, rtol=1e-12, atol=1e-14
         )
+
+
+# ------------------------------------------------------------------------------------------
+# Found by the survey of published packages (scripts/survey_robots.py --published)
+# ------------------------------------------------------------------------------------------
+
+#: Gymnasium-Robotics' pusher pattern: visual geoms by default, and other root bodies (the
+#: object and the goal) beside the arm.
+VISUAL_BY_DEFAULT = """<mujoco><default><geom contype="0" conaffinity="0"/></default><worldbody>
+  <body name="a"><joint name="j1" axis="0 0 1"/>
+    <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.05"/>
+    <body name="b" pos="0.3 0 0"><joint name="j2" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.05"/>
+      <site name="tip" pos="0.3 0 0"/></body></body>
+  <body name="object" pos="1 0 0"><geom type="sphere" size="0.05"/></body>
+  <body name="goal" pos="1 1 0"><joint name="slide" type="slide" axis="1 0 0"/>
+    <geom type="sphere" size="0.05"/></body>
+</worldbody></mujoco>"""
+
+
+def test_inertias_from_visual_geoms_are_bridged_beside_other_root_bodies(tmp_path: Path) -> None:
+    """Pinocchio's parser leaves visual geoms out of the inertia: bridged whatever the trees.
+
+    Ground truth: raw MuJoCo's mass matrix on the file (Pinocchio's was all zeros).
+    """
+    path = tmp_path / "pusher.xml"
+    path.write_text(VISUAL_BY_DEFAULT)
+    arm = rd.load(path, frame="tip")
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    q = np.array([0.3, -0.7])
+    d.qpos[[m.joint("j1").qposadr[0], m.joint("j2").qposadr[0]]] = q
+    mujoco.mj_forward(m, d)
+    full = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, full)
+    cols = [m.joint("j1").dofadr[0], m.joint("j2").dofadr[0]]
+    assert full[np.ix_(cols, cols)].min() < full[np.ix_(cols, cols)].max()  # a real mass matrix
+    for engine in arm.engines:
+        np.testing.assert_allclose(
+            arm.mass_matrix(q, engine=engine), full[np.ix_(cols, cols)], rtol=1e-12, atol=1e-14
+        )
+    assert rd.crosscheck(arm, np.array([q])).ok
+
+
+def test_an_engine_with_a_singular_mass_matrix_is_a_disagreement_not_a_crash(
+    tmp_path: Path,
+) -> None:
+    """Where one engine's M cannot be inverted, M^-1's quantities disagree (NaN), no LinAlgError."""
+    path = tmp_path / "pusher.xml"
+    path.write_text(VISUAL_BY_DEFAULT)
+    arm = rd.load(path, frame="tip")
+    pm = arm.engines["pinocchio"].model
+    for k in range(1, pm.njoints):  # what the bridge above mends: a model without masses
+        pm.inertias[k] = pin.Inertia.Zero()
+    report = rd.crosscheck(arm, np.array([[0.3, -0.7], [0.1, 0.2]]))
+    assert not report.ok
+    failed = {a.quantity for a in report.agreements if not a.ok}
+    assert {"mass matrix", "dynamic manipulability"} <= failed
+    assert not np.isfinite(report["dynamic manipulability"].max_error)
+
+
+def test_a_tool_name_that_is_a_link_and_a_fixed_joint_says_which_it_read(tmp_path: Path) -> None:
+    """Kinova's gen3 lite: link END_EFFECTOR and a fixed joint END_EFFECTOR to link DUMMY."""
+    text = two_link_urdf(extra='<link name="base"/>').replace(
+        '<link name="tool"/>',
+        '<link name="tool"/><link name="DUMMY"/><joint name="tool" type="fixed">'
+        '<parent link="tool"/><child link="DUMMY"/><origin xyz="0 0 0.13"/></joint>',
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(text)
+    arm = rd.load(path, frame="tool")
+    notes = [a for a in arm.set_aside if a.what == "tool frame"]
+    assert [(a.name, a.reason) for a in notes] == [
+        (
+            "tool",
+            "names a link and a fixed joint (to link 'DUMMY'): the link is the tool; "
+            "the joint's frame is frame='DUMMY'",
+        )
+    ]
+    m = raw_mujoco(path)
+    q = np.array([0.4, -0.9])
+    assert_matches_raw(arm, m, "tool", q)
+    assert_matches_raw(rd.load(path, frame="DUMMY"), m, "DUMMY", q)

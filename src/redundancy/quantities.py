@@ -189,6 +189,26 @@ def _gradient(e: Evaluation) -> Array:
     return out
 
 
+def _singular_values(stack: Array) -> Array:
+    """Singular values of each matrix of ``stack``; NaN for a pose whose matrix is not finite.
+
+    An engine with a singular mass matrix (a model read without masses) gives M^-1 J^T of
+    infinities or NaN, where LAPACK's SVD does not converge: that pose's values are NaN, which
+    the cross-check reports as a disagreement, never an exception.
+    """
+    out = np.full(stack.shape[:-2] + (min(stack.shape[-2:]),), np.nan)
+    finite = np.isfinite(stack).all(axis=(-2, -1))
+    try:
+        out[finite] = np.linalg.svd(stack[finite], compute_uv=False)
+    except np.linalg.LinAlgError:  # finite but not converged: pose by pose, NaN where it fails
+        for k in zip(*np.nonzero(finite), strict=True):
+            try:
+                out[k] = np.linalg.svd(stack[k], compute_uv=False)
+            except np.linalg.LinAlgError:
+                pass
+    return out
+
+
 def _coriolis(e: Evaluation) -> Array:
     out = np.empty((len(e.Q), e.engine.nv, e.engine.nv))
     e.engine.coriolis_stack(e.Q, e.velocities, out, e.threads)
@@ -232,7 +252,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     # tiny factor times others, and carries that factor's rounding (eps sigma_max) as a
     # relative error. A linear column of M^-1 J^T is [1/(kg m)].
     Quantity("dynamic manipulability", "(min(6, nv),)", "1/(kg m)", 1e-8, "tool_mobility",
-             lambda e: np.linalg.svd(e.mobilities[1], compute_uv=False),
+             lambda e: _singular_values(e.mobilities[1]),
              _whole(lambda s: 1.0 / (s.mass * s.length)), dynamic=True, m_inverse=True),
     # C(q, v) in the Christoffel form at a velocity drawn from the seed
     # (`crosscheck_velocities`): MuJoCo's exact polarization of its bias against Pinocchio's

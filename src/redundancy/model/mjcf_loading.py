@@ -188,11 +188,14 @@ def load_mjcf(
             # Pinocchio gets the model as MuJoCo compiled it instead, and the report says why.
             causes = [f"Pinocchio's parser could not read the file ({err.__cause__ or err})"]
     bridged: tuple[Bridge, ...] = ()
+    # The inertia bridges match the file's bodies to MuJoCo's whole model one to one: the
+    # whole file, not the one tree Pinocchio reads.
+    inertia_root: ET.Element | None = root
     if causes:
         pm, bridged = _read_resolved(full, tree_root, causes)
-        pin_root = None  # every inertial is explicit: nothing for the inertia bridges to do
+        inertia_root = None  # every inertial is explicit: nothing for the inertia bridges to do
     frame_type = "body" if kind == "body" else "site"
-    return build_arm(mj, full, pm, sel, robot, bridged, pin_root, "MJCF", frame_type)
+    return build_arm(mj, full, pm, sel, robot, bridged, inertia_root, "MJCF", frame_type)
 
 
 def _read_resolved(

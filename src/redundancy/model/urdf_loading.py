@@ -15,6 +15,7 @@ from ..arm import Arm
 from .assembly import LoadState, build_arm
 from .bridges import Bridge
 from .robot import reduce_mujoco, select_arm
+from .selection import SetAside
 from .support import check_supported
 from .urdf import (
     DisabledPairs,
@@ -40,6 +41,17 @@ def load_urdf(
     source = robot.source
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
+    joint = tree.joints.get(robot.tool)
+    if tool_link == robot.tool and joint is not None and joint[0] == "fixed":
+        robot.set_aside.append(  # the name is ambiguous: say which frame it was read as
+            SetAside(
+                "tool frame",
+                robot.tool,
+                f"names a link and a fixed joint (to link {joint[2]!r}): the link is the tool; "
+                f"the joint's frame is frame={joint[2]!r}",
+                reaches_arm=True,
+            )
+        )
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
     if base_link is None or base_link in tree.links:
         check_chain(tree, chain_joints(tree, tool_link, base_link), source)
