@@ -12,8 +12,8 @@ import os
 from pathlib import Path
 
 import mujoco
-import pinocchio as pin
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import redundancy as rd

@@ -196,7 +196,7 @@ def _singular_values(stack: Array) -> Array:
     infinities or NaN, where LAPACK's SVD does not converge: that pose's values are NaN, which
     the cross-check reports as a disagreement, never an exception.
     """
-    out = np.full(stack.shape[:-2] + (min(stack.shape[-2:]),), np.nan)
+    out = np.full((*stack.shape[:-2], min(stack.shape[-2:])), np.nan)
     finite = np.isfinite(stack).all(axis=(-2, -1))
     try:
         out[finite] = np.linalg.svd(stack[finite], compute_uv=False)

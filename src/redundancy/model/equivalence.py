@@ -404,8 +404,10 @@ def joint_of_body(arm: Arm, body: int) -> str:
 
 
 def parent_joint(arm: Arm, i: int) -> str:
-    """Name of the joint that moves joint ``i``: the one before it in its body, else the
-    parent body's ('' for the base)."""
+    """Name of the joint that moves joint ``i``'s frame ('' for the base).
+
+    The one before it in its body, else the joint that moves the parent body.
+    """
     m = arm.mj_model
     if i > m.body_jntadr[m.jnt_bodyid[i]]:
         return arm.joint_names[i - 1]
