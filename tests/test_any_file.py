@@ -488,7 +488,8 @@ def test_a_mobile_base_with_its_joints_in_one_body_is_served(
 
 
 @pytest.mark.parametrize(
-    ("kind", "base"), [("floating", None), ("floating", "mid"), ("planar", "mid")]
+    ("kind", "base"),
+    [("floating", None), ("floating", "mid"), ("planar", None), ("planar", "mid")],
 )
 def test_a_floating_or_planar_urdf_base_is_held_where_the_file_puts_it(
     tmp_path: Path, kind: str, base: str | None
@@ -510,11 +511,16 @@ def test_a_floating_or_planar_urdf_base_is_held_where_the_file_puts_it(
         assert_matches_raw(arm, m, "tool", q)
 
 
-def test_a_planar_joint_on_the_chain_names_the_base_that_holds_it(tmp_path: Path) -> None:
+def test_a_planar_joint_below_the_chains_first_joint_names_the_base_that_holds_it(
+    tmp_path: Path,
+) -> None:
+    """A planar base is held by default; below a moving joint it is on the arm: refused."""
     stand = (
         '<link name="world"/>'
+        + _link("post")
+        + _joint("turn", "world", "post", "0 0 0.1", "0 0 1")
         + _link("body")
-        + '<joint name="fb" type="planar"><parent link="world"/><child link="body"/>'
+        + '<joint name="fb" type="planar"><parent link="post"/><child link="body"/>'
         '<axis xyz="0 0 1"/></joint><joint name="fm" type="fixed"><parent link="body"/>'
         '<child link="mid"/></joint>' + _link("mid")
     )
@@ -527,6 +533,33 @@ def test_a_planar_joint_on_the_chain_names_the_base_that_holds_it(tmp_path: Path
         "is a chain of revolute and prismatic joints; a planar base is held where the file "
         "puts it when the arm starts below it (base='body')"
     )
+
+
+def test_a_planar_mobile_base_is_held_by_default_and_said(tmp_path: Path) -> None:
+    """Roboplan's reachback: a planar joint from the world to the base, the arm above it."""
+    stand = (
+        '<link name="world"/>'
+        + _link("body")
+        + '<joint name="fb" type="planar"><parent link="world"/><child link="body"/>'
+        '<origin xyz="0.1 0 0.2" rpy="0 0 0.3"/><axis xyz="0 0 1"/></joint>'
+        '<joint name="fm" type="fixed"><parent link="body"/><child link="mid"/>'
+        '<origin xyz="0 0 0.1"/></joint>' + _link("mid")
+    )
+    path = tmp_path / "r.urdf"
+    path.write_text(two_link_urdf("mid", stand))
+    arm = rd.load(path, frame="tool")
+    assert [(a.what, a.name, a.reason) for a in arm.set_aside if a.what == "planar base"] == [
+        (
+            "planar base",
+            "body",
+            "a mobile base: held where the file puts it, the arm starts at its link "
+            "(base='body', as a floating base is held)",
+        )
+    ]
+    m = raw_mujoco(path)
+    for q in rd.random_poses(arm, 4, seed=8):
+        assert_matches_raw(arm, m, "tool", q)
+    assert rd.crosscheck(arm, rd.random_poses(arm, 8, seed=8)).ok
 
 
 ROBOT_IN_DEGREES = """<mujoco><compiler angle="degree"/><worldbody>

@@ -26,7 +26,9 @@ part, this module decides:
 * **mimic joints**: MuJoCo adds an equality constraint, Pinocchio ignores the mimic: set aside
   when the mimic couples held joints (a gripper's fingers), refused when it reaches an arm joint
   (`redundancy.model.robot`); a mimic on a fixed joint is nothing.
-* **floating and planar joints**: refused (a fixed-base arm of hinges and slides).
+* **floating and planar joints**: a base of either is held where the file puts it (the arm
+  starts at the link a planar one moves); a planar joint below a moving joint of the chain is
+  refused (`urdf_tree.check_chain`).
 * **armature**: URDF cannot express it; both engines read 0.
 * **velocity limits**: Pinocchio reads them, MuJoCo drops them; the library uses neither.
 * **self-collision**: URDF has no filter. MuJoCo's parent filter already skips a link and its

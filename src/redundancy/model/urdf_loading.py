@@ -27,7 +27,7 @@ from .urdf import (
     read_disabled_pairs,
     resolve_frame,
 )
-from .urdf_tree import check_chain, mass_settings
+from .urdf_tree import below_planar_base, check_chain, mass_settings
 
 
 def load_urdf(
@@ -53,6 +53,16 @@ def load_urdf(
             )
         )
     base_link = robot.base  # select_arm checks it is a link on the chain to the tool
+    if base_link is None and (below := below_planar_base(tree, tool_link)) is not None:
+        base_link = below
+        robot.set_aside.append(
+            SetAside(
+                "planar base",
+                below,
+                "a mobile base: held where the file puts it, the arm starts at its link "
+                f"(base={below!r}, as a floating base is held)",
+            )
+        )
     if base_link is None or base_link in tree.links:
         check_chain(tree, chain_joints(tree, tool_link, base_link), source)
     disabled, skipped = read_disabled_pairs(pairs, tree)

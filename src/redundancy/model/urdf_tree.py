@@ -286,13 +286,25 @@ def chain_joints(tree: UrdfTree, link: str, base: str | None = None) -> list[str
     return out[::-1]
 
 
+def below_planar_base(tree: UrdfTree, link: str) -> str | None:
+    """The link a planar root joint (a mobile base) moves, where the arm starts by default.
+
+    A robot's planar base is held where the file puts it, as a floating one is: None when the
+    first moving joint from the root to ``link`` is not planar.
+    """
+    chain = chain_joints(tree, link)
+    if chain and tree.joints[chain[0]][0] == "planar":
+        return tree.joints[chain[0]][2]
+    return None
+
+
 def check_chain(tree: UrdfTree, chain: list[str], source: str) -> None:
     """Refuse a planar joint on the arm's chain (a floating one is held, as an MJCF free joint).
 
-    A robot's floating or planar base is held at its zero (the base where the file puts it)
-    when ``base=`` starts the arm below it; MuJoCo reads a planar joint as three joints
-    (``_TX``, ``_TY``, ``_RZ``), Pinocchio as one, so on the chain it has no arm coordinates
-    both engines share.
+    A robot's floating or planar base is held at its zero (the base where the file puts it);
+    a planar one (`below_planar_base`) when the arm starts below it, which is the default.
+    MuJoCo reads a planar joint as three joints (``_TX``, ``_TY``, ``_RZ``), Pinocchio as one,
+    so below another moving joint of the chain it has no arm coordinates both engines share.
 
     Raises:
         UnsupportedFeatureError: A planar joint on the chain (the message names the link to
