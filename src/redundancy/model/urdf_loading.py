@@ -42,7 +42,12 @@ def load_urdf(
     tree = check_urdf(root, source)
     tool_link = resolve_frame(tree, robot.tool)
     joint = tree.joints.get(robot.tool)
-    if tool_link == robot.tool and joint is not None and joint[0] == "fixed":
+    if (
+        tool_link == robot.tool
+        and joint is not None
+        and joint[0] == "fixed"
+        and joint[2] != tool_link
+    ):
         robot.set_aside.append(  # the name is ambiguous: say which frame it was read as
             SetAside(
                 "tool frame",

@@ -8,6 +8,7 @@ inertials) and the loader, which finds the tool link (`resolve_frame`) and the a
 
 from __future__ import annotations
 
+import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
@@ -186,9 +187,19 @@ def _check_xacro(root: ET.Element, source: str) -> None:
             raise UnsupportedFeatureError(
                 "xacro macros",
                 f"<{shown}> in {source}",
-                "this is a xacro file, not URDF; expand it first "
-                "(`xacro robot.urdf.xacro > robot.urdf`) and load the result",
+                f"this is a xacro file, not URDF; expand it first ({_expand_command(source)}) "
+                "and load the result",
             )
+
+
+def _expand_command(source: str) -> str:
+    """The xacro command that expands the user's file (``source``: its path, or a label)."""
+    name = os.path.basename(source) if source.endswith((".xacro", ".urdf")) else ""
+    if not name:
+        return "`xacro model.urdf.xacro > model.urdf`"
+    if name.endswith(".xacro"):
+        return f"`xacro {name} > {name.removesuffix('.xacro')}`"
+    return f"`xacro {name} > {name.removesuffix('.urdf')}_expanded.urdf`"
 
 
 def _check_numbers(root: ET.Element, source: str) -> None:
@@ -290,10 +301,11 @@ def below_planar_base(tree: UrdfTree, link: str) -> str | None:
     """The link a planar root joint (a mobile base) moves, where the arm starts by default.
 
     A robot's planar base is held where the file puts it, as a floating one is: None when the
-    first moving joint from the root to ``link`` is not planar.
+    first moving joint from the root to ``link`` is not planar, or is the only one (no arm is
+    left above it: `check_chain` refuses it, naming it).
     """
     chain = chain_joints(tree, link)
-    if chain and tree.joints[chain[0]][0] == "planar":
+    if len(chain) > 1 and tree.joints[chain[0]][0] == "planar":
         return tree.joints[chain[0]][2]
     return None
 
