@@ -404,10 +404,7 @@ def joint_of_body(arm: Arm, body: int) -> str:
 
 
 def parent_joint(arm: Arm, i: int) -> str:
-    """Name of the joint that moves joint ``i``'s frame ('' for the base).
-
-    The one before it in its body, else the joint that moves the parent body.
-    """
+    """The joint before joint ``i``: in its body, else the parent body's ('' at the base)."""
     m = arm.mj_model
     if i > m.body_jntadr[m.jnt_bodyid[i]]:
         return arm.joint_names[i - 1]

@@ -19,6 +19,7 @@ from .selection import SetAside
 from .support import check_supported
 from .urdf import (
     DisabledPairs,
+    UrdfTree,
     build_mujoco,
     build_pinocchio,
     chain_joints,
@@ -30,24 +31,15 @@ from .urdf import (
 from .urdf_tree import below_planar_base, check_chain, mass_settings
 
 
-def load_urdf(
-    text: str,
-    root: ET.Element,
-    base: Path,
-    pairs: DisabledPairs | None,
-    robot: LoadState,
-) -> Arm:
-    """Both engines' URDF importers on the whole robot, checked (see `urdf`)."""
-    source = robot.source
-    tree = check_urdf(root, source)
+def _arm_ends(tree: UrdfTree, robot: LoadState) -> tuple[str, str | None]:
+    """The tool link and the base link the arm starts from, each said where it was inferred.
+
+    A tool name that is a link and a fixed joint to another link is the link; a planar base
+    is held by default (`urdf_tree.below_planar_base`). ``robot.base`` stays what was asked.
+    """
     tool_link = resolve_frame(tree, robot.tool)
     joint = tree.joints.get(robot.tool)
-    if (
-        tool_link == robot.tool
-        and joint is not None
-        and joint[0] == "fixed"
-        and joint[2] != tool_link
-    ):
+    if joint is not None and joint[0] == "fixed" and tool_link == robot.tool != joint[2]:
         robot.set_aside.append(  # the name is ambiguous: say which frame it was read as
             SetAside(
                 "tool frame",
@@ -68,6 +60,20 @@ def load_urdf(
                 f"(base={below!r}, as a floating base is held)",
             )
         )
+    return tool_link, base_link
+
+
+def load_urdf(
+    text: str,
+    root: ET.Element,
+    base: Path,
+    pairs: DisabledPairs | None,
+    robot: LoadState,
+) -> Arm:
+    """Both engines' URDF importers on the whole robot, checked (see `urdf`)."""
+    source = robot.source
+    tree = check_urdf(root, source)
+    tool_link, base_link = _arm_ends(tree, robot)
     if base_link is None or base_link in tree.links:
         check_chain(tree, chain_joints(tree, tool_link, base_link), source)
     disabled, skipped = read_disabled_pairs(pairs, tree)
