@@ -209,6 +209,29 @@ def test_meshes_found_nowhere_leave_everything_but_collision(tmp_path: Path) -> 
     assert copy.missing_meshes == arm.missing_meshes
 
 
+def test_the_audit_of_an_arm_with_meshes_found_nowhere_notes_the_sweep_it_skips(
+    tmp_path: Path,
+) -> None:
+    """Everything but the self-collision sweep is audited; the note names link and file."""
+    import json
+
+    from redundancy.cli import main
+
+    _box(tmp_path / "m" / "a.stl", 0.05)
+    missing = "package://not_installed_pkg/meshes/b.stl"
+    path = tmp_path / "r.urdf"
+    path.write_text(_with_meshes("m/a.stl", missing))
+    out = tmp_path / "report.json"
+    code = main(["audit", str(path), "--frame", "tool", "--poses", "20", "--json", str(out)])
+    report = json.loads(out.read_text())
+    assert code in (0, 1)  # findings or none: the audit ran
+    assert report["collision"] is None
+    assert [n["message"] for n in report["notes"] if n["kind"] == "meshes"] == [
+        f"skipped the self-collision sweep: the file names meshes found nowhere (link 'l2': "
+        f"'{missing}'); install the package that ships them (or put it on ROS_PACKAGE_PATH)"
+    ]
+
+
 # ------------------------------------------------------------------------------------------
 # MJCF files: which bytes are read (includes, attached models, meshes, encodings, links)
 # ------------------------------------------------------------------------------------------

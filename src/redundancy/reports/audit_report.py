@@ -209,9 +209,11 @@ class AuditReport(Report):
             "moves_held": k.moves_held,
         }
 
-    def _collision_data(self) -> dict[str, Any]:
-        """The self-collision section of the JSON document."""
+    def _collision_data(self) -> dict[str, Any] | None:
+        """The self-collision section of the JSON document (None: not swept, see the notes)."""
         c, t = self.sections.contacts, self.sections.touching
+        if c is None:
+            return None
         urdf = self.model_format == "URDF"
         return {
             "n_poses": c.n_poses,
@@ -511,6 +513,8 @@ def _gravity_lines(r: AuditReport) -> list[str]:
 
 def _collision_lines(r: AuditReport) -> list[str]:
     c = r.sections.contacts
+    if c is None:
+        return ["self-collision: not swept, the file names meshes found nowhere (see the notes)"]
     ranked = sorted(c.pairs, key=lambda p: (-p.poses, p.closest))[:8]
     t = r.sections.touching
     without = (

@@ -68,6 +68,13 @@ def quoted(items: list[str]) -> str:
 
 def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
     """What the model's inertias do not allow: skipped sections, an ill-conditioned M."""
+    if arm.missing_meshes:
+        meshes = "; ".join(f"link {m.link!r}: {m.file!r}" for m in arm.missing_meshes)
+        out.note(
+            "meshes",
+            f"skipped the self-collision sweep: the file names meshes found nowhere ({meshes}); "
+            "install the package that ships them (or put it on ROS_PACKAGE_PATH)",
+        )
     if arm.missing_inertia:
         links = quoted(list(arm.missing_inertia))
         for section in (
@@ -165,7 +172,7 @@ def _judge_keyframes(out: _Judged, arm: Arm, s: Sections) -> None:
                 f"{SINGULAR_SIGMA:g}, rank {k.svd.rank} (lost: {lost})",
             )
         _unheld(out, arm, k)
-    for c in s.contacts.keyframes:
+    for c in s.contacts.keyframes if s.contacts is not None else ():
         if c.contacts:
             out.finding(
                 "keyframe", f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)"
@@ -212,8 +219,8 @@ def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, ur
                 )
 
 
-def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics) -> None:
-    if c.disagreements > 0:
+def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics | None) -> None:
+    if c is not None and c.disagreements > 0:
         out.finding(
             "engines",
             f"{c.distance_engine}'s touching pairs differ from MuJoCo's contacts in "

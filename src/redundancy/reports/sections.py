@@ -331,7 +331,7 @@ class Sections:
     joints: JointSection
     keyframes: tuple[KeyframeRow, ...]
     gravity: GravityBudget | None  # None: the arm's links lack inertias (arm.missing_inertia)
-    contacts: CollisionStatistics
+    contacts: CollisionStatistics | None  # None: meshes found nowhere (arm.missing_meshes)
     touching: TouchingEverywhere | None = None
 
 
@@ -346,7 +346,8 @@ def compute(
     """Every section: gravity and self-collision over the same ``n_poses`` poses of ``seed``.
 
     An arm whose links lack inertias (``arm.missing_inertia``) gets no gravity budget
-    (None), NaN for M_ii, the timestep bounds and the keyframes' holding torques.
+    (None), NaN for M_ii, the timestep bounds and the keyframes' holding torques; one whose
+    file names meshes found nowhere (``arm.missing_meshes``) no self-collision sweep (None).
 
     Args:
         arm: The arm.
@@ -359,6 +360,8 @@ def compute(
     say = progress or _quiet
     joint_section, keys = joints(arm, kd), keyframes(arm)
     gravity = None if arm.missing_inertia else gravity_budget(arm, n_poses, seed, say)
+    if arm.missing_meshes:  # collision would need them: the audit notes the sweep skipped
+        return Sections(joint_section, keys, gravity, None)
     collisions = contacts(arm, n_poses, seed, distances, say)
     touching = touching_everywhere(arm, collisions, seed)
     return Sections(joint_section, keys, gravity, collisions, touching)
