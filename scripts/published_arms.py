@@ -1169,7 +1169,7 @@ def table(rows: list[Row]) -> str:
         "| cross-check | vs raw MuJoCo | raw MuJoCo reference | Pinocchio raw | time |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
+    for r in sorted(rows, key=lambda r: (r.package, r.file, r.tool, r.base or "")):
         tool = r.tool + (f" (base {r.base})" if r.base else "")
         fmt = lambda v: "-" if v is None else f"{v:.1e}"  # noqa: E731
         out.append(
