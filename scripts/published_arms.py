@@ -47,6 +47,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from redundancy.model.xmlfile import parse_xml
+
 #: Where the downloads and the unpacked packages go, unless ``--cache`` says otherwise.
 DEFAULT_CACHE = Path("~/.cache/redundancy-survey").expanduser()
 
@@ -211,17 +213,11 @@ def fetch(cache: Path, packages: tuple[tuple[str, str], ...] = PACKAGES) -> dict
 # --- raw MuJoCo: the reference ------------------------------------------------------------
 
 
-def parse_xml(text: str) -> ET.Element:
-    """An XML document's root; undeclared namespace prefixes (``<xacro:...>``) tolerated."""
-    try:
-        return ET.fromstring(text)
-    except ET.ParseError:
-        text = re.sub(r"<(/?)([A-Za-z_][\w.-]*):", r"<\1\2_", text)
-        text = re.sub(r"(\s)([A-Za-z_][\w.-]*):([\w.-]+=)", r"\1\2_\3", text)
-        return ET.fromstring(text)
-
-
 def _read_xml(path: Path) -> ET.Element:
+    """The file's XML by the library's reader (undeclared prefixes tolerated).
+
+    Only mesh names and fixed joints are read from it, never what the reference compares.
+    """
     return parse_xml(path.read_bytes().decode("utf-8", errors="replace"))
 
 

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from ..arm import Arm, sampling_ranges
 from ..engines.contract import Stacks
-from ..model.actuators import _reflected_per_dof
+from ..model.actuators import actuator_damping_polynomial
 from ..model.names import display_names
 
 Array = NDArray[np.float64]
@@ -80,9 +80,7 @@ def damping_polynomial(arm: Arm) -> Array:
         Shape (nv, 2) [N m s^2/rad^2 and N m s^3/rad^3; N s^2/m^2 and N s^3/m^3 on a slide].
     """
     m = arm.mj_model
-    per_actuator = m.actuator_dampingpoly
-    reflected = [_reflected_per_dof(m, per_actuator[:, k]) for k in range(per_actuator.shape[1])]
-    return np.array(m.dof_dampingpoly) + np.stack(reflected, axis=1).reshape(m.nv, -1)
+    return m.dof_dampingpoly + actuator_damping_polynomial(m)
 
 
 #: What the compared polynomials' numbers are (their linear terms are rows of their own).

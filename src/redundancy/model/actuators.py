@@ -265,6 +265,16 @@ def actuator_damping(model: mujoco.MjModel) -> Array:
     return _reflected_per_dof(model, model.actuator_damping)
 
 
+def actuator_damping_polynomial(model: mujoco.MjModel) -> Array:
+    """The damping polynomial's higher terms actuators add to each dof, ``gear^2 * b1, b2``.
+
+    MuJoCo applies an actuator's ``damping="b0 b1 b2"`` to the joint velocity as it does its
+    linear damping (b0, `actuator_damping`). Shape (nv, 2): the v|v| and v^3 coefficients.
+    """
+    poly = model.actuator_dampingpoly
+    return np.stack([_reflected_per_dof(model, poly[:, k]) for k in range(poly.shape[1])], axis=1)
+
+
 def servo_damping(model: mujoco.MjModel) -> Array:
     """Damping a servo's own velocity feedback gives each dof [N m s/rad].
 

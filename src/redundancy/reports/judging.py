@@ -34,6 +34,7 @@ def judge(
     """The findings and notes of an arm's audit sections, in the order the report gives them."""
     urdf = arm.model_format == "URDF"
     judged = _Judged()
+    _judge_meshes(judged, arm)
     _judge_inertia(judged, arm, engines)
     _judge_joints(judged, computed.joints, urdf)
     _judge_simulation(judged, computed)
@@ -66,8 +67,8 @@ def quoted(items: list[str]) -> str:
     return ", ".join(repr(n) for n in items)
 
 
-def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
-    """What the model's inertias do not allow: skipped sections, an ill-conditioned M."""
+def _judge_meshes(out: _Judged, arm: Arm) -> None:
+    """Meshes found nowhere: the self-collision sweep that needs them was skipped."""
     if arm.missing_meshes:
         meshes = "; ".join(f"link {m.link!r}: {m.file!r}" for m in arm.missing_meshes)
         out.note(
@@ -75,6 +76,10 @@ def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
             f"skipped the self-collision sweep: the file names meshes found nowhere ({meshes}); "
             "install the package that ships them (or put it on ROS_PACKAGE_PATH)",
         )
+
+
+def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
+    """What the model's inertias do not allow: skipped sections, an ill-conditioned M."""
     if arm.missing_inertia:
         links = quoted(list(arm.missing_inertia))
         for section in (
