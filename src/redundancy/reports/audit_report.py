@@ -20,39 +20,12 @@ from ..display import table as html_table
 from ..errors import DeprecatedAlias
 from ..model.equivalence import EquivalenceReport
 from . import sections
+from .findings import Finding, Note
 from .sections import Sections
 from .tables import exclusion, fit, fmt, key, limit, ms, one_line, table, timestep_text
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
-
-
-@dataclass(frozen=True)
-class Finding:
-    """Something in the model a user should act on.
-
-    Attributes:
-        kind: Category: ``armature``, ``timestep``, ``simulation``, ``gravity``,
-            ``keyframe``, ``engines``.
-        message: What is wrong and where, with the numbers.
-    """
-
-    kind: str
-    message: str
-
-
-@dataclass(frozen=True)
-class Note:
-    """What the audit cannot judge from the file, and what it assumed instead.
-
-    Attributes:
-        kind: Category: ``format`` (the file's format cannot express it), ``armature``,
-            ``timestep``.
-        message: What is missing and what the numbers use in its place.
-    """
-
-    kind: str
-    message: str
 
 
 @dataclass(frozen=True)
