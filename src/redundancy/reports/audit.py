@@ -3,10 +3,10 @@
 The audit takes the shared `sections` (joints and timesteps, keyframes, gravity against the
 actuators, self-collision), adds the engines' agreement and the model comparison, and *judges*
 what the file says (`redundancy.reports.judging`): a
-[`Finding`][redundancy.reports.audit_report.Finding] only where the model's own numbers show a
+[`Finding`][redundancy.reports.findings.Finding] only where the model's own numbers show a
 problem (a keyframe the actuators cannot hold, a timestep above the stable bound of the damping
 the model has, engines that disagree); what the file's format cannot express (a URDF's armature,
-actuators, timestep and integrator) is a [`Note`][redundancy.reports.audit_report.Note], never a
+actuators, timestep and integrator) is a [`Note`][redundancy.reports.findings.Note], never a
 finding. Numbers follow what MuJoCo simulates: the integrator and its flags, gravity
 compensation, actuator ranges per direction, servo damping. The explicit-damping question (which
 timestep a controller's kd allows) is asked only with ``kd`` or of a model whose servos have

@@ -1,8 +1,8 @@
 """The audit's rules: which numbers of the sections are a finding to act on, which a note.
 
-A [`Finding`][redundancy.reports.audit_report.Finding] only where the model's own numbers show a
+A [`Finding`][redundancy.reports.findings.Finding] only where the model's own numbers show a
 problem; what the file's format cannot express is a
-[`Note`][redundancy.reports.audit_report.Note], never a finding.
+[`Note`][redundancy.reports.findings.Note], never a finding.
 """
 
 from __future__ import annotations
