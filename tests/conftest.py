@@ -78,3 +78,27 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         for name, n in sorted(log.examples.items()):
             row = ", ".join(f"{q} {e:.1e}" for (a, q), e in log.worst.items() if a == name)
             tr.write_line(f"{name} ({n} examples): {row}")
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """On an xdist worker, hand its engine log to the controller, which prints the summary."""
+    output = getattr(session.config, "workeroutput", None)
+    if output is not None:
+        log = session.config.stash[_LOG]
+        output["engine_log"] = {
+            "worst": [[a, q, e] for (a, q), e in log["worst"].items()],
+            "examples": dict(log["examples"]),
+        }
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: object, error: object) -> None:
+    """Merge a finished xdist worker's engine log into the controller's (largest wins)."""
+    sent = getattr(node, "workeroutput", {}).get("engine_log")
+    if sent is None:
+        return
+    log = node.config.stash[_LOG]  # type: ignore[attr-defined]
+    for a, q, e in sent["worst"]:
+        log["worst"][(a, q)] = max(log["worst"].get((a, q), 0.0), e)
+    for name, n in sent["examples"].items():
+        log["examples"][name] = log["examples"].get(name, 0) + n
