@@ -19,6 +19,7 @@ from .audit_report import (
     Finding,
     Note,
 )
+from .rules import rule
 from .sections import GravityBudget, JointSection, KeyframeRow, Sections
 from .tables import exclusion, limit, one_line, timestep_text
 
@@ -44,7 +45,7 @@ def judge(
     _judge_engines(judged, engines, computed.contacts)
     _judge_touching(judged, computed.touching, urdf)
     for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
-        judged.finding("published inertia", defect)
+        judged.finding("published-inertia", defect)
     return tuple(judged.findings), tuple(judged.notes)
 
 
@@ -55,11 +56,13 @@ class _Judged:
         self.findings: list[Finding] = []
         self.notes: list[Note] = []
 
-    def finding(self, kind: str, message: str) -> None:
-        self.findings.append(Finding(kind, message))
+    def finding(self, rule_id: str, message: str, element: str | None = None) -> None:
+        r = rule(rule_id)
+        self.findings.append(Finding(r.kind, message, r.id, r.severity, element=element))
 
-    def note(self, kind: str, message: str) -> None:
-        self.notes.append(Note(kind, message))
+    def note(self, rule_id: str, message: str, element: str | None = None) -> None:
+        r = rule(rule_id)
+        self.notes.append(Note(r.kind, message, r.id, element=element))
 
 
 def quoted(items: list[str]) -> str:
@@ -72,7 +75,7 @@ def _judge_meshes(out: _Judged, arm: Arm) -> None:
     if arm.missing_meshes:
         meshes = "; ".join(f"link {m.link!r}: {m.file!r}" for m in arm.missing_meshes)
         out.note(
-            "meshes",
+            "meshes-missing",
             f"skipped the self-collision sweep: the file names meshes found nowhere ({meshes}); "
             "install the package that ships them (or put it on ROS_PACKAGE_PATH)",
         )
@@ -89,11 +92,11 @@ def _judge_inertia(out: _Judged, arm: Arm, e: EngineAgreement) -> None:
             "the effective mass at the tool",
             f"the engines' cross-check of {', '.join(DYNAMIC_QUANTITIES)}",
         ):
-            out.note("inertia", f"skipped {section}: the file gives no inertia for {links}")
+            out.note("inertia-missing", f"skipped {section}: the file gives no inertia for {links}")
     kappa = e.crosscheck.mass_condition
     if kappa is not None and kappa > ILL_CONDITIONED:
         out.finding(
-            "inertia",
+            "mass-matrix-ill-conditioned",
             f"the mass matrix is ill-conditioned: cond(M) up to {kappa:.2g} (links with mass "
             "but almost no rotational inertia?); anything solved with M (effective mass, "
             f"operational inertia, accelerations) carries a relative rounding of about "
@@ -107,17 +110,17 @@ def _judge_joints(out: _Judged, j: JointSection, urdf: bool) -> None:
     arma = np.array([r.armature for r in rows])
     if urdf:
         out.note(
-            "format",
+            "urdf-no-armature",
             "URDF cannot express armature (a geared joint's rotor inertia N^2 J_rotor): the "
             "mass matrix has none",
         )
         out.note(
-            "format",
+            "urdf-no-actuators",
             "URDF cannot express actuators: each joint's <limit effort> is the limit MuJoCo "
             "applies (actuatorfrcrange), the gravity budget's limit",
         )
         out.note(
-            "format",
+            "urdf-no-timestep",
             f"URDF cannot express the timestep or the integrator: MuJoCo's defaults "
             f"({timestep_text(h)}, {j.simulation.integrator}) are used",
         )
@@ -125,13 +128,13 @@ def _judge_joints(out: _Judged, j: JointSection, urdf: bool) -> None:
         zero = [r.name for r in rows if r.armature == 0.0]
         if zero:
             out.note(
-                "armature",
+                "armature-zero",
                 f"zero armature on {quoted(zero)}: a geared joint's rotor inertia N^2 J_rotor "
                 "is missing unless the joint is direct-drive",
             )
         if len(set(np.round(arma, 12))) == 1 and arma[0] > 0 and len(arma) > 1:
             out.note(
-                "armature",
+                "armature-uniform",
                 f"every joint has the same armature {arma[0]:g} kg m^2: reflected inertia is "
                 "N^2 J_rotor and differs between a shoulder and a wrist motor",
             )
@@ -148,18 +151,21 @@ def _judge_joints(out: _Judged, j: JointSection, urdf: bool) -> None:
                 + f"; {j.note}): the joint's speed will grow step by step"
             )
             if urdf:  # the file sets no timestep: the bound tells the user which to choose
-                out.note("timestep", f"MuJoCo's default {text}")
+                out.note("timestep-default-unstable", f"MuJoCo's default {text}", r.name)
             else:
-                out.finding("timestep", text)
+                out.finding("timestep-unstable", text, r.name)
     if h <= 0:
-        out.finding("timestep", f"timestep {h:g} s is not positive: MuJoCo cannot step the model")
+        out.finding(
+            "timestep-not-positive",
+            f"timestep {h:g} s is not positive: MuJoCo cannot step the model",
+        )
 
 
 def _judge_simulation(out: _Judged, s: Sections) -> None:
     sim = s.joints.simulation
     if not sim.gravity_enabled and any(sim.gravity):
         out.finding(
-            "simulation",
+            "gravity-disabled",
             'gravity is disabled (<flag gravity="disable"/>): MuJoCo simulates the arm '
             f"weightless, ignoring gravity [{', '.join(f'{g:g}' for g in sim.gravity)}] "
             "m/s^2, so the gravity budget is 0: the motors are never checked against the "
@@ -172,25 +178,29 @@ def _judge_keyframes(out: _Judged, arm: Arm, s: Sections) -> None:
         if k.svd.sigma[-1] < SINGULAR_SIGMA:
             lost = ", ".join(k.svd.lost_direction_names()) or "see U"
             out.finding(
-                "keyframe",
+                "keyframe-singular",
                 f"keyframe {k.name!r} is singular: sigma_min {k.svd.sigma[-1]:.2e} < "
                 f"{SINGULAR_SIGMA:g}, rank {k.svd.rank} (lost: {lost})",
+                k.name,
             )
         _unheld(out, arm, k)
     for c in s.contacts.keyframes if s.contacts is not None else ():
         if c.contacts:
             out.finding(
-                "keyframe", f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)"
+                "keyframe-self-contact",
+                f"keyframe {c.keyframe!r} is in self-contact ({c.contacts} contacts)",
+                c.keyframe,
             )
 
 
 def _unheld(out: _Judged, arm: Arm, k: KeyframeRow) -> None:
     for i in k.unheld:
         out.finding(
-            "keyframe",
+            "keyframe-unheld",
             f"keyframe {k.name!r} cannot be held: joint {arm.joint_names[i]!r} needs "
             f"{k.hold[i]:.4g} N m, its actuators give "
             f"{limit(float(k.effort_lower[i]), float(k.effort_upper[i]))} N m there",
+            k.name,
         )
 
 
@@ -200,9 +210,10 @@ def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, ur
         # A URDF has no actuators at all (a note says so); its effort limits are judged below.
         if not urdf and not j.rows[i].actuated and g.peak[i] > 1e-9:
             out.finding(
-                "gravity",
+                "joint-unactuated-loaded",
                 f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
                 f"{g.peak[i]:.3g} N m: nothing in the model holds it",
+                name,
             )
         for count, (need, lim), side in (
             (g.over_low[i], g.worst_low[i], "negative"),
@@ -210,34 +221,37 @@ def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, ur
         ):
             if count and urdf:  # no actuators: the file's effort limit is what binds
                 out.finding(
-                    "gravity",
+                    "gravity-over-limit",
                     f"gravity at joint {name!r} needs more {side} torque than its <limit "
                     f"effort> allows in {count} of {g.n_poses} poses; worst: needs "
                     f"{need:.3g} N m where the limit is {lim:.3g} N m",
+                    name,
                 )
             elif count:
                 out.finding(
-                    "gravity",
+                    "gravity-over-limit",
                     f"gravity{comp} at joint {name!r} needs more {side} torque than its "
                     f"actuators give in {count} of {g.n_poses} poses; worst: needs "
                     f"{need:.3g} N m where their most {side} is {lim:.3g} N m",
+                    name,
                 )
 
 
 def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics | None) -> None:
     if c is not None and c.disagreements > 0:
         out.finding(
-            "engines",
+            "engines-contacts-differ",
             f"{c.distance_engine}'s touching pairs differ from MuJoCo's contacts in "
             f"{c.disagreements} of {c.n_poses} poses",
         )
     for a in e.crosscheck.agreements:
         if not a.ok:
             out.finding(
-                "engines", f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}"
+                "engines-disagree",
+                f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}",
             )
     for d in e.equivalence.differences:
-        out.finding("engines", f"models differ: {one_line(d)}")
+        out.finding("engines-models-differ", f"models differ: {one_line(d)}")
 
 
 def _judge_touching(out: _Judged, t: sections.TouchingEverywhere | None, urdf: bool) -> None:
@@ -250,9 +264,10 @@ def _judge_touching(out: _Judged, t: sections.TouchingEverywhere | None, urdf: b
             else f"{fix['mjcf']} in the MJCF file"
         )
         out.note(
-            "collision",
+            "pair-always-touching",
             f"{p.pair.label} touch in {p.poses} of {t.n_poses} poses: a pair in contact at "
             "(nearly) every pose is almost always two links whose collision shapes overlap where "
             "a joint joins them, an exclusion the file lacks rather than a collision to avoid; "
             f"if so, exclude it with {remedy}",
+            p.pair.label,
         )
