@@ -52,3 +52,100 @@ def test_arm7s_singular_keyframe_is_a_warning_naming_the_keyframe():
     assert {"rule": "keyframe-singular", "severity": "warning", "element": "zero"}.items() <= (
         data["findings"][0].items()
     )
+
+
+# -- plausible physics: each rule on a published file with the defect planted ------------------
+def _planted(tmp_path, name, old, new):
+    text = (MODELS / name).read_text()
+    assert text.count(old) == 1, old
+    path = tmp_path / name
+    path.write_text(text.replace(old, new))
+    return path, text.replace(old, new).splitlines()
+
+
+def _raised(path, frame=None, rules=None):
+    report = audit(rd.load(path, frame=frame), n_poses=20, seed=0)
+    items = (*report.findings, *report.notes)
+    return [i for i in items if rules is None or i.rule in rules]
+
+
+def _line_of(lines, needle):
+    return next(i + 1 for i, text in enumerate(lines) if needle in text)
+
+
+def test_a_keyframe_outside_a_range_names_the_keyframe_joint_and_line(tmp_path):
+    path, lines = _planted(
+        tmp_path, "arm7.xml", 'qpos="0 0.5 0 1.6 0 1.0416 0"', 'qpos="0 0.5 0 3.25 0 1.0416 0"'
+    )
+    (f,) = _raised(path, rules={"keyframe-out-of-range"})
+    assert (f.severity, f.element, f.file, f.line) == (
+        "error",
+        "home",
+        str(path),
+        _line_of(lines, '<key name="home"'),
+    )
+    assert "joint 'j4' at 3.25, above its range [-0.1, 2.9] rad by 0.35 rad" in f.message
+
+
+def test_a_reference_pose_outside_a_range_is_a_note_naming_the_joint(tmp_path):
+    path, lines = _planted(tmp_path, "arm7.xml", 'range="-0.1 2.9"', 'range="0.25 2.9"')
+    raised = _raised(path, rules={"reference-out-of-range", "keyframe-out-of-range"})
+    ref = [r for r in raised if r.rule == "reference-out-of-range"]
+    assert [(r.severity, r.element, r.line) for r in ref] == [
+        ("note", "j4", _line_of(lines, 'name="j4"'))
+    ]
+    assert "joint 'j4' at 0, below its range [0.25, 2.9] rad by 0.25 rad" in ref[0].message
+    # keyframe zero puts j4 at 0 too; home (1.6) is inside
+    assert [(r.rule, r.element) for r in raised if r.rule != "reference-out-of-range"] == [
+        ("keyframe-out-of-range", "zero")
+    ]
+
+
+@pytest.mark.parametrize("attr", ["effort", "velocity"])
+def test_a_zero_effort_or_velocity_limit_on_a_moving_joint_is_a_finding(tmp_path, attr):
+    text = (MODELS / "panda.urdf").read_text()
+    joint = re.search(r'<joint name="joint3".*?</joint>', text, re.S).group(0)
+    planted = re.sub(rf'{attr}="[^"]*"', f'{attr}="0"', joint, count=1)
+    assert planted != joint
+    path = tmp_path / "panda.urdf"
+    path.write_text(text.replace(joint, planted))
+    lines = path.read_text().splitlines()
+    (f,) = _raised(path, frame="ee", rules={f"{attr}-limit-zero"})
+    assert (f.severity, f.element, f.line) == (
+        "error",
+        "joint3",
+        _line_of(lines, '<joint name="joint3"'),
+    )
+    assert f'<limit {attr}="0">' in f.message
+
+
+def test_mass_zero_on_a_moving_link_is_a_finding_naming_the_link_not_a_load_failure(tmp_path):
+    path, lines = _planted(tmp_path, "panda.urdf", '<mass value="1.225946"/>', '<mass value="0"/>')
+    (f,) = _raised(path, frame="ee", rules={"mass-not-positive"})
+    assert (f.severity, f.element, f.line) == (
+        "error",
+        "link5",
+        _line_of(lines, '<link name="link5"'),
+    )
+    assert "mass 0 kg" in f.message
+
+
+@pytest.mark.parametrize(
+    ("name", "frame", "notes"),
+    [
+        ("arm7.xml", None, []),
+        # Franka's joint4 range is [-3.07, -0.07] rad: the zero pose is outside it (a note)
+        ("panda.urdf", "ee", [("reference-out-of-range", "note", "joint4")]),
+        ("panda.xml", None, [("reference-out-of-range", "note", "joint4")]),
+    ],
+)
+def test_the_clean_published_files_raise_no_physics_error_or_warning(name, frame, notes):
+    physics = {
+        "keyframe-out-of-range",
+        "reference-out-of-range",
+        "effort-limit-zero",
+        "velocity-limit-zero",
+        "mass-not-positive",
+    }
+    raised = _raised(MODELS / name, frame, physics)
+    assert [(r.rule, r.severity, r.element) for r in raised] == notes

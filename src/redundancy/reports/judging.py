@@ -7,18 +7,21 @@ problem; what the file's format cannot express is a
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from ..analysis.crosscheck import DYNAMIC_QUANTITIES
 from ..arm import Arm
 from ..collision import CollisionStatistics
-from . import sections
+from . import physics, sections
 from .audit_report import (
     SINGULAR_SIGMA,
     EngineAgreement,
     Finding,
     Note,
 )
+from .locations import Locations
 from .rules import rule
 from .sections import GravityBudget, JointSection, KeyframeRow, Sections
 from .tables import exclusion, limit, one_line, timestep_text
@@ -34,7 +37,7 @@ def judge(
 ) -> tuple[tuple[Finding, ...], tuple[Note, ...]]:
     """The findings and notes of an arm's audit sections, in the order the report gives them."""
     urdf = arm.model_format == "URDF"
-    judged = _Judged()
+    judged = _Judged(Locations(arm.source))
     _judge_meshes(judged, arm)
     _judge_inertia(judged, arm, engines)
     _judge_joints(judged, computed.joints, urdf)
@@ -46,23 +49,55 @@ def judge(
     _judge_touching(judged, computed.touching, urdf)
     for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
         judged.finding("published-inertia", defect)
+    for raised in (
+        *physics.masses(arm),
+        *physics.urdf_limits(arm),
+        *physics.joint_ranges(arm, dict(arm.keyframes)),
+    ):
+        if rule(raised[0]).severity == "note":
+            judged.note(raised[0], raised[1], raised[3], raised[2])
+        else:
+            judged.finding(raised[0], raised[1], raised[3], raised[2])
     return tuple(judged.findings), tuple(judged.notes)
 
 
 class _Judged:
     """Findings and notes, in the order the report gives them."""
 
-    def __init__(self) -> None:
+    #: The kind of element (`Locations`) a rule's findings name, by the rule's kind.
+    _TAGS: ClassVar[dict[str, str]] = {"keyframe": "key", "gravity": "joint", "timestep": "joint"}
+
+    def __init__(self, locations: Locations) -> None:
         self.findings: list[Finding] = []
         self.notes: list[Note] = []
+        self.locations = locations
 
-    def finding(self, rule_id: str, message: str, element: str | None = None) -> None:
-        r = rule(rule_id)
-        self.findings.append(Finding(r.kind, message, r.id, r.severity, element=element))
+    def finding(
+        self, rule_id: str, message: str, element: str | None = None, tag: str | None = None
+    ) -> None:
+        """A finding of rule ``rule_id``, with the file and line of ``element``.
 
-    def note(self, rule_id: str, message: str, element: str | None = None) -> None:
+        ``tag`` is the element's kind (``link``, ``joint``, ``key``); by default the one the
+        rule's kind names.
+        """
         r = rule(rule_id)
-        self.notes.append(Note(r.kind, message, r.id, element=element))
+        file, line = self._where(r.kind, element, tag)
+        self.findings.append(Finding(r.kind, message, r.id, r.severity, file, line, element))
+
+    def note(
+        self, rule_id: str, message: str, element: str | None = None, tag: str | None = None
+    ) -> None:
+        """A note of rule ``rule_id``, located as `finding` locates one."""
+        r = rule(rule_id)
+        file, line = self._where(r.kind, element, tag)
+        self.notes.append(Note(r.kind, message, r.id, "note", file, line, element))
+
+    def _where(
+        self, kind: str, element: str | None, tag: str | None
+    ) -> tuple[str | None, int | None]:
+        tag = tag or self._TAGS.get(kind)
+        line = self.locations.line(tag, element) if element and tag else None
+        return (self.locations.file if line is not None else None), line
 
 
 def quoted(items: list[str]) -> str:

@@ -1,0 +1,63 @@
+"""Where an element is in the arm's file: the XML line of a link, body, joint or keyframe.
+
+ElementTree forgets lines; `element_lines` reads the file with `xml.parsers.expat`, which
+reports the line of each start tag, so that a finding can name the file and line of the
+element it concerns (what SARIF, JUnit and GitHub annotations point at).
+"""
+
+from __future__ import annotations
+
+import xml.parsers.expat
+from pathlib import Path
+
+#: The tags that name the elements findings concern, by what they are: a URDF link or an
+#: MJCF body (``link``), a joint, an MJCF keyframe (``key``).
+_KINDS = {"link": "link", "body": "link", "joint": "joint", "key": "key"}
+
+
+def element_lines(text: str | bytes) -> dict[tuple[str, str], int]:
+    """The line of each named link, body, joint and keyframe in one XML document.
+
+    Args:
+        text: The document.
+
+    Returns:
+        ``(kind, name) -> line`` (1-based), kind ``link`` (a URDF link, an MJCF body),
+        ``joint`` or ``key``; the first element of a name wins. Empty when the text is not
+        well-formed XML (a finding then names no line).
+    """
+    lines: dict[tuple[str, str], int] = {}
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        kind = _KINDS.get(tag.rsplit(":", 1)[-1])
+        name = attrs.get("name")
+        if kind is not None and name is not None:
+            lines.setdefault((kind, name), parser.CurrentLineNumber)
+
+    parser.StartElementHandler = start
+    try:
+        parser.Parse(text, True)
+    except xml.parsers.expat.ExpatError:
+        return {}
+    return lines
+
+
+class Locations:
+    """The lines of the elements of an arm's source file (read once, lazily).
+
+    Args:
+        source: The arm's file (``"<string>"`` or a missing file: no lines).
+    """
+
+    def __init__(self, source: str) -> None:
+        self.file = source
+        path = Path(source)
+        try:
+            self._lines = element_lines(path.read_bytes()) if path.is_file() else {}
+        except OSError:
+            self._lines = {}
+
+    def line(self, kind: str, name: str) -> int | None:
+        """The line of element ``name`` of ``kind`` (``link``, ``joint``, ``key``), if known."""
+        return self._lines.get((kind, name))
