@@ -149,3 +149,48 @@ def test_the_clean_published_files_raise_no_physics_error_or_warning(name, frame
     }
     raised = _raised(MODELS / name, frame, physics)
     assert [(r.rule, r.severity, r.element) for r in raised] == notes
+
+
+PANDA_LINK4_INERTIA = (
+    'ixx="0.025853" iyy="0.019552" izz="0.028323" ixy="0.007796" ixz="-0.001332" iyz="0.008641"'
+)
+
+
+def test_an_inertia_in_kg_mm2_is_named_with_its_ratio_and_unit(tmp_path):
+    # link4's tensor written in kg mm^2: every value x 1e6
+    scaled = " ".join(
+        f'{k}="{float(v) * 1e6:g}"' for k, v in re.findall(r'(\w+)="([^"]+)"', PANDA_LINK4_INERTIA)
+    )
+    path, lines = _planted(tmp_path, "panda.urdf", PANDA_LINK4_INERTIA, scaled)
+    raised = _raised(path, frame="ee", rules={"inertia-unit", "gyration-radius"})
+    assert [(r.rule, r.severity, r.element, r.line) for r in raised] == [
+        (rule_id, "error", "link4", _line_of(lines, '<link name="link4"'))
+        for rule_id in ("inertia-unit", "gyration-radius")
+    ]
+    clean = rd.load(MODELS / "panda.urdf", frame="ee").mj_model
+    planted = rd.load(path, frame="ee").mj_model
+    body = clean.body("link4").id
+    # the ratio over the clean file's is the planted 1e6 (the message's ratio is over the
+    # geometry, so it is 1e6 times the clean link's ratio)
+    assert planted.body_inertia[body].sum() / clean.body_inertia[body].sum() == pytest.approx(1e6)
+    assert "likely kg mm^2 (x1e6) written as kg m^2" in raised[0].message
+
+
+def test_a_centre_of_mass_1_m_from_its_link_names_the_link_and_distance(tmp_path):
+    old = '<origin xyz="-0.05317 0.104419 0.027454" rpy="0 0 0"/>'
+    path, lines = _planted(tmp_path, "panda.urdf", old, old.replace("0.027454", "1.027454"))
+    (f,) = _raised(path, frame="ee", rules={"com-outside-link"})
+    assert (f.severity, f.element, f.line) == (
+        "error",
+        "link4",
+        _line_of(lines, '<link name="link4"'),
+    )
+    assert re.search(r"centre of mass 0\.9\d* m outside", f.message), f.message
+
+
+@pytest.mark.parametrize(
+    ("name", "frame"), [("arm7.xml", None), ("panda.urdf", "ee"), ("panda.xml", None)]
+)
+def test_the_clean_published_files_raise_no_inertia_rule(name, frame):
+    rules = {"inertia-unit", "gyration-radius", "com-outside-link"}
+    assert _raised(MODELS / name, frame, rules) == []

@@ -51,6 +51,7 @@ def judge(
         judged.finding("published-inertia", defect)
     for raised in (
         *physics.masses(arm),
+        *physics.inertias(arm),
         *physics.urdf_limits(arm),
         *physics.joint_ranges(arm, dict(arm.keyframes)),
     ):

@@ -133,3 +133,97 @@ def masses(arm: Arm) -> Iterator[Raised]:
                 "link",
                 name,
             )
+
+
+#: A link's inertia this many times its geometry's is a unit mistake, not a hollow or dense
+#: link: the published arms' links stay within 162x of a uniform solid of their shape (UR5).
+#: Too small is not judged: published files write point masses (a zero tensor) on purpose.
+INERTIA_RATIO = 300.0
+#: A radius of gyration this many times the link's size: mass far outside its geometry.
+GYRATION_FACTOR = 10.0
+#: A centre of mass farther outside the geometry's box than the link's size plus this [m]
+#: (Baxter's upper elbow puts its own 0.18 m beyond its collision cylinder of size 0.10 m).
+COM_MARGIN = 0.1
+#: Links lighter than this share of the arm's moving mass are not judged (a sensor, a flange).
+MASS_SHARE = 0.005
+
+#: Unit mistakes: what the written number is, in times the true kg m^2 value.
+_UNITS = (
+    (1e3, "g m^2 (x1e3)"),
+    (1e4, "kg cm^2 (x1e4)"),
+    (1e6, "kg mm^2 (x1e6)"),
+    (1e7, "g cm^2 (x1e7)"),
+    (1e9, "g mm^2 (x1e9)"),
+)
+
+
+def _unit(ratio: float) -> str:
+    return min(_UNITS, key=lambda u: abs(np.log10(ratio / u[0])))[1]
+
+
+def inertias(arm: Arm) -> Iterator[Raised]:
+    """Each moving link's inertia and centre of mass against its collision geometry.
+
+    ``inertia-unit``: the trace of the published inertia against a uniform solid of the
+    link's collision geometry at its mass, `INERTIA_RATIO` times or more; ``gyration-radius``:
+    sqrt(I_max / m) above `GYRATION_FACTOR` times the link's size; ``com-outside-link``: the
+    centre of mass outside the geometry's box by more than its size plus `COM_MARGIN`.
+    """
+    from .link_geometry import link_geometry
+
+    m = arm.mj_model
+    moved = _moved_bodies(m)
+    total = float(sum(m.body_mass[b] for b in moved))
+    skip = set(arm.missing_inertia)
+    for b in moved:
+        name, mass = m.body(b).name, float(m.body_mass[b])
+        if name in skip or mass <= 0 or mass < MASS_SHARE * total:
+            continue
+        geo = link_geometry(m, b)
+        if geo is None or geo.size <= 0:
+            continue
+        moments = np.asarray(m.body_inertia[b], dtype=float)
+        implied = mass * float(np.trace(geo.inertia_per_mass()))
+        ratio = float(moments.sum()) / implied if implied > 0 else np.inf
+        if ratio >= INERTIA_RATIO:
+            yield (
+                "inertia-unit",
+                f"link {name!r}: its inertia (trace {moments.sum():.3g} kg m^2) is {ratio:.3g}x "
+                f"what its collision geometry gives at its mass {mass:.4g} kg "
+                f"({implied:.3g} kg m^2): likely {_unit(ratio)} written as kg m^2",
+                "link",
+                name,
+            )
+        radius = float(np.sqrt(moments.max() / mass))
+        if radius > GYRATION_FACTOR * geo.size:
+            yield (
+                "gyration-radius",
+                f"link {name!r}: radius of gyration sqrt(I/m) {radius:.3g} m on a link of size "
+                f"{geo.size:.3g} m (half its box's diagonal): {radius / geo.size:.3g}x",
+                "link",
+                name,
+            )
+        com = np.asarray(m.body_ipos[b], dtype=float)
+        out = geo.distance_outside(com)
+        if out > geo.size + COM_MARGIN:
+            yield (
+                "com-outside-link",
+                f"link {name!r}: centre of mass {out:.3g} m outside its collision geometry's "
+                f"box (the link's size {geo.size:.3g} m)",
+                "link",
+                name,
+            )
+
+
+def _moved_bodies(m: object) -> list[int]:
+    """Bodies below a joint of the arm's model (the arm's joints are the model's)."""
+    parent = np.asarray(m.body_parentid)  # type: ignore[attr-defined]
+    jointed = set(np.asarray(m.jnt_bodyid).tolist())  # type: ignore[attr-defined]
+    out = []
+    for b in range(1, len(parent)):
+        a = b
+        while a > 0 and a not in jointed:
+            a = int(parent[a])
+        if a > 0:
+            out.append(b)
+    return out
