@@ -194,3 +194,14 @@ def test_a_centre_of_mass_1_m_from_its_link_names_the_link_and_distance(tmp_path
 def test_the_clean_published_files_raise_no_inertia_rule(name, frame):
     rules = {"inertia-unit", "gyration-radius", "com-outside-link"}
     assert _raised(MODELS / name, frame, rules) == []
+
+
+def test_element_lines_are_the_lines_of_the_start_tags():
+    from redundancy.reports.locations import element_lines
+
+    text = (
+        '<mujoco>\n  <worldbody>\n    <body name="a">\n      <joint\n        name="j"/>\n'
+        '    </body>\n  </worldbody>\n  <keyframe><key name="k"/></keyframe>\n</mujoco>\n'
+    )
+    assert element_lines(text) == {("link", "a"): 3, ("joint", "j"): 4, ("key", "k"): 8}
+    assert element_lines("<robot><link name='x'>") == {}  # not well-formed: no lines
