@@ -21,7 +21,7 @@ from .audit_report import (
     Finding,
     Note,
 )
-from .locations import Locations
+from .locations import Locations, read_source
 from .rules import rule
 from .sections import GravityBudget, JointSection, KeyframeRow, Sections
 from .tables import exclusion, limit, one_line, timestep_text
@@ -37,7 +37,8 @@ def judge(
 ) -> tuple[tuple[Finding, ...], tuple[Note, ...]]:
     """The findings and notes of an arm's audit sections, in the order the report gives them."""
     urdf = arm.model_format == "URDF"
-    judged = _Judged(Locations(arm.source))
+    data = read_source(arm.source)  # read once: the elements' lines and the URDF's limits
+    judged = _Judged(Locations(arm.source, data))
     _judge_meshes(judged, arm)
     _judge_inertia(judged, arm, engines)
     _judge_joints(judged, computed.joints, urdf)
@@ -49,16 +50,15 @@ def judge(
     _judge_touching(judged, computed.touching, urdf)
     for defect in arm.defects:  # a published value MuJoCo rejects, on a body the arm moves
         judged.finding("published-inertia", defect)
-    for raised in (
-        *physics.masses(arm),
+    root = physics.urdf_root(arm, data)
+    for r in (
+        *physics.masses(arm, root),
         *physics.inertias(arm),
-        *physics.urdf_limits(arm),
+        *physics.urdf_limits(arm, root),
         *physics.joint_ranges(arm, dict(arm.keyframes)),
     ):
-        if rule(raised[0]).severity == "note":
-            judged.note(raised[0], raised[1], raised[3], raised[2])
-        else:
-            judged.finding(raised[0], raised[1], raised[3], raised[2])
+        add = judged.note if rule(r.rule).severity == "note" else judged.finding
+        add(r.rule, r.message, r.element, r.kind)
     return tuple(judged.findings), tuple(judged.notes)
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 
 Array = np.ndarray
@@ -54,12 +55,9 @@ class LinkGeometry:
 
 
 def _quat_matrix(q: Array) -> Array:
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, q)
+    return mat.reshape(3, 3)
 
 
 def _solid(model: Any, g: int) -> tuple[float, Array, Array] | None:

@@ -43,20 +43,26 @@ def element_lines(text: str | bytes) -> dict[tuple[str, str], int]:
     return lines
 
 
+def read_source(source: str) -> bytes | None:
+    """The bytes of an arm's source file, or None (``"<string>"``, a pipe read once, gone)."""
+    path = Path(source)
+    try:
+        return path.read_bytes() if path.is_file() else None
+    except OSError:
+        return None
+
+
 class Locations:
-    """The lines of the elements of an arm's source file (read once, lazily).
+    """The lines of the elements of an arm's source file.
 
     Args:
-        source: The arm's file (``"<string>"`` or a missing file: no lines).
+        source: The arm's file, as the findings name it.
+        data: Its bytes (`read_source`; None: no lines).
     """
 
-    def __init__(self, source: str) -> None:
+    def __init__(self, source: str, data: bytes | None) -> None:
         self.file = source
-        path = Path(source)
-        try:
-            self._lines = element_lines(path.read_bytes()) if path.is_file() else {}
-        except OSError:
-            self._lines = {}
+        self._lines = element_lines(data) if data is not None else {}
 
     def line(self, kind: str, name: str) -> int | None:
         """The line of element ``name`` of ``kind`` (``link``, ``joint``, ``key``), if known."""

@@ -2,27 +2,35 @@
 
 The rules a careful engineer checks by hand before trusting a model: the reference pose and
 every keyframe inside the joints' ranges, no effort or velocity limit of 0 on a joint the
-arm moves, no link of mass 0 (or below) with an ``<inertial>``. Each returns
-``(rule id, message, element kind, element name)`` tuples that `judging` turns into
-findings; the link inertias against their geometry are in `physics_inertia`.
+arm moves, no link of mass 0 (or below) with an ``<inertial>``, and each link's inertia and
+centre of mass against its geometry (`inertias`). Each yields `Raised` rule hits that
+`judging` turns into findings and notes.
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
-from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from ..arm import Arm
+from ..errors import ModelError
+from ..model.contact_rules import moved_bodies
+from ..model.xmlfile import decode_xml, parse_xml
 
 #: A value this far outside a range [rad or m] is outside it, not rounding of the file's digits.
 RANGE_SLACK = 1e-9
 
-#: What a physics rule reports: rule id, message, element kind (``link``, ``joint``, ``key``),
-#: element name.
-Raised = tuple[str, str, str, str]
+
+class Raised(NamedTuple):
+    """What a physics rule reports: its rule id, the message, and the element it concerns."""
+
+    rule: str
+    message: str
+    kind: str  # the element's kind: ``link``, ``joint`` or ``key``
+    element: str
 
 
 def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]:
@@ -36,7 +44,7 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
     for i, name in enumerate(arm.joint_names):
         out = _outside(float(qpos0[i]), arm, i)
         if out:
-            yield (
+            yield Raised(
                 "reference-out-of-range",
                 f"the reference pose (qpos0) puts joint {name!r} at {qpos0[i]:.6g}, {out}: "
                 "a simulation reset to it starts beyond the limit (start from a keyframe inside "
@@ -48,7 +56,7 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
         for i, name in enumerate(arm.joint_names):
             out = _outside(float(q[i]), arm, i)
             if out:
-                yield (
+                yield Raised(
                     "keyframe-out-of-range",
                     f"keyframe {key!r} puts joint {name!r} at {q[i]:.6g}, {out}",
                     "key",
@@ -67,24 +75,32 @@ def _outside(value: float, arm: Arm, i: int) -> str:
     return ""
 
 
-def _urdf_root(arm: Arm) -> ET.Element | None:
-    path = Path(arm.source)
-    if arm.model_format != "URDF" or not path.is_file():
+def urdf_root(arm: Arm, data: bytes | None) -> ET.Element | None:
+    """The root of a URDF arm's file, read as the loader reads it (None for an MJCF arm).
+
+    Args:
+        arm: The arm.
+        data: Its source file's bytes (None: no file to read, as for a model given as text).
+    """
+    if arm.model_format != "URDF" or data is None:
         return None
-    try:
-        return ET.fromstring(path.read_bytes())
-    except ET.ParseError:
+    try:  # the loader's reader: the declared encoding, undeclared prefixes tolerated
+        return parse_xml(decode_xml(data, arm.source)[0])
+    except ModelError:
         return None
 
 
-def urdf_limits(arm: Arm) -> Iterator[Raised]:
+def urdf_limits(arm: Arm, root: ET.Element | None) -> Iterator[Raised]:
     """A URDF ``<limit effort="0">`` or ``velocity="0"`` on a joint the arm moves.
 
     URDF's effort and velocity limits are magnitudes: 0 says the motor gives no torque (or
     may not move), which no moving joint of an arm means; MuJoCo reads effort 0 as no limit,
     so the model silently has none.
+
+    Args:
+        arm: The arm.
+        root: Its URDF's root (`urdf_root`; None: nothing to judge).
     """
-    root = _urdf_root(arm)
     if root is None:
         return
     moving = set(arm.joint_names)
@@ -98,7 +114,7 @@ def urdf_limits(arm: Arm) -> Iterator[Raised]:
         ):
             value = lim.get(attr)
             if value is not None and _number(value) == 0.0:
-                yield (
+                yield Raised(
                     rule,
                     f'joint {name!r} moves with <limit {attr}="{value}"> [{unit}]: a motor '
                     f"that gives no {'torque' if attr == 'effort' else 'speed'} (the file most "
@@ -115,9 +131,13 @@ def _number(text: str) -> float | None:
         return None
 
 
-def masses(arm: Arm) -> Iterator[Raised]:
-    """A link the arm moves whose ``<inertial>`` has mass 0 or below (URDF)."""
-    root = _urdf_root(arm)
+def masses(arm: Arm, root: ET.Element | None) -> Iterator[Raised]:
+    """A link the arm moves whose ``<inertial>`` has mass 0 or below (URDF).
+
+    Args:
+        arm: The arm.
+        root: Its URDF's root (`urdf_root`; None: nothing to judge).
+    """
     if root is None:
         return
     moved = set(arm.missing_inertia)
@@ -125,7 +145,7 @@ def masses(arm: Arm) -> Iterator[Raised]:
         name, mass = link.get("name", ""), link.find("inertial/mass")
         value = _number(mass.get("value", "0")) if mass is not None else None
         if name in moved and value is not None and value <= 0:
-            yield (
+            yield Raised(
                 "mass-not-positive",
                 f"link {name!r} moves with an <inertial> of mass {value:g} kg: no body "
                 "moves without mass (read as no inertia; the sections that need M or "
@@ -172,7 +192,7 @@ def inertias(arm: Arm) -> Iterator[Raised]:
     from .link_geometry import link_geometry
 
     m = arm.mj_model
-    moved = _moved_bodies(m)
+    moved = sorted(moved_bodies(m, set(range(m.njnt))))  # the arm's joints are the model's
     total = float(sum(m.body_mass[b] for b in moved))
     skip = set(arm.missing_inertia)
     for b in moved:
@@ -186,7 +206,7 @@ def inertias(arm: Arm) -> Iterator[Raised]:
         implied = mass * float(np.trace(geo.inertia_per_mass()))
         ratio = float(moments.sum()) / implied if implied > 0 else np.inf
         if ratio >= INERTIA_RATIO:
-            yield (
+            yield Raised(
                 "inertia-unit",
                 f"link {name!r}: its inertia (trace {moments.sum():.3g} kg m^2) is {ratio:.3g}x "
                 f"what its collision geometry gives at its mass {mass:.4g} kg "
@@ -196,7 +216,7 @@ def inertias(arm: Arm) -> Iterator[Raised]:
             )
         radius = float(np.sqrt(moments.max() / mass))
         if radius > GYRATION_FACTOR * geo.size:
-            yield (
+            yield Raised(
                 "gyration-radius",
                 f"link {name!r}: radius of gyration sqrt(I/m) {radius:.3g} m on a link of size "
                 f"{geo.size:.3g} m (half its box's diagonal): {radius / geo.size:.3g}x",
@@ -206,24 +226,10 @@ def inertias(arm: Arm) -> Iterator[Raised]:
         com = np.asarray(m.body_ipos[b], dtype=float)
         out = geo.distance_outside(com)
         if out > geo.size + COM_MARGIN:
-            yield (
+            yield Raised(
                 "com-outside-link",
                 f"link {name!r}: centre of mass {out:.3g} m outside its collision geometry's "
                 f"box (the link's size {geo.size:.3g} m)",
                 "link",
                 name,
             )
-
-
-def _moved_bodies(m: object) -> list[int]:
-    """Bodies below a joint of the arm's model (the arm's joints are the model's)."""
-    parent = np.asarray(m.body_parentid)  # type: ignore[attr-defined]
-    jointed = set(np.asarray(m.jnt_bodyid).tolist())  # type: ignore[attr-defined]
-    out = []
-    for b in range(1, len(parent)):
-        a = b
-        while a > 0 and a not in jointed:
-            a = int(parent[a])
-        if a > 0:
-            out.append(b)
-    return out
