@@ -28,13 +28,14 @@ audit: $(CORE)           ## the main job: audit models/arm7.xml (installs the li
 	$(BIN)/redundancy audit models/arm7.xml || [ $$? -eq 1 ]
 
 test: $(STAMP)           ## the default (fast) suite, as CI runs it
-	@# One pytest-xdist worker per CPU (CI has two); plain `pytest` runs it in one process.
-	$(BIN)/python -m pytest -n logical
+	@# One pytest-xdist worker per CPU (CI has two), each test file on one worker in order (a
+	@# guide page's code blocks share one namespace); plain `pytest` runs it in one process.
+	$(BIN)/python -m pytest -n logical --dist loadfile
 
 test-thorough: $(STAMP)  ## >= 1000 hypothesis examples per property, plus the slow sweeps
 	@# A fresh seed each run, printed in pytest's header; HYPOTHESIS_SEED=N reruns one.
 	SEED=$${HYPOTHESIS_SEED:-$$(od -An -N4 -tu4 /dev/urandom | tr -d ' ')}; \
-	HYPOTHESIS_PROFILE=redundancy-thorough $(BIN)/python -m pytest -n logical -m "slow or not slow" --hypothesis-seed=$$SEED
+	HYPOTHESIS_PROFILE=redundancy-thorough $(BIN)/python -m pytest -n logical --dist loadfile -m "slow or not slow" --hypothesis-seed=$$SEED
 
 example: $(CORE)         ## the worked example: arm7's six tables (lesson 5.2)
 	$(BIN)/redundancy example arm7

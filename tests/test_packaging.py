@@ -101,8 +101,8 @@ def test_make_audit_installs_the_library_alone_and_make_test_adds_the_tools(
     assert not any("[" in x for x in audit)  # no extra
     test = _make_plan("test", venv)
     assert test.index("pip install --quiet -e .\n") < test.index('pip install --quiet -e ".[dev]"')
-    # One pytest-xdist worker per CPU: the suite is over half of CI's five minutes in one process.
-    assert test.rstrip().endswith("-m pytest -n logical")
+    # One pytest-xdist worker per CPU, a file per worker: a guide page's blocks run in order.
+    assert test.rstrip().endswith("-m pytest -n logical --dist loadfile")
 
 
 def test_api_reference_builds_without_warnings(tmp_path: Path) -> None:
