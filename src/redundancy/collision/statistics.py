@@ -219,10 +219,10 @@ def collision_statistics(
     allows, which its closed forms for primitives can). Poses go in chunks of `CHUNK`; in each,
     every pair is first measured at the pose with its smallest bound, so that the closest approach
     is known early. The cost then grows with the pairs that come near, and every count and pose
-    index equals the unpruned sweep's (``prune=False``). So does every distance, within coal's
-    tolerances: coal's result for a pair of mesh hulls at a pose can depend on the calls made on
-    that pair before (seen on the G1's interpenetrating hulls: up to 1.9e-7 m between the two sweeps
-    over 2000 poses; coal's EPA tolerance is 1e-6 m).
+    index equals the unpruned sweep's (``prune=False``), and so does every distance, to the bit:
+    coal's GJK starts from the two shapes' bounding boxes (`distance_request`), never from the
+    previous call's answer, so a pair's distance at a pose does not depend on which calls came
+    before (coal's default guess does: up to 1.9e-7 m on the G1's interpenetrating hulls).
 
     Args:
         arm: The arm.
