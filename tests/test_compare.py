@@ -661,3 +661,80 @@ def test_a_damping_polynomial_is_what_urdf_cannot_express(tmp_path: Path) -> Non
         "j2": "stiffness=0, springref=0, stiffness polynomial=[1 0]",
     }
     assert "damping polynomial" not in quantities(result)
+
+
+# -- couplings: URDF mimics and MJCF joint equalities ------------------------------------------
+
+_LINK = '<inertial><mass value="{m}"/><inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial>'
+
+
+def gripper_urdf(multiplier: float, offset: float) -> str:
+    """A two-joint arm with a hand whose second finger mimics the first (held, off the chain)."""
+    link = _LINK.format
+    return f"""<robot name="g">
+  <link name="base">{link(m=1)}</link><link name="l1">{link(m=1)}</link>
+  <link name="l2">{link(m=1)}</link><link name="hand">{link(m=0.3)}</link>
+  <link name="finger1">{link(m=0.05)}</link><link name="finger2">{link(m=0.05)}</link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="h" type="fixed"><parent link="l2"/><child link="hand"/><origin xyz="0 0 0.3"/></joint>
+  <joint name="f1" type="prismatic"><parent link="hand"/><child link="finger1"/>
+    <axis xyz="1 0 0"/><limit lower="0" upper="0.04" effort="10" velocity="1"/></joint>
+  <joint name="f2" type="prismatic"><parent link="hand"/><child link="finger2"/>
+    <axis xyz="-1 0 0"/><limit lower="0" upper="0.04" effort="10" velocity="1"/>
+    <mimic joint="f1" multiplier="{multiplier}" offset="{offset}"/></joint>
+</robot>"""
+
+
+def test_compare_sees_a_changed_mimic_multiplier_and_offset() -> None:
+    """A finger's mimic written with another multiplier or offset is a coupling difference,
+    named by the follower and both rules; the same mimic is none."""
+    a = rd.load_string(gripper_urdf(1.0, 0.0), frame="hand")
+    same = compare(a, rd.load_string(gripper_urdf(1.0, 0.0), frame="hand"))
+    assert same.equivalent and same.largest["coupling"] == 0.0
+    errors, truths = [], []
+    for multiplier, offset, b_text in ((0.5, 0.0, "f2 = 0.5 f1"), (1.0, 0.01, "f2 = 0.01 + 1 f1")):
+        other = rd.load_string(gripper_urdf(multiplier, offset), frame="hand")
+        found = [d for d in compare(a, other).differences if d.quantity == "coupling"]
+        assert [(d.where, d.a, d.b) for d in found] == [("joint 'f2'", "f2 = 1 f1", b_text)]
+        errors.append(found[0].error)
+        # Ground truth: the follower's largest difference over f1's range [0, 0.04] m.
+        truths.append(max(abs((multiplier - 1.0) * x + offset) for x in (0.0, 0.04)))
+    # Both errors are relative to one scale (A's): their ratio is the true ratio, 0.02/0.01.
+    assert errors[0] / errors[1] == pytest.approx(truths[0] / truths[1], rel=1e-12)
+
+
+def test_compare_sees_a_mimic_against_an_mjcf_polynomial() -> None:
+    """A URDF mimic and an MJCF joint equality are one coupling when their polynomials agree
+    (linear), a difference when the MJCF's has a quadratic term, and missing when it has none."""
+    a = rd.load_string(gripper_urdf(0.5, 0.01), frame="hand")
+    spec = rd.load_string(gripper_urdf(0.5, 0.01), frame="hand").robot_model
+    assert spec.neq == 1  # the loader writes the mimic as MuJoCo's joint equality
+    mjcf = mjcf_gripper("0.01 0.5 0 0 0")
+    assert compare(a, rd.load_string(mjcf, frame="hand")).largest["coupling"] == 0.0
+    quad = compare(a, rd.load_string(mjcf_gripper("0.01 0.5 3 0 0"), frame="hand"))
+    assert [(d.where, d.b) for d in quad.differences if d.quantity == "coupling"] == [
+        ("joint 'f2'", "f2 = 0.01 + 0.5 f1 + 3 f1^2")
+    ]
+    none = compare(a, rd.load_string(mjcf_gripper(None), frame="hand"))
+    assert [(d.where, d.a, d.b, d.error) for d in none.differences if d.quantity == "coupling"] == [
+        ("joint 'f2'", "f2 = 0.01 + 0.5 f1", None, math.inf)
+    ]
+
+
+def mjcf_gripper(polycoef: str | None) -> str:
+    """`gripper_urdf` in MJCF, the finger coupled by a joint equality (None: uncoupled)."""
+    inertia = 'diaginertia="1e-3 1e-3 1e-3"'
+    eq = f'<equality><joint joint1="f2" joint2="f1" polycoef="{polycoef}"/></equality>'
+    return f"""<mujoco><compiler angle="radian"/><worldbody>
+<body name="l1"><joint name="j1" axis="0 0 1" range="-2 2"/><inertial pos="0 0 0" mass="1" {inertia}/>
+<body name="l2" pos="0 0 0.3"><joint name="j2" axis="0 1 0" range="-2 2"/>
+<inertial pos="0 0 0" mass="1" {inertia}/>
+<body name="hand" pos="0 0 0.3"><inertial pos="0 0 0" mass="0.3" {inertia}/>
+<body name="finger1"><joint name="f1" type="slide" axis="1 0 0" range="0 0.04"/>
+<inertial pos="0 0 0" mass="0.05" {inertia}/></body>
+<body name="finger2"><joint name="f2" type="slide" axis="-1 0 0" range="0 0.04"/>
+<inertial pos="0 0 0" mass="0.05" {inertia}/></body>
+</body></body></body></worldbody>{eq if polycoef else ""}</mujoco>"""

@@ -46,6 +46,7 @@ from ..model.bridges import effective_gravity
 from ..model.equivalence import fit_rigid, parent_joint
 from ..model.names import display_names
 from ..model.scales import arm_scales, scaled_error, scaled_errors
+from .compare_couplings import coupling_findings
 from .compare_poses import (
     POLY_NOTE,
     STIFFNESS_NOTE,
@@ -339,6 +340,7 @@ class _Comparer:
             self.check("inertia about the centre of mass (world)", bw, I_a[i], I_b[j])
         self.armature()
         self.passive()
+        self.couplings()
         self.format_only()
         self._tool_and_gravity(qa, qb)
 
@@ -438,6 +440,14 @@ class _Comparer:
                     float(ma.jnt_actgravcomp[i]),
                     float(mb.jnt_actgravcomp[j]),
                 )
+
+    def couplings(self) -> None:
+        """Mimics and joint equalities of the whole robots, compared as functions."""
+        a, b = self.a.robot_model, self.b.robot_model
+        found, self.largest["coupling"] = coupling_findings(
+            a, b, dict(self.pairs), self.scales.length, self.tol
+        )
+        self.diffs.extend(found)
 
     @property
     def armature_comparable(self) -> bool:
