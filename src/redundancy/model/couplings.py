@@ -54,12 +54,8 @@ def follow_couplings(
         for k in eqs:
             j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
             a1 = int(model.jnt_qposadr[j1])
-            x = 0.0
-            if j2 >= 0:
-                a2 = int(model.jnt_qposadr[j2])
-                x = float(qpos[a2] - model.qpos0[a2])
-            c = model.eq_data[k][:5]
-            value = float(model.qpos0[a1] + sum(c[i] * x**i for i in range(5)))
+            leader = float(qpos[model.jnt_qposadr[j2]]) if j2 >= 0 else 0.0
+            value = coupling_value(model, k, leader)
             if qpos[a1] == value:
                 continue
             if j1 in given and abs(qpos[a1] - value) > 1e-9 * max(1.0, abs(value)):
@@ -77,6 +73,25 @@ def follow_couplings(
             moved = True
         if not moved:
             return
+
+
+def coupling_value(model: mujoco.MjModel, k: int, leader: float) -> float:
+    """The value joint equality ``k`` gives its follower (joint1) [rad or m].
+
+    ``qpos0_1 + c0 + c1 x + ... + c4 x^4`` with ``x = leader - qpos0_2`` (``x = 0`` without a
+    second joint, whose ``leader`` is then ignored).
+
+    Args:
+        model: MuJoCo's compiled model.
+        k: The equality's id (``mjEQ_JOINT``).
+        leader: The leader's (joint2's) value [rad or m].
+    """
+    j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+    x = 0.0
+    if j2 >= 0:
+        x = float(leader - model.qpos0[model.jnt_qposadr[j2]])
+    c = model.eq_data[k][:5]
+    return float(model.qpos0[model.jnt_qposadr[j1]] + sum(c[i] * x**i for i in range(5)))
 
 
 def coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
