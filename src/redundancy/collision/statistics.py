@@ -374,8 +374,13 @@ class _Sweep:
         # Origins' separation per pose and pair, as the MuJoCo scene computes it for its
         # mj_geomDistance caps (the same sum of squares in the same order, so the same
         # numbers), one coordinate at a time: far faster than a norm over a length-3 axis.
+        # np.take along the geom axis gathers columns far faster than fancy indexing does.
         c1, c2 = self.c1, self.c2
-        sq = [(x[:, c1] - x[:, c2]) ** 2 for x in X]
+        sq = []
+        for x in X:
+            d = np.take(x, c1, axis=1)
+            d -= np.take(x, c2, axis=1)
+            sq.append(d * d)
         apart = np.sqrt(sq[0] + sq[1] + sq[2])
         bound = apart - self.rsum
         # Seed: each pair at the pose of its smallest bound, unless even that bound rules the
@@ -434,8 +439,11 @@ class _Sweep:
         """
         centre, half = self.box_centre, self.box_half
         g1, g2 = self.c1[cols], self.c2[cols]
-        o1, r1 = X[:, rows, g1], R[:, rows, g1]
-        o2, r2 = X[:, rows, g2], R[:, rows, g2]
+        # The entries' geoms' poses, gathered by flat (pose, geom) index.
+        at1, at2 = rows * X.shape[2] + g1, rows * X.shape[2] + g2
+        flat_x, flat_r = X.reshape(3, -1), R.reshape(9, -1)
+        o1, r1 = np.take(flat_x, at1, axis=1), np.take(flat_r, at1, axis=1)
+        o2, r2 = np.take(flat_x, at2, axis=1), np.take(flat_r, at2, axis=1)
 
         def local(r: Array, w: Array) -> Array:  # R^T w, one coordinate per row
             return np.array([w[0] * r[i] + w[1] * r[3 + i] + w[2] * r[6 + i] for i in range(3)])
