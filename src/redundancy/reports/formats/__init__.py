@@ -5,29 +5,21 @@ baseline reads), ``sarif`` (`sarif`, GitHub code scanning), ``junit`` (`junit`, 
 reports), ``github`` (`github`, workflow annotations), ``markdown`` (`markdown`, a job
 summary) and ``html`` (`html_page`, one page). Each takes the results of a whole run
 (`results.collect`: a list of model reports, one for one model), so an audit of several
-models writes one document. `render` is the one dispatch.
+models writes one document. `render` is the one dispatch; importing this package imports no
+writer (the command line's parser lists `FORMATS` and `FAIL_ON` from `choices`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from .results import DEFAULT_FAIL_ON, FAIL_ON, FailOn, ModelResults, Outcome, Result, collect
+from .choices import DEFAULT_FAIL_ON, FAIL_ON, FORMATS, FailOn
 
-__all__ = [
-    "DEFAULT_FAIL_ON",
-    "FAIL_ON",
-    "FORMATS",
-    "FailOn",
-    "ModelResults",
-    "Outcome",
-    "Result",
-    "collect",
-    "render",
-]
+if TYPE_CHECKING:
+    from .results import Outcome
 
-#: The formats ``--format`` offers, the default first.
-FORMATS = ("text", "json", "sarif", "junit", "github", "markdown", "html")
+__all__ = ["DEFAULT_FAIL_ON", "FAIL_ON", "FORMATS", "FailOn", "render"]
 
 
 def _version() -> str:

@@ -11,21 +11,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Literal, get_args
 
 from ...errors import ParameterError
 from ..audit_report import AuditReport
 from ..baseline import Baseline, place
 from ..findings import Finding, Note, Severity
 from ..locations import read_source, root_line
-
-#: The lowest severity that makes the exit status 1; ``never``: the status is 0 whatever the
-#: results (bad input still exits 2).
-FailOn = Literal["error", "warning", "note", "never"]
-FAIL_ON: tuple[str, ...] = get_args(FailOn)
-#: ``--fail-on``'s default, as before the option existed: any finding (an error or a
-#: warning) fails, a note never does.
-DEFAULT_FAIL_ON: FailOn = "warning"
+from .choices import DEFAULT_FAIL_ON, FAIL_ON, FailOn
 
 #: Severities from the most to the least serious.
 SEVERITIES: tuple[Severity, ...] = ("error", "warning", "note")
