@@ -92,6 +92,7 @@ def _table(rows: list[Result]) -> list[str]:
     out = ["| severity | rule | element | where | message |", "|---|---|---|---|---|"]
     for x in rows:
         element = code(x.element) if x.element is not None else ""
-        cells = (x.severity, code(x.rule), element, escape(where(x)), escape(x.message))
+        place = code(where(x)) if x.file is not None else ""
+        cells = (x.severity, code(x.rule), element, place, escape(x.message))
         out.append("| " + " | ".join(cells) + " |")
     return out
