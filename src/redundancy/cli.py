@@ -4,12 +4,13 @@ Every argument is checked before any work; heavy imports (the engines) happen in
 subcommands, so ``--help`` is instant.
 
 Exit status:
-    0: done, no findings; 1: the audit has findings; 2: bad input (an argument, the model
-    file, a name) or a report that cannot be written (a full disk, a JSON file that cannot
-    be replaced), with one line on stderr; 3: an internal error (a bug: please report it),
-    with one line on stderr; 130: interrupted; 141: the reader of stdout went away, or stdout
-    is closed (as a Unix tool killed by SIGPIPE: ``redundancy audit --json - | head -1`` and
-    ``redundancy compare a.xml b.xml >&-`` end quietly).
+    0: done, no findings; 1: the audit has findings (with ``--fail-on``: a result at or above
+    its severity that the ``--baseline`` does not accept); 2: bad input (an argument, the
+    model file, a name, a baseline) or a report that cannot be written (a full disk, a JSON
+    file that cannot be replaced), with one line on stderr; 3: an internal error (a bug:
+    please report it), with one line on stderr; 130: interrupted; 141: the reader of stdout
+    went away, or stdout is closed (as a Unix tool killed by SIGPIPE: ``redundancy audit
+    --json - | head -1`` and ``redundancy compare a.xml b.xml >&-`` end quietly).
 
 Every error is one line on stderr (a multi-line engine message is joined with "; "); with
 stderr closed the status alone says what happened. Text goes out in whatever encoding the
@@ -194,7 +195,8 @@ def _audit_parser(sub: Any) -> None:
         description="Audit an MJCF or URDF arm: joints, keyframes, gravity against the "
         "effort limits, self-collision, the engines' agreement; findings where the model's "
         "own numbers show a problem, notes for what its format cannot express.",
-        epilog=_EXIT,
+        epilog="exit status: 0 no findings, 1 findings (--fail-on: at or above its severity, "
+        "not in the --baseline), 2 bad input, 3 internal error",
     )
     _model_arguments(a)
     a.add_argument(
