@@ -4,12 +4,13 @@ Every argument is checked before any work; heavy imports (the engines) happen in
 subcommands, so ``--help`` is instant.
 
 Exit status:
-    0: done, no findings; 1: the audit has findings; 2: bad input (an argument, the model
-    file, a name) or a report that cannot be written (a full disk, a JSON file that cannot
-    be replaced), with one line on stderr; 3: an internal error (a bug: please report it),
-    with one line on stderr; 130: interrupted; 141: the reader of stdout went away, or stdout
-    is closed (as a Unix tool killed by SIGPIPE: ``redundancy audit --json - | head -1`` and
-    ``redundancy compare a.xml b.xml >&-`` end quietly).
+    0: done, no findings; 1: the audit has findings (with ``--fail-on``: a result at or above
+    its severity that the ``--baseline`` does not accept); 2: bad input (an argument, the
+    model file, a name, a baseline) or a report that cannot be written (a full disk, a JSON
+    file that cannot be replaced), with one line on stderr; 3: an internal error (a bug:
+    please report it), with one line on stderr; 130: interrupted; 141: the reader of stdout
+    went away, or stdout is closed (as a Unix tool killed by SIGPIPE: ``redundancy audit
+    --json - | head -1`` and ``redundancy compare a.xml b.xml >&-`` end quietly).
 
 Every error is one line on stderr (a multi-line engine message is joined with "; "); with
 stderr closed the status alone says what happened. Text goes out in whatever encoding the
@@ -26,112 +27,20 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
+
+from .cli_io import OutputError as _OutputError
+from .cli_io import error as _error
+from .cli_io import silence_stdout as _silence_stdout
+from .cli_io import terminal_output as _terminal_output
 
 OK, FINDINGS, BAD_INPUT, INTERNAL_ERROR, INTERRUPTED = 0, 1, 2, 3, 130
 PIPE_CLOSED = 128 + 13  # 128 + SIGPIPE, the status a shell shows for a tool that got it
 
 
-def _one_line(message: object) -> str:
-    """A message on one line: its lines, stripped, joined with "; "."""
-    return "; ".join(line.strip() for line in str(message).splitlines() if line.strip())
-
-
-def _error(message: object) -> None:
-    """Print one line on stderr; nothing when stderr is closed or gone."""
-    stream = sys.stderr
-    if stream is None:  # started with stderr closed (2>&-)
-        return
-    try:
-        print(_one_line(message), file=stream, flush=True)
-    except (OSError, ValueError):  # its reader went away, or the stream was closed
-        pass
-
-
-def _silence_stdout() -> None:
-    """After a broken pipe: point stdout at /dev/null so the exit's flush raises nothing."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
-    except (OSError, ValueError, AttributeError):  # no real stdout (a test's capture)
-        pass
-
-
 class _BadInput(Exception):
     """An argument that fails its check (one line for stderr)."""
-
-
-class _OutputError(Exception):
-    """Writing to stdout failed other than by a closed pipe (a full disk): one line."""
-
-
-def _stdout_name() -> str:
-    """Standard output, and the file it is when the system says (Linux's /proc)."""
-    try:
-        target = os.readlink("/proc/self/fd/1")
-    except OSError:
-        return "standard output"
-    return f"standard output ({target})" if target.startswith("/") else "standard output"
-
-
-class _Stdout:
-    """The command's stdout: a closed one is a broken pipe, a failed write an _OutputError.
-
-    Every command prints through ``sys.stdout``; this stands in for it while the command
-    runs, so that each way the report can fail to go out ends the same way for all of them.
-    """
-
-    def __init__(self, stream: Any) -> None:
-        self._stream = stream
-
-    def _call(self, name: str, *args: Any) -> Any:
-        if self._stream is None:  # started with stdout closed (>&-): as if nobody reads
-            raise BrokenPipeError("standard output is closed")
-        try:
-            return getattr(self._stream, name)(*args)
-        except BrokenPipeError:
-            raise
-        except ValueError as err:  # the stream object was closed: nobody reads either
-            raise BrokenPipeError(str(err)) from err
-        except OSError as err:
-            raise _OutputError(f"cannot write to {_stdout_name()}: {err}") from err
-
-    def write(self, text: str) -> int:
-        return int(self._call("write", text))
-
-    def flush(self) -> None:
-        self._call("flush")
-
-    def __getattr__(self, name: str) -> Any:  # fileno, encoding, isatty...
-        if self._stream is None:
-            raise AttributeError(name)
-        return getattr(self._stream, name)
-
-
-@contextlib.contextmanager
-def _terminal_output() -> Iterator[None]:
-    """While a command runs: stdout guarded (`_Stdout`), unencodable text escaped.
-
-    The streams are put back as they were afterwards (``main`` is also called in-process).
-    """
-    saved: list[tuple[Any, str]] = []
-    for stream in (sys.stdout, sys.stderr):
-        errors = getattr(stream, "errors", None)
-        if errors is not None and hasattr(stream, "reconfigure"):
-            with contextlib.suppress(OSError, ValueError):
-                stream.reconfigure(errors="backslashreplace")
-                saved.append((stream, errors))
-    original = sys.stdout
-    sys.stdout = _Stdout(original)  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        sys.stdout = original
-        for stream, errors in saved:
-            with contextlib.suppress(OSError, ValueError):
-                stream.reconfigure(errors=errors)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -286,7 +195,8 @@ def _audit_parser(sub: Any) -> None:
         description="Audit an MJCF or URDF arm: joints, keyframes, gravity against the "
         "effort limits, self-collision, the engines' agreement; findings where the model's "
         "own numbers show a problem, notes for what its format cannot express.",
-        epilog=_EXIT,
+        epilog="exit status: 0 no findings, 1 findings (--fail-on: at or above its severity, "
+        "not in the --baseline), 2 bad input, 3 internal error",
     )
     _model_arguments(a)
     a.add_argument(
@@ -317,11 +227,45 @@ def _audit_parser(sub: Any) -> None:
         help="also write the report as JSON to a regular file (a symbolic link is followed "
         "to the file it names); '-' prints only the JSON on stdout, tables on stderr",
     )
+    _report_arguments(a)
     a.add_argument(
         "-q",
         "--quiet",
         action="store_true",
         help="no progress bar and no tables: print the findings only",
+    )
+
+
+def _report_arguments(a: argparse.ArgumentParser) -> None:
+    """What the audit writes (``--format``, ``-o``), and when it fails (``--fail-on``...)."""
+    from .reports.formats.choices import DEFAULT_FAIL_ON, FAIL_ON, FORMATS
+
+    a.add_argument(
+        "--format",
+        choices=FORMATS,
+        default="text",
+        help="the report's format (default: text): json is --json's document, sarif for code "
+        "scanning, junit for CI test reports, github for workflow annotations, markdown or "
+        "html to read; without -o the document alone goes to stdout, the text to stderr",
+    )
+    a.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE",
+        help="write the --format document to FILE only (atomically, a regular file as for --json)",
+    )
+    a.add_argument(
+        "--fail-on",
+        choices=FAIL_ON,
+        default=DEFAULT_FAIL_ON,
+        help="the lowest severity that makes the exit status 1 (default: warning, that is any "
+        "finding; note: notes too; never: 0 whatever is found)",
+    )
+    a.add_argument(
+        "--baseline",
+        metavar="REPORT.json",
+        help="an earlier audit's JSON report (--format json): its findings are known and do "
+        "not fail (matched by rule, element and file, not by line)",
     )
 
 
@@ -388,29 +332,42 @@ def _compare_parser(sub: Any) -> None:
 
 #: The input files a command line names, by argparse attribute: what each is, for a message.
 _NAMED = {"model": "the model file", "a": "the model file", "b": "the model file"}
-_NAMED |= {"srdf": "the SRDF file", "joint_map": "the joint map"}
+_NAMED |= {"srdf": "the SRDF file", "joint_map": "the joint map", "baseline": "the baseline"}
+
+
+def _targets(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """(option, file) of each report file the command line names (``-`` is stdout)."""
+    given = (("--json", getattr(args, "json", None)), ("-o", getattr(args, "output", None)))
+    return [(option, t) for option, t in given if t not in (None, "-")]
 
 
 def _check_output(args: argparse.Namespace, inputs: list[tuple[str, str]]) -> None:
-    """Refuse a ``--json`` FILE that is one of ``inputs`` (by any name: a link, ``..``)."""
+    """Refuse a report file that is one of ``inputs`` (by any name: a link, ``..``)."""
     from .reports.files import input_named
 
-    target = getattr(args, "json", None)
-    what = None if target in (None, "-") else input_named(target, inputs)
-    if what is not None:
-        raise _BadInput(f"--json {target!r} is {what}: not replaced")
+    for option, target in _targets(args):
+        what = input_named(target, inputs)
+        if what is not None:
+            raise _BadInput(f"{option} {target!r} is {what}: not replaced")
 
 
 def _check_files(args: argparse.Namespace) -> None:
-    """The JSON target must obey reports.files' rules and be none of the named inputs.
+    """Report files must obey reports.files' rules, be none of the inputs, and not collide.
 
     The loader checks the input files themselves; the files a model reads are known once it
     is loaded (`redundancy.reports.files.read_by`).
     """
-    if getattr(args, "json", None) not in (None, "-"):
+    fmt, output = getattr(args, "format", "text"), getattr(args, "output", None)
+    if getattr(args, "json", None) == "-" and output in (None, "-") and fmt not in ("text", "json"):
+        raise _BadInput(f"--json - and --format {fmt} both print on stdout: give -o FILE")
+    targets = _targets(args)
+    if len(targets) == 2 and os.path.realpath(targets[0][1]) == os.path.realpath(targets[1][1]):
+        raise _BadInput(f"--json and -o name one file, {targets[0][1]!r}: give two")
+    if targets:
         from .reports.files import check_target
 
-        check_target(args.json)
+        for _, target in targets:
+            check_target(target)
         named = ((getattr(args, k, None), what) for k, what in _NAMED.items())
         _check_output(args, [(p, f"{what} {p!r}") for p, what in named if isinstance(p, str)])
 
@@ -562,33 +519,47 @@ def _compare(args: argparse.Namespace) -> int:
 
 
 def _audit(args: argparse.Namespace) -> int:
-    """The ``audit`` subcommand; 1 when there are findings."""
-    from .reports.audit import audit, format_report
-    from .reports.files import write_atomic
+    """The ``audit`` subcommand; 1 when a result at or above --fail-on is not in the baseline."""
+    from .reports.audit import audit
+    from .reports.baseline import read_baseline
+    from .reports.formats.results import collect
     from .reports.progress import terminal_progress
 
-    to_stdout = args.json == "-"
-    # With --json - stdout carries the JSON document alone; every table goes to stderr.
-    stream = sys.stderr if to_stdout else sys.stdout
-
-    def say(line: str = "") -> None:
-        if stream is not None:  # None: started with that stream closed
-            print(line, file=stream, flush=True)
-
+    baseline = None if args.baseline is None else read_baseline(args.baseline)  # before any work
     arm = _load(args, strict=not args.lenient)
     mode = "lenient" if args.lenient else "strict"
     with terminal_progress(sys.stderr, quiet=args.quiet) as progress:
         report = audit(arm, args.poses, args.seed, args.kd, None, mode, progress)  # type: ignore[arg-type]
-    lines = format_report(report)
-    if args.quiet:  # the findings alone
-        lines = lines[next(i for i, x in enumerate(lines) if x.startswith("findings: ")) :]
-    for line in lines:
-        say(line)
-    if to_stdout:
-        print(report.to_json(), flush=True)
-    elif args.json:
-        write_atomic(args.json, report.to_json() + "\n")
-    return report.exit_code
+    outcome = collect([report], args.fail_on, baseline)
+    _deliver(args, outcome)
+    return outcome.exit_code
+
+
+def _deliver(args: argparse.Namespace, outcome: Any) -> None:
+    """Print and write an audit's documents.
+
+    stdout carries one document: the ``--format`` one without ``-o`` (``--json -``'s JSON),
+    else the text report; the text report goes to stderr when stdout carries another, and
+    nowhere when it is the ``-o`` document itself. Files are written last, atomically.
+    """
+    from .reports.files import write_atomic
+    from .reports.formats import render
+
+    output = None if args.output in (None, "-") else args.output
+    on_stdout = "json" if args.json == "-" else None
+    if on_stdout is None and not output and args.format != "text":
+        on_stdout = args.format
+    if not (args.format == "text" and output):
+        stream = sys.stderr if on_stdout else sys.stdout
+        if stream is not None:  # None: started with that stream closed
+            print(render("text", outcome, args.quiet), end="", file=stream, flush=True)
+    if on_stdout:
+        sys.stdout.write(render(on_stdout, outcome, args.quiet))
+        sys.stdout.flush()
+    if output:
+        write_atomic(output, render(args.format, outcome, args.quiet))
+    if args.json not in (None, "-"):
+        write_atomic(args.json, render("json", outcome))
 
 
 if __name__ == "__main__":  # pragma: no cover

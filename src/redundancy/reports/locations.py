@@ -43,6 +43,27 @@ def element_lines(text: str | bytes) -> dict[tuple[str, str], int]:
     return lines
 
 
+def root_line(text: str | bytes) -> int | None:
+    """The line of the document's root element (1-based), or None when it is not XML.
+
+    Where a finding names no element (the engines' agreement, the timestep), the formats that
+    need a line (SARIF's region, an annotation) point at the model's root element.
+    """
+    found: list[int] = []
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        if not found:
+            found.append(parser.CurrentLineNumber)
+
+    parser.StartElementHandler = start
+    try:
+        parser.Parse(text, True)
+    except xml.parsers.expat.ExpatError:
+        pass  # a line once found stands; an error before any start tag: no line
+    return found[0] if found else None
+
+
 def read_source(source: str) -> bytes | None:
     """The bytes of an arm's source file, or None (``"<string>"``, a pipe read once, gone)."""
     path = Path(source)
