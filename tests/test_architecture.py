@@ -183,7 +183,7 @@ LAYERS = [
     {"analysis", "testing", "generate", "plotting"},
     {"lab"},  # simulation and controller (the lesson's holds use them), page, browser
     {"reports"},
-    {"cli", "__init__", "__main__"},
+    {"cli", "cli_streams", "cli_audit", "__init__", "__main__"},
 ]
 
 

@@ -26,112 +26,20 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
+
+from .cli_streams import OutputError as _OutputError
+from .cli_streams import error as _error
+from .cli_streams import silence_stdout as _silence_stdout
+from .cli_streams import terminal_output as _terminal_output
 
 OK, FINDINGS, BAD_INPUT, INTERNAL_ERROR, INTERRUPTED = 0, 1, 2, 3, 130
 PIPE_CLOSED = 128 + 13  # 128 + SIGPIPE, the status a shell shows for a tool that got it
 
 
-def _one_line(message: object) -> str:
-    """A message on one line: its lines, stripped, joined with "; "."""
-    return "; ".join(line.strip() for line in str(message).splitlines() if line.strip())
-
-
-def _error(message: object) -> None:
-    """Print one line on stderr; nothing when stderr is closed or gone."""
-    stream = sys.stderr
-    if stream is None:  # started with stderr closed (2>&-)
-        return
-    try:
-        print(_one_line(message), file=stream, flush=True)
-    except (OSError, ValueError):  # its reader went away, or the stream was closed
-        pass
-
-
-def _silence_stdout() -> None:
-    """After a broken pipe: point stdout at /dev/null so the exit's flush raises nothing."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
-    except (OSError, ValueError, AttributeError):  # no real stdout (a test's capture)
-        pass
-
-
 class _BadInput(Exception):
     """An argument that fails its check (one line for stderr)."""
-
-
-class _OutputError(Exception):
-    """Writing to stdout failed other than by a closed pipe (a full disk): one line."""
-
-
-def _stdout_name() -> str:
-    """Standard output, and the file it is when the system says (Linux's /proc)."""
-    try:
-        target = os.readlink("/proc/self/fd/1")
-    except OSError:
-        return "standard output"
-    return f"standard output ({target})" if target.startswith("/") else "standard output"
-
-
-class _Stdout:
-    """The command's stdout: a closed one is a broken pipe, a failed write an _OutputError.
-
-    Every command prints through ``sys.stdout``; this stands in for it while the command
-    runs, so that each way the report can fail to go out ends the same way for all of them.
-    """
-
-    def __init__(self, stream: Any) -> None:
-        self._stream = stream
-
-    def _call(self, name: str, *args: Any) -> Any:
-        if self._stream is None:  # started with stdout closed (>&-): as if nobody reads
-            raise BrokenPipeError("standard output is closed")
-        try:
-            return getattr(self._stream, name)(*args)
-        except BrokenPipeError:
-            raise
-        except ValueError as err:  # the stream object was closed: nobody reads either
-            raise BrokenPipeError(str(err)) from err
-        except OSError as err:
-            raise _OutputError(f"cannot write to {_stdout_name()}: {err}") from err
-
-    def write(self, text: str) -> int:
-        return int(self._call("write", text))
-
-    def flush(self) -> None:
-        self._call("flush")
-
-    def __getattr__(self, name: str) -> Any:  # fileno, encoding, isatty...
-        if self._stream is None:
-            raise AttributeError(name)
-        return getattr(self._stream, name)
-
-
-@contextlib.contextmanager
-def _terminal_output() -> Iterator[None]:
-    """While a command runs: stdout guarded (`_Stdout`), unencodable text escaped.
-
-    The streams are put back as they were afterwards (``main`` is also called in-process).
-    """
-    saved: list[tuple[Any, str]] = []
-    for stream in (sys.stdout, sys.stderr):
-        errors = getattr(stream, "errors", None)
-        if errors is not None and hasattr(stream, "reconfigure"):
-            with contextlib.suppress(OSError, ValueError):
-                stream.reconfigure(errors="backslashreplace")
-                saved.append((stream, errors))
-    original = sys.stdout
-    sys.stdout = _Stdout(original)  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        sys.stdout = original
-        for stream, errors in saved:
-            with contextlib.suppress(OSError, ValueError):
-                stream.reconfigure(errors=errors)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -233,9 +141,13 @@ def _warn_site(args: argparse.Namespace) -> None:
         _error(f"redundancy: warning: {message}")
 
 
-def _model_arguments(p: argparse.ArgumentParser) -> None:
-    """The model file and how to load it: shared by ``audit`` and ``lab``."""
-    p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
+def _model_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
+    """The model file and how to load it: shared by ``audit`` (``many``: paths) and ``lab``."""
+    if many:
+        what = "MJCF or URDF files, or folders of them (recursive; default: the bundled arm7)"
+        p.add_argument("model", nargs="*", metavar="PATH", help=what)
+    else:
+        p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
     p.add_argument(
         "--frame",
         "--site",
@@ -288,7 +200,7 @@ def _audit_parser(sub: Any) -> None:
         "own numbers show a problem, notes for what its format cannot express.",
         epilog=_EXIT,
     )
-    _model_arguments(a)
+    _model_arguments(a, many=True)
     a.add_argument(
         "--poses",
         type=_count(1),
@@ -323,6 +235,9 @@ def _audit_parser(sub: Any) -> None:
         action="store_true",
         help="no progress bar and no tables: print the findings only",
     )
+    from .cli_audit import fix_argument
+
+    fix_argument(a)
 
 
 def _example_parser(sub: Any) -> None:
@@ -412,6 +327,7 @@ def _check_files(args: argparse.Namespace) -> None:
 
         check_target(args.json)
         named = ((getattr(args, k, None), what) for k, what in _NAMED.items())
+        named = ((p, what) for v, what in named for p in (v if isinstance(v, list) else [v]))
         _check_output(args, [(p, f"{what} {p!r}") for p, what in named if isinstance(p, str)])
 
 
@@ -460,19 +376,20 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def _load(args: argparse.Namespace, strict: bool = True) -> Any:
     """The arm of ``audit`` or ``lab``: the file, its tool frame, and how to load it."""
+    from .cli_audit import srdf_for
     from .models import model_path
     from .reports.files import read_by
 
     extra: dict[str, object] = {}
-    if args.srdf is not None:
-        extra["disabled_collisions"] = args.srdf
+    path = args.model or model_path("arm7")
+    if (srdf := srdf_for(args, path)) is not None:  # --srdf, or the SRDF beside the URDF
+        extra["disabled_collisions"] = srdf
     # base= and rest= are passed only when given: rd.load grew them for robots whose arm is
     # one chain of a larger tree.
     if args.base is not None:
         extra["base"] = args.base
     if args.rest is not None:
         extra["rest"] = args.rest
-    path = args.model or model_path("arm7")
     # No --frame: load's default (the file's one chain end, else its frame "ee").
     arm = _load_file(path, frame=args.frame, strict=strict, **extra)
     _check_output(args, read_by(arm))  # before any work: the files it read are known
@@ -524,6 +441,11 @@ def _run(args: argparse.Namespace) -> int:
         return OK
     if args.command == "compare":
         return _compare(args)
+    from . import cli_audit
+
+    if cli_audit.is_many(args.model):  # a folder, or several paths
+        return cli_audit.run_many(args, _load_file)
+    args.model = args.model[0] if args.model else None
     return _audit(args)
 
 
@@ -563,6 +485,7 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _audit(args: argparse.Namespace) -> int:
     """The ``audit`` subcommand; 1 when there are findings."""
+    from .cli_audit import check_fix, noted, srdf_for, write_fix
     from .reports.audit import audit, format_report
     from .reports.files import write_atomic
     from .reports.progress import terminal_progress
@@ -576,9 +499,11 @@ def _audit(args: argparse.Namespace) -> int:
             print(line, file=stream, flush=True)
 
     arm = _load(args, strict=not args.lenient)
+    check_fix(arm, args.fix)  # before any work
     mode = "lenient" if args.lenient else "strict"
     with terminal_progress(sys.stderr, quiet=args.quiet) as progress:
         report = audit(arm, args.poses, args.seed, args.kd, None, mode, progress)  # type: ignore[arg-type]
+    report = noted(report, args, srdf_for(args, arm.source))
     lines = format_report(report)
     if args.quiet:  # the findings alone
         lines = lines[next(i for i, x in enumerate(lines) if x.startswith("findings: ")) :]
@@ -588,6 +513,7 @@ def _audit(args: argparse.Namespace) -> int:
         print(report.to_json(), flush=True)
     elif args.json:
         write_atomic(args.json, report.to_json() + "\n")
+    write_fix(arm, report, args.fix, say)
     return report.exit_code
 
 
