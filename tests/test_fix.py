@@ -121,13 +121,19 @@ def test_the_fixed_mjcf_compiles_to_the_published_model_and_audits_clean(tmp_pat
     assert [t["bodies"] for t in touching] == [["link0", "link1"]]
     assert f"fix of {planted}: wrote {out}: excludes link0 / link1" in " ".join(err.split())
     # MuJoCo compiles the fix to the published Panda, every field and option the same...
-    assert differing(mujoco.MjModel.from_xml_path(str(PANDA)), mujoco.MjModel.from_xml_path(str(out))) == set()
+    assert (
+        differing(mujoco.MjModel.from_xml_path(str(PANDA)), mujoco.MjModel.from_xml_path(str(out)))
+        == set()
+    )
     # ...and the planted file differs from it in the excludes (and the names' buffer) only.
     changed = differing(
         mujoco.MjModel.from_xml_path(str(planted)), mujoco.MjModel.from_xml_path(str(out))
     )
     assert {"nexclude", "exclude_signature"} <= changed
-    assert {c for c in changed if "exclude" not in c and "name" not in c} <= {"signature", "nbuffer"}
+    assert {c for c in changed if "exclude" not in c and "name" not in c} <= {
+        "signature",
+        "nbuffer",
+    }
     # The file: the planted one with lines inserted, a <contact> of one commented exclude.
     added = inserted_lines(planted.read_bytes(), out.read_bytes())
     assert added[0] == "  <contact>" and added[-1] == "  </contact>"
@@ -183,9 +189,7 @@ def test_an_explicit_pair_is_left_with_the_reason(tmp_path):
 
 
 # -- URDF ------------------------------------------------------------------------------------------
-def test_the_fixed_urdf_is_the_urdf_and_an_srdf_beside_it_which_its_audit_applies(
-    tmp_path, capsys
-):
+def test_the_fixed_urdf_is_the_urdf_and_an_srdf_beside_it_which_its_audit_applies(tmp_path, capsys):
     urdf = talos_tree(tmp_path)
     out = urdf.with_name("fixed.urdf")
     status, data, err = run(capsys, str(urdf), "--frame", TALOS_FRAME, "--fix", str(out))
@@ -275,7 +279,9 @@ def test_fix_never_replaces_the_srdf_the_audit_reads(tmp_path, capsys):
     srdf = urdf.with_name("given.srdf")
     srdf.write_text('<robot name="talos"/>')
     out = urdf.with_name("given.urdf")  # its SRDF beside it is given.srdf: an input
-    status, _, err = run(capsys, str(urdf), "--frame", TALOS_FRAME, "--srdf", str(srdf), "--fix", str(out))
+    status, _, err = run(
+        capsys, str(urdf), "--frame", TALOS_FRAME, "--srdf", str(srdf), "--fix", str(out)
+    )
     assert status == 2
     assert f"{str(srdf)!r} is {str(srdf)!r}, a file the model" in err
     assert not out.exists() and srdf.read_text() == '<robot name="talos"/>'
@@ -304,7 +310,10 @@ def test_fix_of_a_folder_writes_each_copy_at_its_path_under_the_fix_folder(tmp_p
     status = main(["audit", str(models), "--poses", POSES, "--quiet", "--fix", str(out)])
     text = capsys.readouterr().out
     assert status == 1
-    assert sorted(str(p.relative_to(out)) for p in out.rglob("*.xml")) == ["arm7.xml", "sub/panda.xml"]
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*.xml")) == [
+        "arm7.xml",
+        "sub/panda.xml",
+    ]
     assert (out / "arm7.xml").read_bytes() == (models / "arm7.xml").read_bytes()
     assert inserted_lines(planted.read_bytes(), (out / "sub" / "panda.xml").read_bytes())
     assert "fixes: 2 copies written, 1 with pairs excluded" in text
@@ -332,4 +341,6 @@ def test_fix_folder_that_is_the_models_folder_is_refused(tmp_path, capsys):
 def test_fix_targets(tmp_path, name):
     arm = rd.load(MODELS / name)
     targets = fix.fix_targets(arm, tmp_path / "out.xml")
-    assert targets == [tmp_path / "out.xml"] + ([tmp_path / "out.srdf"] if name.endswith("urdf") else [])
+    assert targets == [tmp_path / "out.xml"] + (
+        [tmp_path / "out.srdf"] if name.endswith("urdf") else []
+    )

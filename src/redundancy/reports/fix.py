@@ -319,8 +319,9 @@ def _check_copy(arm: Arm, written: list[Path], excluded: list[Exclusion], out: s
     if lost:
         link, file = sorted(lost)[0]
         folder = os.path.dirname(os.path.abspath(str(arm.source)))
+        meshes = plural(len(lost), "mesh", "meshes")
         raise FixError(
-            f"the fixed copy {out!r} would not find {plural(len(lost), 'mesh', 'meshes')} the model "
+            f"the fixed copy {out!r} would not find {meshes} the model "
             f"reads (link {link!r}: {file!r}): write it in the model's folder {folder!r}"
         )
     tested = {tuple(sorted((p.body1, p.body2))) for p in checker(copy).pairs}
