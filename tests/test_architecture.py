@@ -183,7 +183,7 @@ LAYERS = [
     {"analysis", "testing", "generate", "plotting"},
     {"lab"},  # simulation and controller (the lesson's holds use them), page, browser
     {"reports"},
-    {"cli", "cli_io", "__init__", "__main__"},
+    {"cli", "cli_io", "cli_audit", "__init__", "__main__"},
 ]
 
 

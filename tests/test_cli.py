@@ -246,7 +246,7 @@ def test_version(capsys):
 def test_help_names_both_formats_and_the_frame(capsys):
     assert main(["audit", "-h"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    assert "MJCF or URDF file (default: the bundled arm7)" in text
+    assert "MJCF or URDF files, or folders of them (recursive; default: the bundled arm7)" in text
     assert "--frame NAME, --site NAME" in text
     for flag in ("--srdf FILE", "--base BODY", "--rest KEY|JOINT=VALUE,...", "--quiet"):
         assert flag in text

@@ -142,9 +142,13 @@ def _warn_site(args: argparse.Namespace) -> None:
         _error(f"redundancy: warning: {message}")
 
 
-def _model_arguments(p: argparse.ArgumentParser) -> None:
-    """The model file and how to load it: shared by ``audit`` and ``lab``."""
-    p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
+def _model_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
+    """The model file and how to load it: shared by ``audit`` (``many``: paths) and ``lab``."""
+    if many:
+        what = "MJCF or URDF files, or folders of them (recursive; default: the bundled arm7)"
+        p.add_argument("model", nargs="*", metavar="PATH", help=what)
+    else:
+        p.add_argument("model", nargs="?", help="MJCF or URDF file (default: the bundled arm7)")
     p.add_argument(
         "--frame",
         "--site",
@@ -198,7 +202,7 @@ def _audit_parser(sub: Any) -> None:
         epilog="exit status: 0 no findings, 1 findings (--fail-on: at or above its severity, "
         "not in the --baseline), 2 bad input, 3 internal error",
     )
-    _model_arguments(a)
+    _model_arguments(a, many=True)
     a.add_argument(
         "--poses",
         type=_count(1),
@@ -234,6 +238,9 @@ def _audit_parser(sub: Any) -> None:
         action="store_true",
         help="no progress bar and no tables: print the findings only",
     )
+    from .cli_audit import fix_argument
+
+    fix_argument(a)
 
 
 def _report_arguments(a: argparse.ArgumentParser) -> None:
@@ -369,6 +376,7 @@ def _check_files(args: argparse.Namespace) -> None:
         for _, target in targets:
             check_target(target)
         named = ((getattr(args, k, None), what) for k, what in _NAMED.items())
+        named = ((p, what) for v, what in named for p in (v if isinstance(v, list) else [v]))
         _check_output(args, [(p, f"{what} {p!r}") for p, what in named if isinstance(p, str)])
 
 
@@ -417,19 +425,20 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def _load(args: argparse.Namespace, strict: bool = True) -> Any:
     """The arm of ``audit`` or ``lab``: the file, its tool frame, and how to load it."""
+    from .cli_audit import srdf_for
     from .models import model_path
     from .reports.files import read_by
 
     extra: dict[str, object] = {}
-    if args.srdf is not None:
-        extra["disabled_collisions"] = args.srdf
+    path = args.model or model_path("arm7")
+    if (srdf := srdf_for(args, path)) is not None:  # --srdf, or the SRDF beside the URDF
+        extra["disabled_collisions"] = srdf
     # base= and rest= are passed only when given: rd.load grew them for robots whose arm is
     # one chain of a larger tree.
     if args.base is not None:
         extra["base"] = args.base
     if args.rest is not None:
         extra["rest"] = args.rest
-    path = args.model or model_path("arm7")
     # No --frame: load's default (the file's one chain end, else its frame "ee").
     arm = _load_file(path, frame=args.frame, strict=strict, **extra)
     _check_output(args, read_by(arm))  # before any work: the files it read are known
@@ -481,6 +490,11 @@ def _run(args: argparse.Namespace) -> int:
         return OK
     if args.command == "compare":
         return _compare(args)
+    from . import cli_audit
+
+    if cli_audit.is_many(args.model):  # a folder, or several paths
+        return cli_audit.run_many(args, _load_file)
+    args.model = args.model[0] if args.model else None
     return _audit(args)
 
 
@@ -520,6 +534,7 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _audit(args: argparse.Namespace) -> int:
     """The ``audit`` subcommand; 1 when a result at or above --fail-on is not in the baseline."""
+    from .cli_audit import check_fix, noted, srdf_for, write_fix
     from .reports.audit import audit
     from .reports.baseline import read_baseline
     from .reports.formats.results import collect
@@ -527,12 +542,27 @@ def _audit(args: argparse.Namespace) -> int:
 
     baseline = None if args.baseline is None else read_baseline(args.baseline)  # before any work
     arm = _load(args, strict=not args.lenient)
+    check_fix(arm, args.fix)  # before any work
     mode = "lenient" if args.lenient else "strict"
     with terminal_progress(sys.stderr, quiet=args.quiet) as progress:
         report = audit(arm, args.poses, args.seed, args.kd, None, mode, progress)  # type: ignore[arg-type]
+    report = noted(report, args, srdf_for(args, arm.source))
     outcome = collect([report], args.fail_on, baseline)
     _deliver(args, outcome)
+    write_fix(arm, report, args.fix, _say_beside(args))
     return outcome.exit_code
+
+
+def _say_beside(args: argparse.Namespace) -> Callable[[str], None]:
+    """Print a line beside the report: on stderr when stdout carries a document."""
+    to_stdout = args.json == "-" or (args.format != "text" and args.output in (None, "-"))
+    stream = sys.stderr if to_stdout else sys.stdout
+
+    def say(line: str = "") -> None:
+        if stream is not None:  # None: started with that stream closed
+            print(line, file=stream, flush=True)
+
+    return say
 
 
 def _deliver(args: argparse.Namespace, outcome: Any) -> None:

@@ -189,7 +189,9 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
             arm = load_urdf(text, root, folder, pairs, robot)  # type: ignore[arg-type]
         else:
             _check_mjcf(pairs)  # type: ignore[arg-type]
-            as_is = as_is and p.is_file()  # a pipe's bytes are gone once read
+            # A pipe's bytes are gone once read; MuJoCo reads a file by its suffix, and knows
+            # MJCF as .xml only (an .mjcf goes as text, as a pipe's does).
+            as_is = as_is and p.is_file() and p.suffix.lower() == ".xml"
             if as_is:
                 # By its absolute path: MuJoCo then looks its assets up by theirs.
                 spec, mj, kind = read_mujoco(None, p, folder, tool)

@@ -22,7 +22,7 @@ import os
 import secrets
 import stat
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -126,14 +126,16 @@ def read_by(arm: Arm) -> list[tuple[str, str]]:
     ]
 
 
-def _new_temporary(folder: Path) -> tuple[int, str]:
+def _new_temporary(folder: Path, suffix: str = "") -> tuple[int, str]:
     """A new file beside the target, opened for writing, with the mode ``open()`` gives.
+
+    ``suffix`` follows ``.tmp`` (the target's, for a reader that goes by the suffix).
 
     Created with 0o666 for the kernel to apply the umask: reading the umask would mean
     setting it (``os.umask``), which races with every other thread creating files.
     """
     for _ in range(100):
-        name = str(folder / f"{_TMP_PREFIX}{secrets.token_hex(8)}.tmp")
+        name = str(folder / f"{_TMP_PREFIX}{secrets.token_hex(8)}.tmp{suffix}")
         try:
             return os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), name
         except FileExistsError:
@@ -141,8 +143,13 @@ def _new_temporary(folder: Path) -> tuple[int, str]:
     raise FileExistsError(f"no free temporary name in {str(folder)!r}")
 
 
-def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
+def write_atomic(path: str | os.PathLike[str], text: str | bytes) -> Path:
     """Write ``text`` to the regular file ``path`` names, atomically, keeping its mode.
+
+    Args:
+        path: The file to replace or create.
+        text: Its new content: text (written in the locale's encoding, as ``open()`` does)
+            or bytes (written as they are).
 
     Returns:
         The file written (a symbolic link's target).
@@ -151,24 +158,72 @@ def write_atomic(path: str | os.PathLike[str], text: str) -> Path:
         OutputPathError: The path breaks a rule of this module, or the write itself failed
             (an ``OSError`` too; the old file is left whole).
     """
-    p = check_target(path)
+    (written,) = write_together([(path, text)])
+    return written
+
+
+def write_together(
+    files: Sequence[tuple[str | os.PathLike[str], str | bytes]],
+    check: Callable[[list[Path]], None] | None = None,
+) -> list[Path]:
+    """Write several files by the rules above: each atomically, after ``check`` of them all.
+
+    Every new content goes to its temporary file beside its target first; ``check`` is then
+    called with the temporary files (in the order of ``files``), where each reads as its target
+    will (the same directory: the relative paths in it count from the same place); only when
+    it returns are the temporaries renamed over their targets, one after the other. A check
+    that raises leaves every target as it was, and no temporary file behind.
+
+    Args:
+        files: (target, content) pairs; text or bytes as `write_atomic` takes them.
+        check: Called with the temporary files before any target is replaced.
+
+    Returns:
+        The files written (symbolic links' targets), in order.
+
+    Raises:
+        OutputPathError: A path breaks a rule of this module, or a write failed.
+    """
+    targets = [check_target(path) for path, _ in files]
+    made: list[str] = []
+    try:
+        for (path, content), p in zip(files, targets, strict=True):
+            # Checked in place: named as the target ends (MuJoCo reads a model by its suffix).
+            suffix = p.suffix[:16] if check is not None else ""
+            made.append(_write_temporary(path, p, content, suffix))
+        if check is not None:
+            check([Path(t) for t in made])
+        for tmp, p, (path, _) in zip(made, targets, files, strict=True):
+            try:
+                os.replace(tmp, p)  # atomic on POSIX within one filesystem
+            except OSError as err:
+                raise OutputPathError(f"cannot write {str(path)!r}: {err}") from err
+    finally:
+        for tmp in made:
+            Path(tmp).unlink(missing_ok=True)  # none left once replaced
+    return targets
+
+
+def _write_temporary(
+    path: str | os.PathLike[str], p: Path, content: str | bytes, suffix: str = ""
+) -> str:
+    """The temporary file of target ``p`` with ``content``, flushed to disk, in ``p``'s mode."""
     mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else None
     try:
-        fd, tmp = _new_temporary(p.parent)
+        fd, tmp = _new_temporary(p.parent, suffix)
     except OSError as err:
         raise OutputPathError(f"cannot write {str(path)!r}: {err}") from err
     try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
+        with os.fdopen(fd, "wb" if isinstance(content, bytes) else "w") as f:
+            f.write(content)
             f.flush()
             if mode is not None:  # an existing file keeps its permission bits
                 os.fchmod(f.fileno(), mode)
             os.fsync(f.fileno())
-        os.replace(tmp, p)  # atomic on POSIX within one filesystem
     except OSError as err:
         Path(tmp).unlink(missing_ok=True)
         raise OutputPathError(f"cannot write {str(path)!r}: {err}") from err
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    return p
+    return tmp

@@ -99,6 +99,8 @@ _CATALOGUE = (
     # -- self-collision ---------------------------------------------------------------------------
     Rule("pair-always-touching", "note", "collision",
          "Two links touch at (nearly) every pose: most likely an exclusion the file lacks."),
+    Rule("srdf-beside", "note", "collision",
+         "The SRDF of the URDF's name beside it is applied: its pairs are never tested."),
 )  # fmt: skip
 
 #: Every rule of the audit by id, in the order the guide lists them.
