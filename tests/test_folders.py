@@ -202,7 +202,9 @@ def test_a_model_whose_audit_fails_is_a_row_and_the_others_are_audited(tree, cap
     ]
 
 
-def test_text_report_each_model_then_the_summary(tree, capsys):
+def test_text_report_each_model_then_the_summary(tree, capsys, monkeypatch):
+    monkeypatch.chdir(tree.parent)  # short paths: a long one stands on a line of its own
+    tree = Path(tree.name)
     status = main(["audit", str(tree / "mjcf"), "--poses", POSES])
     out = capsys.readouterr().out.splitlines()
     heads = [i for i, line in enumerate(out) if line.startswith("audit of ")]

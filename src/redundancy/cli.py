@@ -1,4 +1,4 @@
-"""Command line: ``redundancy audit [MODEL]``, ``lab``, ``compare A B`` and ``example arm7``.
+"""Command line: ``redundancy audit [PATH...]``, ``lab``, ``compare A B``, ``example arm7``.
 
 Every argument is checked before any work; heavy imports (the engines) happen inside the
 subcommands, so ``--help`` is instant.
