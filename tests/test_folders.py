@@ -281,3 +281,32 @@ def test_a_folder_audit_holds_the_per_model_reports(tree):
     ]
     assert folders.FolderAudit(reports).exit_code == max(r.exit_code for r in reports)
     assert folders.FolderAudit(()).exit_code == 0
+
+
+def test_a_folder_audit_writes_one_format_document_for_every_model(tmp_path, capsys):
+    """--format with several models: one SARIF log (a run's results per model), one JUnit
+    report (a suite per model); --fail-on and --baseline judge them all."""
+    from junitparser import JUnitXml
+
+    root = tmp_path / "two"
+    root.mkdir()
+    for name in ("arm7.xml", "panda.xml"):
+        shutil.copyfile(MODELS / name, root / name)
+    sarif, junit, base = tmp_path / "a.sarif", tmp_path / "a.junit.xml", tmp_path / "base.json"
+    args = ["audit", str(root), "--poses", POSES, "--quiet"]
+    status = main([*args, "--format", "sarif", "-o", str(sarif), "--json", str(base)])
+    capsys.readouterr()
+    log = json.loads(sarif.read_text())
+    files = {
+        r["locations"][0]["physicalLocation"]["artifactLocation"]["uri"]
+        for run in log["runs"]
+        for r in run["results"]
+    }
+    assert {Path(f).name for f in files} >= {"arm7.xml"}  # arm7's singular keyframe
+    assert status == 1  # arm7's finding, at the default --fail-on warning
+    assert main([*args, "--format", "junit", "-o", str(junit)]) == 1
+    suites = list(JUnitXml.fromfile(str(junit)))
+    assert [Path(s.name).name for s in suites] == ["arm7.xml", "panda.xml"]
+    # Nothing fails at --fail-on error (a warning), nor with the run's own report as baseline.
+    assert main([*args, "--fail-on", "error"]) == 0
+    assert main([*args, "--baseline", str(base)]) == 0

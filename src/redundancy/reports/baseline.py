@@ -121,12 +121,17 @@ _NOT_A_REPORT = "not an audit report written by --format json"
 
 
 def _reports(shown: str, document: Any) -> list[dict[str, Any]]:
-    """The reports of a baseline document: itself, or its ``reports`` list."""
-    if isinstance(document, dict) and "reports" in document:
-        reports = document["reports"]
-        if not isinstance(reports, list) or not all(isinstance(r, dict) for r in reports):
-            raise BaselineError(shown, f'{_NOT_A_REPORT}: "reports" is not a list of reports')
-        return reports
+    """The reports of a baseline document: itself, or its list of them.
+
+    ``reports`` is the list of ``--format json`` with several models, ``models`` that of a
+    folder audit's ``--json``.
+    """
+    for part in ("reports", "models"):
+        if isinstance(document, dict) and part in document:
+            reports = document[part]
+            if not isinstance(reports, list) or not all(isinstance(r, dict) for r in reports):
+                raise BaselineError(shown, f'{_NOT_A_REPORT}: "{part}" is not a list of reports')
+            return reports
     if not isinstance(document, dict):
         raise BaselineError(shown, f"{_NOT_A_REPORT}: a JSON {type(document).__name__}")
     if "runs" in document:
