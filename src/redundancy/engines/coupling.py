@@ -20,12 +20,13 @@ constraint rows come from a `Closure` (MuJoCo's own equality rows,
   constraint Jacobian's derivative along dx/dt = G v (a central difference of H, 1e-10
   relative).
 
-Each thread keeps the map at its last pose (its own closure data), so the engines' quantities
-at one pose share one solve.
+The maps of recent poses are kept (`CACHE_SIZE`), so the engines' quantities at one pose share
+one solve; each thread solves with its own closure data.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -34,7 +35,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PoseError
-from .threads import PerThread
 
 Array = NDArray[np.float64]
 
@@ -45,6 +45,8 @@ CLOSURE_TOL = 1e-12
 PATH_STEP = 0.2
 #: Newton iterations per solve, at most.
 NEWTON_ITERATIONS = 30
+#: Poses whose maps are kept.
+CACHE_SIZE = 4096
 
 
 @dataclass(frozen=True)
@@ -150,20 +152,25 @@ class CouplingMap:
         #: Affine couplings and no loop: G is one constant matrix.
         self.linear = closure is None and all(p.linear for p in self.polynomials)
         self._G0 = self._polynomial_G(self.rest) if self.linear else None
-        self._last = PerThread(lambda: Coupled([], self.rest, np.zeros((self.nx, self.nq))))
+        # Maps already computed, by pose: the engines' stacks over one set of poses (a
+        # cross-check's, one quantity after another) solve each loop once. Bounded; a
+        # pose's map never depends on what was computed before it.
+        self._cache: dict[tuple[float, ...], Coupled] = {}
+        self._lock = threading.Lock()
 
     # -- the map at a pose ---------------------------------------------------------------
     def at(self, q: Array, pose: list[float]) -> Coupled:
         """The map at pose ``q`` (finite float64 (nq,), checked by the caller; ``pose`` its list).
 
-        This thread's last pose is kept: the engines' quantities at one pose share it.
+        The maps of the last `CACHE_SIZE` poses are kept (shared by threads; each is read
+        only): the engines' quantities at one pose share one solve.
 
         Raises:
             PoseError: A loop that cannot close at ``q`` (the message names its constraint).
         """
-        last = self._last.get()
-        if last.pose == pose:
-            return last
+        found = self._cache.get(tuple(pose))
+        if found is not None:
+            return found
         if self.closure is None:
             x = self.rest.copy()
             x[self.independent] = q
@@ -174,7 +181,10 @@ class CouplingMap:
             x = self._close(q)
             G = self._closure_G(x)
         out = Coupled(pose, x, G)
-        self._last.local.value = out
+        with self._lock:
+            if len(self._cache) >= CACHE_SIZE:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[tuple(pose)] = out
         return out
 
     def _polynomial_G(self, x: Array) -> Array:

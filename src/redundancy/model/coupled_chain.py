@@ -83,14 +83,14 @@ def _reach(model: mujoco.MjModel, chain: set[int]) -> tuple[set[int], list[int],
     while grew:
         grew = False
         for k in active:
-            kind = model.eq_type[k]
-            if kind == _EQ.mjEQ_JOINT:
+            kind = int(model.eq_type[k])
+            if kind == int(_EQ.mjEQ_JOINT):
                 pair = {int(model.eq_obj1id[k]), int(model.eq_obj2id[k])} - {-1}
                 if pair & joints and k not in eqs:
                     eqs.add(k)
                     joints |= pair
                     grew = True
-            elif kind in (_EQ.mjEQ_CONNECT, _EQ.mjEQ_WELD) and k not in loops:
+            elif kind in (int(_EQ.mjEQ_CONNECT), int(_EQ.mjEQ_WELD)) and k not in loops:
                 path = set(joints_between(model, *_bodies(model, k)))
                 if path & joints:
                     loops.add(k)
