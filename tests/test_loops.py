@@ -195,3 +195,84 @@ def test_a_pose_the_loop_cannot_reach_raises_naming_the_constraint() -> None:
     for q in Q[:10]:
         wrapped = np.angle(np.exp(1j * (arm.chain_pose(q) - TRIPLE_ROCKER.chain(q)[0])))
         assert np.max(np.abs(wrapped)) <= 1e-10
+
+
+# -- a Robotiq 2F-85-style gripper, in MuJoCo Menagerie's pattern -----------------------------
+
+GRIPPER = "examples/gripper_2f85.xml"
+
+
+@pytest.fixture(scope="module")
+def gripper() -> rd.Arm:
+    from pathlib import Path
+
+    return rd.load(Path(__file__).resolve().parents[1] / GRIPPER, frame="right_pad")
+
+
+def test_the_gripper_finger_is_its_two_chain_joints(gripper: rd.Arm) -> None:
+    # The finger's loop leaves two freedoms (the adaptive finger): its two chain joints.
+    assert gripper.joint_names == ("right_spring_link_joint", "right_follower_joint")
+    assert set(gripper.followers) == {
+        "right_driver_joint",
+        "right_coupler_joint",
+        "left_driver_joint",
+        "left_spring_link_joint",
+        "left_follower_joint",
+    }
+    assert gripper.followers["right_coupler_joint"].startswith(
+        "closes the loop of equality 'right_loop'; moved by"
+    )
+    # The other finger's passive freedom moves nothing on the chain: held at rest.
+    assert gripper.held == {"left_coupler_joint": 0.0}
+    assert {a.name for a in gripper.set_aside} >= {"right_loop", "left_loop", "drivers", "split"}
+
+
+def test_the_gripper_loops_close_in_raw_mujoco(gripper: rd.Arm) -> None:
+    m = gripper.robot_model
+    for q in rd.random_poses(gripper, 20, seed=1):
+        _, d = _raw(gripper, gripper.chain_pose(q))
+        for k in range(m.neq):
+            if m.eq_type[k] != mujoco.mjtEq.mjEQ_CONNECT:
+                continue
+            b1, b2 = m.eq_obj1id[k], m.eq_obj2id[k]
+            p1 = d.xpos[b1] + d.xmat[b1].reshape(3, 3) @ m.eq_data[k][:3]
+            p2 = d.xpos[b2] + d.xmat[b2].reshape(3, 3) @ m.eq_data[k][3:6]
+            assert np.linalg.norm(p1 - p2) <= 1e-12
+        names = gripper.chain_joint_names
+        x = gripper.chain_pose(q)
+        assert x[names.index("right_driver_joint")] == pytest.approx(
+            x[names.index("left_driver_joint")], abs=1e-12
+        )
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pinocchio"])
+def test_the_gripper_against_raw_mujoco(gripper: rd.Arm, engine: str) -> None:
+    h = 1e-6
+    m = gripper.robot_model
+    sid = m.site("right_pad").id
+    for q in rd.random_poses(gripper, 5, seed=2):
+        J = gripper.jacobian(q, engine)
+        for k in range(2):
+            e = np.eye(2)[k] * h
+            plus = _raw(gripper, gripper.chain_pose(q + e))[1].site_xpos[sid].copy()
+            minus = _raw(gripper, gripper.chain_pose(q - e))[1].site_xpos[sid].copy()
+            assert np.max(np.abs(J[:3, k] - (plus - minus) / (2 * h))) <= 1e-7
+        G = gripper.coupling_jacobian(q)
+        _, d = _raw(gripper, gripper.chain_pose(q))
+        dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in gripper.chain_joint_names]
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        M_ref = G.T @ M[np.ix_(dofs, dofs)] @ G
+        M_arm = gripper.mass_matrix(q, engine=engine)
+        assert np.max(np.abs(M_arm - M_ref)) <= 1e-10 * np.max(np.abs(M_ref))
+        g_ref = G.T @ d.qfrc_bias[dofs]
+        assert np.max(np.abs(gripper.gravity(q, engine) - g_ref)) <= 1e-10 * np.max(np.abs(g_ref))
+
+
+def test_the_gripper_crosscheck_ok_over_200_poses(gripper: rd.Arm) -> None:
+    Q = rd.random_poses(gripper, 200, seed=3)
+    lo, hi = gripper.reference.inner.limits
+    X = np.array([gripper.chain_pose(q) for q in Q])
+    assert np.all((X >= lo - 1e-9) & (X <= hi + 1e-9))  # the drivers' 0..0.8 kept
+    report = rd.crosscheck(gripper, Q)
+    assert report.ok, report.summary()

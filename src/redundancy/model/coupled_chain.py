@@ -288,11 +288,12 @@ def _with_loops(
         )
     for j, value in zip(joints, closed.x, strict=True):
         rest[int(model.jnt_qposadr[j])] = value
-    loop_names = ", ".join(repr(_name(model, k)) for k in loops)
+    by = ", ".join(repr(names[i]) for i in independent)
     for j in dependent:
         if names[j] not in texts:
-            by = ", ".join(repr(names[i]) for i in independent)
-            texts[names[j]] = f"closes the loop of equality {loop_names}; moved by {by}"
+            own = [k for k in loops if j in joints_between(model, *_bodies(model, k))]
+            shown = ", ".join(repr(_name(model, k)) for k in own or loops)
+            texts[names[j]] = f"closes the loop of equality {shown}; moved by {by}"
     moving = tuple(j for j in joints if j not in held)
     return CoupledSystem(moving, independent, tuple(held), eqs, tuple(loops), texts, rest)
 

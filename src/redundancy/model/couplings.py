@@ -295,6 +295,8 @@ def _actuator(
             return None
         return SetAside("actuator", name, f"drives held joint {jnames[target]!r}")
     if trn == mujoco.mjtTrn.mjTRN_TENDON:
+        if _fixed_over(full, target, arm):
+            return SetAside("actuator", name, "pulls a fixed tendon over the arm's coupled joints")
         return SetAside("actuator", name, "drives a tendon of held joints")
     # site, slider-crank (sites) or body (adhesion) transmissions
     if trn == mujoco.mjtTrn.mjTRN_BODY:
