@@ -147,9 +147,9 @@ def test_the_arm_is_its_independent_joints(case: tuple[rd.Arm, object]) -> None:
 def test_followers_say_what_determines_them() -> None:
     arm = rd.load_string(POLY_MJCF, frame="tool")
     assert arm.followers["j3"] == (
-        "joint equality (j3 - -0.2) = 0.05 + 0.8 (j2 - 0.1) + 0.3 (j2 - 0.1)^2"
+        "joint equality (j3 + 0.2) = 0.05 + 0.8 (j2 - 0.1) + 0.3 (j2 - 0.1)^2"
     )
-    assert arm.followers["j5"] == "joint equality j5 = 0.01 + 0.03 (j3 - -0.2)"
+    assert arm.followers["j5"] == "joint equality j5 = 0.01 + 0.03 (j3 + 0.2)"
     urdf = rd.load_string(MIMIC_URDF, frame="tool")
     assert urdf.followers["j3"] == "joint equality j3 = 0.15 - 0.7 j2"
 
@@ -207,3 +207,103 @@ def test_random_poses_keep_followers_in_their_ranges() -> None:
     assert any(poly_followers(q)[0][2] > 1.2 for q in raw)
     assert not np.array_equal(raw, Q)
     assert Q.shape == (300, 3) and np.all((Q >= arm.lower) & (Q <= arm.upper))
+
+
+# -- dynamics, inverse kinematics, stacks ------------------------------------------------------
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pinocchio"])
+def test_coriolis_with_the_rate_of_G(engine: str) -> None:
+    # The quadratic coupling makes G move: dM/dt = C + C^T needs G^T M dG/dt in C, and C v
+    # is the reduced bias G^T (C_x G v + M_x dG/dt v) of raw MuJoCo's whole model.
+    arm = rd.load_string(POLY_MJCF, frame="tool")
+    h = 1e-6
+    rng = np.random.default_rng(0)
+    for q in rd.random_poses(arm, 5, seed=8):
+        v = rng.normal(size=3)
+        C = arm.coriolis(q, v, engine=engine)
+        dM = (arm.mass_matrix(q + h * v) - arm.mass_matrix(q - h * v)) / (2 * h)
+        assert np.max(np.abs(C + C.T - dM)) <= 1e-7 * np.max(np.abs(arm.mass_matrix(q)))
+        # Raw MuJoCo: the chain moving at x' = G v, accelerating at dG/dt v (v constant).
+        x, G = poly_followers(q)
+        Gdot = (poly_followers(q + h * v)[1] - poly_followers(q - h * v)[1]) / (2 * h)
+        m = arm.robot_model
+        d = mujoco.MjData(m)
+        dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in arm.chain_joint_names]
+        d.qpos[dofs] = x
+        d.qvel[dofs] = G @ v
+        d.qacc[dofs] = Gdot @ v
+        m0 = copy_without_gravity(m)
+        mujoco.mj_inverse(m0, d)
+        assert np.max(np.abs(C @ v - G.T @ d.qfrc_inverse[dofs])) <= 1e-6 * max(
+            1.0, np.max(np.abs(C @ v))
+        )
+
+
+def copy_without_gravity(m: mujoco.MjModel) -> mujoco.MjModel:
+    import copy
+
+    m0 = copy.copy(m)
+    m0.opt.gravity[:] = 0.0
+    m0.dof_damping[:] = 0.0
+    m0.jnt_stiffness[:] = 0.0
+    return m0
+
+
+def test_effective_mass_is_that_of_the_reduced_J_and_M(case: tuple[rd.Arm, object]) -> None:
+    arm, _ = case
+    u = np.array([0.0, 0.0, 1.0])
+    for q in rd.random_poses(arm, 5, seed=9):
+        J, M = arm.jacobian(q)[:3], arm.mass_matrix(q)
+        expected = 1.0 / (u @ J @ np.linalg.solve(M, J.T) @ u)
+        assert arm.effective_mass(q, u) == pytest.approx(expected, rel=1e-10)
+        assert arm.effective_mass(q, u, engine="pinocchio") == pytest.approx(expected, rel=1e-9)
+
+
+def test_inverse_kinematics_in_the_independent_coordinates(case: tuple[rd.Arm, object]) -> None:
+    arm, followers = case
+    goal = rd.random_poses(arm, 1, seed=10)[0]
+    target = _site(arm, followers(goal)[0])  # type: ignore[operator]
+    result = arm.solve_ik(target, position_only=True)
+    assert result.success, result
+    x, _ = followers(result.q)  # type: ignore[operator]
+    assert np.linalg.norm(_site(arm, x)[0] - target[0]) <= 1e-5
+
+
+def test_batch_stacks_equal_the_single_pose_quantities(case: tuple[rd.Arm, object]) -> None:
+    arm, _ = case
+    Q = rd.random_poses(arm, 20, seed=11)
+    J = rd.batch.jacobians(arm, Q)
+    M = rd.batch.mass_matrices(arm, Q)
+    for q, Ji, Mi in zip(Q, J, M, strict=True):
+        assert np.max(np.abs(Ji - arm.jacobian(q))) <= 1e-14
+        assert np.max(np.abs(Mi - arm.mass_matrix(q))) <= 1e-14 * np.max(np.abs(Mi))
+
+
+# -- refusals -----------------------------------------------------------------------------------
+
+
+def test_circular_couplings_are_refused_naming_the_joints() -> None:
+    xml = POLY_MJCF.replace(
+        '<joint joint1="j5" joint2="j3"',
+        '<joint joint1="j2" joint2="j5" polycoef="0 1 0 0 0"/><joint joint1="j5" joint2="j3"',
+    )
+    with pytest.raises(rd.ModelError) as err:
+        rd.load_string(xml, frame="tool")
+    assert str(err.value) == (
+        "circular couplings: joints 'j2' -> 'j5' -> 'j3' -> 'j2' follow each other (URDF "
+        "<mimic> or MJCF joint equalities); one of them must be a free leader"
+    )
+
+
+def test_contradictory_couplings_are_refused_naming_the_joint() -> None:
+    xml = POLY_MJCF.replace(
+        '<joint joint1="j5" joint2="j3"',
+        '<joint name="again" joint1="j3" joint2="j1" polycoef="0 2 0 0 0"/><joint joint1="j5" joint2="j3"',
+    )
+    with pytest.raises(rd.ModelError) as err:
+        rd.load_string(xml, frame="tool")
+    assert str(err.value).startswith(
+        "contradictory couplings: joint 'j3' follows two joint equalities, 'elbow' ("
+    )
+    assert "'again' ((j3 + 0.2) = 2 j1)" in str(err.value)

@@ -26,6 +26,11 @@ class _Coupled:
     nq: int
     coupling: CouplingMap | None
 
+    def _of_chain(self, values: Array) -> Array:
+        """The arm's coordinates' entries of a vector over the chain model's joints."""
+        values = np.asarray(values)
+        return values.copy() if self.coupling is None else values[self.coupling.independent]
+
     def chain_pose(self, q: ArrayLike) -> Array:
         """Every joint the arm moves at ``q``, in the order of `chain_joint_names` [rad or m].
 

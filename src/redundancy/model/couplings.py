@@ -99,7 +99,9 @@ def coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
 
     def shifted(j: int) -> str:
         ref = float(model.qpos0[model.jnt_qposadr[j]])
-        return names[j] if ref == 0 else f"({names[j]} - {ref:.6g})"
+        if ref == 0:
+            return names[j]
+        return f"({names[j]} - {ref:.6g})" if ref > 0 else f"({names[j]} + {-ref:.6g})"
 
     j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
     x = shifted(j2) if j2 >= 0 else "0"
