@@ -53,6 +53,8 @@ class CoupledEngine:
         idx = coupling.independent
         lo, hi = inner.limits
         self._limits = (lo[idx].copy(), hi[idx].copy())
+        self._G0 = coupling.affine[1] if coupling.affine is not None else None
+        self._x_at_0 = coupling.affine[0] if coupling.affine is not None else None
         c = self._map(coupling.q_rest)
         # Armature and damping as the reduced M and damping see them at rest: diag(G^T A G),
         # exact at every pose where the couplings are linear (G constant, G^T A G diagonal
@@ -103,6 +105,14 @@ class CoupledEngine:
 
     def site_jacobian(self, q: ArrayLike) -> Array:
         """J_x(x) G, shape (6, nq)."""
+        G0 = self._G0
+        if G0 is not None:
+            # Affine couplings (a mimic arm): x = x(0) + G0 q and J_x G0, two products around
+            # the chain's J, no map object (a controller's inner loop).
+            q = pose_key(q, self.joint_names)[0]
+            x = G0 @ q
+            x += self._x_at_0
+            return self.inner.site_jacobian(x) @ G0
         c = self._map(q)
         return self.inner.site_jacobian(c.x) @ c.G
 

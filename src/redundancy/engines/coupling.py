@@ -151,7 +151,17 @@ class CouplingMap:
         self.followers = dict(followers or {})
         #: Affine couplings and no loop: G is one constant matrix.
         self.linear = closure is None and all(p.linear for p in self.polynomials)
+        # G's rows of the independent joints, which every polynomial G starts from.
+        self._G_base = np.zeros((self.nx, self.nq))
+        self._G_base[self.independent, np.arange(self.nq)] = 1.0
         self._G0 = self._polynomial_G(self.rest) if self.linear else None
+        #: Affine couplings: (x(0), G0), x(q) = x(0) + G0 q; None otherwise.
+        self.affine: tuple[Array, Array] | None = None
+        if self._G0 is not None:
+            self._G0.flags.writeable = False
+            self._x_at_0 = self._polynomial_x(np.zeros(self.nq))
+            self._x_at_0.flags.writeable = False
+            self.affine = (self._x_at_0, self._G0)
         # Maps already computed, by pose: the engines' stacks over one set of poses (a
         # cross-check's, one quantity after another) solve each loop once. Bounded; a
         # pose's map never depends on what was computed before it.
@@ -162,37 +172,43 @@ class CouplingMap:
     def at(self, q: Array, pose: list[float]) -> Coupled:
         """The map at pose ``q`` (finite float64 (nq,), checked by the caller; ``pose`` its list).
 
-        The maps of the last `CACHE_SIZE` poses are kept (shared by threads; each is read
-        only): the engines' quantities at one pose share one solve.
+        Polynomial couplings are evaluated in closed form (an affine one is one product);
+        a loop's maps of the last `CACHE_SIZE` poses are kept (shared by threads; each is
+        read only): the engines' quantities at one pose share one solve.
 
         Raises:
             PoseError: A loop that cannot close at ``q`` (the message names its constraint).
         """
+        if self._G0 is not None:  # one product: the J of a mimic arm is a controller's loop
+            return Coupled(pose, self._x_at_0 + self._G0 @ q, self._G0)
+        if self.closure is None:  # closed forms, cheaper than a cache
+            x = self._polynomial_x(q)
+            return Coupled(pose, x, self._polynomial_G(x))
         found = self._cache.get(tuple(pose))
         if found is not None:
             return found
-        if self.closure is None:
-            x = self.rest.copy()
-            x[self.independent] = q
-            for p in self.polynomials:
-                x[p.follower] = p.value(x[p.leader]) if p.leader >= 0 else p.value(0.0)
-            G = self._G0 if self._G0 is not None else self._polynomial_G(x)
-        else:
-            x = self._close(q)
-            G = self._closure_G(x)
-        out = Coupled(pose, x, G)
+        x = self._close(q)
+        out = Coupled(pose, x, self._closure_G(x))
         with self._lock:
             if len(self._cache) >= CACHE_SIZE:
                 self._cache.pop(next(iter(self._cache)))
             self._cache[tuple(pose)] = out
         return out
 
+    def _polynomial_x(self, q: Array) -> Array:
+        x = self.rest.copy()
+        x[self.independent] = q
+        xs = x.tolist()  # Python floats: the polynomials are a few scalar operations each
+        for p in self.polynomials:
+            xs[p.follower] = p.value(xs[p.leader] if p.leader >= 0 else 0.0)
+        return np.array(xs)
+
     def _polynomial_G(self, x: Array) -> Array:
-        G = np.zeros((self.nx, self.nq))
-        G[self.independent, np.arange(self.nq)] = 1.0
+        G = self._G_base.copy()
+        xs = x.tolist()
         for p in self.polynomials:
             if p.leader >= 0:
-                G[p.follower] = p.slope(x[p.leader]) * G[p.leader]
+                G[p.follower] = p.slope(xs[p.leader]) * G[p.leader]
         return G
 
     def rate(self, c: Coupled, v: Array) -> Array:
