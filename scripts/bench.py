@@ -637,6 +637,10 @@ def main(argv: list[str] | None = None) -> int:
 
     print("\n".join(bench_ik.ik_section(list(bench_ik.ARMS), args.ik, args.ik // 5)), flush=True)
     print("\n".join(bench_ik.effective_mass_section(args.n, args.repeats)), flush=True)
+    # A coupled arm's J against its chain alone (scripts/bench_coupled.py).
+    import bench_coupled
+
+    print("\n" + "\n".join(bench_coupled.coupled_section(args.calls, args.repeats)), flush=True)
     print(f"\n(total {time.perf_counter() - t0:.0f} s)")
     return 0
 

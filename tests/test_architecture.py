@@ -177,7 +177,7 @@ LAYERS = [
     {"engines"},
     {"objectives"},  # what solve_ik and self_motion raise
     {"linalg", "inertia", "ik", "quantities"},
-    {"arm", "arm_keyframes", "arm_mass"},  # the Arm and the parts of its class
+    {"arm", "arm_keyframes", "arm_mass", "arm_coupled"},  # the Arm and the parts of its class
     {"model", "models"},
     {"collision"},
     {"analysis", "testing", "generate", "plotting"},

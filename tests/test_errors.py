@@ -121,11 +121,14 @@ def test_malformed_models(xml, match):
             "no tendons; the engines would see different arms",
         ),
         (
-            chain(extra='<equality><joint joint1="a" joint2="b"/></equality>'),
-            "unsupported feature: joint coupling on the arm (arm joint 'a', coupled by equality "
-            "'equality 0' ('a' and 'b')): an arm joint coupled to another joint (a URDF <mimic>, "
-            "an MJCF <equality joint>) is not a free coordinate, and Pinocchio's parsers ignore "
-            "the coupling; choose a tool or base that leaves it off the chain",
+            chain(
+                extra='<tendon><fixed name="t"><joint joint="a" coef="1"/></fixed></tendon>'
+                '<equality><tendon tendon1="t"/></equality>'
+            ),
+            "unsupported feature: tendon coupling on the arm (equality 'equality 0' (tendon over "
+            "joint 'a')): a tendon equality couples tendon lengths, not joints: the arm's joints "
+            "are served with joint equalities (<equality><joint>), URDF <mimic> and loops closed "
+            "by <connect> or <weld>",
         ),
     ],
 )

@@ -277,6 +277,8 @@ def _signature_cases() -> dict[str, tuple[Callable[..., Any], dict[str, Any]]]:
         "Arm.damping": (a.damping, {"engine": "mujoco"}),
         "Arm.engine": (a.engine, {"name": "mujoco"}),
         "Arm.gravity": (a.gravity, {"q": Q0, "engine": "pinocchio"}),
+        "Arm.chain_pose": (a.chain_pose, {"q": Q0}),
+        "Arm.coupling_jacobian": (a.coupling_jacobian, {"q": Q0}),
         "Arm.jacobian": (a.jacobian, {"q": Q0, "engine": "mujoco"}),
         "Arm.joint_index": (a.joint_index, {"name": "j1"}),
         "Arm.keyframe": (a.keyframe, {"name": "x"}),

@@ -20,6 +20,7 @@ import pytest
 
 import redundancy as rd
 from redundancy.arm import random_poses
+from redundancy.model.robot import difference_to_whole_robot
 from redundancy.models import EXAMPLE_ARMS
 
 from .fullmodel import largest_difference_to_full_model
@@ -316,7 +317,7 @@ def test_bimanual_cell_with_two_roots_and_an_include(bimanual: Path, side: str, 
     assert rd.crosscheck(arm, random_poses(arm, 4, seed=7)).ok
 
 
-def test_coupling_that_reaches_the_arm_is_refused_naming_the_joint() -> None:
+def test_coupling_that_reaches_the_arm_makes_its_leader_a_coordinate() -> None:
     xml = (
         BIMANUAL_MAIN.replace('<include file="actuators.xml"/>', "")
         .format(left=SIDE.format(s="left", x="-0.3"), right="")
@@ -325,9 +326,12 @@ def test_coupling_that_reaches_the_arm_is_refused_naming_the_joint() -> None:
             '</worldbody><equality><joint joint1="left_joint2" joint2="left_finger_a"/></equality>',
         )
     )
-    with pytest.raises(rd.UnsupportedFeatureError) as err:
-        rd.load_string(xml, frame="left_gripper")
-    assert "arm joint 'left_joint2'" in str(err.value)
+    # Once refused: the chain's joint follows a finger off the chain, whose joint is then
+    # the arm's coordinate (the leader the chain depends on).
+    arm = rd.load_string(xml, frame="left_gripper")
+    assert arm.joint_names == ("left_joint1", "left_finger_a")
+    assert arm.followers == {"left_joint2": "joint equality left_joint2 = 1 left_finger_a"}
+    assert difference_to_whole_robot(arm, rd.random_poses(arm, 1, seed=0)[0]) <= 1e-12
     # The same coupling is nothing for a tool before it: joint2 is then held, and set aside.
     short = rd.load_string(xml, frame="left_link1")
     assert short.joint_names == ("left_joint1",)

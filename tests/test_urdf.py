@@ -544,15 +544,16 @@ def test_bad_urdf(change: object, expected: str) -> None:
     assert str(err.value) == expected
 
 
-def test_mimic_joint_on_the_arm_is_refused_naming_it() -> None:
+def test_mimic_joint_on_the_arm_is_served_as_a_follower() -> None:
+    # Once refused: joint7 mimicking joint6 is now a follower, the arm's coordinates joint1-6.
     root = urdf_root("panda")
     ET.SubElement(element(root, "joint", "joint7"), "mimic", joint="joint6", multiplier="1")
-    with pytest.raises(rd.UnsupportedFeatureError) as err:
-        rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
-    assert str(err.value).startswith(
-        "unsupported feature: joint coupling on the arm (arm joint 'joint7', coupled by equality"
-    )
-    assert "'joint7' and 'joint6'" in str(err.value)
+    arm = rd.load_string(ET.tostring(root, encoding="unicode"), frame="ee")
+    assert arm.joint_names == tuple(f"joint{i}" for i in range(1, 7))
+    assert arm.chain_joint_names[-1] == "joint7"
+    assert arm.followers == {"joint7": "joint equality joint7 = 1 joint6"}
+    q = rd.random_poses(arm, 1, seed=0)[0]
+    assert arm.chain_pose(q)[-1] == q[-1]
 
 
 @pytest.mark.parametrize(

@@ -257,7 +257,7 @@ def test_an_mjcf_joint_equality_polynomial_moves_its_held_follower() -> None:
         d.qpos[:] = [0.2, arm.held["fa"], arm.held["fb"]]
         mujoco.mj_forward(m, d)
         assert abs(d.efc_pos[0]) < 1e-15  # the equality's residual
-    with pytest.raises(rd.ParameterError, match=r"\(fb - -0.1\) = 0.1 \+ 0.5 \(fa - 0.3\) "):
+    with pytest.raises(rd.ParameterError, match=r"\(fb \+ 0.1\) = 0.1 \+ 0.5 \(fa - 0.3\) "):
         rd.load_string(xml, frame="tool", rest={"fb": 0.2})
 
 

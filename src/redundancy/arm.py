@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import ik, linalg, objectives
+from .arm_coupled import _Coupled, coupled_poses
 from .arm_keyframes import _Keyframes
 from .arm_mass import _ToolMass
 from .checks import (
@@ -29,6 +30,8 @@ from .checks import (
 )
 from .engines import ENGINES, REFERENCE, EngineName
 from .engines.contract import Engine
+from .engines.coupled import CoupledEngine
+from .engines.coupling import CouplingMap
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
 from .engines.pinocchio import PinocchioEngine
 from .errors import (
@@ -63,37 +66,7 @@ def check_arm(value: object, name: str = "arm") -> Arm:
     return value
 
 
-#:  solve_ik's default tolerances [m, rad] and restarts, which `ik.DEFAULT_SETTINGS` holds.
-_IK_DEFAULTS = (
-    ik.DEFAULT_SETTINGS.position_tol,
-    ik.DEFAULT_SETTINGS.orientation_tol,
-    ik.DEFAULT_SETTINGS.restarts,
-)
-
-
-def _ik_settings(position_tol: object, orientation_tol: object, restarts: object) -> ik.Settings:
-    """The solver's settings for [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik]'s arguments, checked.
-
-    Raises:
-        ParameterError: A tolerance not a finite number > 0, ``restarts`` not an integer >= 0.
-    """
-    if (
-        type(position_tol) is float
-        and type(orientation_tol) is float
-        and type(restarts) is int
-        and (position_tol, orientation_tol, restarts) == _IK_DEFAULTS
-    ):
-        return ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
-    return ik.Settings(
-        position_tol=check_number("position_tol", position_tol, 0.0, low_open=True, unit="m"),
-        orientation_tol=check_number(
-            "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
-        ),
-        restarts=check_count("restarts", restarts, 0),
-    )
-
-
-class Arm(_Keyframes, _ToolMass):
+class Arm(_Keyframes, _ToolMass, _Coupled):
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
 
     Build it with [`redundancy.load`][redundancy.load] or
@@ -159,22 +132,37 @@ class Arm(_Keyframes, _ToolMass):
         base: str | None = None,
         rest: str = "qpos0",
         key_moves: tuple[Mapping[str, float | tuple[float, ...]], ...] = (),
+        coupling: CouplingMap | None = None,
     ) -> None:
         self.source = source
         self.frame = frame
-        self.joint_names: tuple[str, ...] = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
-        self.joint_types: tuple[str, ...] = tuple(
-            JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type
+        chain = tuple(object_names(mj_model, mujoco.mjtObj.mjOBJ_JOINT))
+        types = tuple(JOINT_TYPES[mujoco.mjtJoint(t)] for t in mj_model.jnt_type)
+        #: Every joint the arm moves, independent and followers, in MuJoCo's order: the
+        #: chain's joints and the followers its couplings move (`chain_pose`).
+        self.chain_joint_names: tuple[str, ...] = chain
+        #: The chain's coupling map (None: every chain joint is a coordinate).
+        self.coupling: CouplingMap | None = coupling
+        self.joint_names: tuple[str, ...] = chain if coupling is None else coupling.names
+        self.joint_types: tuple[str, ...] = (
+            types if coupling is None else tuple(types[i] for i in coupling.independent)
         )
-        self.nq: int = mj_model.nq
-        self.effort_limit: Array = np.asarray(effort_limit, dtype=float)
+        self.nq: int = len(self.joint_names)
+        effort = np.asarray(effort_limit, dtype=float)
+        self.effort_limit: Array = effort if coupling is None else effort[coupling.independent]
         self.bridges: tuple[Any, ...] = tuple(bridges)
         #: The engines by name, the reference first (`redundancy.engines.REFERENCE`): the
         #: cross-check compares it with each other one, IK confirms in every other one.
         self.engines: dict[str, Engine] = {
             "mujoco": MujocoEngine(mj_model, frame, armature, damping),
-            "pinocchio": PinocchioEngine(pin_model, frame, self.joint_names, frame_type),
+            "pinocchio": PinocchioEngine(pin_model, frame, chain, frame_type),
         }
+        if coupling is not None:  # every engine seen in the independent coordinates
+            self.engines = {n: CoupledEngine(e, coupling) for n, e in self.engines.items()}
+        #: Follower joint -> what determines it (a joint equality, a loop's closure).
+        self.followers: dict[str, str] = NameDict(
+            coupling.followers if coupling is not None else {}, "follower joint"
+        )
         limits: tuple[Array, Array] = self.mujoco.limits
         self.lower: Array = limits[0]
         self.upper: Array = limits[1]
@@ -504,7 +492,7 @@ class Arm(_Keyframes, _ToolMass):
         """
         p_t, R_t = check_tool_pose("target", target)
         eng = self.engine(engine)
-        settings = _ik_settings(position_tol, orientation_tol, restarts)
+        settings = ik.checked_settings(position_tol, orientation_tol, restarts)
         if seed is not None:
             seed = check_count("seed", seed, 0)
         try:
@@ -575,6 +563,9 @@ def sampling_ranges(
 def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
     """``n`` poses drawn uniformly in the joint ranges, shape (n, nq) [rad or m].
 
+    On an arm with coupled joints, a draw whose followers leave their ranges (or whose loop
+    cannot close) is not drawn: the next draw replaces it.
+
     Draws in the same order as ``rng = np.random.default_rng(seed)`` followed by
     ``rng.uniform(lo, hi)`` once per pose, so a seed reproduces the lesson's sample.
 
@@ -588,7 +579,8 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
         seed = check_count("seed", seed, 0)
     lo, hi = sampling_ranges(arm)
     try:
-        return np.random.default_rng(seed).uniform(lo, hi, size=(n, arm.nq))
+        rng = np.random.default_rng(seed)
+        Q = rng.uniform(lo, hi, size=(n, arm.nq))
     except (MemoryError, ValueError):  # ValueError: more bytes than an address can count
         size = n * arm.nq * 8
         raise ParameterError(
@@ -596,3 +588,6 @@ def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:
             n,
             f"a count of poses that fits in memory ({n} x {arm.nq} float64: {size:.3g} bytes)",
         ) from None
+    if arm.coupling is None:
+        return Q
+    return coupled_poses(arm, Q, rng, lo, hi)

@@ -32,6 +32,7 @@ class _Keyframes:
     _lock: threading.Lock
     _recipe: tuple[Callable[..., Any], tuple[Any, ...]] | None
     mj_model: mujoco.MjModel  # the Arm's property
+    _of_chain: Callable[[Array], Array]  # the Arm's (arm_coupled)
 
     @property
     def keyframe_names(self) -> tuple[str, ...]:
@@ -62,7 +63,7 @@ class _Keyframes:
         """
         m = self.mj_model
         keys = (
-            (name, m.key_qpos[k].copy())
+            (name, self._of_chain(m.key_qpos[k]))
             for k, name in enumerate(self.keyframe_names)
             if not self.keyframe_moves(name)
         )
@@ -84,7 +85,7 @@ class _Keyframes:
                 f"keyframe {name!r} moves held joints ({shown}): it is not a pose of this arm; "
                 f"arm.at_keyframe({name!r}) is the arm at it (or load with rest={name!r})"
             )
-        return self.mj_model.key_qpos[self.keyframe_names.index(name)].copy()
+        return self._of_chain(self.mj_model.key_qpos[self.keyframe_names.index(name)])
 
     def keyframe_moves(self, name: str) -> dict[str, float | tuple[float, ...]]:
         """The held joints keyframe ``name`` puts elsewhere than this arm holds them.

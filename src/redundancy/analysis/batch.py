@@ -45,8 +45,8 @@ from typing import Any, Unpack
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import kernels  # the unchecked kernels: the batch functions check input once
-from ..arm import ENGINES, Arm, EngineName, _ik_settings, check_arm
+from .. import ik, kernels  # the unchecked kernels: the batch functions check input once
+from ..arm import ENGINES, Arm, EngineName, check_arm
 from ..checks import (
     check_choice,
     check_count,
@@ -385,7 +385,9 @@ def solve_ik(
     threads, executor = check_run(run)
     check_choice("engine", engine, ENGINES)
     check_flag("position_only", position_only)
-    _ik_settings(position_tol, orientation_tol, restarts)  # bad ones fail here, not in a thread
+    ik.checked_settings(
+        position_tol, orientation_tol, restarts
+    )  # bad ones fail here, not in a thread
     goals, starts = _ik_targets(arm, targets, Q0)
     if seed is not None:
         seed = check_count("seed", seed, 0)

@@ -58,7 +58,10 @@ def _dynamics_inputs(
     threads = check_threads(options.get("threads", 1))
     joints = options.get("joints")
     if joints is not None and hasattr(joints, "__iter__") and not isinstance(joints, str | bytes):
-        joints = tuple(joints)
+        try:
+            joints = tuple(joints)
+        except TypeError:  # a 0-d array has __iter__ and cannot be iterated: refused below
+            pass
     check_joint_subset("joints", joints, arm.joint_names)
     armature = check_flag("armature", options.get("armature", True))
     return Q, armature, joints, engine, threads  # type: ignore[return-value]

@@ -465,7 +465,10 @@ def check_joint_subset(name: str, joints: object, names: Sequence[str]) -> NDArr
     valid = f"None or a nonempty collection of distinct joint names from {list(names)}"
     if isinstance(joints, str | bytes) or not hasattr(joints, "__iter__"):
         raise ParameterError(name, joints, valid)
-    given = list(joints)  # type: ignore[call-overload]
+    try:
+        given = list(joints)  # type: ignore[call-overload]
+    except TypeError:  # a 0-d array: __iter__ without items
+        raise ParameterError(name, joints, valid) from None
     for j in given:
         if not isinstance(j, str):
             raise ParameterError(name, joints, valid)

@@ -57,7 +57,7 @@ HELD_FEATURES = (
 #: loader's refusal.
 REFUSED_FEATURES = (
     "tendon on an arm joint",
-    "joint coupling on the arm",
+    "tendon coupling on the arm",
     "unnamed joint",
     "no joints",
     "shell inertia",
@@ -154,7 +154,7 @@ class GeneratedArm:
 #: Refusals whose element sits on the tool's body, so the tool's body needs a joint on the arm.
 _ON_THE_TOOL = (
     "tendon on an arm joint",
-    "joint coupling on the arm",
+    "tendon coupling on the arm",
     "ball joint",
     "free joint",
     "several joints in one body",
@@ -340,8 +340,9 @@ def _tail(
     if refuse == "tendon on an arm joint":
         fixed = f'<fixed name="t"><joint joint="{joint_names[-1]}" coef="1"/></fixed>'
         tail += f"  <tendon>{fixed}</tendon>\n"
-    if refuse == "joint coupling on the arm":
-        tail += f'  <equality><joint joint1="{joint_names[-1]}"/></equality>\n'
+    if refuse == "tendon coupling on the arm":
+        fixed = f'<fixed name="t"><joint joint="{joint_names[-1]}" coef="1"/></fixed>'
+        tail += f'  <tendon>{fixed}</tendon><equality><tendon tendon1="t"/></equality>\n'
     asset = ""
     if "mesh geom" in extras:
         verts = "0 0 0 .1 0 0 0 .1 0 .1 .1 0 0 0 .1 .1 0 .1 0 .1 .1 .1 .1 .1"

@@ -15,6 +15,7 @@ from ..arm import Arm
 from ..engines.mujoco import joint_limits, object_names
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
+from .coupled_chain import coupling_map
 from .robot import ArmSelection, RestSpec, SetAside, keyframe_moves, reduce_pinocchio
 from .selection import MissingMesh
 
@@ -82,6 +83,7 @@ def build_arm(
             upper,
         )
     )
+    coupling = coupling_map(full, sel.coupled) if sel.coupled is not None else None
     return Arm(
         mj,
         pm,
@@ -102,4 +104,5 @@ def build_arm(
         base=sel.base,
         rest=sel.rest,
         key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
+        coupling=coupling,
     )

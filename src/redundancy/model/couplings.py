@@ -99,7 +99,9 @@ def coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
 
     def shifted(j: int) -> str:
         ref = float(model.qpos0[model.jnt_qposadr[j]])
-        return names[j] if ref == 0 else f"({names[j]} - {ref:.6g})"
+        if ref == 0:
+            return names[j]
+        return f"({names[j]} - {ref:.6g})" if ref > 0 else f"({names[j]} + {-ref:.6g})"
 
     j1, j2 = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
     x = shifted(j2) if j2 >= 0 else "0"
@@ -116,15 +118,23 @@ def coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
 
 
 def check_couplings(
-    full: mujoco.MjModel, arm: set[int], moved: set[int], out: list[SetAside]
+    full: mujoco.MjModel,
+    arm: set[int],
+    moved: set[int],
+    out: list[SetAside],
+    coupled: Set[int] = frozenset(),
 ) -> None:
     """Set aside couplings among held joints; refuse those that reach an arm joint.
 
     Args:
         full: MuJoCo's compiled model of the whole robot.
-        arm: Arm joint ids.
+        arm: Arm joint ids (every joint the arm moves).
         moved: Bodies an arm joint moves.
         out: What was set aside, appended to (equalities, then tendons, then actuators).
+        coupled: Equalities that couple the arm's joints (`redundancy.model.coupled_chain`):
+            served in the arm's independent coordinates, set aside from the engines'
+            models; with any, a fixed tendon over the arm's joints alone is set aside too
+            (what an actuator pulls: no tendon force is in J, M or gravity).
 
     Raises:
         UnsupportedFeatureError: A coupling (equality, tendon, actuator) that reaches an arm
@@ -133,13 +143,61 @@ def check_couplings(
     jnames = display_names(full, mujoco.mjtObj.mjOBJ_JOINT)
     bnames = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
     for k in range(full.neq):
+        if k in coupled:
+            out.append(_coupling(full, k, jnames))
+            continue
         out.append(_equality(full, k, arm, moved, jnames, bnames))
     for t in range(full.ntendon):
+        if coupled and _fixed_over(full, t, arm):
+            name = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_TENDON, t) or f"tendon {t}"
+            out.append(
+                SetAside(
+                    "tendon",
+                    name,
+                    "a fixed tendon over the arm's coupled joints (what an actuator pulls): "
+                    "no tendon force is in J, M or gravity",
+                )
+            )
+            continue
         out.append(_tendon(full, t, arm, moved, jnames, bnames))
     for u in range(full.nu):
         aside = _actuator(full, u, arm, moved, jnames)
         if aside is not None:
             out.append(aside)
+
+
+def _coupling(full: mujoco.MjModel, k: int, jnames: Sequence[str]) -> SetAside:
+    """Equality ``k`` that couples the arm's joints: served through the coupling map."""
+    name = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_EQUALITY, k)
+    if full.eq_type[k] == mujoco.mjtEq.mjEQ_JOINT:
+        a, b = int(full.eq_obj1id[k]), int(full.eq_obj2id[k])
+        shown = name or " = ".join(jnames[j] for j in (a, b) if j >= 0)
+        return SetAside(
+            "joint equality",
+            shown,
+            f"couples the arm's joints ({coupling_text(full, k, jnames)}): the arm's "
+            "coordinates are its independent joints, the follower moves with them "
+            "(arm.followers)",
+            reaches_arm=True,
+        )
+    kind = "weld" if full.eq_type[k] == mujoco.mjtEq.mjEQ_WELD else "connect"
+    return SetAside(
+        "equality constraint",
+        name or f"equality {k}",
+        f"a {kind} that closes a loop of the arm's joints: the dependent joints are "
+        "solved to close it at every pose (arm.followers)",
+        reaches_arm=True,
+    )
+
+
+def _fixed_over(full: mujoco.MjModel, t: int, arm: set[int]) -> bool:
+    """True when tendon ``t`` is a fixed tendon whose joints are all arm joints."""
+    lo, n = int(full.tendon_adr[t]), int(full.tendon_num[t])
+    wraps = range(lo, lo + n)
+    return n > 0 and all(
+        full.wrap_type[w] == mujoco.mjtWrap.mjWRAP_JOINT and int(full.wrap_objid[w]) in arm
+        for w in wraps
+    )
 
 
 def _equality(
@@ -183,20 +241,13 @@ def _equality(
 
 
 def _joint_equality(full: mujoco.MjModel, k: int, arm: set[int], jnames: Sequence[str]) -> SetAside:
-    """Joint equality ``k`` (a URDF mimic) set aside, or refused when it couples an arm joint."""
+    """Joint equality ``k`` among held joints (a gripper's URDF mimic), set aside.
+
+    One that reaches an arm joint is the arm's coupling (`redundancy.model.coupled_chain`)
+    and never comes here.
+    """
     own = mujoco.mj_id2name(full, mujoco.mjtObj.mjOBJ_EQUALITY, k)
-    name = own or f"equality {k}"
     a, b = int(full.eq_obj1id[k]), int(full.eq_obj2id[k])
-    touching = [jnames[j] for j in (a, b) if j in arm]
-    if touching:
-        pair = " and ".join(repr(jnames[j]) for j in (a, b) if j >= 0)
-        raise UnsupportedFeatureError(
-            "joint coupling on the arm",
-            f"arm joint {touching[0]!r}, coupled by equality {name!r} ({pair})",
-            "an arm joint coupled to another joint (a URDF <mimic>, an MJCF <equality "
-            "joint>) is not a free coordinate, and Pinocchio's parsers ignore the "
-            "coupling; choose a tool or base that leaves it off the chain",
-        )
     shown = own or " = ".join(jnames[j] for j in (a, b) if j >= 0)
     return SetAside(
         "joint equality",
@@ -246,6 +297,8 @@ def _actuator(
             return None
         return SetAside("actuator", name, f"drives held joint {jnames[target]!r}")
     if trn == mujoco.mjtTrn.mjTRN_TENDON:
+        if _fixed_over(full, target, arm):
+            return SetAside("actuator", name, "pulls a fixed tendon over the arm's coupled joints")
         return SetAside("actuator", name, "drives a tendon of held joints")
     # site, slider-crank (sites) or body (adhesion) transmissions
     if trn == mujoco.mjtTrn.mjTRN_BODY:

@@ -38,6 +38,7 @@ from ..errors import ModelError, ParameterError, UnknownNameError, UnsupportedFe
 from ..kernels import scaled_error
 from ..quantities import QUANTITY
 from .contact_rules import arm_welds, bodies_filtered, keep_contact_rules, moved_bodies
+from .coupled_chain import coupled_system
 from .couplings import check_couplings, delete_couplings, follow_couplings
 from .names import display_names
 from .reduced_pinocchio import pinocchio_configuration, pinocchio_joint, reduce_pinocchio
@@ -132,19 +133,27 @@ def select_arm(
         j = joint_names.index(name) if name in joint_names else -1  # -1: itself made fixed
         if j >= 0 and j not in given and j not in arm_ids:
             qpos[model.jnt_qposadr[j]] = value
-    follow_couplings(model, qpos, set(arm_ids), given)
-    held = held_values(model, qpos, set(arm_ids))
-    for j in arm_ids:  # the arm's own joints rest at qpos0 (their ref)
+    # Couplings on the chain: the arm moves its followers too (redundancy.model.coupled_chain).
+    system = coupled_system(model, arm_ids, qpos)
+    moving = list(system.joints) if system is not None else arm_ids
+    coupled = set(moving) | (set(system.held) if system is not None else set())
+    follow_couplings(model, qpos, coupled, given)
+    if system is not None:
+        for j in system.held:  # loop joints held at rest, at the value the loop closed with
+            qpos[model.jnt_qposadr[j]] = system.rest[model.jnt_qposadr[j]]
+    held = held_values(model, qpos, set(moving))
+    for j in moving:  # the arm's own joints rest at qpos0 (their ref)
         qpos[model.jnt_qposadr[j]] = model.qpos0[model.jnt_qposadr[j]]
     return ArmSelection(
         tool=tool,
         tool_body=tool_body,
         base=base,
-        joints=tuple(joint_names[j] for j in arm_ids),
+        joints=tuple(joint_names[j] for j in moving),
         held=held,
         rest=rest_name,
         qpos=qpos,
         set_aside=_held_on_chain(model, path),
+        coupled=system,
     )
 
 
@@ -302,7 +311,8 @@ def reduce_mujoco(
     held_ids = [j for j in range(full.njnt) if j not in arm_ids]
     moved = moved_bodies(full, arm_ids)
     set_aside: list[SetAside] = list(sel.set_aside)
-    check_couplings(full, arm_ids, moved, set_aside)
+    coupled = set(sel.coupled.equalities) if sel.coupled is not None else set()
+    check_couplings(full, arm_ids, moved, set_aside, coupled)
     if not sel.held and not set_aside:
         return full, ()
     # The whole robot at rest: each held body is placed relative to its parent from here.
@@ -402,9 +412,10 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
     """The tool's Jacobian, the mass matrix and gravity of MuJoCo's model of the whole robot.
 
     The whole robot (every joint free, ``arm.robot_model``) at its rest configuration with the
-    arm's values ``q`` put in; the arm's dofs' rows and columns read out. Independent of how
-    the arm holds its joints (no reduced model is involved): the reference the tests and
-    ``scripts/survey_robots.py`` hold both engines' arm models to.
+    arm's values ``q`` put in; the arm's dofs' rows and columns read out (with coupled
+    joints: the chain pose put in, and the chain's rows and columns reduced by G).
+    Independent of how the arm holds its joints (no reduced model is involved): the
+    reference the tests and ``scripts/survey_robots.py`` hold both engines' arm models to.
 
     Returns:
         ``"jacobian"`` (6 x n), ``"mass matrix"`` (n x n), ``"gravity"`` (n) and ``"site
@@ -418,15 +429,18 @@ def whole_robot_quantities(arm: object, q: Array) -> dict[str, Array]:
         j = names.index(name) if name in names else shown.index(name)
         adr = int(m.jnt_qposadr[j])
         qpos[adr : adr + np.size(value)] = value
-    ids = [names.index(n) for n in arm.joint_names]  # type: ignore[attr-defined]
-    for j, value in zip(ids, np.asarray(q, dtype=float), strict=True):
+    # A coupled arm: the whole robot at the chain pose, reduced by G (the chain's couplings).
+    chain = arm.chain_joint_names  # type: ignore[attr-defined]
+    ids = [names.index(n) for n in chain]
+    for j, value in zip(ids, arm.chain_pose(q), strict=True):  # type: ignore[attr-defined]
         qpos[m.jnt_qposadr[j]] = value
+    C = arm.coupling_jacobian(q)  # type: ignore[attr-defined]
     dofs = [int(m.jnt_dofadr[j]) for j in ids]
     J, M, G, x = whole_model_quantities(m, qpos, arm.frame)  # type: ignore[attr-defined]
     return {
-        "jacobian": J[:, dofs],
-        "mass matrix": M[np.ix_(dofs, dofs)],
-        "gravity": G[dofs],
+        "jacobian": J[:, dofs] @ C,
+        "mass matrix": C.T @ M[np.ix_(dofs, dofs)] @ C,
+        "gravity": C.T @ G[dofs],
         "site position": x,
     }
 

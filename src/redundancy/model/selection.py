@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -82,6 +83,8 @@ class ArmSelection:
         qpos: The whole robot's configuration at rest (MuJoCo's qpos; the arm joints at their
             ``qpos0``).
         set_aside: Elements of the file the arm does not depend on.
+        coupled: The chain's coupled joints (`redundancy.model.coupled_chain`), None when
+            none: ``joints`` are then the arm's coordinates, else every joint it moves.
     """
 
     tool: str
@@ -92,6 +95,7 @@ class ArmSelection:
     rest: str
     qpos: Array
     set_aside: tuple[SetAside, ...] = field(default=())
+    coupled: Any = None
 
 
 def joint_kind(model: mujoco.MjModel, j: int) -> str:

@@ -40,7 +40,7 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
         arm: The arm.
         keyframes: Keyframe name -> its pose of the arm's joints [rad or m], in file order.
     """
-    qpos0 = np.asarray(arm.mj_model.qpos0, dtype=float)
+    qpos0 = arm._of_chain(np.asarray(arm.mj_model.qpos0, dtype=float))
     for i, name in enumerate(arm.joint_names):
         out = _outside(float(qpos0[i]), arm, i)
         if out:

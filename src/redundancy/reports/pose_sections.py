@@ -33,7 +33,7 @@ def reference_keyframe(arm: Arm) -> tuple[str | None, Array]:
     keys = arm.keyframes
     name = "home" if "home" in keys else next(iter(keys), None)
     if name is None:
-        return None, arm.mj_model.qpos0.copy()
+        return None, arm._of_chain(arm.mj_model.qpos0)
     return name, keys[name]
 
 
@@ -192,9 +192,9 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
             for other in compared_engines(arm)
         )
     b = arm.damping()
-    kv = actuators.servo_damping(m)
+    kv = arm._of_chain(actuators.servo_damping(m))
     kd_each = np.full(arm.nq, 0.0 if kd is None else float(kd))
-    stiffness = actuators.servo_stiffness(m)
+    stiffness = arm._of_chain(actuators.servo_stiffness(m))
     split = actuators.damping_split(sim, b, kv, kd_each, stiffness)
     if arm.missing_inertia:
         h = hb = np.full(arm.nq, np.nan)

@@ -1,0 +1,101 @@
+"""An [`Arm`][redundancy.Arm] with coupled joints: its chain pose, G, and poses that respect both.
+
+`_Coupled` is a part of `Arm`, which documents its methods; `coupled_poses` is
+[`random_poses`][redundancy.random_poses]'s draw on such an arm. The coupling map itself is
+`redundancy.engines.coupling`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .checks import check_pose
+from .engines.coupling import CouplingMap
+from .errors import PoseError
+
+Array = NDArray[np.float64]
+
+
+class _Coupled:
+    """`Arm`'s coupled-joint methods; they read the Arm's attributes declared here."""
+
+    joint_names: tuple[str, ...]
+    nq: int
+    coupling: CouplingMap | None
+
+    def _of_chain(self, values: Array) -> Array:
+        """The arm's coordinates' entries of a vector over the chain model's joints."""
+        values = np.asarray(values)
+        return values.copy() if self.coupling is None else values[self.coupling.independent]
+
+    def chain_pose(self, q: ArrayLike) -> Array:
+        """Every joint the arm moves at ``q``, in the order of `chain_joint_names` [rad or m].
+
+        The followers as their couplings give them; a loop closed by Newton's method on its
+        constraint (to 1e-12 m or rad). Without couplings: ``q`` itself.
+
+        Raises:
+            PoseError: A bad ``q``, or a loop that cannot close at ``q`` (naming its
+                constraint).
+        """
+        q = check_pose(q, self.joint_names)
+        if self.coupling is None:
+            return q.copy()
+        return self.coupling.at(q, q.tolist()).x.copy()
+
+    def coupling_jacobian(self, q: ArrayLike) -> Array:
+        """G = d(chain_pose)/dq, shape (len(chain_joint_names), nq) (the identity uncoupled)."""
+        q = check_pose(q, self.joint_names)
+        if self.coupling is None:
+            return np.eye(self.nq)
+        return self.coupling.at(q, q.tolist()).G.copy()
+
+
+#: Draws per pose a coupled arm's sampling may take before it says its followers' ranges
+#: leave no room.
+_DRAWS_PER_POSE = 200
+
+
+def coupled_poses(arm: Any, Q: Array, rng: np.random.Generator, lo: Array, hi: Array) -> Array:
+    """The draws ``Q`` whose followers stay in their ranges and whose loops close, topped up.
+
+    A pose whose chain pose (`Arm.chain_pose`) puts a follower outside its range, or where
+    a loop cannot close, is not drawn: it is replaced by the next draw of the generator.
+
+    Raises:
+        PoseError: No pose in ``_DRAWS_PER_POSE`` draws per pose wanted keeps the followers
+            in range (naming the follower most often out).
+    """
+    inner = arm.reference.inner  # type: ignore[attr-defined]
+    clo, chi = inner.limits
+    names = arm.chain_joint_names
+    tol = 1e-9
+    out: list[Array] = []
+    misses: dict[str, int] = {}
+    draws = 0
+    pending = list(Q)
+    while len(out) < len(Q):
+        if not pending:
+            if draws > _DRAWS_PER_POSE * max(1, len(Q)):
+                worst = max(misses, key=misses.__getitem__) if misses else "a loop"
+                raise PoseError(
+                    f"no pose of the arm keeps its followers in their ranges in {draws} "
+                    f"draws (most often out: {worst!r}); widen the ranges in the file"
+                )
+            pending = list(rng.uniform(lo, hi, size=(len(Q) - len(out), arm.nq)))
+        q = pending.pop(0)
+        draws += 1
+        try:
+            x = arm.chain_pose(q)
+        except PoseError:
+            misses["a loop"] = misses.get("a loop", 0) + 1
+            continue
+        bad = np.flatnonzero((x < clo - tol) | (x > chi + tol))
+        if bad.size:
+            misses[names[bad[0]]] = misses.get(names[bad[0]], 0) + 1
+            continue
+        out.append(q)
+    return np.array(out, dtype=float).reshape(len(Q), arm.nq)
