@@ -32,6 +32,7 @@ from .engines.contract import Engine
 from .engines.mujoco import JOINT_TYPES, MujocoEngine, object_names
 from .engines.pinocchio import PinocchioEngine
 from .errors import (
+    AbsentEngineError,
     DeprecatedAlias,
     OutOfRangeError,
     ParameterError,
@@ -102,8 +103,10 @@ class Arm(_Keyframes, _ToolMass):
     rebuilt, both engines, when loaded).
 
     Attributes:
-        engines: The engines by name, the reference first; ``mujoco`` and ``pinocchio``
-            name each.
+        engines: The engines by name, the reference first: ``mujoco``, ``pinocchio`` and,
+            when it can take part, ``drake``.
+        absent_engines: Engine name -> why it is not in ``engines`` (``drake``: pydrake not
+            installed, its parser refused the file, or a bridge the library would need).
         frame: Name of the tool frame (``site`` is its deprecated name).
         joint_names: Joint names, in order.
         joint_types: ``"hinge"`` or ``"slide"`` per joint.
@@ -189,6 +192,10 @@ class Arm(_Keyframes, _ToolMass):
         self.missing_inertia: tuple[str, ...] = tuple(missing_inertia)
         for engine in self.engines.values():
             engine.missing_inertia = self.missing_inertia  # their dynamic quantities refuse
+        #: Engine name -> why it is not in `engines` (the loader adds Drake or says why not).
+        self.absent_engines: dict[str, str] = {}
+        #: Drake's parser's warnings on the file (what it ignored), when Drake took part.
+        self.drake_warnings: tuple[str, ...] = ()
         self.missing_meshes: tuple[Any, ...] = tuple(missing_meshes)
         self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
         self.frame_type: str = frame_type
@@ -252,10 +259,18 @@ class Arm(_Keyframes, _ToolMass):
         return self.joint_names.index(name)
 
     def engine(self, name: EngineName) -> Engine:
-        """One engine, by name (``"mujoco"`` or ``"pinocchio"``)."""
+        """One engine, by name (``"mujoco"``, ``"pinocchio"`` or ``"drake"``).
+
+        Raises:
+            AbsentEngineError: An engine of `absent_engines` (the message says why).
+            UnknownNameError: Any other name (lists the engines).
+        """
         try:
             return self.engines[name]
         except (KeyError, TypeError):
+            if isinstance(name, str) and name in self.absent_engines:
+                reason = self.absent_engines[name]
+                raise AbsentEngineError(name, reason, tuple(self.engines)) from None
             raise UnknownNameError("engine", str(name), tuple(self.engines)) from None
 
     def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
@@ -293,7 +308,7 @@ class Arm(_Keyframes, _ToolMass):
         try:  # the engine table read inline: arm.jacobian is a controller's inner loop
             eng = self.engines[engine]
         except (KeyError, TypeError):
-            raise UnknownNameError("engine", str(engine), tuple(self.engines)) from None
+            return self.engine(engine).site_jacobian(q)  # absent or unknown: says which
         return eng.site_jacobian(q)
 
     def svd(

@@ -15,6 +15,7 @@ from ..arm import Arm
 from ..engines.mujoco import joint_limits, object_names
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
+from .drake_loading import DrakeSource, add_drake
 from .robot import ArmSelection, RestSpec, SetAside, keyframe_moves, reduce_pinocchio
 from .selection import MissingMesh
 
@@ -31,6 +32,8 @@ class LoadState:
         self.missing_meshes: list[MissingMesh] = []  # meshes found nowhere (geoms left out)
         self.inertia_causes: dict[int, tuple[str, ...]] = {}  # bodies whose masses MuJoCo sets
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
+        #: What Drake's parser reads: the user's file, or text (None: nothing to read).
+        self.drake_source: DrakeSource | None = None
 
 
 def build_arm(
@@ -82,7 +85,7 @@ def build_arm(
             upper,
         )
     )
-    return Arm(
+    arm = Arm(
         mj,
         pm,
         site,
@@ -103,3 +106,5 @@ def build_arm(
         rest=sel.rest,
         key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
     )
+    add_drake(arm, robot.drake_source, full, sel.qpos)  # or arm.absent_engines says why not
+    return arm
