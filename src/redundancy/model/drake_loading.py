@@ -116,8 +116,8 @@ def _parse(plant: Any, source: DrakeSource) -> list[str]:
                     p.write_text(source.text or "", encoding="utf-8")
                     parser.AddModels(str(p))
         except RuntimeError as err:  # pydrake raises the parser's errors as RuntimeError
-            text = str(err).strip().splitlines()
-            raise DrakeAbsent(f"Drake's parser refuses the file: {text[0] if text else err}")
+            text = " ".join(str(err).split()) or type(err).__name__
+            raise DrakeAbsent(f"Drake's parser refuses the file: {text}") from err
     return log
 
 
