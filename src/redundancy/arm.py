@@ -39,6 +39,7 @@ from .errors import (
     PoseError,
     UnknownNameError,
 )
+from .ik import settings_for as _ik_settings
 
 Array = NDArray[np.float64]
 
@@ -62,36 +63,6 @@ def check_arm(value: object, name: str = "arm") -> Arm:
             name, value, "an Arm (from redundancy.load or load_string)", describe(value)
         )
     return value
-
-
-#:  solve_ik's default tolerances [m, rad] and restarts, which `ik.DEFAULT_SETTINGS` holds.
-_IK_DEFAULTS = (
-    ik.DEFAULT_SETTINGS.position_tol,
-    ik.DEFAULT_SETTINGS.orientation_tol,
-    ik.DEFAULT_SETTINGS.restarts,
-)
-
-
-def _ik_settings(position_tol: object, orientation_tol: object, restarts: object) -> ik.Settings:
-    """The solver's settings for [`Arm.solve_ik`][redundancy.arm.Arm.solve_ik]'s arguments, checked.
-
-    Raises:
-        ParameterError: A tolerance not a finite number > 0, ``restarts`` not an integer >= 0.
-    """
-    if (
-        type(position_tol) is float
-        and type(orientation_tol) is float
-        and type(restarts) is int
-        and (position_tol, orientation_tol, restarts) == _IK_DEFAULTS
-    ):
-        return ik.DEFAULT_SETTINGS  # the common call: nothing to check or build
-    return ik.Settings(
-        position_tol=check_number("position_tol", position_tol, 0.0, low_open=True, unit="m"),
-        orientation_tol=check_number(
-            "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
-        ),
-        restarts=check_count("restarts", restarts, 0),
-    )
 
 
 class Arm(_Keyframes, _ToolMass):

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_matrix, check_returned, describe
+from .checks import check_count, check_matrix, check_number, check_returned, describe
 from .engines.contract import Engine
 from .engines.mujoco import damped_stepper
 from .errors import ParameterError
@@ -490,4 +490,34 @@ def _result(
         objective=value,
         engine=engine.name,
         checked_by=checks[0].name if len(checks) == 1 else ", ".join(c.name for c in checks),
+    )
+
+
+#:  solve_ik's default tolerances [m, rad] and restarts, which `DEFAULT_SETTINGS` holds.
+_IK_DEFAULTS = (
+    DEFAULT_SETTINGS.position_tol,
+    DEFAULT_SETTINGS.orientation_tol,
+    DEFAULT_SETTINGS.restarts,
+)
+
+
+def settings_for(position_tol: object, orientation_tol: object, restarts: object) -> Settings:
+    """The solver's settings for `Arm.solve_ik`'s arguments, checked.
+
+    Raises:
+        ParameterError: A tolerance not a finite number > 0, ``restarts`` not an integer >= 0.
+    """
+    if (
+        type(position_tol) is float
+        and type(orientation_tol) is float
+        and type(restarts) is int
+        and (position_tol, orientation_tol, restarts) == _IK_DEFAULTS
+    ):
+        return DEFAULT_SETTINGS  # the common call: nothing to check or build
+    return Settings(
+        position_tol=check_number("position_tol", position_tol, 0.0, low_open=True, unit="m"),
+        orientation_tol=check_number(
+            "orientation_tol", orientation_tol, 0.0, low_open=True, unit="rad"
+        ),
+        restarts=check_count("restarts", restarts, 0),
     )

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,11 +49,22 @@ class _Work:
 
     __slots__ = ("context", "key", "q")
 
-    def __init__(self, plant: MultibodyPlant, rest: Array) -> None:
+    def __init__(
+        self, plant: MultibodyPlant, rest: Array, inertias: Sequence[tuple[Any, Any]] = ()
+    ) -> None:
         self.context = plant.CreateDefaultContext()
+        for body, inertia in inertias:  # bridged inertias live in the context's parameters
+            body.SetSpatialInertiaInBodyFrame(self.context, inertia)
         self.q: Array = rest.copy()  # the whole robot's positions: held values, then the arm's
         plant.SetPositions(self.context, self.q)
         self.key: list[float] | None = None
+
+    def forget(self) -> None:
+        """No pose is held from here: the context is about to hold other states.
+
+        With `DrakeEngine._load`, the only writer of ``key``.
+        """
+        self.key = None
 
 
 class DrakeEngine:
@@ -69,6 +81,7 @@ class DrakeEngine:
             (Drake's order) [rad, m, quaternion components].
         damping: Viscous damping per arm joint as the library reads it [N m s/rad or N s/m].
         limits: Lower and upper limits per arm joint [rad or m].
+        inertias: Bridged (body, spatial inertia) pairs, set in every context.
     """
 
     name = "drake"
@@ -83,8 +96,10 @@ class DrakeEngine:
         rest: Array,
         damping: Array,
         limits: tuple[Array, Array],
+        inertias: Sequence[tuple[Any, Any]] = (),
     ) -> None:
         self.plant = plant
+        self.inertias = tuple(inertias)
         self.tool = tool
         self.world = plant.world_frame()
         self.joints = tuple(joints)
@@ -101,9 +116,9 @@ class DrakeEngine:
             actuator = plant.get_joint_actuator(a)
             reflected[actuator.joint().velocity_start()] += actuator.default_reflected_inertia()
         self._armature = reflected[self.vi]
-        self._work = PerThread(lambda: _Work(plant, self.rest)).get
+        self._work = PerThread(lambda: _Work(plant, self.rest, self.inertias)).get
         # The IK kernels' own contexts per thread: their poses never pass for the checked ones.
-        self._kernel_work = PerThread(lambda: _Work(plant, self.rest)).get
+        self._kernel_work = PerThread(lambda: _Work(plant, self.rest, self.inertias)).get
 
     # -- the contract's per-joint vectors ---------------------------------------------------
     @property
@@ -143,7 +158,7 @@ class DrakeEngine:
     def _lend(self) -> _Work:
         """This thread's context for a computation that writes its own states."""
         w = self._work()
-        w.key = None
+        w.forget()
         return w
 
     def _jacobian(self, context: object) -> Array:
@@ -196,7 +211,13 @@ class DrakeEngine:
         """
         plant = self.plant.ToAutoDiffXd()
         tool = plant.get_frame(self.tool.index())
-        return plant, tool, PerThread(plant.CreateDefaultContext).get
+
+        def context() -> object:
+            ctx = plant.CreateDefaultContext()
+            ctx.SetTimeStateAndParametersFrom(self._work().context)  # bridged inertias too
+            return ctx
+
+        return plant, tool, PerThread(context).get
 
     def jacobian_derivatives(self, q: ArrayLike) -> Array:
         """dJ/dq_k for every k, shape (nv, 6, nv), by automatic differentiation.
@@ -236,9 +257,11 @@ class DrakeEngine:
         plant = self.plant
         mass, moment, about_origin = 0.0, np.zeros(3), np.zeros((3, 3))
         for body in plant.GetBodiesWeldedTo(joint.child_body()):
-            X = body.EvaluatePoseInWorld(context)
+            X = plant.EvalBodyPoseInWorld(context, body)
             M = body.CalcSpatialInertiaInBodyFrame(context)
             m = M.get_mass()
+            if m <= 0.0:  # nothing to add (and Drake aborts shifting a massless inertia)
+                continue
             R = X.rotation().matrix()
             c = X.translation() + R @ M.get_com()
             I_com = R @ M.Shift(M.get_com()).CalcRotationalInertia().CopyToFullMatrix3() @ R.T

@@ -18,6 +18,7 @@ from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .drake_loading import DrakeSource, add_drake
 from .robot import ArmSelection, RestSpec, SetAside, keyframe_moves, reduce_pinocchio
 from .selection import MissingMesh
+from .support import inertia_causes
 
 
 class LoadState:
@@ -34,6 +35,7 @@ class LoadState:
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
         #: What Drake's parser reads: the user's file, or text (None: nothing to read).
         self.drake_source: DrakeSource | None = None
+        self.xml_root: ET.Element | None = None  # the MJCF as written (Drake's inertia bridge)
 
 
 def build_arm(
@@ -106,5 +108,9 @@ def build_arm(
         rest=sel.rest,
         key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
     )
-    add_drake(arm, robot.drake_source, full, sel.qpos)  # or arm.absent_engines says why not
+    # Drake reads the file itself: the bodies whose inertia MuJoCo sets, for its inertia bridge.
+    causes = dict(robot.inertia_causes)
+    if robot.xml_root is not None:
+        causes = {**inertia_causes(robot.xml_root, full), **causes}
+    add_drake(arm, robot.drake_source, full, sel.qpos, causes)  # or absent_engines says why
     return arm

@@ -17,6 +17,9 @@ and copied only where it differs, each copy a `redundancy.model.bridges.Bridge` 
 * **armature**: Drake's reflected rotor inertia (``rotor_inertia x gear_ratio^2`` of the joint's
   actuator, which its MJCF parser reads from a joint's ``armature``) set to the library's where it
   differs (a joint without an actuator gets one, gear ratio 1).
+* **body inertia**: MuJoCo's compiled mass, centre and inertia of a body whose inertia MuJoCo
+  sets itself (a URDF's ``<mujoco><compiler boundmass=...>``, an MJCF body's geoms), where
+  Drake's differ: the bodies Pinocchio's inertia bridge considers.
 * **damping, joint range, gravity**: the library's values where Drake's differ.
 * **URDF root**: Drake makes a parentless link a floating body, MuJoCo and Pinocchio weld it to
   the world at the origin: it is welded (not a bridge: the same reading of URDF).
@@ -33,7 +36,8 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import logging
-import tempfile
+import re
+import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -86,7 +90,7 @@ def _drake_log() -> Iterator[list[str]]:
 
 
 class DrakeSource:
-    """What Drake's parser reads: a file, or text (MJCF text goes through a temporary file).
+    """What Drake's parser reads: a file, or text.
 
     Args:
         path: The user's file (None: ``text``).
@@ -99,26 +103,57 @@ class DrakeSource:
         self.path, self.text, self.urdf = path, text, urdf
 
 
-def _parse(plant: Any, source: DrakeSource) -> list[str]:
-    """Drake's parser on the source, its warnings returned; a refusal is `DrakeAbsent`."""
+def _named_mjcf(text: str, name: str) -> tuple[str, list[Bridge]]:
+    """MJCF text with a model name, which Drake's MJCF parser requires, and the bridge saying so.
+
+    Only the root element's opening tag changes (``<mujoco`` gains ``model="name"``).
+    """
+    try:
+        root = ET.fromstring(text.encode("utf-8"))
+    except ET.ParseError:
+        return text, []  # Drake's parser says what is wrong with it
+    if root.get("model"):
+        return text, []
+    named = re.sub(r"<mujoco\b", f'<mujoco model="{name}"', text, count=1)
+    bridge = Bridge(
+        "model name",
+        "model",
+        name,
+        "<mujoco> without a model attribute, which Drake's MJCF parser requires",
+        engine="drake",
+    )
+    return named, [bridge]
+
+
+def _parse(plant: Any, source: DrakeSource) -> tuple[list[str], list[Bridge]]:
+    """Drake's parser on the source: its warnings and bridges; a refusal is `DrakeAbsent`."""
     from pydrake.multibody.parsing import Parser
 
+    bridges: list[Bridge] = []
     with _drake_log() as log:
         try:
             parser = Parser(plant)
-            if source.path is not None:
-                parser.AddModels(str(source.path))
-            elif source.urdf:
-                parser.AddModelsFromString(source.text or "", "urdf")
-            else:  # Drake names an MJCF model after its file when the text names none
-                with tempfile.TemporaryDirectory() as tmp:
-                    p = Path(tmp) / "model.xml"
-                    p.write_text(source.text or "", encoding="utf-8")
-                    parser.AddModels(str(p))
-        except RuntimeError as err:  # pydrake raises the parser's errors as RuntimeError
+            if source.urdf:
+                if source.path is not None:
+                    parser.AddModels(str(source.path))
+                else:
+                    parser.AddModelsFromString(source.text or "", "urdf")
+            else:
+                text = source.text
+                if source.path is not None:
+                    text = source.path.read_text(encoding="utf-8", errors="replace")
+                stem = "model" if source.path is None else source.path.stem
+                named, bridges = _named_mjcf(text or "", stem or "model")
+                if source.path is not None and not bridges:
+                    parser.AddModels(str(source.path))  # its includes beside it
+                else:
+                    parser.AddModelsFromString(named, "xml")
+        # pydrake raises the parser's errors as RuntimeError, and a failed internal check (a
+        # massless body's inertia: "condition 'mass > 0' failed") as SystemExit.
+        except (RuntimeError, SystemExit) as err:
             text = " ".join(str(err).split()) or type(err).__name__
             raise DrakeAbsent(f"Drake's parser refuses the file: {text}") from err
-    return log
+    return log, bridges
 
 
 def _weld_free_roots(plant: Any) -> None:
@@ -261,6 +296,57 @@ def _bridge_gravity(plant: Any, full: mujoco.MjModel) -> list[Bridge]:
     return [Bridge("gravity", "model", tuple(float(x) for x in g), source, engine="drake")]
 
 
+def _mujoco_inertia(full: mujoco.MjModel, b: int) -> Any:
+    """MuJoCo's compiled spatial inertia of body ``b`` about its origin, in its frame (Drake's)."""
+    from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+
+    if full.body_mass[b] <= 0.0:  # Drake aborts making a massless inertia from its parts
+        return SpatialInertia.Zero()
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, full.body_iquat[b])
+    R = R.reshape(3, 3)
+    c = R @ np.diag(full.body_inertia[b]) @ R.T
+    central = RotationalInertia(c[0, 0], c[1, 1], c[2, 2], c[0, 1], c[0, 2], c[1, 2])
+    return SpatialInertia.MakeFromCentralInertia(
+        float(full.body_mass[b]), full.body_ipos[b].copy(), central
+    )
+
+
+def _bridge_inertias(
+    plant: Any, full: mujoco.MjModel, causes: dict[int, tuple[str, ...]]
+) -> tuple[list[tuple[Any, Any]], list[Bridge]]:
+    """MuJoCo's mass, centre and inertia for each body of ``causes`` where Drake's differ.
+
+    The bodies whose masses MuJoCo sets itself (a URDF's ``<mujoco><compiler boundmass...>``,
+    an MJCF body's inertia from its geoms): as for Pinocchio, a body read from an explicit
+    inertial MuJoCo keeps is never overwritten. Drake keeps a body's inertia in the context:
+    the pairs (body, spatial inertia) are set in every context the engine makes.
+    """
+    names = display_names(full, mujoco.mjtObj.mjOBJ_BODY)
+    pairs, bridges = [], []
+    for b, reasons in sorted(causes.items()):
+        if not 0 < b < full.nbody or not plant.HasBodyNamed(names[b]):
+            continue
+        body = plant.GetBodyByName(names[b])
+        ours = _mujoco_inertia(full, b)
+        theirs = body.default_spatial_inertia().CopyToFullMatrix6()
+        size = max(1.0, float(np.max(np.abs(ours.CopyToFullMatrix6()))))
+        if np.max(np.abs(ours.CopyToFullMatrix6() - theirs)) <= 1e-12 * size:
+            continue
+        pairs.append((body, ours))
+        bridges.append(
+            Bridge(
+                "body inertia",
+                names[b],
+                (float(full.body_mass[b]), *(float(x) for x in full.body_ipos[b])),
+                "body_mass, body_ipos, body_iquat and body_inertia (mass, then centre of mass "
+                "in the body frame); " + ("; ".join(reasons) or "MuJoCo sums the geoms"),
+                engine="drake",
+            )
+        )
+    return pairs, bridges
+
+
 def _rest_positions(plant: Any, full: mujoco.MjModel, qpos: Array) -> Array:
     """Drake's position vector of the whole robot at MuJoCo's ``qpos`` (held values at rest).
 
@@ -323,6 +409,7 @@ def build_drake(
     full: mujoco.MjModel,
     qpos: Array,
     arm: Any,
+    causes: dict[int, tuple[str, ...]] | None = None,
 ) -> tuple[Any, tuple[Bridge, ...], tuple[str, ...]]:
     """Drake's engine for ``arm`` (built by the loader), its bridges and the parser's warnings.
 
@@ -331,6 +418,8 @@ def build_drake(
         full: MuJoCo's compiled model of the whole robot.
         qpos: The whole robot's rest configuration (MuJoCo's order), held values in it.
         arm: The Arm (its joints, types, tool frame, armature, damping and limits).
+        causes: Body id -> why MuJoCo's compiled inertia is not the file's (the bodies
+            whose inertia is bridged where Drake's differs).
 
     Raises:
         DrakeAbsent: Drake cannot take part (the message says why).
@@ -340,23 +429,32 @@ def build_drake(
     from ..engines.drake import DrakeEngine
 
     plant = MultibodyPlant(0.0)
-    warnings = _parse(plant, source)
+    warnings, bridges = _parse(plant, source)
     if source.urdf:
         _weld_free_roots(plant)
     joints = _arm_joints(plant, arm.joint_names, arm.joint_types)
-    tool, bridges = _tool_frame(plant, full, arm.frame, arm.frame_type)
+    tool, site = _tool_frame(plant, full, arm.frame, arm.frame_type)
+    bridges += site
     mj = arm.mujoco
     bridges += _bridge_armature(plant, joints, mj.armature)
     lower, upper = mj.limits
     values, limits = _bridge_joint_values(joints, mj.damping, lower, upper)
     bridges += values + _bridge_gravity(plant, full)
     plant.Finalize()
+    inertias, inertia_bridges = _bridge_inertias(plant, full, causes or {})
+    bridges += inertia_bridges
     rest = _rest_positions(plant, full, qpos)
-    engine = DrakeEngine(plant, tool, joints, rest, mj.damping, limits)
+    engine = DrakeEngine(plant, tool, joints, rest, mj.damping, limits, inertias)
     return engine, tuple(bridges), tuple(warnings)
 
 
-def add_drake(arm: Any, source: DrakeSource | None, full: mujoco.MjModel, qpos: Array) -> None:
+def add_drake(
+    arm: Any,
+    source: DrakeSource | None,
+    full: mujoco.MjModel,
+    qpos: Array,
+    causes: dict[int, tuple[str, ...]] | None = None,
+) -> None:
     """Add Drake to ``arm.engines``, or say in ``arm.absent_engines`` why it is not there."""
     if not drake_available():
         arm.absent_engines["drake"] = NOT_INSTALLED
@@ -365,7 +463,7 @@ def add_drake(arm: Any, source: DrakeSource | None, full: mujoco.MjModel, qpos: 
         arm.absent_engines["drake"] = "no file for Drake's parser to read"
         return
     try:
-        engine, bridges, warnings = build_drake(source, full, qpos, arm)
+        engine, bridges, warnings = build_drake(source, full, qpos, arm, causes)
     except ImportError as err:  # importable by name, broken inside
         arm.absent_engines["drake"] = f"pydrake cannot be imported ({err}): {NOT_INSTALLED}"
         return

@@ -151,6 +151,7 @@ def load_mjcf(
                 "fused, a held joint's body could not be placed)",
             )
         )
+    robot.xml_root = root
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
     sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
