@@ -167,6 +167,8 @@ class Arm(_Keyframes, _ToolMass):
         self.absent_engines: dict[str, str] = {}
         #: Drake's parser's warnings on the file (what it ignored), when Drake took part.
         self.drake_warnings: tuple[str, ...] = ()
+        #: What was copied from MuJoCo into Drake (`redundancy.model.drake_loading`).
+        self.drake_bridges: tuple[Any, ...] = ()
         self.missing_meshes: tuple[Any, ...] = tuple(missing_meshes)
         self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
         self.frame_type: str = frame_type

@@ -426,9 +426,8 @@ def crosscheck(
         )
         for n in names
     )
-    return CrossCheckReport(
-        agreements, arm.bridges, len(Q), condition, skipped, tuple(arm.engines)
-    )
+    bridges = arm.bridges + arm.drake_bridges
+    return CrossCheckReport(agreements, bridges, len(Q), condition, skipped, tuple(arm.engines))
 
 
 def crosscheck_batch(

@@ -36,6 +36,7 @@ class LoadState:
         #: What Drake's parser reads: the user's file, or text (None: nothing to read).
         self.drake_source: DrakeSource | None = None
         self.xml_root: ET.Element | None = None  # the MJCF as written (Drake's inertia bridge)
+        self.drake_bridges: list[Bridge] = []  # what the loader bridged for Drake already
 
 
 def build_arm(
@@ -112,5 +113,5 @@ def build_arm(
     causes = dict(robot.inertia_causes)
     if robot.xml_root is not None:
         causes = {**inertia_causes(robot.xml_root, full), **causes}
-    add_drake(arm, robot.drake_source, full, sel.qpos, causes)  # or absent_engines says why
+    add_drake(arm, robot.drake_source, full, sel.qpos, causes, tuple(robot.drake_bridges))
     return arm

@@ -10,7 +10,7 @@ bridge it (which joint, which frame). Never a crash, never a silent drop.
 
 What Drake reads differently from MuJoCo is bridged the way Pinocchio's reading is, compared first
 and copied only where it differs, each copy a `redundancy.model.bridges.Bridge` with ``engine
-"drake"`` in ``arm.bridges``:
+"drake"`` in ``arm.drake_bridges`` (``arm.bridges`` are Pinocchio's):
 
 * **tool site**: Drake's MJCF parser ignores ``<site>``; an MJCF site tool is a frame fixed to its
   body at MuJoCo's compiled ``site_pos``/``site_quat``. A body or link tool is Drake's body frame.
@@ -21,6 +21,10 @@ and copied only where it differs, each copy a `redundancy.model.bridges.Bridge` 
   sets itself (a URDF's ``<mujoco><compiler boundmass=...>``, an MJCF body's geoms), where
   Drake's differ: the bodies Pinocchio's inertia bridge considers.
 * **damping, joint range, gravity**: the library's values where Drake's differ.
+* **whole model**: where Pinocchio gets MuJoCo's compiled model written out as plain MJCF (a
+  ``<frame>``, ``<attach>``, several joints in one body...: `redundancy.model.resolved`), Drake
+  reads that text too (measured: Drake's parser turns the slide axes of several joints in one
+  rotated body otherwise, 0.49 m at the tool of tests/test_any_file.py's mobile base).
 * **URDF root**: Drake makes a parentless link a floating body, MuJoCo and Pinocchio weld it to
   the world at the origin: it is welded (not a bridge: the same reading of URDF).
 * **defects the library mends** in a URDF (a massless link's joint made fixed, an invalid inertia)
@@ -103,33 +107,25 @@ class DrakeSource:
         self.path, self.text, self.urdf = path, text, urdf
 
 
-def _named_mjcf(text: str, name: str) -> tuple[str, list[Bridge]]:
-    """MJCF text with a model name, which Drake's MJCF parser requires, and the bridge saying so.
+def _named_mjcf(text: str, name: str) -> tuple[str, bool]:
+    """MJCF text with a model name, which Drake's MJCF parser requires; True when it added one.
 
-    Only the root element's opening tag changes (``<mujoco`` gains ``model="name"``).
+    Only the root element's opening tag changes (``<mujoco`` gains ``model="name"``): a name
+    for Drake's model instance, no physical value (not a bridge).
     """
     try:
         root = ET.fromstring(text.encode("utf-8"))
     except ET.ParseError:
-        return text, []  # Drake's parser says what is wrong with it
+        return text, False  # Drake's parser says what is wrong with it
     if root.get("model"):
-        return text, []
-    named = re.sub(r"<mujoco\b", f'<mujoco model="{name}"', text, count=1)
-    bridge = Bridge(
-        "model name",
-        "model",
-        name,
-        "<mujoco> without a model attribute, which Drake's MJCF parser requires",
-        engine="drake",
-    )
-    return named, [bridge]
+        return text, False
+    return re.sub(r"<mujoco\b", f'<mujoco model="{name}"', text, count=1), True
 
 
-def _parse(plant: Any, source: DrakeSource) -> tuple[list[str], list[Bridge]]:
-    """Drake's parser on the source: its warnings and bridges; a refusal is `DrakeAbsent`."""
+def _parse(plant: Any, source: DrakeSource) -> list[str]:
+    """Drake's parser on the source: its warnings; a refusal is `DrakeAbsent`."""
     from pydrake.multibody.parsing import Parser
 
-    bridges: list[Bridge] = []
     with _drake_log() as log:
         try:
             parser = Parser(plant)
@@ -143,8 +139,8 @@ def _parse(plant: Any, source: DrakeSource) -> tuple[list[str], list[Bridge]]:
                 if source.path is not None:
                     text = source.path.read_text(encoding="utf-8", errors="replace")
                 stem = "model" if source.path is None else source.path.stem
-                named, bridges = _named_mjcf(text or "", stem or "model")
-                if source.path is not None and not bridges:
+                named, changed = _named_mjcf(text or "", stem or "model")
+                if source.path is not None and not changed:
                     parser.AddModels(str(source.path))  # its includes beside it
                 else:
                     parser.AddModelsFromString(named, "xml")
@@ -153,7 +149,7 @@ def _parse(plant: Any, source: DrakeSource) -> tuple[list[str], list[Bridge]]:
         except (RuntimeError, SystemExit) as err:
             text = " ".join(str(err).split()) or type(err).__name__
             raise DrakeAbsent(f"Drake's parser refuses the file: {text}") from err
-    return log, bridges
+    return log
 
 
 def _weld_free_roots(plant: Any) -> None:
@@ -429,12 +425,11 @@ def build_drake(
     from ..engines.drake import DrakeEngine
 
     plant = MultibodyPlant(0.0)
-    warnings, bridges = _parse(plant, source)
+    warnings = _parse(plant, source)
     if source.urdf:
         _weld_free_roots(plant)
     joints = _arm_joints(plant, arm.joint_names, arm.joint_types)
-    tool, site = _tool_frame(plant, full, arm.frame, arm.frame_type)
-    bridges += site
+    tool, bridges = _tool_frame(plant, full, arm.frame, arm.frame_type)
     mj = arm.mujoco
     bridges += _bridge_armature(plant, joints, mj.armature)
     lower, upper = mj.limits
@@ -454,8 +449,13 @@ def add_drake(
     full: mujoco.MjModel,
     qpos: Array,
     causes: dict[int, tuple[str, ...]] | None = None,
+    bridged: tuple[Bridge, ...] = (),
 ) -> None:
-    """Add Drake to ``arm.engines``, or say in ``arm.absent_engines`` why it is not there."""
+    """Add Drake to ``arm.engines``, or say in ``arm.absent_engines`` why it is not there.
+
+    ``bridged``: what the loader has bridged for Drake already (MuJoCo's compiled model as the
+    text Drake reads, where Pinocchio gets it too).
+    """
     if not drake_available():
         arm.absent_engines["drake"] = NOT_INSTALLED
         return
@@ -472,5 +472,5 @@ def add_drake(
         return
     engine.missing_inertia = arm.missing_inertia
     arm.engines["drake"] = engine
-    arm.bridges = (*arm.bridges, *bridges)
+    arm.drake_bridges = (*bridged, *bridges)
     arm.drake_warnings = warnings

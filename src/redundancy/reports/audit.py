@@ -146,9 +146,8 @@ def _engines(
         if arm.missing_inertia
         else ""
     )
-    cc = CrossCheckReport(
-        agreements, arm.bridges, n_poses, condition, skipped, tuple(arm.engines)
-    )
+    bridges = arm.bridges + arm.drake_bridges
+    cc = CrossCheckReport(agreements, bridges, n_poses, condition, skipped, tuple(arm.engines))
     return EngineAgreement(cc, second, compare_models(arm))
 
 
