@@ -109,6 +109,12 @@ class DrakeEngine:
         self.qi = np.array([j.position_start() for j in joints], dtype=int)
         self.vi = np.array([j.velocity_start() for j in joints], dtype=int)
         self.rest = np.array(rest, dtype=float)
+        #: The arm is the whole plant, in Drake's order (no held joints to set or skip).
+        self.identity: bool = bool(
+            len(self.rest) == self.nv == plant.num_velocities()
+            and np.array_equal(self.qi, np.arange(self.nv))
+            and np.array_equal(self.vi, np.arange(self.nv))
+        )
         self._damping = np.array(damping, dtype=float)
         self._limits = (np.array(limits[0], dtype=float), np.array(limits[1], dtype=float))
         reflected = np.zeros(plant.num_velocities())
@@ -325,6 +331,12 @@ class DrakeEngine:
         ctx, full, set_q = w.context, w.q, plant.SetPositions
         if J is not None and X is None and R is None and M is None and G is None:
             jac = plant.CalcJacobianSpatialVelocity  # the batch.jacobians path: nothing else
+            if self.identity:  # no held joints: the pose is Drake's whole position vector
+                for q, Ji in zip(Q, J, strict=True):
+                    set_q(ctx, q)
+                    Jf = jac(ctx, _KV, tool, _ORIGIN, world, world)
+                    Ji[:3], Ji[3:] = Jf[3:], Jf[:3]
+                return
             for i, q in enumerate(Q):
                 full[qi] = q
                 set_q(ctx, full)
