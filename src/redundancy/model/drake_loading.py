@@ -93,6 +93,25 @@ def _drake_log() -> Iterator[list[str]]:
         logger.propagate = propagate
 
 
+def resolved_robot(full: mujoco.MjModel) -> str:
+    """MuJoCo's compiled model of the whole robot as plain MJCF: every tree of the world.
+
+    `redundancy.model.resolved.resolved_mjcf` writes one tree (Pinocchio's parser reads one);
+    Drake's reads them all, so a second arm's joints are matched and a table's mass counts.
+    """
+    from .resolved import resolved_mjcf
+
+    roots = [b for b in range(1, full.nbody) if full.body_parentid[b] == 0]
+    if not roots:
+        return resolved_mjcf(full, 0)
+    whole = ET.fromstring(resolved_mjcf(full, roots[0]))
+    world = whole.find("worldbody")
+    for r in roots[1:]:
+        for body in ET.fromstring(resolved_mjcf(full, r)).find("worldbody") or ():  # type: ignore[union-attr]
+            world.append(body)  # type: ignore[union-attr]
+    return ET.tostring(whole, encoding="unicode")
+
+
 class DrakeSource:
     """What Drake's parser reads: a file, or text.
 

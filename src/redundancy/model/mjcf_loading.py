@@ -23,7 +23,7 @@ from ..errors import ModelError, UnknownNameError
 from .assembly import LoadState, build_arm
 from .bridges import Bridge
 from .content import feed_assets, mujoco_assets, record
-from .drake_loading import DrakeSource
+from .drake_loading import DrakeSource, resolved_robot
 from .names import display_names
 from .resolved import forced_causes, resolve_causes, resolved_mjcf, unit_causes
 from .robot import SetAside, reduce_mujoco, select_arm
@@ -198,7 +198,7 @@ def load_mjcf(
         pm, bridged = _read_resolved(full, tree_root, causes)
         inertia_root = None  # every inertial is explicit: nothing for the inertia bridges to do
         # Bridged for Drake the same way: MuJoCo's compiled tree, reported as Drake's bridge.
-        robot.drake_source = DrakeSource(None, resolved_mjcf(full, tree_root))
+        robot.drake_source = DrakeSource(None, resolved_robot(full))
         robot.drake_bridges.append(replace(bridged[0], engine="drake"))
         robot.xml_root = None
     frame_type = "body" if kind == "body" else "site"
