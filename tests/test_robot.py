@@ -69,6 +69,8 @@ def test_published_arm_is_the_chain_to_its_tool(file: str, tool: str, base: str 
     welded = {a.name for a in arm.set_aside if a.what == "joint"}
     assert set(arm.held) | welded == moving - set(arm.joint_names)
     assert set(arm.held) <= every
+    # Drake reads every published arm of the survey itself: three engines, every pair ok.
+    assert list(arm.engines) == ["mujoco", "pinocchio", "drake"], arm.absent_engines
     Q = random_poses(arm, 4, seed=3)
     assert rd.crosscheck(arm, Q).ok
     for q in Q[:2]:
