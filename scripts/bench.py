@@ -52,6 +52,7 @@ class Bare:
         self.pm = arm.pinocchio.model
         self.pd = self.pm.createData()
         self.fid = arm.pinocchio.frame_id
+        self.drake = arm.engines.get("drake")  # None without pydrake: its row is left out
         n, nv = len(Q), self.m.nv
         self.J, self.M, self.G = np.empty((n, 6, nv)), np.empty((n, nv, nv)), np.empty((n, nv))
         ch = checker(arm)
@@ -95,6 +96,22 @@ class Bare:
         pm, pd, fid, J, cfj = self.pm, self.pd, self.fid, self.J, pin.computeFrameJacobian
         for i, q in enumerate(self.Q):
             J[i] = cfj(pm, pd, q, fid, LWA)
+
+    def drake_jacobians(self) -> None:
+        """Pydrake SetPositions and CalcJacobianSpatialVelocity (tool origin, world) per pose."""
+        from pydrake.multibody.tree import JacobianWrtVariable
+
+        plant, frame = self.drake.plant, self.drake.tool
+        ctx, world, kv, p = (
+            plant.CreateDefaultContext(),
+            plant.world_frame(),
+            JacobianWrtVariable.kV,
+            np.zeros(3),
+        )
+        J, jac, set_q = self.J, plant.CalcJacobianSpatialVelocity, plant.SetPositions
+        for i, q in enumerate(self.Q):
+            set_q(ctx, q)
+            J[i] = jac(ctx, kv, frame, p, world, world)
 
     def pin_mass(self) -> None:
         """Pinocchio crba per pose (upper triangle, as Pinocchio returns it)."""
@@ -182,6 +199,14 @@ def batched_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
         "J mj": lambda: batch.jacobians(arm, Q),
         "J mj 2t": lambda: batch.jacobians(arm, Q, threads=2),
         "J pin": lambda: batch.jacobians(arm, Q, "pinocchio"),
+        **(
+            {
+                "bare drake J": b.drake_jacobians,
+                "J drake": lambda: batch.jacobians(arm, Q, engine="drake"),
+            }
+            if b.drake is not None
+            else {}
+        ),
         "sv mj": lambda: batch.singular_values(arm, Q),
         "sv mj 2t": lambda: batch.singular_values(arm, Q, threads=2),
         "sv pin 2t": lambda: batch.singular_values(arm, Q, "pinocchio", threads=2),
@@ -203,6 +228,7 @@ def batched_section(arm: rd.Arm, Q: np.ndarray, repeats: int) -> list[str]:
         ("jacobians, mujoco", "J mj", "bare mj J", 1.5),
         ("jacobians, mujoco, 2 threads", "J mj 2t", "bare mj J", 1.5),
         ("jacobians, pinocchio", "J pin", "bare pin J", 1.5),
+        *([("jacobians, drake", "J drake", "bare drake J", 1.5)] if b.drake is not None else []),
         ("singular values, mujoco (vs J loop + svd)", "sv mj", "bare mj J+svd", 1.5),
         ("singular values, mujoco, 2 thr (vs J + svd)", "sv mj 2t", "bare mj J+svd", 1.5),
         ("singular values, mujoco, 2 thr (vs J loop)", "sv mj 2t", "bare mj J", 1.5),

@@ -177,7 +177,13 @@ LAYERS = [
     {"engines"},
     {"objectives"},  # what solve_ik and self_motion raise
     {"linalg", "inertia", "ik", "quantities"},
-    {"arm", "arm_keyframes", "arm_mass", "arm_coupled"},  # the Arm and the parts of its class
+    {
+        "arm",
+        "arm_engines",
+        "arm_keyframes",
+        "arm_mass",
+        "arm_coupled",
+    },  # the Arm and the parts of its class
     {"model", "models"},
     {"collision"},
     {"analysis", "testing", "generate", "plotting"},
@@ -244,6 +250,7 @@ def test_each_package_says_what_it_owns(package: str) -> None:
 KEY_WRITERS = {
     "engines/mujoco.py": {"__init__", "load", "forget", "stop"},
     "engines/pinocchio.py": {"__init__", "_load", "forget"},
+    "engines/drake.py": {"__init__", "_load", "forget"},
 }
 
 

@@ -389,9 +389,9 @@ def cases(tmp: str, arm: rd.Arm | None = None) -> dict[str, Case]:
             r"^pose has non-finite values: q1=inf",
         ),
         "unknown engine": Case(
-            lambda: arm.jacobian(np.zeros(7), engine="drake"),  # type: ignore[arg-type]
+            lambda: arm.jacobian(np.zeros(7), engine="bullet"),  # type: ignore[arg-type]
             rd.UnknownNameError,
-            r"^unknown engine 'drake'; valid engine names: \['mujoco', 'pinocchio'\]$",
+            r"^unknown engine 'bullet'; valid engine names: \['mujoco', 'pinocchio', 'drake'\]$",
         ),
     }
 

@@ -247,8 +247,8 @@ def test_bad_velocity_is_a_pose_error_naming_it(arm7: rd.Arm) -> None:
             arm7.coriolis(q, np.ones(7) * 1j, engine=engine)
         with pytest.raises(rd.PoseError, match="pose has non-finite values"):
             arm7.coriolis(np.full(7, np.inf), np.zeros(7), engine=engine)
-    with pytest.raises(rd.UnknownNameError, match="unknown engine 'drake'"):
-        arm7.coriolis(q, q, engine="drake")  # type: ignore[arg-type]
+    with pytest.raises(rd.UnknownNameError, match="unknown engine 'bullet'"):
+        arm7.coriolis(q, q, engine="bullet")  # type: ignore[arg-type]
 
 
 # -- stacks --------------------------------------------------------------------------------------

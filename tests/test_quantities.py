@@ -77,10 +77,10 @@ def test_a_third_engine_is_compared_with_the_reference_and_confirms_ik() -> None
     assert report["gravity"].max_error == pytest.approx(1e-6, rel=1e-3)
     result = arm.solve_ik(arm.site_pose([0.4, 0.3]), position_only=True)
     assert result.success
-    assert (result.engine, result.checked_by) == ("mujoco", "pinocchio, skewed")
+    assert (result.engine, result.checked_by) == ("mujoco", "pinocchio, drake, skewed")
     with pytest.raises(
         rd.UnknownNameError,
-        match=r"^unknown engine 'nope'; valid engine names: \['mujoco', 'pinocchio', 'skewed'\]$",
+        match=r"^unknown engine 'nope'; valid engine names: \['mujoco', 'pinocchio', 'drake', 'skewed'\]$",
     ):
         arm.engine("nope")
 

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import ik, linalg, objectives
 from .arm_coupled import _Coupled, coupled_poses
+from .arm_engines import _Engines
 from .arm_keyframes import _Keyframes
 from .arm_mass import _ToolMass
 from .checks import (
@@ -28,7 +29,7 @@ from .checks import (
     check_tool_pose,
     describe,
 )
-from .engines import ENGINES, REFERENCE, EngineName
+from .engines import ENGINES, EngineName
 from .engines.contract import Engine
 from .engines.coupled import CoupledEngine
 from .engines.coupling import CouplingMap
@@ -66,7 +67,7 @@ def check_arm(value: object, name: str = "arm") -> Arm:
     return value
 
 
-class Arm(_Keyframes, _ToolMass, _Coupled):
+class Arm(_Engines, _Keyframes, _ToolMass, _Coupled):
     """One arm loaded into MuJoCo and Pinocchio, with joints matched by name.
 
     Build it with [`redundancy.load`][redundancy.load] or
@@ -75,8 +76,10 @@ class Arm(_Keyframes, _ToolMass, _Coupled):
     rebuilt, both engines, when loaded).
 
     Attributes:
-        engines: The engines by name, the reference first; ``mujoco`` and ``pinocchio``
-            name each.
+        engines: The engines by name, the reference first: ``mujoco``, ``pinocchio`` and,
+            when it can take part, ``drake``.
+        absent_engines: Engine name -> why it is not in ``engines`` (``drake``: pydrake not
+            installed, its parser refused the file, or a bridge the library would need).
         frame: Name of the tool frame (``site`` is its deprecated name).
         joint_names: Joint names, in order.
         joint_types: ``"hinge"`` or ``"slide"`` per joint.
@@ -108,6 +111,12 @@ class Arm(_Keyframes, _ToolMass, _Coupled):
         key_moves: Per keyframe, in file order: the held joints it puts elsewhere than
             ``held`` -> its value (see `keyframe_moves`); empty: none.
     """
+
+    #: Drake's parser's warnings on the file (what it ignored), when Drake took part (the
+    #: loader sets them on the arm).
+    drake_warnings: tuple[str, ...] = ()
+    #: What was copied from MuJoCo into Drake (`redundancy.model.drake_loading`).
+    drake_bridges: tuple[Any, ...] = ()
 
     def __init__(
         self,
@@ -177,6 +186,8 @@ class Arm(_Keyframes, _ToolMass, _Coupled):
         self.missing_inertia: tuple[str, ...] = tuple(missing_inertia)
         for engine in self.engines.values():
             engine.missing_inertia = self.missing_inertia  # their dynamic quantities refuse
+        #: Engine name -> why it is not in `engines` (the loader adds Drake or says why not).
+        self.absent_engines: dict[str, str] = {}
         self.missing_meshes: tuple[Any, ...] = tuple(missing_meshes)
         self.robot_model: mujoco.MjModel = mj_model if robot_model is None else robot_model
         self.frame_type: str = frame_type
@@ -209,42 +220,11 @@ class Arm(_Keyframes, _ToolMass, _Coupled):
     site: ClassVar[DeprecatedAlias] = DeprecatedAlias("frame")
     """Deprecated name of `frame` (warns with a DeprecationWarning)."""
 
-    @property
-    def mujoco(self) -> MujocoEngine:
-        """The MuJoCo engine (``engines["mujoco"]``)."""
-        return self.engines["mujoco"]  # type: ignore[return-value]
-
-    @property
-    def pinocchio(self) -> PinocchioEngine:
-        """The Pinocchio engine, with the bridged values (``engines["pinocchio"]``)."""
-        return self.engines["pinocchio"]  # type: ignore[return-value]
-
-    @property
-    def reference(self) -> Engine:
-        """The engine the others are checked against (`redundancy.engines.REFERENCE`)."""
-        return self.engines[REFERENCE]
-
-    def _others(self, name: str) -> tuple[Engine, ...]:
-        """Every engine but ``name``, in order (those that confirm ``name``'s answers)."""
-        return tuple(e for n, e in self.engines.items() if n != name)
-
-    @property
-    def mj_model(self) -> mujoco.MjModel:
-        """MuJoCo's compiled model (shared, do not modify)."""
-        return self.mujoco.model
-
     def joint_index(self, name: str) -> int:
         """Index of a joint in the library's order."""
         if not isinstance(name, str) or name not in self.joint_names:
             raise UnknownNameError("joint", name, self.joint_names)
         return self.joint_names.index(name)
-
-    def engine(self, name: EngineName) -> Engine:
-        """One engine, by name (``"mujoco"`` or ``"pinocchio"``)."""
-        try:
-            return self.engines[name]
-        except (KeyError, TypeError):
-            raise UnknownNameError("engine", str(name), tuple(self.engines)) from None
 
     def pose(self, q: ArrayLike, check_range: bool = False, tol: float = 1e-9) -> Array:
         """Validate a joint configuration and return it as a float64 array of shape (nq,).
@@ -281,7 +261,7 @@ class Arm(_Keyframes, _ToolMass, _Coupled):
         try:  # the engine table read inline: arm.jacobian is a controller's inner loop
             eng = self.engines[engine]
         except (KeyError, TypeError):
-            raise UnknownNameError("engine", str(engine), tuple(self.engines)) from None
+            return self.engine(engine).site_jacobian(q)  # absent or unknown: says which
         return eng.site_jacobian(q)
 
     def svd(

@@ -126,6 +126,22 @@ class UnknownNameError(RedundancyError, KeyError):
         return f"unknown {self.kind} {self.name!r}; valid {self.kind} names: [{choices}]"
 
 
+class AbsentEngineError(UnknownNameError):
+    """An engine this arm was loaded without (``arm.absent_engines`` says why).
+
+    Attributes:
+        reason: Why the engine is absent (not installed, its parser refused the file...).
+    """
+
+    def __init__(self, name: str, reason: str, valid: Sequence[str]) -> None:
+        self.reason = reason
+        super().__init__("engine", name, valid)
+
+    def __str__(self) -> str:
+        present = ", ".join(repr(v) for v in self.valid)
+        return f"engine {self.name!r} is absent from this arm: {self.reason}; engines: [{present}]"
+
+
 class PoseError(RedundancyError, ValueError):
     """A joint configuration of the wrong shape or type, or with NaN or infinite values."""
 

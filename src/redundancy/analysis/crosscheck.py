@@ -1,7 +1,7 @@
-"""Pose-by-pose agreement of the two engines, with a stated tolerance per quantity.
+"""Pose-by-pose agreement of every pair of engines, with a stated tolerance per quantity.
 
-One error measure, max |mujoco - pinocchio| / the quantity's scale per pose (the scale is max
-|mujoco| at that pose, never below FLOOR x the quantity's size on the arm: see
+One error measure, max |a - b| / the quantity's scale per pose for each pair of engines a, b (the
+scale is max |a| at that pose, never below FLOOR x the quantity's size on the arm: see
 [`redundancy.model.scales`][redundancy.model.scales]), and its maximum over the poses
 ([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors],
 [`worst`][redundancy.analysis.crosscheck.worst]), serves the single-pose and the stacked cross-check
@@ -37,6 +37,7 @@ from ..model.bridges import Bridge
 from ..model.scales import Scales, arm_scales, scaled_errors
 from ..quantities import QUANTITIES, QUANTITY, Evaluation
 from ..quantities import crosscheck_velocities as crosscheck_velocities  # its old home
+from .agreement import Agreement, PairError, largest, merge_pairs, pair_errors
 from .batch import map_chunks
 from .batch_executor import RunOptions
 
@@ -74,29 +75,6 @@ def conditioned_tolerance(name: str, tol: float, condition: float | None) -> flo
     return float(tol * max(1.0, condition / CALIBRATED_CONDITION))
 
 
-@dataclass(frozen=True)
-class Agreement:
-    """How closely the engines agree on one quantity over the poses checked.
-
-    Attributes:
-        quantity: Name, a key of `TOLERANCES`.
-        max_error: Largest max |mujoco - pinocchio| / scale seen
-            ([`quantity_errors`][redundancy.analysis.crosscheck.quantity_errors]).
-        tol: The tolerance it is held to.
-        worst_pose: Index of the pose where ``max_error`` occurred.
-    """
-
-    quantity: str
-    max_error: float
-    tol: float
-    worst_pose: int
-
-    @property
-    def ok(self) -> bool:
-        """True when the largest error is within the tolerance."""
-        return self.max_error <= self.tol
-
-
 @dataclass(frozen=True, repr=False)
 class CrossCheckReport(Report):
     """Result of [`crosscheck`][redundancy.crosscheck].
@@ -112,6 +90,7 @@ class CrossCheckReport(Report):
         mass_condition: Largest condition number of MuJoCo's M (armature in) over the poses
             where a quantity computed through M^-1 was compared (None: none was).
         skipped: Why quantities were left out (an arm whose links lack inertias), or "".
+        engines: The engines compared, the reference first (every pair of them).
     """
 
     agreements: tuple[Agreement, ...]
@@ -119,6 +98,7 @@ class CrossCheckReport(Report):
     n_poses: int
     mass_condition: float | None = None
     skipped: str = ""
+    engines: tuple[str, ...] = ("mujoco", "pinocchio")
 
     @property
     def checked(self) -> bool:
@@ -157,8 +137,8 @@ class CrossCheckReport(Report):
         """One row per quantity: the largest relative difference, the tolerance, ok or not."""
         return [
             table(
-                f"MuJoCo against Pinocchio over {plural(self.n_poses, 'pose')}",
-                ("quantity", "max rel. diff", "tol", "worst pose", "agree"),
+                f"{' against '.join(self.engines)} over {plural(self.n_poses, 'pose')}",
+                ("quantity", "max rel. diff", "tol", "worst pose", "agree", "suspect"),
                 [
                     (
                         a.quantity,
@@ -166,10 +146,11 @@ class CrossCheckReport(Report):
                         f"{a.tol:.0e}",
                         a.worst_pose,
                         "ok" if a.ok else "DISAGREE",
+                        a.suspect or "",
                     )
                     for a in self.agreements
                 ],
-                (False, True, True, True, False),
+                (False, True, True, True, False, False),
             )
         ]
 
@@ -185,6 +166,7 @@ class CrossCheckReport(Report):
         for a in self.agreements:
             flag = "ok" if a.ok else "DISAGREE"
             out.append(f"{a.quantity:<26}{a.max_error:>14.2e}{a.tol:>9.0e}  {flag}")
+        out += [a.verdict() for a in self.agreements if not a.ok]
         if self.mass_condition is not None and self.mass_condition > CALIBRATED_CONDITION:
             out.append(
                 f"cond(M) up to {self.mass_condition:.2g}: the M^-1 tolerances grow with it "
@@ -192,10 +174,12 @@ class CrossCheckReport(Report):
             )
         if self.skipped:
             out.append(f"not compared: {self.skipped}")
-        if self.bridges:
-            kinds = sorted({b.quantity for b in self.bridges})
+        into = {b.engine for b in self.bridges}
+        for engine in (e for e in self.engines if e in into):
+            kinds = sorted({b.quantity for b in self.bridges if b.engine == engine})
             out.append(
-                f"bridged from MuJoCo (same numbers in both, not compared): {', '.join(kinds)}"
+                f"bridged from MuJoCo into {engine} (same numbers, not compared): "
+                + ", ".join(kinds)
             )
         return out
 
@@ -357,11 +341,13 @@ def _all_engines(
 
 def _agreement_errors(
     arm: Arm, name: str, out: dict[str, dict[str, Array]], scales: Scales
-) -> Array:
-    """Per pose, the largest error of any engine against the reference on ``name``."""
-    ref = out[arm.reference.name][name]
-    errors = [quantity_errors(name, ref, out[e.name][name], scales) for e in _compared(arm)]
-    return errors[0] if len(errors) == 1 else np.maximum.reduce(errors)  # a NaN stays NaN
+) -> tuple[Array, tuple[PairError, ...]]:
+    """Per pose, the largest error of any pair of engines on ``name``; each pair's largest."""
+    stacks = {e: out[e][name] for e in arm.engines}
+    pairs = pair_errors(stacks, lambda a, b: quantity_errors(name, a, b, scales), list(stacks))
+    errors = list(pairs.values())
+    per_pose = errors[0] if len(errors) == 1 else np.maximum.reduce(errors)  # NaN stays NaN
+    return per_pose, tuple((a, b, largest(e)) for (a, b), e in pairs.items())
 
 
 class CrossCheckOptions(RunOptions, total=False):
@@ -430,12 +416,18 @@ def crosscheck(
     seed = check_count("seed", options.get("seed", 0), 0)
     Q = check_pose_or_poses(poses, arm.joint_names)
     found = dict.fromkeys(names, (0.0, 0))
-    condition = _crosscheck_chunks(executor, arm, Q, names, tols, threads, chunk, seed, found)
+    pairs: dict[str, tuple[PairError, ...]] = dict.fromkeys(names, ())
+    condition = _crosscheck_chunks(
+        executor, arm, Q, names, tols, threads, chunk, seed, found, pairs
+    )
     agreements = tuple(
-        Agreement(n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1])
+        Agreement(
+            n, found[n][0], conditioned_tolerance(n, tols[n], condition), found[n][1], pairs[n]
+        )
         for n in names
     )
-    return CrossCheckReport(agreements, arm.bridges, len(Q), condition, skipped)
+    bridges = arm.bridges + arm.drake_bridges
+    return CrossCheckReport(agreements, bridges, len(Q), condition, skipped, tuple(arm.engines))
 
 
 def crosscheck_batch(
@@ -467,10 +459,12 @@ def _crosscheck_chunks(
     chunk: int,
     seed: int,
     found: dict[str, tuple[float, int]],
+    pairs: dict[str, tuple[PairError, ...]],
 ) -> float | None:
     """`crosscheck_batch` ``chunk`` poses at a time, on the executor's workers or (None) here.
 
-    Each quantity's worst error and pose are merged into ``found``; returns the largest
+    Each quantity's worst error and pose are merged into ``found``, its pairs' largest
+    errors into ``pairs``; returns the largest
     condition number of the mass matrix, None where no quantity through M^-1 was compared.
     """
     condition: float | None = None
@@ -485,6 +479,7 @@ def _crosscheck_chunks(
         for lo, part in map_chunks(executor, crosscheck_batch, arm, Q, **kwargs):
             for a in part.agreements:
                 found[a.quantity] = merge_worst(found[a.quantity], (a.max_error, a.worst_pose), lo)
+                pairs[a.quantity] = merge_pairs(pairs[a.quantity], a.pairs)
             condition = worse_condition(condition, part.mass_condition)
         return condition
     scales = arm_scales(arm)
@@ -492,8 +487,9 @@ def _crosscheck_chunks(
         part = Q[lo : lo + chunk]
         out = _all_engines(arm, part, names, threads, seed)
         for name in names:
-            errors = _agreement_errors(arm, name, out, scales)
+            errors, each = _agreement_errors(arm, name, out, scales)
             found[name] = merge_worst(found[name], worst(errors), lo)
+            pairs[name] = merge_pairs(pairs[name], each)
         if set(names) & set(M_INVERSE_QUANTITIES) and len(part):
             # The reference's M with armature, when compared.
             M = out[arm.reference.name].get("mass matrix")

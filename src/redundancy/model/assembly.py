@@ -16,8 +16,10 @@ from ..engines.mujoco import joint_limits, object_names
 from .actuators import actuator_armature, actuator_damping, joint_force_limits
 from .bridges import Bridge, bridge, bridge_robot, check_pinocchio
 from .coupled_chain import coupling_map
+from .drake_loading import DrakeSource, add_drake
 from .robot import ArmSelection, RestSpec, SetAside, keyframe_moves, reduce_pinocchio
 from .selection import MissingMesh
+from .support import inertia_causes
 
 
 class LoadState:
@@ -32,6 +34,10 @@ class LoadState:
         self.missing_meshes: list[MissingMesh] = []  # meshes found nowhere (geoms left out)
         self.inertia_causes: dict[int, tuple[str, ...]] = {}  # bodies whose masses MuJoCo sets
         self.changed = False  # Pinocchio must read an edited copy of the MJCF
+        #: What Drake's parser reads: the user's file, or text (None: nothing to read).
+        self.drake_source: DrakeSource | None = None
+        self.xml_root: ET.Element | None = None  # the MJCF as written (Drake's inertia bridge)
+        self.drake_bridges: list[Bridge] = []  # what the loader bridged for Drake already
 
 
 def build_arm(
@@ -84,7 +90,7 @@ def build_arm(
         )
     )
     coupling = coupling_map(full, sel.coupled) if sel.coupled is not None else None
-    return Arm(
+    arm = Arm(
         mj,
         pm,
         site,
@@ -106,3 +112,9 @@ def build_arm(
         key_moves=tuple(keyframe_moves(full, k, sel.joints, sel.held) for k in range(full.nkey)),
         coupling=coupling,
     )
+    # Drake reads the file itself: the bodies whose inertia MuJoCo sets, for its inertia bridge.
+    causes = dict(robot.inertia_causes)
+    if robot.xml_root is not None:
+        causes = {**inertia_causes(robot.xml_root, full), **causes}
+    add_drake(arm, robot.drake_source, full, sel.qpos, causes, tuple(robot.drake_bridges))
+    return arm

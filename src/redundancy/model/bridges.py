@@ -27,19 +27,21 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Bridge:
-    """A value Pinocchio's MJCF parser does not read, copied from MuJoCo's compiled model.
+    """A value an engine's parser does not read as MuJoCo does, copied from MuJoCo's model.
 
     Attributes:
         quantity: What was bridged, e.g. ``"effort limit"``.
         joint: Joint it applies to.
-        value: The value given to Pinocchio [N m, kg m^2...], or a description of it.
+        value: The value given to the engine [N m, kg m^2...], or a description of it.
         source: Where in MuJoCo's model it came from.
+        engine: The engine it was given to: ``"pinocchio"`` or ``"drake"``.
     """
 
     quantity: str
     joint: str
     value: float | tuple[float, ...] | str
     source: str
+    engine: str = "pinocchio"
 
     @property
     def value_text(self) -> str:

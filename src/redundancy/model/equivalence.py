@@ -299,7 +299,7 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     )
     return EquivalenceReport(
         tuple(t.diffs),
-        arm.bridges,
+        tuple(b for b in arm.bridges if b.engine == "pinocchio"),
         tol,
         checked,
         t.largest,

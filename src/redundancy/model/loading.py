@@ -22,6 +22,7 @@ from ..checks import check_options
 from ..errors import ModelError, ParameterError
 from .assembly import LoadState
 from .content import Recipe, rebuild, record, recording
+from .drake_loading import DrakeSource
 from .ends import frame_for
 from .mjcf_loading import load_mjcf, read_mujoco, record_models
 from .robot import RestSpec, SetAside
@@ -186,18 +187,25 @@ def _from_file(p: Path, data: bytes, options: tuple[object, ...], shown: str) ->
             tool = frame_for(whole[0], shown)
         robot = LoadState(tool, base, rest, shown)  # type: ignore[arg-type]
         if is_urdf(root):
+            # Drake reads the user's file itself (load_urdf gives it the text it mends instead).
+            readable = as_is and p.is_file()
+            robot.drake_source = (
+                DrakeSource(p, None, True) if readable else DrakeSource(None, text, True)
+            )
             arm = load_urdf(text, root, folder, pairs, robot)  # type: ignore[arg-type]
         else:
             _check_mjcf(pairs)  # type: ignore[arg-type]
             # A pipe's bytes are gone once read; MuJoCo reads a file by its suffix, and knows
             # MJCF as .xml only (an .mjcf goes as text, as a pipe's does).
             as_is = as_is and p.is_file() and p.suffix.lower() == ".xml"
+            robot.drake_source = DrakeSource(p) if as_is else None
             if as_is:
                 # By its absolute path: MuJoCo then looks its assets up by theirs.
                 spec, mj, kind = read_mujoco(None, p, folder, tool)
             else:
                 # Handed text, MuJoCo would look for the includes in the current directory.
                 inlined = ET.tostring(expand_includes(root, folder, []), encoding="unicode")
+                robot.drake_source = DrakeSource(None, inlined)
                 spec, mj, kind = read_mujoco(inlined, None, folder, tool)
             # After MuJoCo, whose errors name a missing include first.
             mjcf = _edited(robot, whole or expanded(root, folder))
@@ -261,6 +269,7 @@ def _from_text(xml: str, folder: Path, options: tuple[object, ...]) -> Arm:
             whole = expanded(root, folder)
             tool = frame_for(whole[0], "<string>")
         robot = LoadState(tool, base, rest, "<string>")  # type: ignore[arg-type]
+        robot.drake_source = DrakeSource(None, xml, is_urdf(root))
         if is_urdf(root):
             arm = load_urdf(xml, root, folder, pairs, robot)  # type: ignore[arg-type]
         else:

@@ -11,6 +11,7 @@ import copy
 import os
 import tempfile
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
@@ -22,6 +23,7 @@ from ..errors import ModelError, UnknownNameError
 from .assembly import LoadState, build_arm
 from .bridges import Bridge
 from .content import feed_assets, mujoco_assets, record
+from .drake_loading import DrakeSource, resolved_robot
 from .names import display_names
 from .resolved import forced_causes, resolve_causes, resolved_mjcf, unit_causes
 from .robot import SetAside, reduce_mujoco, select_arm
@@ -151,6 +153,7 @@ def load_mjcf(
                 "fused, a held joint's body could not be placed)",
             )
         )
+    robot.xml_root = root
     sid = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_SITE, robot.tool)
     sel = select_arm(full, robot.tool, int(full.site_bodyid[sid]), robot.base, robot.rest)
     mj, aside = reduce_mujoco(spec, full, sel)
@@ -194,6 +197,10 @@ def load_mjcf(
     if causes:
         pm, bridged = _read_resolved(full, tree_root, causes)
         inertia_root = None  # every inertial is explicit: nothing for the inertia bridges to do
+        # Bridged for Drake the same way: MuJoCo's compiled tree, reported as Drake's bridge.
+        robot.drake_source = DrakeSource(None, resolved_robot(full))
+        robot.drake_bridges.append(replace(bridged[0], engine="drake"))
+        robot.xml_root = None
     frame_type = "body" if kind == "body" else "site"
     return build_arm(mj, full, pm, sel, robot, bridged, inertia_root, "MJCF", frame_type)
 

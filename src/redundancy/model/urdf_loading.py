@@ -14,6 +14,7 @@ import mujoco
 from ..arm import Arm
 from .assembly import LoadState, build_arm
 from .bridges import Bridge
+from .drake_loading import DrakeSource
 from .robot import reduce_mujoco, select_arm
 from .selection import SetAside
 from .support import check_supported
@@ -86,6 +87,8 @@ def load_urdf(
     if notes:
         text = ET.tostring(mended, encoding="unicode")
         robot.set_aside += notes
+        # Drake reads the mended text too: the defects are mended the same way in every engine.
+        robot.drake_source = DrakeSource(None, text, True)
     robot.defects += defects
     pm, continuous = build_pinocchio(text, source)
     spec, full, meshes = build_mujoco(

@@ -15,6 +15,7 @@ damping of their own. The report's text and JSON are in `redundancy.reports.audi
 
 from __future__ import annotations
 
+from ..analysis.agreement import merge_pairs
 from ..analysis.crosscheck import (
     BATCH_QUANTITIES,
     DYNAMIC_QUANTITIES,
@@ -145,15 +146,16 @@ def _engines(
         if arm.missing_inertia
         else ""
     )
-    cc = CrossCheckReport(agreements, arm.bridges, n_poses, condition, skipped)
+    bridges = arm.bridges + arm.drake_bridges
+    cc = CrossCheckReport(agreements, bridges, n_poses, condition, skipped, tuple(arm.engines))
     return EngineAgreement(cc, second, compare_models(arm))
 
 
 def _worse(kept: Agreement | None, new: Agreement, offset: int) -> Agreement:
     """The worse of two chunks' agreements, by `redundancy.crosscheck`'s rules."""
     if kept is None:
-        return Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset)
+        return Agreement(new.quantity, new.max_error, new.tol, new.worst_pose + offset, new.pairs)
     error, pose = merge_worst(
         (kept.max_error, kept.worst_pose), (new.max_error, new.worst_pose), offset
     )
-    return Agreement(new.quantity, error, new.tol, pose)
+    return Agreement(new.quantity, error, new.tol, pose, merge_pairs(kept.pairs, new.pairs))

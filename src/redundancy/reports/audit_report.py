@@ -150,7 +150,8 @@ class AuditReport(Report):
                 "ok": cc.ok,
                 "mass_condition": cc.mass_condition,
                 "skipped": cc.skipped,
-                "quantities": [{**asdict(a), "ok": a.ok} for a in cc.agreements],
+                "engines": list(cc.engines),
+                "quantities": [a.json() for a in cc.agreements],
             },
             "equivalence": {
                 "equivalent": eq.equivalent,
@@ -528,19 +529,30 @@ def _collision_lines(r: AuditReport) -> list[str]:
 
 def _engine_lines(r: AuditReport) -> list[str]:
     cc, eq = r.engines.crosscheck, r.engines.equivalence
+    others = cc.engines[1:]
     out = [
         f"engine cross-check over {cc.n_poses} poses ({r.engines.second_order_poses} for dJ/dq "
-        "and the manipulability gradient), |MuJoCo - Pinocchio| / the quantity's scale:",
+        f"and the manipulability gradient), |{cc.engines[0]} - each other engine| / the "
+        "quantity's scale:",
         *table(
-            ["quantity", "max error", "tol", ""],
+            ["quantity", *others, "tol", "", "suspect"],
             [
-                [a.quantity, f"{a.max_error:.2e}", f"{a.tol:.0e}", "ok" if a.ok else "DISAGREE"]
+                [
+                    a.quantity,
+                    *(f"{a.by_pair.get((cc.engines[0], e), a.max_error):.2e}" for e in others),
+                    f"{a.tol:.0e}",
+                    "ok" if a.ok else "DISAGREE",
+                    a.suspect or "",
+                ]
                 for a in cc.agreements
             ],
-            "lrrl",
+            "l" + "r" * len(others) + "rll",
         ),
+        *(f"  {a.verdict()}" for a in cc.agreements if not a.ok),
         key(
-            "max error: largest over the poses; tol: its tolerance; DISAGREE: beyond it (a finding)"
+            "a column per engine: its largest difference to the reference over the poses; tol: "
+            "the tolerance; DISAGREE: beyond it (a finding); suspect: the one engine that "
+            "disagrees with the others while they agree"
         ),
         "",
         "model equivalence (MuJoCo's compiled model vs Pinocchio's):",

@@ -284,7 +284,8 @@ def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics | No
         if not a.ok:
             out.finding(
                 "engines-disagree",
-                f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}",
+                f"engines disagree on {a.quantity}: {a.max_error:.3g} > tol {a.tol:g}"
+                + (f" ({a.suspect} reads the file otherwise: {a.verdict()})" if a.suspect else ""),
             )
     for d in e.equivalence.differences:
         out.finding("engines-models-differ", f"models differ: {one_line(d)}")

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from .. import kernels, linalg
 from ..analysis import batch
+from ..analysis.agreement import PairError, largest, merge_pairs, pair_errors
 from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, quantity_errors, worst
 from ..arm import Arm, sampling_ranges
 from ..collision import (
@@ -168,13 +169,17 @@ def gravity_budget(
     n_over, diff = 0, 0.0
     found, offset = (0.0, 0), 0
     scales = arm_scales(arm)
+    pairs: tuple[PairError, ...] = ()
     for Q in pose_chunks(arm, n_poses, seed):
         tau = batch.gravities(arm, Q, REFERENCE)
+        taus = {REFERENCE: tau}
         for other in compared_engines(arm):
-            tau_p = batch.gravities(arm, Q, other)
+            tau_p = taus[other] = batch.gravities(arm, Q, other)
             diff = max(diff, float(np.max(np.abs(tau - tau_p))))
-            errors = quantity_errors("gravity", tau, tau_p, scales)
-            found = merge_worst(found, worst(errors), offset)
+        each = pair_errors(taus, lambda a, b: quantity_errors("gravity", a, b, scales), list(taus))
+        errors = np.maximum.reduce(list(each.values()))
+        found = merge_worst(found, worst(errors), offset)
+        pairs = merge_pairs(pairs, tuple((a, b, largest(e)) for (a, b), e in each.items()))
         offset += len(Q)
         need, effort = load(Q, tau)
         low, high = np.minimum(low, need.min(axis=0)), np.maximum(high, need.max(axis=0))
@@ -207,7 +212,7 @@ def gravity_budget(
         diff,
         load.uniform != 0.0,
         sim.gravity_enabled,
-        Agreement("gravity", found[0], TOLERANCES["gravity"], found[1]),
+        Agreement("gravity", found[0], TOLERANCES["gravity"], found[1], pairs),
     )
 
 

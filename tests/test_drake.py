@@ -1,0 +1,228 @@
+"""Drake, the third engine: its numbers are Drake's own, it names the engine that reads a file
+otherwise, and an arm without pydrake loads with the other two and says how to add it."""
+
+from __future__ import annotations
+
+import re
+import sys
+
+import numpy as np
+import pytest
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import FixedOffsetFrame, JacobianWrtVariable
+
+import redundancy as rd
+from redundancy.engines.contract import Stacks
+from redundancy.model.drake_loading import NOT_INSTALLED
+
+from .conftest import ARM_NAMES
+from .test_robot import erd_robots
+
+KV = JacobianWrtVariable.kV
+
+
+def direct(path: str, tool: str, urdf: bool, site: tuple[str, list[float]] | None = None):
+    """pydrake on the file, as a user would call it: plant, context and tool frame."""
+    plant = MultibodyPlant(0.0)
+    Parser(plant).AddModels(path)
+    if urdf:  # URDF: the root link on the world, as MuJoCo and Pinocchio put it
+        roots = {int(plant.get_joint(j).child_body().index()) for j in plant.GetJointIndices()}
+        for b in range(1, plant.num_bodies()):
+            body = plant.get_body(type(plant.world_body().index())(b))
+            if b not in roots:
+                plant.WeldFrames(plant.world_frame(), body.body_frame())
+    if site is None:
+        frame = plant.GetBodyByName(tool).body_frame()
+    else:  # the MJCF site's placement as the file writes it
+        body, pos = site
+        X = RigidTransform(Quaternion(1.0, 0.0, 0.0, 0.0), pos)
+        frame = plant.AddFrame(FixedOffsetFrame("tool", plant.GetBodyByName(body).body_frame(), X))
+    plant.Finalize()
+    return plant, plant.CreateDefaultContext(), frame
+
+
+CASES = {
+    "arm7.urdf": (str(rd.model_path("arm7").with_suffix(".urdf")), "ee", True, None),
+    "panda.urdf": (str(rd.model_path("panda").with_suffix(".urdf")), "ee", True, None),
+    "arm7.xml": (str(rd.model_path("arm7")), "ee", False, ("link7", [0.0, 0.0, 0.13])),
+    "panda.xml": (str(rd.model_path("panda")), "ee", False, ("link7", [0.0, 0.0, 0.107])),
+}
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_drake_through_the_library_is_drake_called_directly(name: str) -> None:
+    path, tool, urdf, site = CASES[name]
+    arm = rd.load(path, frame=tool)
+    assert "drake" in arm.engines and not arm.absent_engines
+    plant, ctx, frame = direct(path, tool, urdf, site)
+    world = plant.world_frame()
+    Q = rd.random_poses(arm, 5, seed=11)
+    stacks = Stacks.empty(len(Q), arm.nq, "XRJMG")
+    arm.engines["drake"].evaluate(Q, stacks)
+    for i, q in enumerate(Q):
+        plant.SetPositions(ctx, q)  # no held joints: Drake's positions are the arm's
+        J = plant.CalcJacobianSpatialVelocity(ctx, KV, frame, np.zeros(3), world, world)
+        J = np.vstack([J[3:], J[:3]])  # Drake's angular rows first, the library's linear
+        M = plant.CalcMassMatrix(ctx)
+        g = -plant.CalcGravityGeneralizedForces(ctx)
+        X = frame.CalcPoseInWorld(ctx)
+        for ours in (arm.jacobian(q, "drake"), stacks.J[i]):
+            assert np.array_equal(ours, J)
+        for ours in (arm.mass_matrix(q, engine="drake"), stacks.M[i]):
+            assert np.array_equal(ours, M)
+        for ours in (arm.gravity(q, "drake"), stacks.G[i]):
+            assert np.array_equal(ours, g)
+        p, R = arm.site_pose(q, "drake")
+        assert np.allclose(p, X.translation(), rtol=0, atol=1e-15) and np.array_equal(
+            p, stacks.X[i]
+        )
+        assert np.allclose(R, X.rotation().matrix(), rtol=0, atol=1e-15)
+        # ... and Drake's numbers are MuJoCo's, to rounding.
+        assert np.max(np.abs(J - arm.jacobian(q))) < 1e-14
+        assert np.max(np.abs(M - arm.mass_matrix(q))) < 1e-13
+
+
+def test_held_joints_are_set_in_drakes_plant_at_their_rest_values() -> None:
+    """example-robot-data's Panda: the fingers held at 0.01 m, Drake's plant of the whole robot."""
+    path = str(erd_robots() / "panda_description/urdf/panda.urdf")
+    rest = {"panda_finger_joint1": 0.01, "panda_finger_joint2": 0.01}
+    arm = rd.load(path, frame="panda_hand", rest=rest)
+    plant, ctx, frame = direct(path, "panda_hand", True)
+    world = plant.world_frame()
+    for q in rd.random_poses(arm, 3, seed=2):
+        full = plant.GetPositions(ctx)
+        for name, value in zip(arm.joint_names, q, strict=True):
+            full[plant.GetJointByName(name).position_start()] = value
+        for name, value in rest.items():
+            full[plant.GetJointByName(name).position_start()] = value
+        plant.SetPositions(ctx, full)
+        vi = [plant.GetJointByName(n).velocity_start() for n in arm.joint_names]
+        J = plant.CalcJacobianSpatialVelocity(ctx, KV, frame, np.zeros(3), world, world)
+        assert np.array_equal(arm.jacobian(q, "drake"), np.vstack([J[3:], J[:3]])[:, vi])
+        M = plant.CalcMassMatrix(ctx)[np.ix_(vi, vi)]
+        assert np.array_equal(arm.mass_matrix(q, engine="drake"), M)
+        g = -plant.CalcGravityGeneralizedForces(ctx)[vi]
+        assert np.array_equal(arm.gravity(q, "drake"), g)
+    report = rd.crosscheck(arm, rd.random_poses(arm, 5, seed=3))
+    assert report.ok and report.engines == ("mujoco", "pinocchio", "drake")
+
+
+def _skewed(engine: object, factor: float):
+    """The engine's stacked pass, its gravity times ``factor``."""
+    evaluate = engine.evaluate
+
+    def skew(Q, out, threads=1):
+        evaluate(Q, out, threads)
+        if out.G is not None:
+            out.G *= factor
+
+    return skew
+
+
+@pytest.mark.parametrize("wrong", ["mujoco", "pinocchio", "drake"])
+def test_the_report_names_the_one_engine_that_disagrees(
+    wrong: str, arm7: rd.Arm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(arm7.engines[wrong], "evaluate", _skewed(arm7.engines[wrong], 1 + 1e-6))
+    report = rd.crosscheck(arm7, rd.random_poses(arm7, 10, seed=1), ["gravity", "jacobian"])
+    gravity = report["gravity"]
+    assert not gravity.ok and gravity.suspect == wrong
+    others = [e for e in ("mujoco", "pinocchio", "drake") if e != wrong]
+    assert gravity.by_pair[tuple(others)] < 1e-14
+    line = (
+        f"gravity: {wrong} disagrees with {others[0]} and {others[1]} (1.0e-06); "
+        f"{others[0]} and {others[1]} agree ("
+    )
+    assert [v for v in (a.verdict() for a in report.agreements) if v] == [gravity.verdict()]
+    assert gravity.verdict().startswith(line) and line in str(report)
+    assert report["jacobian"].ok and report["jacobian"].suspect is None
+
+
+def test_two_engines_that_disagree_name_nobody(arm7: rd.Arm, monkeypatch) -> None:
+    for name, factor in (("pinocchio", 1 + 1e-6), ("drake", 1 - 1e-6)):
+        monkeypatch.setattr(arm7.engines[name], "evaluate", _skewed(arm7.engines[name], factor))
+    gravity = rd.crosscheck(arm7, rd.random_poses(arm7, 4, seed=1), ["gravity"])["gravity"]
+    assert not gravity.ok and gravity.suspect is None
+    assert gravity.verdict().startswith(
+        "gravity: no one engine stands out (mujoco-pinocchio 1.0e-06"
+    )
+
+
+def test_without_pydrake_an_arm_has_two_engines_and_the_how_to(monkeypatch) -> None:
+    monkeypatch.setitem(sys.modules, "pydrake", None)  # import pydrake raises ImportError
+    arm = rd.load(rd.model_path("arm7"), frame="ee")
+    assert list(arm.engines) == ["mujoco", "pinocchio"]
+    assert arm.absent_engines == {"drake": NOT_INSTALLED}
+    assert "pip install 'redundancy[drake]'" in NOT_INSTALLED
+    with pytest.raises(rd.UnknownNameError, match=re.escape(NOT_INSTALLED)) as err:
+        arm.jacobian(np.zeros(7), engine="drake")
+    assert str(err.value) == (
+        f"engine 'drake' is absent from this arm: {NOT_INSTALLED}; engines: ['mujoco', 'pinocchio']"
+    )
+    report = rd.crosscheck(arm, rd.random_poses(arm, 3, seed=0))
+    assert report.ok and report.engines == ("mujoco", "pinocchio")
+    assert all(a.suspect is None for a in report.agreements)
+
+
+def test_a_file_drakes_parser_refuses_loads_with_its_message() -> None:
+    """A welded body of no mass but an inertia: MuJoCo and Pinocchio read it, Drake stops."""
+    xml = """<mujoco model="m"><worldbody><body name="base">
+      <inertial pos="0 0 0" mass="0" diaginertia="0.1 0.1 0.1"/>
+      <body name="a"><joint name="j" axis="0 0 1"/>
+      <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+      <site name="tip" pos="0.2 0 0"/></body></body></worldbody></mujoco>"""
+    try:
+        arm = rd.load_string(xml, frame="tip")
+    except rd.ModelError:
+        pytest.fail("the arm must load with the two other engines")
+    reason = arm.absent_engines.get("drake", "")
+    assert reason.startswith("Drake's parser refuses the file: "), reason
+    assert list(arm.engines) == ["mujoco", "pinocchio"]
+
+
+@pytest.mark.parametrize("name", ARM_NAMES)
+def test_the_bundled_arms_agree_in_three_engines(name: str, arms: dict[str, rd.Arm]) -> None:
+    arm = arms[name]
+    assert list(arm.engines) == ["mujoco", "pinocchio", "drake"]
+    report = rd.crosscheck(arm, rd.random_poses(arm, 10, seed=4))
+    assert report.ok, "\n".join(report.lines())
+    assert all(len(a.pairs) == 3 for a in report.agreements)
+
+
+def test_a_copy_of_an_arm_has_drake_again(arm7: rd.Arm) -> None:
+    import pickle
+
+    copy = pickle.loads(pickle.dumps(arm7))
+    q = rd.random_poses(arm7, 1, seed=9)[0]
+    assert np.array_equal(copy.jacobian(q, "drake"), arm7.jacobian(q, "drake"))
+    assert [b.quantity for b in copy.drake_bridges] == [b.quantity for b in arm7.drake_bridges]
+
+
+COUPLED = {
+    "mimic urdf": ("test_coupled", "MIMIC_URDF", "tool"),
+    "polynomial mjcf": ("test_coupled", "POLY_MJCF", "tool"),
+    "four-bar": ("test_loops", "CRANK_ROCKER", "tip"),
+}
+
+
+@pytest.mark.parametrize("name", COUPLED)
+def test_a_coupled_arm_has_drake_on_its_chain_seen_through_the_couplings(name: str) -> None:
+    import importlib
+
+    from redundancy.engines.coupled import CoupledEngine
+    from redundancy.engines.drake import DrakeEngine
+
+    module, attr, tool = COUPLED[name]
+    source = getattr(importlib.import_module(f"tests.{module}"), attr)
+    arm = rd.load_string(getattr(source, "xml", source), frame=tool)
+    assert list(arm.engines) == ["mujoco", "pinocchio", "drake"], arm.absent_engines
+    drake = arm.engines["drake"]
+    # Drake holds the chain, followers free; the arm's couplings are applied above it.
+    assert isinstance(drake, CoupledEngine) and isinstance(drake.inner, DrakeEngine)
+    assert drake.inner.nv == len(arm.chain_joint_names) > arm.nq
+    report = rd.crosscheck(arm, rd.random_poses(arm, 20, seed=5))
+    assert report.ok, "\n".join(report.lines())
+    assert report.engines == ("mujoco", "pinocchio", "drake")
