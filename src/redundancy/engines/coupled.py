@@ -55,6 +55,7 @@ class CoupledEngine:
         self._limits = (lo[idx].copy(), hi[idx].copy())
         self._G0 = coupling.affine[1] if coupling.affine is not None else None
         self._x_at_0 = coupling.affine[0] if coupling.affine is not None else None
+        self._plan = coupling.plan if coupling.closure is None and self._G0 is None else None
         c = self._map(coupling.q_rest)
         # Armature and damping as the reduced M and damping see them at rest: diag(G^T A G),
         # exact at every pose where the couplings are linear (G constant, G^T A G diagonal
@@ -113,6 +114,11 @@ class CoupledEngine:
             x = G0 @ q
             x += self._x_at_0
             return self.inner.site_jacobian(x) @ G0
+        if self._plan is not None:
+            # Polynomial couplings: x(q) and G's one entry per row as Python floats, and J_x
+            # G as J_x scaled by them summed into their columns; no map object.
+            xs, scale = self._plan.chain(pose_key(q, self.joint_names)[1])
+            return (self.inner.site_jacobian(np.array(xs)) * scale) @ self._plan.pattern
         c = self._map(q)
         return self.inner.site_jacobian(c.x) @ c.G
 

@@ -151,15 +151,14 @@ class CouplingMap:
         self.followers = dict(followers or {})
         #: Affine couplings and no loop: G is one constant matrix.
         self.linear = closure is None and all(p.linear for p in self.polynomials)
-        # G's rows of the independent joints, which every polynomial G starts from.
-        self._G_base = np.zeros((self.nx, self.nq))
-        self._G_base[self.independent, np.arange(self.nq)] = 1.0
-        self._G0 = self._polynomial_G(self.rest) if self.linear else None
+        #: The polynomial couplings' one-pass evaluation (used without a closure).
+        self.plan = PolynomialPlan(self.nx, self.independent, self.rest, self.polynomials)
+        self._G0: Array | None = None
         #: Affine couplings: (x(0), G0), x(q) = x(0) + G0 q; None otherwise.
         self.affine: tuple[Array, Array] | None = None
-        if self._G0 is not None:
+        if self.linear:
+            self._x_at_0, self._G0 = self.plan.at(np.zeros(self.nq))
             self._G0.flags.writeable = False
-            self._x_at_0 = self._polynomial_x(np.zeros(self.nq))
             self._x_at_0.flags.writeable = False
             self.affine = (self._x_at_0, self._G0)
         # Maps already computed, by pose: the engines' stacks over one set of poses (a
@@ -182,8 +181,8 @@ class CouplingMap:
         if self._G0 is not None:  # one product: the J of a mimic arm is a controller's loop
             return Coupled(pose, self._x_at_0 + self._G0 @ q, self._G0)
         if self.closure is None:  # closed forms, cheaper than a cache
-            x = self._polynomial_x(q)
-            return Coupled(pose, x, self._polynomial_G(x))
+            xs, sc = self.plan.chain(pose)
+            return Coupled(pose, np.array(xs), self.plan.pattern * np.array(sc)[:, None])
         found = self._cache.get(tuple(pose))
         if found is not None:
             return found
@@ -194,22 +193,6 @@ class CouplingMap:
                 self._cache.pop(next(iter(self._cache)))
             self._cache[tuple(pose)] = out
         return out
-
-    def _polynomial_x(self, q: Array) -> Array:
-        x = self.rest.copy()
-        x[self.independent] = q
-        xs = x.tolist()  # Python floats: the polynomials are a few scalar operations each
-        for p in self.polynomials:
-            xs[p.follower] = p.value(xs[p.leader] if p.leader >= 0 else 0.0)
-        return np.array(xs)
-
-    def _polynomial_G(self, x: Array) -> Array:
-        G = self._G_base.copy()
-        xs = x.tolist()
-        for p in self.polynomials:
-            if p.leader >= 0:
-                G[p.follower] = p.slope(xs[p.leader]) * G[p.leader]
-        return G
 
     def rate(self, c: Coupled, v: Array) -> Array:
         """dG/dt at the map ``c`` along the joint velocity ``v`` (nq,), shape (nx, nq)."""
@@ -308,3 +291,53 @@ class CouplingMap:
         Gd = np.zeros((self.nx, self.nq))
         Gd[self.dependent] = -np.linalg.lstsq(H[:, self.dependent], Hdot @ c.G, rcond=None)[0]
         return Gd
+
+
+class PolynomialPlan:
+    """x(q) and G(q) of polynomial couplings in one pass of scalar operations.
+
+    Every follower has one leader (or none), so each row of G has at most one entry: in the
+    column of the independent joint its chain of leaders starts from, the product of the
+    slopes along it. A pose is a few Horner steps on Python floats and one product with
+    that pattern (a controller's inner loop: no per-polynomial NumPy call).
+    """
+
+    def __init__(
+        self, nx: int, independent: Array, rest: Array, polynomials: Sequence[Polynomial]
+    ) -> None:
+        self.rest = rest.tolist()
+        self.independent = independent.tolist()
+        self.steps = tuple(
+            (p.follower, p.leader, p.follower_ref + p.coef[0], *p.coef[1:], p.leader_ref)
+            for p in polynomials
+        )
+        column = [-1] * nx
+        for k, i in enumerate(self.independent):
+            column[i] = k
+        for p in polynomials:
+            column[p.follower] = column[p.leader] if p.leader >= 0 else -1
+        self.pattern = np.zeros((nx, len(self.independent)))
+        for row, k in enumerate(column):
+            if k >= 0:
+                self.pattern[row, k] = 1.0
+        self.scale = [1.0 if k >= 0 else 0.0 for k in column]
+
+    def at(self, q: Array) -> tuple[Array, Array]:
+        """The chain pose x (nx,) [rad or m] and G (nx, nq) at ``q``."""
+        xs, sc = self.chain(q.tolist())
+        return np.array(xs), self.pattern * np.array(sc)[:, None]
+
+    def chain(self, q: list[float]) -> tuple[list[float], list[float]]:
+        """The chain pose at ``q`` and G's entry per row (G = `pattern` x the entries)."""
+        xs = self.rest.copy()
+        for i, v in zip(self.independent, q, strict=True):
+            xs[i] = v
+        sc = self.scale.copy()
+        for f, lead, c0, c1, c2, c3, c4, ref in self.steps:
+            if lead < 0:
+                xs[f], sc[f] = c0, 0.0
+                continue
+            t = xs[lead] - ref
+            xs[f] = c0 + t * (c1 + t * (c2 + t * (c3 + t * c4)))
+            sc[f] = sc[lead] * (c1 + t * (2 * c2 + t * (3 * c3 + t * 4 * c4)))
+        return xs, sc
