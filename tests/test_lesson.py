@@ -73,7 +73,17 @@ def test_table4_within_the_issue_bounds(arm7):
     # The lesson's script counted contacts, not poses (see LESSON_CONTACTS).
     assert [p.pair.label for p in ranked] == [name for name, _ in lesson_pairs]
     for p, (_, count) in zip(ranked, lesson_pairs, strict=True):
-        assert abs(p.contacts - count) <= 0.03 * count, (p.pair.label, p.contacts, count)
+        if p.contacts == p.poses:  # one contact point per pose: geometry alone decides
+            assert abs(p.contacts - count) <= 0.03 * count, (p.pair.label, p.contacts, count)
+        else:
+            # A cylinder-cylinder pair (flange / link1): near-parallel poses get a second
+            # point, and how many is MuJoCo's collider's choice, not geometry: 250 in the
+            # lesson's MuJoCo, 247 in 4.0.0, 241 in 4.0.1, on the same 232 poses. Each pose
+            # in contact counts at least once in the lesson too, and the second points stay
+            # a few percent of the poses.
+            assert p.pair.type1 == p.pair.type2 == "cylinder", p.pair
+            assert p.poses <= count <= 1.1 * p.poses, (p.pair.label, p.poses, count)
+            assert p.poses < p.contacts <= 1.1 * p.poses, (p.pair.label, p.poses, p.contacts)
     for key in ("zero", "home"):
         assert collision.contacts(arm7, arm7.keyframe(key)) == ()
 

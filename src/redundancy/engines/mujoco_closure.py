@@ -52,6 +52,11 @@ class MujocoClosure:
         self._fill(d, self._qpos[self._qadr])
         rows = self._selected(d)
         self.row_names: tuple[str, ...] = tuple(names[int(d.efc_id[i])] for i in rows)
+        # Only equality rows are made (the rest is disabled), so their count and order are
+        # the same at every pose: the rows and columns to read are indexed once.
+        self._nefc = int(d.nefc)
+        self._pick = np.ix_(rows, self._dofs)
+        self._rows = rows
 
     def _new_data(self) -> mujoco.MjData:
         d = mujoco.MjData(self.model)
@@ -76,7 +81,10 @@ class MujocoClosure:
         """Residuals (rows,) [m or rad] and their Jacobian (rows, nx) at chain pose ``x``."""
         d = self._data()
         self._fill(d, x)
-        rows = self._selected(d)
-        nv = self.model.nv
-        J = np.asarray(d.efc_J).reshape(-1)[: d.nefc * nv].reshape(d.nefc, nv)
-        return d.efc_pos[rows].copy(), J[np.ix_(rows, self._dofs)]
+        nv, n = self.model.nv, int(d.nefc)
+        rows, pick = self._rows, self._pick
+        if n != self._nefc:  # not met: kept so that a row that appears is not misread
+            rows = self._selected(d)
+            pick = np.ix_(rows, self._dofs)
+        J = d.efc_J[: n * nv].reshape(n, nv)
+        return d.efc_pos[rows], J[pick]
