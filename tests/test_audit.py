@@ -379,6 +379,7 @@ def test_cli_on_both_bundled_models(model, status, tmp_path, capsys):
         "reference_keyframe",
         "timestep_note",
         "joints",
+        "followers",
         "keyframes",
         "gravity",
         "collision",

@@ -159,6 +159,7 @@ class Arm(_Engines, _Keyframes, _ToolMass, _Coupled):
         self.nq: int = len(self.joint_names)
         effort = np.asarray(effort_limit, dtype=float)
         self.effort_limit: Array = effort if coupling is None else effort[coupling.independent]
+        self._chain_types, self._chain_effort_limit = types, effort  # for `ChainView`
         self.bridges: tuple[Any, ...] = tuple(bridges)
         #: The engines by name, the reference first (`redundancy.engines.REFERENCE`): the
         #: cross-check compares it with each other one, IK confirms in every other one.

@@ -53,6 +53,74 @@ class _Coupled:
             return np.eye(self.nq)
         return self.coupling.at(q, q.tolist()).G.copy()
 
+    def _chain_stack(self, Q: Array) -> tuple[Array, Array]:
+        """Chain poses X (n, nx) and G (n, nx, nq) of a stack of the arm's poses ``Q``.
+
+        ``Q`` is checked already (n, nq). Uncoupled: ``Q`` itself and identities.
+
+        Raises:
+            PoseError: A loop that cannot close at one of the poses (naming its constraint).
+        """
+        Q = np.asarray(Q, dtype=float).reshape(-1, self.nq)
+        if self.coupling is None:
+            return Q.copy(), np.broadcast_to(np.eye(self.nq), (len(Q), self.nq, self.nq))
+        maps = [self.coupling.at(q, q.tolist()) for q in Q]
+        nx = self.coupling.nx
+        X = np.array([c.x for c in maps]).reshape(len(Q), nx)
+        G = np.array([c.G for c in maps]).reshape(len(Q), nx, self.nq)
+        return X, G
+
+
+class ChainView:
+    """A coupled arm seen as its chain model: every joint it moves is a coordinate.
+
+    What compares the engines' *models* joint by joint (`redundancy.compare_models`) reads a
+    coupled arm through this view: the chain's joint names, types, ranges, armature, damping
+    and effort limits, and each engine's chain model (the engine under its coupling);
+    everything else is the arm's.
+    """
+
+    def __init__(self, arm: Any) -> None:
+        self._arm = arm
+        self.joint_names: tuple[str, ...] = arm.chain_joint_names
+        self.joint_types: tuple[str, ...] = tuple(arm._chain_types)
+        self.nq = len(self.joint_names)
+        self.engines = {n: e.inner for n, e in arm.engines.items()}
+        self.lower, self.upper = self.engines["mujoco"].limits
+        self.effort_limit: Array = np.asarray(arm._chain_effort_limit, dtype=float)
+        self.coupling = None
+
+    @classmethod
+    def at(cls, arm: Any, q: ArrayLike | None) -> tuple[ChainView, Array]:
+        """The view of ``arm`` and its chain pose at the arm's ``q`` (None: the rest)."""
+        x = arm.coupling.rest if q is None else arm.chain_pose(q)
+        return cls(arm), np.array(x, dtype=float)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._arm, name)
+
+    @property
+    def mujoco(self) -> Any:
+        """MuJoCo's engine of the chain model."""
+        return self.engines["mujoco"]
+
+    @property
+    def pinocchio(self) -> Any:
+        """Pinocchio's engine of the chain model."""
+        return self.engines["pinocchio"]
+
+    def armature(self, engine: str = "mujoco") -> Array:
+        """Armature per chain joint [kg m^2]."""
+        return np.asarray(self.engines[engine].armature)
+
+    def damping(self, engine: str = "mujoco") -> Array:
+        """Damping per chain joint [N m s/rad or N s/m]."""
+        return np.asarray(self.engines[engine].damping)
+
+    def pose(self, x: ArrayLike) -> Array:
+        """A checked chain pose [rad or m]."""
+        return check_pose(x, self.joint_names)
+
 
 #: Draws per pose a coupled arm's sampling may take before it says its followers' ranges
 #: leave no room.

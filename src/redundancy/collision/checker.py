@@ -29,7 +29,7 @@ from ..arm import check_arm
 from ..caching import PerObject
 from ..checks import check_choice
 from ..engines.threads import PerThread
-from ..errors import MissingMeshError, ModelError, UnsupportedFeatureError
+from ..errors import MissingMeshError, ModelError, PoseError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
 from .pairs import (
@@ -162,11 +162,13 @@ class CollisionChecker:
         self._arm_ref = weakref.ref(arm)
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
         self._mujoco_pairs = MujocoPairs(m, self.pairs)
-        self._coal_pairs = CoalPairs(m, arm.pinocchio.model, arm.pinocchio.perm, self.pairs)
+        # A coupled arm's scenes hold its chain model (every joint it moves, followers too).
+        pin_chain = arm.pinocchio.inner if arm.coupling is not None else arm.pinocchio  # type: ignore[attr-defined]
+        self._coal_pairs = CoalPairs(m, pin_chain.model, pin_chain.perm, self.pairs)
         # One scene per engine and thread, built on the thread's first use.
         self._mujoco = PerThread(partial(MujocoScene, self._mujoco_pairs))
         self._coal = PerThread(partial(CoalScene, self._coal_pairs))
-        for q in (m.qpos0.copy(), _probe_pose(arm)):
+        for q in _self_check_poses(arm):
             err = self.placement_error(q)
             if err > self.PLACEMENT_TOL:
                 raise ModelError(
@@ -194,7 +196,18 @@ class CollisionChecker:
 
     # -- checks --------------------------------------------------------------------------
     def _q(self, q: ArrayLike) -> Array:
-        return self.arm.pose(q)
+        """The pose the scenes place: the arm's, or a coupled arm's chain pose."""
+        arm = self.arm
+        return arm.pose(q) if arm.coupling is None else arm.chain_pose(q)
+
+    def scene_poses(self, Q: Array) -> Array:
+        """What the scenes place for checked poses ``Q`` (n, nq): ``Q``, or the chain poses.
+
+        Raises:
+            PoseError: A coupled arm's loop that cannot close at one of the poses.
+        """
+        arm = self.arm
+        return Q if arm.coupling is None else arm._chain_stack(Q)[0]
 
     def placement_error(self, q: ArrayLike) -> float:
         """Largest difference between Pinocchio's and MuJoCo's geom poses at ``q``.
@@ -263,6 +276,19 @@ class CollisionChecker:
 
     def __repr__(self) -> str:
         return f"CollisionChecker({self.arm!r}, {len(self.pairs)} pairs)"
+
+
+def _self_check_poses(arm: Arm) -> list[Array]:
+    """The reference pose and `_probe_pose` (a coupled arm's probe where its loops close)."""
+    if arm.coupling is None:
+        return [arm.mj_model.qpos0.copy(), _probe_pose(arm)]
+    poses = [arm.coupling.q_rest.copy()]
+    try:
+        arm.chain_pose(_probe_pose(arm))
+        poses.append(_probe_pose(arm))
+    except PoseError:  # the probe is not a pose the mechanism reaches: the rest alone
+        pass
+    return poses
 
 
 def _probe_pose(arm: Arm) -> Array:

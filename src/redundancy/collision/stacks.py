@@ -45,6 +45,7 @@ def distance_stack(
 def _distance_stack(ch: CollisionChecker, Q: Array, engine: DistanceEngine, threads: int) -> Array:
     """`distance_stack` on checked input: Q C-contiguous float64 (n, nq)."""
     out = np.empty((len(Q), len(ch.pairs)))
+    Q = ch.scene_poses(Q)
     if engine == "coal":
         _coal_distances(ch, Q, out)
     else:

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arm import sampling_ranges
+from ..arm import random_poses, sampling_ranges
 from ..checks import check_choice, check_count, check_flag, check_poses
 from ..display import Report, Table, plural, table
 from .checker import CollisionChecker, PairDistance, checker
@@ -242,7 +242,7 @@ def collision_statistics(
     sweep = _Sweep(ch, distances, prune)
     t0 = time.perf_counter()
     for block in chunks:
-        sweep.run(block)
+        sweep.run(ch.scene_poses(block))
     seconds = time.perf_counter() - t0
     stats = tuple(
         PairStatistics(
@@ -274,6 +274,8 @@ def _pose_chunks(
     Returns:
         The chunks, the number of poses and the seed (as checked).
     """
+    if poses is None and arm.coupling is not None:  # draws replaced where followers leave
+        return (*_pose_chunks(arm, n_poses, seed, random_poses(arm, n_poses, seed))[:2], seed)
     if poses is None:
         n = check_count("n_poses", n_poses, 0)
         if seed is not None:

@@ -205,6 +205,36 @@ def effort_range(
     )
 
 
+def through_coupling(chain: EffortRange, G: Array) -> EffortRange:
+    """The torque range on coupled joints' independent coordinates, from the chain's.
+
+    A torque ``tau`` on the chain's dofs acts on the independent coordinates as ``G^T tau``
+    (virtual work). Each coordinate's range is that image of the chain's per-dof ranges
+    (interval sums: exact for one coordinate, the projection with the others left free for
+    several). A dof no actuator drives gives no torque (0, not unlimited); a coordinate none
+    of whose dofs is actuated is unactuated, ``(-inf, inf)`` as in `effort_range`.
+
+    Args:
+        chain: `effort_range` of the chain model at the chain poses, shape (n, nx).
+        G: d(chain pose)/dq at those poses, shape (n, nx, nq).
+
+    Returns:
+        The ranges, shape (n, nq) [N m or N].
+    """
+    G = np.asarray(G, dtype=float)
+    drive = np.where(chain.actuated[None, :, None], G, 0.0)  # (n, nx, nq)
+    lo = np.asarray(chain.lower, dtype=float).reshape(len(G), -1)[:, :, None]
+    hi = np.asarray(chain.upper, dtype=float).reshape(len(G), -1)[:, :, None]
+    # Each term is in [-inf, finite] (lower) or [finite, inf] (upper): no inf - inf.
+    with np.errstate(invalid="ignore"):  # 0 x inf where np.where takes the other branch
+        low = np.where(drive > 0, drive * lo, np.where(drive < 0, drive * hi, 0.0))
+        high = np.where(drive > 0, drive * hi, np.where(drive < 0, drive * lo, 0.0))
+    lower, upper = low.sum(axis=1), high.sum(axis=1)
+    actuated = np.any(drive != 0.0, axis=(0, 1))
+    lower[:, ~actuated], upper[:, ~actuated] = -np.inf, np.inf
+    return EffortRange(lower, upper, actuated)
+
+
 def _affine(kind: int, prm: Array, length: Array, gain: bool) -> Array:
     """An actuator's gain or bias at rest (velocity 0): fixed, affine in length, or unknown."""
     if gain and kind == int(mujoco.mjtGain.mjGAIN_FIXED):

@@ -1,13 +1,11 @@
 """Structural comparison of the two compiled models: do both engines see the same arm?
 
-Quantities are compared in the world frame at a reference pose, so that Pinocchio's and
-MuJoCo's different internal frames (joint frame vs body frame, lumped fixed bodies) do not
-matter; only what the physics depends on is compared.
+Quantities are compared in the world frame at a reference pose, so that the engines' internal
+frames (joint vs body frame, lumped fixed bodies) do not matter: only what the physics sees.
 
-The report also lists what MuJoCo *simulates* that neither engine's numbers (mass matrix,
-gravity torque, Jacobian) include: body gravity compensation, limits that differ per
-direction, friction loss, joint springs, the integrator and the flags that change it. Two
-engines agreeing says nothing about those; the report says they are there.
+It also lists what MuJoCo *simulates* that neither engine's numbers (M, gravity, J) include:
+gravity compensation, limits that differ per direction, friction loss, joint springs, the
+integrator and its flags. Two engines agreeing says nothing about those; the report says so.
 """
 
 from __future__ import annotations
@@ -18,6 +16,7 @@ import mujoco
 import numpy as np
 
 from ..arm import Arm, check_arm
+from ..arm_coupled import ChainView
 from ..display import Report, Table, plural, table
 from ..errors import RedundancyError
 from .actuators import simulation
@@ -265,6 +264,8 @@ def compare_models(arm: Arm, q: np.ndarray | None = None, tol: float = 1e-9) -> 
     arm = check_arm(arm)
     if not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol >= 0):
         raise RedundancyError(f"tol must be a finite number >= 0, got {tol!r}")
+    if arm.coupling is not None:  # the models compared are the chain's: every joint moved
+        arm, q = ChainView.at(arm, q)  # type: ignore[assignment]
     mj, pn = arm.mujoco, arm.pinocchio
     q = np.clip(np.zeros(arm.nq), arm.lower, arm.upper) if q is None else arm.pose(q)
     t = _Tally(tol, _sizes(arm_scales(arm)))

@@ -22,7 +22,18 @@ from ..model.equivalence import EquivalenceReport
 from . import sections
 from .findings import Finding, Note
 from .sections import Sections
-from .tables import exclusion, fit, fmt, key, limit, ms, one_line, table, timestep_text
+from .tables import (
+    exclusion,
+    fit,
+    fmt,
+    follower_lines,
+    key,
+    limit,
+    ms,
+    one_line,
+    table,
+    timestep_text,
+)
 
 #: A keyframe is singular when sigma_min of its site Jacobian is below this [m/rad or rad/rad].
 SINGULAR_SIGMA = 1e-3
@@ -141,6 +152,7 @@ class AuditReport(Report):
             "reference_keyframe": j.keyframe,
             "timestep_note": j.note,
             "joints": [{**asdict(r), "armature_share": r.armature_share} for r in j.rows],
+            "followers": [asdict(f) for f in j.followers],
             "keyframes": [self._keyframe_data(k) for k in s.keyframes],
             "gravity": gravity,
             "collision": self._collision_data(),
@@ -376,6 +388,7 @@ def _joint_lines(r: AuditReport) -> list[str]:
             f"stable timestep for {kd}, bare: without armature (any: no bound)"
         ),
         f"  {j.note}: implicit damping cannot make a step unstable, explicit damping can",
+        *follower_lines(j.followers),
     ]
 
 

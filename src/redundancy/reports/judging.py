@@ -240,11 +240,19 @@ def _unheld(out: _Judged, arm: Arm, k: KeyframeRow) -> None:
         )
 
 
+def _tendon_actuators(arm: Arm) -> list[str]:
+    """Actuators set aside because they pull a tendon over a coupled arm's chain."""
+    return [a.name for a in arm.set_aside if a.what == "actuator" and "tendon" in a.reason]
+
+
 def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, urdf: bool) -> None:
     comp = " after gravity compensation" if g.gravcomp else ""
+    tendon, through = _tendon_actuators(arm), []
     for i, name in enumerate(arm.joint_names):
         # A URDF has no actuators at all (a note says so); its effort limits are judged below.
-        if not urdf and not j.rows[i].actuated and g.peak[i] > 1e-9:
+        if not urdf and not j.rows[i].actuated and g.peak[i] > 1e-9 and tendon:
+            through.append(name)
+        elif not urdf and not j.rows[i].actuated and g.peak[i] > 1e-9:
             out.finding(
                 "joint-unactuated-loaded",
                 f"joint {name!r} has no actuator, and gravity{comp} loads it with up to "
@@ -271,6 +279,14 @@ def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, ur
                     f"{need:.3g} N m where their most {side} is {lim:.3g} N m",
                     name,
                 )
+    if through:
+        out.note(
+            "joint-tendon-actuated",
+            f"joints {quoted(through)} have no actuator of their own; the file drives the chain "
+            f"through {quoted(tendon)}, pulling a tendon (set aside: a tendon's force is in "
+            f"neither engine's J, M or gravity), so gravity{comp} is not judged against it",
+            through[0],
+        )
 
 
 def _judge_engines(out: _Judged, e: EngineAgreement, c: CollisionStatistics | None) -> None:

@@ -10,13 +10,13 @@ centre of mass against its geometry (`inertias`). Each yields `Raised` rule hits
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import NamedTuple
 
 import numpy as np
 
 from ..arm import Arm
-from ..errors import ModelError
+from ..errors import ModelError, PoseError
 from ..model.contact_rules import moved_bodies
 from ..model.xmlfile import decode_xml, parse_xml
 
@@ -40,9 +40,11 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
         arm: The arm.
         keyframes: Keyframe name -> its pose of the arm's joints [rad or m], in file order.
     """
-    qpos0 = arm._of_chain(np.asarray(arm.mj_model.qpos0, dtype=float))
-    for i, name in enumerate(arm.joint_names):
-        out = _outside(float(qpos0[i]), arm, i)
+    joints = _Joints(arm)
+    qpos0 = np.asarray(arm.mj_model.qpos0, dtype=float)
+    qpos0 = qpos0 if arm.coupling is not None else arm._of_chain(qpos0)
+    for i, name in enumerate(joints.names):
+        out = _outside(float(qpos0[i]), joints, i)
         if out:
             yield Raised(
                 "reference-out-of-range",
@@ -53,21 +55,47 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
                 name,
             )
     for key, q in keyframes.items():
-        for i, name in enumerate(arm.joint_names):
-            out = _outside(float(q[i]), arm, i)
+        x, moved = joints.pose(q)
+        for i, name in enumerate(joints.names):
+            out = _outside(float(x[i]), joints, i)
             if out:
                 yield Raised(
                     "keyframe-out-of-range",
-                    f"keyframe {key!r} puts joint {name!r} at {q[i]:.6g}, {out}",
+                    f"keyframe {key!r} puts joint {name!r} at {x[i]:.6g}{moved(name)}, {out}",
                     "key",
                     key,
                 )
 
 
-def _outside(value: float, arm: Arm, i: int) -> str:
+class _Joints:
+    """The joints whose ranges are judged: the arm's, and a coupled arm's followers too."""
+
+    def __init__(self, arm: Arm) -> None:
+        self.arm = arm
+        if arm.coupling is None:
+            self.names, self.types = arm.joint_names, arm.joint_types
+            self.lower, self.upper = arm.lower, arm.upper
+        else:
+            self.names, self.types = arm.chain_joint_names, tuple(arm._chain_types)
+            self.lower, self.upper = arm.mujoco.inner.limits  # type: ignore[attr-defined]
+
+    def pose(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[str], str]]:
+        """Every judged joint's value at the arm's pose ``q``, and how a follower got it."""
+        arm = self.arm
+        if arm.coupling is None:
+            return q, lambda name: ""
+        try:
+            x = arm.chain_pose(q)
+        except PoseError:  # a loop that cannot close there: its independent joints alone
+            x = np.full(len(self.names), np.nan)
+            x[arm.coupling.independent] = q
+        return x, lambda name: " (a follower: its coupling)" if name in arm.followers else ""
+
+
+def _outside(value: float, joints: _Joints, i: int) -> str:
     """How ``value`` lies outside joint ``i``'s range, or ``""`` when inside (or unlimited)."""
-    lo, hi = float(arm.lower[i]), float(arm.upper[i])
-    unit = "rad" if arm.joint_types[i] == "hinge" else "m"
+    lo, hi = float(joints.lower[i]), float(joints.upper[i])
+    unit = "rad" if joints.types[i] == "hinge" else "m"
     if value < lo - RANGE_SLACK:
         return f"below its range [{lo:.6g}, {hi:.6g}] {unit} by {lo - value:.3g} {unit}"
     if value > hi + RANGE_SLACK:
@@ -103,7 +131,7 @@ def urdf_limits(arm: Arm, root: ET.Element | None) -> Iterator[Raised]:
     """
     if root is None:
         return
-    moving = set(arm.joint_names)
+    moving = set(arm.chain_joint_names)  # a coupled arm's followers move too
     for joint in root.iter("joint"):
         name, lim = joint.get("name", ""), joint.find("limit")
         if name not in moving or lim is None:

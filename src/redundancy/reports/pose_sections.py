@@ -54,9 +54,9 @@ class ActuatorLoad:
     """
 
     def __init__(self, arm: Arm) -> None:
-        m = arm.mj_model
-        self.model = m
-        self.routed = np.zeros(arm.nq, dtype=bool)
+        m = arm.mj_model  # a coupled arm's: the chain model (every joint it moves)
+        self.model, self.arm = m, arm
+        self.routed = np.zeros(m.nv, dtype=bool)
         factors = m.body_gravcomp[1:][m.body_mass[1:] > 0]
         self.uniform: float | None = None
         self.engine: MujocoEngine | None = None
@@ -67,11 +67,13 @@ class ActuatorLoad:
         else:
             scaled = copy.copy(m)
             scaled.body_mass[:] = m.body_mass * m.body_gravcomp
-            self.engine = MujocoEngine(scaled, arm.frame, arm.armature())
+            self.engine = MujocoEngine(scaled, arm.frame, np.zeros(m.nv))  # gravity alone
         self.routed[m.jnt_dofadr[m.jnt_actgravcomp.astype(bool)]] = True
 
     def __call__(self, Q: Array, tau: Array) -> tuple[Array, actuators.EffortRange]:
         """Torque the actuators must give at each pose, and what they can give."""
+        if self.arm.coupling is not None:
+            return self._coupled(Q, tau)
         if self.engine is not None:
             comp = np.array([self.engine.gravity(q) for q in Q]).reshape(tau.shape)
         else:
@@ -81,6 +83,37 @@ class ActuatorLoad:
         # gravity; otherwise the motors give gravity minus the passive compensation.
         need = tau - np.where(self.routed, 0.0, comp)
         return need, actuators.effort_range(self.model, Q, routed)
+
+    def _coupled(self, Q: Array, tau: Array) -> tuple[Array, actuators.EffortRange]:
+        """The same on coupled joints: computed on the chain, seen through G (virtual work)."""
+        X, G = self.arm._chain_stack(Q)
+        if self.engine is not None:
+            comp = np.array([self.engine.gravity(x) for x in X]).reshape(X.shape)
+        elif self.uniform:
+            inner = self.arm.mujoco.inner  # type: ignore[attr-defined]
+            comp = self.uniform * np.array([inner.gravity(x) for x in X]).reshape(X.shape)
+        else:
+            comp = np.zeros(X.shape)
+        passive = np.einsum("nxi,nx->ni", G, np.where(self.routed, 0.0, comp))
+        chain = actuators.effort_range(self.model, X, np.where(self.routed, comp, 0.0))
+        return tau - passive.reshape(tau.shape), _shaped(
+            actuators.through_coupling(chain, G), tau.shape
+        )
+
+
+def _shaped(effort: actuators.EffortRange, shape: tuple[int, ...]) -> actuators.EffortRange:
+    return actuators.EffortRange(
+        effort.lower.reshape(shape), effort.upper.reshape(shape), effort.actuated
+    )
+
+
+def effort_at(arm: Arm, q: Array) -> actuators.EffortRange:
+    """What the actuators can give at the arm's pose ``q`` (no gravity compensation routed)."""
+    if arm.coupling is None:
+        return actuators.effort_range(arm.mj_model, q)
+    X, G = arm._chain_stack(q[None, :])
+    chain = actuators.effort_range(arm.mj_model, X)
+    return _shaped(actuators.through_coupling(chain, G), q.shape)
 
 
 # -- joints ---------------------------------------------------------------------------------------
@@ -142,6 +175,54 @@ class JointRow:
 
 
 @dataclass(frozen=True)
+class FollowerRow:
+    """A joint the arm moves through a coupling (`Arm.followers`), at the reference pose.
+
+    Attributes:
+        name: Joint name.
+        type: ``"hinge"`` or ``"slide"``.
+        lower: Lower range limit (``-inf``: unlimited) [rad or m].
+        upper: Upper range limit [rad or m].
+        value: Its value at the reference pose (the couplings' or the loop's) [rad or m].
+        armature: Its own armature in the chain model [kg m^2].
+        damping: Its own damping b [N m s/rad].
+        by: What determines it (`Arm.followers`).
+    """
+
+    name: str
+    type: str
+    lower: float
+    upper: float
+    value: float
+    armature: float
+    damping: float
+    by: str
+
+
+def followers(arm: Arm, q: Array) -> tuple[FollowerRow, ...]:
+    """The followers of a coupled arm at its pose ``q`` (none for an arm without couplings)."""
+    if arm.coupling is None:
+        return ()
+    inner = arm.mujoco.inner  # type: ignore[attr-defined]
+    x, (lo, hi) = arm.chain_pose(q), inner.limits
+    types = arm._chain_types
+    return tuple(
+        FollowerRow(
+            name,
+            types[i],
+            float(lo[i]),
+            float(hi[i]),
+            float(x[i]),
+            float(inner.armature[i]),
+            float(inner.damping[i]),
+            arm.followers[name],
+        )
+        for i, name in enumerate(arm.chain_joint_names)
+        if name in arm.followers
+    )
+
+
+@dataclass(frozen=True)
 class JointSection:
     """Joints at a reference pose, with the timestep bound for the model's integrator.
 
@@ -153,6 +234,7 @@ class JointSection:
         kd: The explicit kd asked about (``None``: the model's own, see `joints`).
         note: How the integrator treats damping, in one sentence.
         engine_diff: Largest |Pinocchio - MuJoCo| on M_ii, with and without armature [kg m^2].
+        followers: The joints the arm's couplings move (`Arm.followers`), in chain order.
     """
 
     rows: tuple[JointRow, ...]
@@ -161,6 +243,7 @@ class JointSection:
     kd: float | None
     note: str
     engine_diff: float
+    followers: tuple[FollowerRow, ...] = ()
 
 
 def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSection:
@@ -201,13 +284,14 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
     else:
         h = actuators.max_stable_timestep(M, split)
         hb = actuators.max_stable_timestep(bare, split)
-    effort = actuators.effort_range(m, q)
+    effort = effort_at(arm, q)
     arma = arm.armature()
+    dof = arm.coupling.independent if arm.coupling is not None else np.arange(arm.nq)
     rows = tuple(
         JointRow(
             name,
             arm.joint_types[i],
-            "xyz"[int(np.argmax(np.abs(m.jnt_axis[i])))],
+            "xyz"[int(np.argmax(np.abs(m.jnt_axis[dof[i]])))],
             float(arm.lower[i]),
             float(arm.upper[i]),
             float(arma[i]),
@@ -227,7 +311,7 @@ def joints(arm: Arm, kd: float | None = None, key: str | None = None) -> JointSe
         )
         for i, name in enumerate(arm.joint_names)
     )
-    return JointSection(rows, ref, sim, kd, split.note, diff)
+    return JointSection(rows, ref, sim, kd, split.note, diff, followers(arm, q))
 
 
 # -- keyframes ------------------------------------------------------------------------------------
@@ -298,10 +382,13 @@ def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeR
 
 __all__ = [
     "ActuatorLoad",
+    "FollowerRow",
     "JointRow",
     "JointSection",
     "KeyframeRow",
     "compared_engines",
+    "effort_at",
+    "followers",
     "joints",
     "keyframes",
     "reference_keyframe",

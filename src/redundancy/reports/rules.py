@@ -87,6 +87,8 @@ _CATALOGUE = (
     # -- gravity against the motors ---------------------------------------------------------------
     Rule("joint-unactuated-loaded", "error", "gravity",
          "Gravity loads a joint that has no actuator: nothing holds it."),
+    Rule("joint-tendon-actuated", "note", "gravity",
+         "A coupled arm's joints are driven only through a tendon actuator: not judged."),
     Rule("gravity-over-limit", "error", "gravity",
          "Gravity needs more torque at a joint than its actuators (or URDF effort) give."),
     # -- the engines ------------------------------------------------------------------------------

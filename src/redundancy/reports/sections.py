@@ -24,7 +24,7 @@ from .. import kernels, linalg
 from ..analysis import batch
 from ..analysis.agreement import PairError, largest, merge_pairs, pair_errors
 from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, quantity_errors, worst
-from ..arm import Arm, sampling_ranges
+from ..arm import Arm, random_poses, sampling_ranges
 from ..collision import (
     CollisionStatistics,
     DistanceEngine,
@@ -46,6 +46,7 @@ from .pose_sections import (
     keyframes,
     reference_keyframe,
 )
+from .pose_sections import FollowerRow as FollowerRow  # a coupled arm's followers
 from .pose_sections import JointRow as JointRow  # the joint table's rows, named here too
 
 Array = NDArray[np.float64]
@@ -69,6 +70,10 @@ def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> 
     ``(arm, n, seed)``.
     """
     size = size or CHUNK
+    if arm.coupling is not None:  # draws are replaced where followers leave their ranges
+        Q = random_poses(arm, n, seed)
+        yield from (Q[start : start + size] for start in range(0, n, size))
+        return
     lo, hi = sampling_ranges(arm)
     rng = np.random.default_rng(seed)
     for start in range(0, n, size):

@@ -14,13 +14,16 @@ import math
 import re
 import textwrap
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
 from ..collision import GeomPair
+
+if TYPE_CHECKING:
+    from .pose_sections import FollowerRow
 
 _GLUE = "\x00"  # stands for a space that must not end a line (never in a report's text)
 #: Longest report line [characters].
@@ -179,3 +182,30 @@ def exclusion(pair: GeomPair, urdf: bool) -> dict[str, Any]:
             "disabled_collisions": [a, b],
         }
     return {"bodies": [a, b], "mjcf": f'<contact><exclude body1="{a}" body2="{b}"/></contact>'}
+
+
+def follower_lines(rows: tuple[FollowerRow, ...]) -> list[str]:
+    """The joints the couplings move: their ranges, values and what determines them."""
+    if not rows:
+        return []
+    body = [
+        [
+            f.name,
+            f.type,
+            f"[{fmt(f.lower, 3)}, {fmt(f.upper, 3)}]",
+            fmt(f.value, 4),
+            fmt(f.armature),
+            fmt(f.damping, 3),
+            f.by,
+        ]
+        for f in rows
+    ]
+    header = ["follower", "type", "range", "value", "armature", "b", "determined by"]
+    return [
+        f"followers: {len(rows)} joints the couplings move (not coordinates of the arm):",
+        *table(header, body, "llrrrrl"),
+        key(
+            "value: at the same pose [rad or m]; armature [kg m^2] and b [N m s/rad]: the "
+            "joint's own (the arm's rows above include what the followers reflect)"
+        ),
+    ]

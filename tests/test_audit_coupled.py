@@ -1,0 +1,138 @@
+"""The audit of an arm with coupled joints: every section, every format, the followers judged.
+
+Ground truth is the files' own numbers: the actuators' gears and control ranges seen through
+the couplings written in the file (virtual work: a follower x = c q passes c times its torque
+to q), the followers' ranges against the values their polynomials give.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redundancy as rd
+from redundancy.reports.audit import audit
+from redundancy.reports.formats import FORMATS, render
+from redundancy.reports.formats.results import collect
+
+from .test_coupled import MIMIC_URDF, POLY_MJCF
+from .test_loops import CRANK_ROCKER
+
+GRIPPER = Path(__file__).resolve().parents[1] / "examples" / "gripper_2f85.xml"
+
+
+def _arms() -> dict[str, rd.Arm]:
+    return {
+        "mjcf polynomial": rd.load_string(POLY_MJCF, frame="tool"),
+        "urdf mimic": rd.load_string(MIMIC_URDF, frame="tool"),
+        "four-bar": rd.load_string(CRANK_ROCKER.xml, frame="tip"),
+        "2f85": rd.load(GRIPPER, frame="right_pad"),
+    }
+
+
+@pytest.fixture(scope="module")
+def reports() -> dict[str, object]:
+    return {name: audit(arm, n_poses=60) for name, arm in _arms().items()}
+
+
+@pytest.mark.parametrize("name", ["mjcf polynomial", "urdf mimic", "four-bar", "2f85"])
+def test_every_section_and_format_of_a_coupled_arms_audit(reports, name) -> None:
+    r = reports[name]
+    arm = _arms()[name]
+    doc = r.to_dict()
+    assert [j["name"] for j in doc["joints"]] == list(arm.joint_names)
+    assert {f["name"] for f in doc["followers"]} == set(arm.followers)
+    for f in doc["followers"]:
+        assert f["by"] == arm.followers[f["name"]]
+    assert "followers:" in "\n".join(r.lines())
+    assert r.engines.crosscheck.ok
+    assert not [d for d in r.engines.equivalence.differences]
+    for fmt in FORMATS:
+        assert render(fmt, collect([r]))
+    json.loads(render("sarif", collect([r])))
+
+
+def test_the_2f85s_tendon_actuator_is_a_note_not_an_unheld_finding(reports) -> None:
+    r = reports["2f85"]
+    assert not [f for f in r.findings if f.rule == "joint-unactuated-loaded"]
+    (note,) = [n for n in r.notes if n.rule == "joint-tendon-actuated"]
+    assert "'fingers_actuator'" in note.message
+
+
+#: j2 drives j3 = 0.05 - 0.5 (j2 - 0) (joint equality); motors on both, the follower's
+#: range narrower than its leader's image, and a keyframe that puts it outside.
+ACTUATED = """<mujoco model="coupled motors"><compiler angle="radian"/>
+<worldbody>
+<body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1" range="-2 2"/>
+ <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.04" mass="2"/>
+ <body name="l2" pos="0 0 0.3"><joint name="j2" axis="0 1 0" range="-1.5 1.5"/>
+  <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1.5"/>
+  <body name="l3" pos="0.3 0 0"><joint name="j3" axis="0 1 0" range="-0.5 0.5"/>
+   <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03" mass="1"/>
+   <site name="tool" pos="0.25 0 0"/>
+  </body></body></body>
+</worldbody>
+<equality><joint name="tie" joint1="j3" joint2="j2" polycoef="0.05 -0.5 0 0 0"/></equality>
+<actuator>
+ <motor name="m1" joint="j1" gear="2" ctrlrange="-1 1"/>
+ <motor name="m2" joint="j2" gear="3" ctrlrange="-2 1"/>
+ <motor name="m3" joint="j3" gear="4" ctrlrange="0 1"/>
+</actuator>
+<keyframe><key name="inside" qpos="0.1 0.6 -0.25"/><key name="beyond" qpos="0.1 1.4 -0.65"/>
+</keyframe>
+</mujoco>"""
+
+
+def test_effort_on_an_independent_joint_is_its_own_plus_the_followers_through_the_coupling():
+    arm = rd.load_string(ACTUATED, frame="tool")
+    assert arm.joint_names == ("j1", "j2")
+    r = audit(arm, n_poses=20)
+    rows = {x.name: x for x in r.sections.joints.rows}
+    # j1: gear 2 x [-1, 1]. j2: its own gear 3 x [-2, 1] = [-6, 3], plus j3's 4 x [0, 1] = [0, 4]
+    # passed through dj3/dj2 = -0.5: [-2, 0]; together [-8, 3].
+    assert (rows["j1"].effort_lower, rows["j1"].effort_upper) == (-2.0, 2.0)
+    assert (rows["j2"].effort_lower, rows["j2"].effort_upper) == (-8.0, 3.0)
+    assert rows["j2"].actuated
+    # The same range over the gravity sweep (no servo: it does not depend on the pose).
+    g = r.sections.gravity
+    assert g.limit_lower[1] == -8.0 and g.limit_upper[1] == 3.0
+
+
+def test_a_keyframe_that_puts_a_follower_outside_its_range_is_a_finding():
+    arm = rd.load_string(ACTUATED, frame="tool")
+    r = audit(arm, n_poses=20)
+    out = [f for f in r.findings if f.rule == "keyframe-out-of-range"]
+    # "beyond": j2 = 1.4 gives j3 = 0.05 - 0.7 = -0.65, below j3's -0.5; "inside" gives -0.25.
+    assert [f.element for f in out] == ["beyond"]
+    assert "'j3'" in out[0].message and "-0.65" in out[0].message
+    assert "follower" in out[0].message
+    (f,) = r.sections.joints.followers
+    assert (f.name, f.lower, f.upper) == ("j3", -0.5, 0.5)
+    assert f.by == arm.followers["j3"]
+
+
+def test_a_mimic_followers_zero_effort_limit_is_a_finding(tmp_path):
+    text = MIMIC_URDF.replace(
+        '<limit lower="-2" upper="1.2" effort="10" velocity="1"/>',
+        '<limit lower="-2" upper="1.2" effort="0" velocity="1"/>',
+    )
+    assert text != MIMIC_URDF
+    path = tmp_path / "mimic.urdf"
+    path.write_text(text)
+    r = audit(rd.load(path, frame="tool"), n_poses=20)
+    hits = [f for f in r.findings if f.rule == "effort-limit-zero"]
+    assert [f.element for f in hits] == ["j3"]
+    assert hits[0].line is not None
+
+
+def test_the_sweeps_draw_the_poses_random_poses_draws_on_a_coupled_arm():
+    arm = _arms()["four-bar"]
+    r = audit(arm, n_poses=30, seed=4)
+    Q = rd.random_poses(arm, 30, seed=4)
+    # Every pose of the sweep closes its loop: the gravity sweep's worst poses are among them.
+    assert r.sections.gravity.n_poses == 30
+    tau = np.array([arm.gravity(q) for q in Q])
+    assert np.allclose(r.sections.gravity.high, np.maximum(0, tau.max(axis=0)), rtol=0, atol=1e-12)
