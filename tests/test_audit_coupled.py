@@ -136,3 +136,40 @@ def test_the_sweeps_draw_the_poses_random_poses_draws_on_a_coupled_arm():
     assert r.sections.gravity.n_poses == 30
     tau = np.array([arm.gravity(q) for q in Q])
     assert np.allclose(r.sections.gravity.high, np.maximum(0, tau.max(axis=0)), rtol=0, atol=1e-12)
+
+
+def test_the_lab_refuses_a_coupled_arm_naming_its_followers():
+    from redundancy.lab.sim import LabSim
+
+    arm = rd.load_string(ACTUATED, frame="tool")
+    with pytest.raises(rd.UnsupportedFeatureError) as e:
+        LabSim(arm)
+    assert str(e.value) == (
+        "unsupported feature: coupled joints in the lab (followers 'j3'): the lab steps "
+        "MuJoCo's model of the arm, whose couplings the library solves instead of simulating; "
+        "the audit, the quantities, batch and IK serve the arm"
+    )
+
+
+def test_a_linear_couplings_path_is_checked_on_its_chain_and_a_loops_is_refused():
+    wide = ACTUATED.replace(
+        'name="j3" axis="0 1 0" range="-0.5 0.5"', 'name="j3" axis="0 1 0" range="-1 1"'
+    )
+    assert wide != ACTUATED
+    arm = rd.load_string(wide, frame="tool")
+    a, b = np.array([0.0, 0.0]), np.array([0.0, 1.5])
+    result = rd.check_path(arm, [a, b])
+    assert not result.free and result.contact is not None
+    # Ground truth: the chain's pose at dense points of the segment, by the file's coupling.
+    s = np.linspace(0.0, 1.0, 3001)
+    d = np.array([rd.collision.distances(arm, a + t * (b - a)).values.min() for t in s])
+    first = s[np.argmax(d < 0)]
+    assert np.all(d[s < result.contact.clear_until] > 0)
+    assert result.contact.clear_until <= result.contact.s <= first + 1e-3
+    assert result.contact.q.shape == (2,)
+    # The narrow file: the end waypoint puts the follower j3 at -0.7, outside [-0.5, 0.5].
+    with pytest.raises(rd.OutOfRangeError, match="j3"):
+        rd.check_path(rd.load_string(ACTUATED, frame="tool"), [a, b])
+    loop = _arms()["four-bar"]
+    with pytest.raises(rd.UnsupportedFeatureError, match="nonlinear couplings"):
+        rd.check_path(loop, rd.random_poses(loop, 2, seed=1))

@@ -307,3 +307,43 @@ def test_contradictory_couplings_are_refused_naming_the_joint() -> None:
         "contradictory couplings: joint 'j3' follows two joint equalities, 'elbow' ("
     )
     assert "'again' ((j3 + 0.2) = 2 j1)" in str(err.value)
+
+
+def test_the_observers_momentum_terms_are_the_reduced_lagrangians(case) -> None:
+    """p = M_q v and beta = dM_q/dt v - (C_q v + g_q), from raw MuJoCo and the file's G.
+
+    Ground truth: M_x and the bias C_x x' + g_x of raw MuJoCo's whole model, the file's G;
+    dM_q/dt and dG/dt by central differences along v; C_q v = G^T (C_x x' + M_x dG/dt v).
+    """
+    from redundancy.analysis.observer import MomentumObserver
+
+    arm, followers = case
+    MomentumObserver(arm, 20.0)  # builds on a coupled arm
+    rng = np.random.default_rng(3)
+
+    def raw(q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        x, G = followers(q)  # type: ignore[operator]
+        m, d = _raw(arm, x)
+        dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in arm.chain_joint_names]
+        d.qvel[:] = 0
+        for i, dof in enumerate(dofs):
+            d.qvel[dof] = (G @ v)[i]
+        mujoco.mj_forward(m, d)
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        return M[np.ix_(dofs, dofs)], d.qfrc_bias[dofs].copy(), G
+
+    h = 1e-6
+    for q in rd.random_poses(arm, 5, seed=9):
+        v = rng.normal(size=arm.nq)
+        Mx, bias, G = raw(q, v)
+        Mq = G.T @ Mx @ G
+        Mp, _, Gp = raw(q + h * v, v)
+        Mm, _, Gm = raw(q - h * v, v)
+        dMq = (Gp.T @ Mp @ Gp - Gm.T @ Mm @ Gm) / (2 * h)
+        dG = (Gp - Gm) / (2 * h)
+        Cv_g = G.T @ (bias + Mx @ dG @ v)  # C_q v + g_q
+        p, beta = arm.mujoco.momentum_terms(q, v)
+        scale = np.max(np.abs(Mq)) * (1 + np.abs(v).max()) ** 2
+        assert np.max(np.abs(p - Mq @ v)) <= 1e-10 * scale
+        assert np.max(np.abs(beta - (dMq @ v - Cv_g))) <= 1e-6 * scale

@@ -165,6 +165,8 @@ class CollisionChecker:
         # A coupled arm's scenes hold its chain model (every joint it moves, followers too).
         pin_chain = arm.pinocchio.inner if arm.coupling is not None else arm.pinocchio  # type: ignore[attr-defined]
         self._coal_pairs = CoalPairs(m, pin_chain.model, pin_chain.perm, self.pairs)
+        #: Pinocchio's engine of the scenes' model (the chain's, for a coupled arm).
+        self.scene_pinocchio = pin_chain
         # One scene per engine and thread, built on the thread's first use.
         self._mujoco = PerThread(partial(MujocoScene, self._mujoco_pairs))
         self._coal = PerThread(partial(CoalScene, self._coal_pairs))
@@ -236,9 +238,9 @@ class CollisionChecker:
             q: Joint configuration [rad or m].
             engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         """
-        q = self._q(q)
+        q = self.arm.pose(q)
         scene = self.scene(engine)
-        dist, p1, p2 = scene.distances(q)
+        dist, p1, p2 = scene.distances(self._q(q))  # a coupled arm's scene: its chain pose
         entries = tuple(
             PairDistance(p, float(dist[k]), p1[k].copy(), p2[k].copy())
             for k, p in enumerate(self.pairs)

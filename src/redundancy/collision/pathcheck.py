@@ -284,6 +284,7 @@ class PathChecker:
                 ``max_evaluations`` not a positive integer.
         """
         Q, tol, max_evaluations = self._validated(waypoints, tol, engine, max_evaluations)
+        X = self.checker.scene_poses(Q)  # a linear coupling's chain moves on straight lines too
         eps = AMBIGUITY_BAND
         nseg = len(Q) - 1
         thr = self.thresholds
@@ -292,22 +293,22 @@ class PathChecker:
         clearance = _Clearance(self.checker.scene(engine), thr, max_evaluations)
 
         def report(seg: int, s0: float, c: Array, rate: Array) -> PathCheck:
-            qa, qb = Q[seg], Q[min(seg + 1, len(Q) - 1)]
-            c, s = _walk_on(clearance, qa, qb, c, s0, tol, rate)
+            end = min(seg + 1, len(Q) - 1)
+            c, s = _walk_on(clearance, X[seg], X[end], c, s0, tol, rate)
             k = int(np.argmin(c))
-            q = qa + s * (qb - qa)
+            q = Q[seg] + s * (Q[end] - Q[seg])
             contact = PathContact(seg, s, q, self.pairs[k], float(c[k] + thr[k]), s0)
             evals, least = clearance.evals, float(clearance.least)
             return PathCheck(False, contact, evals, nseg, tol, engine, least)
 
         if not self.pairs:
             return PathCheck(True, None, 0, nseg, tol, engine, float("inf"))
-        c = clearance(Q[0])
+        c = clearance(X[0])
         if c.min() < tol:
-            dq0 = Q[1] - Q[0] if len(Q) > 1 else np.zeros(self.arm.nq)
+            dq0 = X[1] - X[0] if len(X) > 1 else np.zeros(X.shape[1])
             return report(0, 0.0, c, self.weights @ np.abs(dq0))
-        for seg in range(len(Q) - 1):
-            qa, qb = Q[seg], Q[seg + 1]
+        for seg in range(len(X) - 1):
+            qa, qb = X[seg], X[seg + 1]
             dq = qb - qa
             # Largest rate at which each pair's distance can shrink per unit s [m].
             rate = self.weights @ np.abs(dq)
@@ -342,6 +343,8 @@ class PathChecker:
         # The motion bounds assume every joint within its range (a slide's travel is part of
         # the reach of the links beyond it): a path outside the ranges is not covered.
         check_in_range(Q, arm.joint_names, arm.lower, arm.upper, "waypoint")
+        if arm.coupling is not None:
+            _check_coupled_path(arm, Q)
         return Q, tol, max_evaluations
 
 
@@ -367,6 +370,28 @@ class _Clearance:
         c = self.scene.distance_values(q) - self.thresholds
         self.least = min(self.least, float(c.min()))
         return c
+
+
+def _check_coupled_path(arm: Arm, Q: Array) -> None:
+    """A coupled arm's path is checked where its chain moves on the straight segments.
+
+    Raises:
+        UnsupportedFeatureError: A nonlinear coupling or a loop: the chain's joints then
+            follow curves between the waypoints, which the motion bounds do not cover.
+        OutOfRangeError: A waypoint that puts a follower outside its range.
+    """
+    coupling = arm.coupling
+    assert coupling is not None
+    if not coupling.linear:
+        raise UnsupportedFeatureError(
+            "a path of nonlinear couplings",
+            f"followers {', '.join(repr(n) for n in arm.followers)}",
+            "between waypoints the followers of a nonlinear coupling or a closed loop move "
+            "on curves, which the path checker's motion bounds do not cover; check the poses "
+            "along the path (collision.distances or collision_statistics(poses=...))",
+        )
+    lo, hi = arm.mujoco.inner.limits  # type: ignore[attr-defined]
+    check_in_range(arm._chain_stack(Q)[0], arm.chain_joint_names, lo, hi, "waypoint")
 
 
 def _walk_on(

@@ -83,7 +83,7 @@ def _coal_distances(ch: CollisionChecker, Q: Array, out: Array) -> None:
     # set up as the single-pose path uses them.
     scene = ch.coal_scene()
     values = scene.pin_values
-    for qp, row in zip(ch.arm.pinocchio._order(Q), out, strict=True):
+    for qp, row in zip(ch.scene_pinocchio._order(Q), out, strict=True):
         row[:] = values(qp)
     # Redo the poses with a failed EPA through the scene, whose retry with a looser EPA
     # needs the geoms placed at that pose.

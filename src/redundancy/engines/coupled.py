@@ -231,6 +231,22 @@ class CoupledEngine:
             out += c.G.T @ self.inner.mass_matrix(c.x, True) @ self.coupling.rate(c, v)
         return out
 
+    def momentum_terms(self, q: ArrayLike, v: ArrayLike) -> tuple[Array, Array]:
+        """The observer's terms: p = G^T M_x G v and beta = G^T beta_x + (dG/dt)^T M_x G v.
+
+        With M_q = G^T M_x G and C_q = G^T (C_x G + M_x dG/dt), C_q^T v = G^T C_x^T x' +
+        (dG/dt)^T M_x x' (x' = G v); the chain's gravity and passive forces reach q as G^T of
+        them. Returns p (nq,) [N m s] and beta (nq,) [N m] (see the inner engine's).
+        """
+        self._check("momentum observer")
+        v = check_joint_vector("velocity", v, self.joint_names)
+        c = self._map(q)
+        p_x, beta_x = self.inner.momentum_terms(c.x, c.G @ v)
+        beta = c.G.T @ beta_x
+        if not self.coupling.linear:
+            beta += self.coupling.rate(c, v).T @ p_x
+        return c.G.T @ p_x, beta
+
     def coriolis_stack(self, Q: Array, V: Array, out: Array, threads: int = 1) -> None:
         """`coriolis` over validated stacks, into ``out``."""
         for q, v, C in zip(Q, V, out, strict=True):

@@ -8,8 +8,10 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from ..arm import Arm
 from ..engines import simulation
 from ..engines.mujoco import captured_warnings
+from ..errors import MissingInertiaError, UnsupportedFeatureError
 
 Array = NDArray[np.float64]
 
@@ -150,3 +152,23 @@ def _hold(
             np.maximum(peak, np.abs(d.qvel), out=peak)
     warnings = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
     return HoldResult(peak, warnings, tuple(messages))
+
+
+def simulable(arm: Arm) -> None:
+    """Check that the lab can step the arm's MuJoCo model.
+
+    Raises:
+        MissingInertiaError: Links the arm moves without inertia.
+        UnsupportedFeatureError: An arm with coupled joints: the chain model the engines
+            compute on has its couplings solved, not simulated (stepping it would let the
+            followers swing free).
+    """
+    if arm.missing_inertia:  # a simulation needs every mass the arm moves
+        raise MissingInertiaError("a simulation", arm.missing_inertia)
+    if arm.coupling is not None:
+        raise UnsupportedFeatureError(
+            "coupled joints in the lab",
+            f"followers {', '.join(repr(n) for n in arm.followers)}",
+            "the lab steps MuJoCo's model of the arm, whose couplings the library solves "
+            "instead of simulating; the audit, the quantities, batch and IK serve the arm",
+        )

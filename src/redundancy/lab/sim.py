@@ -41,8 +41,8 @@ from ..analysis import selfmotion
 from ..analysis.observer import MomentumObserver
 from ..arm import Arm, sampling_ranges
 from ..engines import simulation
-from ..errors import MissingInertiaError, PoseError, RedundancyError
-from .control import JointPD
+from ..errors import PoseError, RedundancyError
+from .control import JointPD, simulable
 from .drag import solve_ik
 from .readouts import LabReadouts, six_sigmas, velocity_ellipsoid
 from .runner import RealTimeRunner
@@ -94,6 +94,8 @@ class LabSim:
 
     Raises:
         UnknownNameError: ``watch`` is not a joint of the arm.
+        MissingInertiaError: Links the arm moves without inertia.
+        UnsupportedFeatureError: An arm with coupled joints (`Arm.followers`).
     """
 
     model: mujoco.MjModel
@@ -125,8 +127,7 @@ class LabSim:
         contact_forces: bool = False,
         watch: str | None = None,
     ) -> None:
-        if arm.missing_inertia:  # a simulation needs every mass the arm moves
-            raise MissingInertiaError("a simulation", arm.missing_inertia)
+        simulable(arm)
         if keyframe in arm.keyframe_names:
             # The keyframe is the whole robot's: where it moves held joints, the lab runs
             # the arm with them there, never the keyframe's arm joints on another robot pose.
