@@ -213,6 +213,34 @@ def test_an_inertia_drakes_parser_replaces_leaves_drake_out_naming_the_link() ->
     assert report.ok and report.engines == ("mujoco", "pinocchio", "drake")
 
 
+NESTED_DEFAULT = """<mujoco model="m">
+  <default><default class="arm"><joint axis="0 1 0"/>
+    <default class="big">{inner}</default></default></default>
+  <worldbody><body name="base" childclass="arm">
+    <body name="a" pos="0 0 0.1"><joint name="j1" axis="0 0 1"/>
+      <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+      <body name="b" pos="0.2 0 0"><joint name="j2" class="big"/>
+        <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+        <site name="tip" pos="0.2 0 0"/></body></body></body></worldbody>
+</mujoco>"""
+
+
+def test_a_joint_axis_drake_reads_otherwise_leaves_drake_out_naming_the_joint() -> None:
+    """Menagerie's UR5e: a class without a <joint> of its own, Drake's joint on its axis 0 0 1."""
+    inner = '<default class="inner"><joint range="-1 1"/></default>'
+    arm = rd.load_string(NESTED_DEFAULT.format(inner=inner), frame="tip")
+    assert list(arm.engines) == ["mujoco", "pinocchio"]
+    reason = arm.absent_engines["drake"]
+    assert reason.startswith(
+        "Drake reads joint 'j2' about axis (0 0 1) through (0.2 0 0.1), MuJoCo about (0 1 0)"
+    ), reason
+    assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=0)).ok
+    # The class with a <joint> of its own: Drake reads the axis as MuJoCo does, and takes part.
+    arm = rd.load_string(NESTED_DEFAULT.format(inner='<joint range="-1 1"/>'), frame="tip")
+    assert list(arm.engines) == ["mujoco", "pinocchio", "drake"], arm.absent_engines
+    assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=0)).ok
+
+
 @pytest.mark.parametrize("name", ARM_NAMES)
 def test_the_bundled_arms_agree_in_three_engines(name: str, arms: dict[str, rd.Arm]) -> None:
     arm = arms[name]

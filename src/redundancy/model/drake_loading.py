@@ -451,6 +451,42 @@ def _rest_positions(plant: Any, full: mujoco.MjModel, qpos: Array) -> Array:
     return rest
 
 
+def _check_axes(
+    plant: Any, full: mujoco.MjModel, qpos: Array, joints: Sequence[Any], rest: Array
+) -> None:
+    """`DrakeAbsent` where Drake's axis or anchor of an arm joint is not MuJoCo's, at rest.
+
+    Both in the world, the whole robot at its rest configuration (a hinge's anchor; a slide
+    has only its axis). Measured (drake 1.51): Drake's MJCF parser leaves a joint of a
+    ``<default>`` class without a ``<joint>`` of its own on Drake's axis (0 0 1), not the
+    enclosing class's (Menagerie's UR5e: 1.9 in the tool Jacobian).
+    """
+    data = mujoco.MjData(full)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(full, data)
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, rest)
+    for joint in joints:
+        j = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_JOINT, joint.name())
+        if j < 0:
+            continue
+        F = joint.frame_on_parent().CalcPoseInWorld(context)
+        revolute = joint.type_name() == "revolute"
+        local = joint.revolute_axis() if revolute else joint.translation_axis()
+        theirs = F.rotation().matrix() @ local
+        anchor = joint.frame_on_child().CalcPoseInWorld(context).translation()
+        size = max(1.0, float(np.max(np.abs(data.xanchor[j]))))
+        if np.max(np.abs(theirs - data.xaxis[j])) > 1e-9 or (
+            revolute and np.max(np.abs(anchor - data.xanchor[j])) > 1e-9 * size
+        ):
+            fmt = lambda v: "(" + " ".join(f"{x + 0.0:.6g}" for x in v) + ")"  # noqa: E731
+            raise DrakeAbsent(
+                f"Drake reads joint {joint.name()!r} about axis {fmt(theirs)} through "
+                f"{fmt(anchor)}, MuJoCo about {fmt(data.xaxis[j])} through "
+                f"{fmt(data.xanchor[j])} (world, at rest); the library would have to bridge it"
+            )
+
+
 def build_drake(
     source: DrakeSource,
     full: mujoco.MjModel,
@@ -493,6 +529,7 @@ def build_drake(
     inertias, inertia_bridges = _bridge_inertias(plant, full, causes or {})
     bridges += inertia_bridges
     rest = _rest_positions(plant, full, qpos)
+    _check_axes(plant, full, qpos, joints, rest)
     engine = DrakeEngine(plant, tool, joints, rest, mj.damping, limits, inertias)
     return engine, tuple(bridges), tuple(warnings)
 
