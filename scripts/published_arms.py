@@ -196,6 +196,7 @@ def drake_cell(arm: object, report: object) -> str:
     """
     if "drake" not in arm.engines:  # type: ignore[attr-defined]
         reason = arm.absent_engines.get("drake", "no reason given")  # type: ignore[attr-defined]
+        reason = re.sub(r"\S+:\d+: (error|warning): ", "", reason)  # the file and line: in the row
         short = reason if len(reason) <= REASON_CHARS else reason[: REASON_CHARS - 3] + "..."
         return f"absent: {short}"
     agreements = report.agreements  # type: ignore[attr-defined]
@@ -699,6 +700,7 @@ def main_published(args: argparse.Namespace) -> int:
     for r in rows:  # messages name files inside the package, not where this machine keeps it
         prefix = f"{roots[r.package]}{os.sep}"
         r.detail, r.reference = r.detail.replace(prefix, ""), r.reference.replace(prefix, "")
+        r.drake = r.drake.replace(prefix, "")
     text = table(rows)
     print(text)
     if args.output:
