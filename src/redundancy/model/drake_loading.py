@@ -5,8 +5,9 @@ builds a `redundancy.engines.drake.DrakeEngine` for an Arm the loader has made, 
 user gave (not the text the library writes for Pinocchio: the point of a third engine is that it
 reads the file itself), with the same arm joints, held values, tool frame and base. Where it
 cannot, ``arm.absent_engines["drake"]`` says why: pydrake is not installed, Drake's parser refuses
-the file (its message), or Drake's model differs in structure where the library would have to
-bridge it (which joint, which frame). Never a crash, never a silent drop.
+the file (its message) or puts an inertia of its own in place of one it cannot hold (a mass of 0
+with a rotational inertia: which link), or Drake's model differs in structure where the library
+would have to bridge it (which joint, which frame). Never a crash, never a silent drop.
 
 What Drake reads differently from MuJoCo is bridged the way Pinocchio's reading is, compared first
 and copied only where it differs, each copy a `redundancy.model.bridges.Bridge` with ``engine
@@ -169,7 +170,37 @@ def _parse(plant: Any, source: DrakeSource) -> list[str]:
         except (RuntimeError, SystemExit) as err:
             text = " ".join(str(err).split()) or type(err).__name__
             raise DrakeAbsent(f"Drake's parser refuses the file: {text}") from err
+    _refuse_replaced_inertia(log, source)
     return log
+
+
+#: Drake's parser's warning when it cannot make a body's inertia of the file's values (a mass
+#: of 0 with a rotational inertia: Drake keeps a unit inertia scaled by the mass) and puts
+#: another in its place (measured, drake 1.51: 1 kg about the body origin).
+_REPLACED_INERTIA = re.compile(r":(\d+): warning: While re-expressing as central inertia")
+
+
+def _refuse_replaced_inertia(log: Sequence[str], source: DrakeSource) -> None:
+    """`DrakeAbsent` when Drake's parser put an inertia of its own in place of the file's.
+
+    Its model would then not be the file's (the cross-check would name Drake on M and
+    gravity); the element is found by the warning's line number in the text Drake read.
+    """
+    for message in log:
+        found = _REPLACED_INERTIA.search(message)
+        if found is None:
+            continue
+        text = source.text or ""
+        if source.path is not None:
+            text = source.path.read_text(encoding="utf-8", errors="replace")
+        before = "\n".join(text.splitlines()[: int(found[1])])
+        names = re.findall(r"<(?:link|body)\b[^>]*?\bname\s*=\s*[\"']([^\"']*)", before)
+        where = f"link {names[-1]!r}" if names else f"the element at line {found[1]}"
+        raise DrakeAbsent(
+            f"Drake's parser replaces the inertia of {where} by one of its own (it cannot "
+            "hold the file's, e.g. a mass of 0 with a rotational inertia); Drake's dynamics "
+            "would not be the file's"
+        )
 
 
 def _weld_free_roots(plant: Any) -> None:
@@ -420,6 +451,42 @@ def _rest_positions(plant: Any, full: mujoco.MjModel, qpos: Array) -> Array:
     return rest
 
 
+def _check_axes(
+    plant: Any, full: mujoco.MjModel, qpos: Array, joints: Sequence[Any], rest: Array
+) -> None:
+    """`DrakeAbsent` where Drake's axis or anchor of an arm joint is not MuJoCo's, at rest.
+
+    Both in the world, the whole robot at its rest configuration (a hinge's anchor; a slide
+    has only its axis). Measured (drake 1.51): Drake's MJCF parser leaves a joint of a
+    ``<default>`` class without a ``<joint>`` of its own on Drake's axis (0 0 1), not the
+    enclosing class's (Menagerie's UR5e: 1.9 in the tool Jacobian).
+    """
+    data = mujoco.MjData(full)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(full, data)
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, rest)
+    for joint in joints:
+        j = mujoco.mj_name2id(full, mujoco.mjtObj.mjOBJ_JOINT, joint.name())
+        if j < 0:
+            continue
+        F = joint.frame_on_parent().CalcPoseInWorld(context)
+        revolute = joint.type_name() == "revolute"
+        local = joint.revolute_axis() if revolute else joint.translation_axis()
+        theirs = F.rotation().matrix() @ local
+        anchor = joint.frame_on_child().CalcPoseInWorld(context).translation()
+        size = max(1.0, float(np.max(np.abs(data.xanchor[j]))))
+        if np.max(np.abs(theirs - data.xaxis[j])) > 1e-9 or (
+            revolute and np.max(np.abs(anchor - data.xanchor[j])) > 1e-9 * size
+        ):
+            fmt = lambda v: "(" + " ".join(f"{x + 0.0:.6g}" for x in v) + ")"  # noqa: E731
+            raise DrakeAbsent(
+                f"Drake reads joint {joint.name()!r} about axis {fmt(theirs)} through "
+                f"{fmt(anchor)}, MuJoCo about {fmt(data.xaxis[j])} through "
+                f"{fmt(data.xanchor[j])} (world, at rest); the library would have to bridge it"
+            )
+
+
 def build_drake(
     source: DrakeSource,
     full: mujoco.MjModel,
@@ -462,6 +529,7 @@ def build_drake(
     inertias, inertia_bridges = _bridge_inertias(plant, full, causes or {})
     bridges += inertia_bridges
     rest = _rest_positions(plant, full, qpos)
+    _check_axes(plant, full, qpos, joints, rest)
     engine = DrakeEngine(plant, tool, joints, rest, mj.damping, limits, inertias)
     return engine, tuple(bridges), tuple(warnings)
 
