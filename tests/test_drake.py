@@ -284,3 +284,30 @@ def test_a_coupled_arm_has_drake_on_its_chain_seen_through_the_couplings(name: s
     report = rd.crosscheck(arm, rd.random_poses(arm, 20, seed=5))
     assert report.ok, "\n".join(report.lines())
     assert report.engines == ("mujoco", "pinocchio", "drake")
+
+
+#: A tetrahedron (OBJ): a mesh geom Drake's MJCF parser must find beside the file.
+TETRA = "v 0 0 0\nv 0.05 0 0\nv 0 0.05 0\nv 0 0 0.05\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+
+
+def test_an_unnamed_mjcf_with_includes_and_meshes_beside_it_has_drake(tmp_path):
+    # No model= on <mujoco>: Drake reads a named copy as text, whose includes and meshes
+    # must still be found where MuJoCo finds them, beside the file (not in the working folder).
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "tetra.obj").write_text(TETRA)
+    (tmp_path / "body.xml").write_text(
+        '<mujoco><worldbody><body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1"/>'
+        '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>'
+        '<body name="l2" pos="0.3 0 0"><joint name="j2" axis="0 1 0"/>'
+        '<geom type="mesh" mesh="tetra" mass="0.5"/><site name="tip" pos="0.1 0 0"/>'
+        "</body></body></worldbody></mujoco>"
+    )
+    main = tmp_path / "scene.xml"
+    main.write_text(
+        '<mujoco>\n<compiler meshdir="assets"/>\n<asset><mesh name="tetra" file="tetra.obj"/>'
+        '</asset>\n<include file="body.xml"/>\n</mujoco>\n'
+    )
+    arm = rd.load(main, frame="tip")
+    assert "drake" in arm.engines, arm.absent_engines
+    report = rd.crosscheck(arm, rd.random_poses(arm, 20, seed=2))
+    assert report.ok and "drake" in report.engines

@@ -143,6 +143,42 @@ def _named_mjcf(text: str, name: str) -> tuple[str, bool]:
     return re.sub(r"<mujoco\b", f'<mujoco model="{name}"', text, count=1), True
 
 
+#: Attributes of MJCF elements that name a file or folder relative to the model's file.
+_RELATIVE = re.compile(
+    r"(<(?:include|model)\b[^>]*?\bfile\s*=\s*|<compiler\b[^>]*?\b(?:meshdir|texturedir|assetdir)"
+    r"\s*=\s*)([\"'])(.*?)\2",
+    re.DOTALL,
+)
+
+
+def _anchored(text: str, folder: Path) -> str:
+    """MJCF text whose relative include files and asset folders are made absolute.
+
+    Drake reads text from a string relative to the working directory; MuJoCo reads the file's
+    includes and assets relative to its folder. Every ``<include file>``, ``<model file>`` and
+    ``<compiler meshdir|texturedir|assetdir>`` becomes ``folder / value``; without a mesh or
+    asset folder, one is added on the root's line (``<compiler meshdir="folder">``, the
+    default MuJoCo applies), so no line moves (Drake's warnings cite lines).
+    """
+
+    def absolute(m: re.Match[str]) -> str:
+        value = m.group(3)
+        if not value or Path(value).is_absolute():
+            return m.group(0)
+        return f"{m.group(1)}{m.group(2)}{(folder / value).as_posix()}{m.group(2)}"
+
+    out = _RELATIVE.sub(absolute, text)
+    if not re.search(r"<compiler\b[^>]*?\b(?:meshdir|assetdir)\s*=", out, re.DOTALL):
+        where = folder.as_posix()
+        out = re.sub(
+            r"(<mujoco\b[^>]*?(?<!/)>)",
+            lambda m: f'{m.group(1)}<compiler meshdir="{where}" texturedir="{where}"/>',
+            out,
+            count=1,
+        )
+    return out
+
+
 def _parse(plant: Any, source: DrakeSource) -> list[str]:
     """Drake's parser on the source: its warnings; a refusal is `DrakeAbsent`."""
     from pydrake.multibody.parsing import Parser
@@ -163,6 +199,8 @@ def _parse(plant: Any, source: DrakeSource) -> list[str]:
                 named, changed = _named_mjcf(text or "", stem or "model")
                 if source.path is not None and not changed:
                     parser.AddModels(str(source.path))  # its includes beside it
+                elif source.path is not None:  # text has no folder: say where its files are
+                    parser.AddModelsFromString(_anchored(named, source.path.parent), "xml")
                 else:
                     parser.AddModelsFromString(named, "xml")
         # pydrake raises the parser's errors as RuntimeError, and a failed internal check (a
