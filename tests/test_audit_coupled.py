@@ -173,3 +173,50 @@ def test_a_linear_couplings_path_is_checked_on_its_chain_and_a_loops_is_refused(
     loop = _arms()["four-bar"]
     with pytest.raises(rd.UnsupportedFeatureError, match="nonlinear couplings"):
         rd.check_path(loop, rd.random_poses(loop, 2, seed=1))
+
+
+#: A planar three-link arm whose tool is welded to a mocap body (a simulation's handle, as in
+#: gym-xarm, Fetch and Meta-World) and tied to the world by an inactive connect.
+MOCAP_ARM = """<mujoco model="mocap arm"><compiler angle="radian"/>
+<worldbody>
+<body name="handle" mocap="true" pos="0.5 0 0.3"/>
+<body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1" range="-2 2"/>
+ <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.04" mass="2"/>
+ <body name="l2" pos="0 0 0.3"><joint name="j2" axis="0 1 0" range="-1.5 1.5"/>
+  <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1.5"/>
+  <body name="l3" pos="0.3 0 0"><joint name="j3" axis="0 1 0" range="-2 2"/>
+   <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03" mass="1"/>
+   <site name="tool" pos="0.25 0 0"/>
+  </body></body></body>
+</worldbody>
+<equality><weld name="drag" body1="handle" body2="l3"/>
+<connect name="pin" body1="l3" body2="world" anchor="0 0 0" active="false"/></equality>
+</mujoco>"""
+
+
+def test_a_weld_to_a_mocap_body_and_an_inactive_constraint_are_set_aside():
+    arm = rd.load_string(MOCAP_ARM, frame="tool")
+    assert arm.joint_names == ("j1", "j2", "j3") and not arm.followers
+    reasons = {a.name: a.reason for a in arm.set_aside if a.what == "equality constraint"}
+    assert "mocap body 'handle'" in reasons["drag"]
+    assert reasons["pin"].startswith('inactive in the file (active="false")')
+    # Ground truth: the same arm without the constraints, to the bit.
+    start, end = MOCAP_ARM.index("<equality>"), MOCAP_ARM.index("</equality>") + len("</equality>")
+    bare = rd.load_string(MOCAP_ARM[:start] + MOCAP_ARM[end:], frame="tool")
+    for q in rd.random_poses(arm, 5, seed=1):
+        assert np.array_equal(arm.jacobian(q), bare.jacobian(q))
+        assert np.array_equal(arm.mass_matrix(q), bare.mass_matrix(q))
+        assert np.array_equal(arm.gravity(q), bare.gravity(q))
+    assert rd.crosscheck(arm, rd.random_poses(arm, 50, seed=2)).ok
+
+
+def test_a_huge_damping_on_a_joint_says_how_to_hold_it():
+    text = MOCAP_ARM.replace('name="j1" axis="0 0 1"', 'name="j1" axis="0 0 1" damping="1e11"')
+    with pytest.raises(rd.ModelError) as e:
+        rd.load_string(text, frame="tool")
+    assert str(e.value) == (
+        "implausible value in the compiled model: dof_damping of joint 'j1' is 100000000000.0; "
+        "the library handles magnitudes up to 1e+10 (SI units): beyond, the engines' products "
+        "overflow; a joint the arm should not move is held by starting the arm below it "
+        "(base=BODY, --base BODY)"
+    )

@@ -33,7 +33,7 @@ import numpy as np
 from ..engines.coupling import CouplingMap, Polynomial
 from ..engines.mujoco_closure import MujocoClosure
 from ..errors import ModelError, UnsupportedFeatureError
-from .couplings import coupling_text, joints_between
+from .couplings import coupling_text, joints_between, mocap_handle
 from .names import display_names
 from .selection import Array, joint_kind
 
@@ -77,7 +77,8 @@ def _name(model: mujoco.MjModel, k: int) -> str:
 
 def _reach(model: mujoco.MjModel, chain: set[int]) -> tuple[set[int], list[int], list[int]]:
     """The joints the chain's couplings reach, and the joint equalities and loops on them."""
-    active = [k for k in range(model.neq) if model.eq_active0[k]]
+    # An inactive equality constrains nothing; one to a mocap body is a simulation's handle.
+    active = [k for k in range(model.neq) if model.eq_active0[k] and mocap_handle(model, k) is None]
     joints, eqs, loops = set(chain), set(), set()
     grew = True
     while grew:

@@ -220,6 +220,22 @@ def _equality(
     if full.eq_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
         objs = tuple(int(full.site_bodyid[s]) for s in (a, b) if s >= 0)
     between = joints_between(full, *(objs if len(objs) == 2 else (objs[0], 0)))
+    handle = mocap_handle(full, k)
+    if handle is not None and any(j in arm for j in between):
+        return SetAside(
+            "equality constraint",
+            name,
+            f"ties the arm's body to mocap body {bnames[handle]!r}: the simulation's handle that "
+            "drags it (a constraint force in MuJoCo's step), not a part of the arm: its J, M "
+            "and gravity are the arm's own",
+        )
+    if not full.eq_active0[k] and any(j in arm for j in between):
+        return SetAside(
+            "equality constraint",
+            name,
+            'inactive in the file (active="false"): it constrains nothing unless a simulation '
+            "turns it on, and the arm's numbers are those without it",
+        )
     if any(j in arm for j in between):
         bodies = [x for x in objs if x in moved]
         raise UnsupportedFeatureError(
@@ -238,6 +254,23 @@ def _equality(
             "gravity",
         )
     return SetAside("equality constraint", name, "acts on held bodies only")
+
+
+def mocap_handle(model: mujoco.MjModel, k: int) -> int | None:
+    """The mocap body a connect or weld ``k`` ties to, or None (not one, or not a mocap).
+
+    A mocap body is placed by the simulation's ``mocap_pos``/``mocap_quat``, not by physics:
+    a constraint to it is a handle that drags the other body, not part of a mechanism.
+    """
+    if int(model.eq_type[k]) not in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)):
+        return None
+    a, b = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+    if model.eq_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
+        a, b = (int(model.site_bodyid[s]) if s >= 0 else 0 for s in (a, b))
+    for body in (a, b):
+        if body > 0 and model.body_mocapid[body] >= 0:
+            return body
+    return None
 
 
 def _joint_equality(full: mujoco.MjModel, k: int, arm: set[int], jnames: Sequence[str]) -> SetAside:

@@ -133,10 +133,17 @@ def _check_finite(
         ).any(axis=1)
         if field != "jnt_range" and big.any():  # an unlimited range is legitimately large
             i = int(np.flatnonzero(big)[0])
+            # A base joint locked by a huge damping (Fetch's slides) is held with base=.
+            hold = (
+                "; a joint the arm should not move is held by starting the arm below it "
+                "(base=BODY, --base BODY)"
+                if kind == "joint"
+                else ""
+            )
             raise ModelError(
                 f"implausible value in the compiled model: {field} of {kind} {labels[i]!r} is "
                 f"{np.asarray(values[i]).tolist()}; the library handles magnitudes up to "
-                f"{MAX_MAGNITUDE:g} (SI units): beyond, the engines' products overflow"
+                f"{MAX_MAGNITUDE:g} (SI units): beyond, the engines' products overflow{hold}"
             )
     if not np.isfinite(model.opt.gravity).all():
         raise ModelError(
