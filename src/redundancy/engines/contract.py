@@ -26,6 +26,34 @@ from ..errors import MissingInertiaError
 Array = NDArray[np.float64]
 
 
+class JointVectors:
+    """The contract's per-joint vectors of an engine that holds them as arrays: copies out.
+
+    The engine sets ``_armature``, ``_damping`` and ``_limits`` (lower, upper) in its
+    constructor; what each means in that engine (MuJoCo's ``dof_armature``, Drake's reflected
+    rotor inertia, a coupled arm's diag(G^T A G)) its constructor says.
+    """
+
+    _armature: Array
+    _damping: Array
+    _limits: tuple[Array, Array]
+
+    @property
+    def armature(self) -> Array:
+        """Armature per joint as the engine's M adds it [kg m^2] (a copy)."""
+        return self._armature.copy()
+
+    @property
+    def damping(self) -> Array:
+        """Viscous damping per joint [N m s/rad or N s/m] (a copy)."""
+        return self._damping.copy()
+
+    @property
+    def limits(self) -> tuple[Array, Array]:
+        """Lower and upper limits, ``-inf``/``inf`` where unlimited [rad or m] (copies)."""
+        return self._limits[0].copy(), self._limits[1].copy()
+
+
 @dataclass
 class Stacks:
     """Output stacks that `Engine.evaluate` fills in place; None where not wanted.

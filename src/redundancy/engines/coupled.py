@@ -25,13 +25,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_joint_vector, check_pose, pose_key
 from ..kernels import cholesky_solve
-from .contract import Engine, Stacks, check_dynamics
+from .contract import Engine, JointVectors, Stacks, check_dynamics
 from .coupling import Coupled, CouplingMap
 
 Array = NDArray[np.float64]
 
 
-class CoupledEngine:
+class CoupledEngine(JointVectors):
     """An engine of the chain model seen in the arm's independent coordinates.
 
     Args:
@@ -78,22 +78,6 @@ class CoupledEngine:
     def chain_pose(self, q: ArrayLike) -> Array:
         """The chain model's pose x(q) (nx,) [rad or m]."""
         return self._map(q).x.copy()
-
-    # -- per-joint vectors ---------------------------------------------------------------
-    @property
-    def armature(self) -> Array:
-        """diag(G^T A G) at rest [kg m^2]: the independent joints' own and their followers'."""
-        return self._armature.copy()
-
-    @property
-    def damping(self) -> Array:
-        """diag(G^T B G) at rest [N m s/rad or N s/m]."""
-        return self._damping.copy()
-
-    @property
-    def limits(self) -> tuple[Array, Array]:
-        """The independent joints' limits [rad or m] (copies)."""
-        return self._limits[0].copy(), self._limits[1].copy()
 
     def _check(self, quantity: str) -> None:
         check_dynamics(self, quantity)

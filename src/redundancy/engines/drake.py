@@ -30,7 +30,7 @@ from pydrake.multibody.tree import Frame, JacobianWrtVariable, Joint
 
 from ..checks import check_joint_vector, check_pose, pose_key
 from ..kernels import cholesky_solve, rotation_vector
-from .contract import Stacks, check_dynamics, remove_armature
+from .contract import JointVectors, Stacks, check_dynamics, remove_armature
 from .threads import PerThread
 
 Array = NDArray[np.float64]
@@ -67,7 +67,7 @@ class _Work:
         self.key = None
 
 
-class DrakeEngine:
+class DrakeEngine(JointVectors):
     """Drake's plant of the whole robot for one tool frame, evaluated at arm configurations.
 
     Each thread that calls gets its own ``Context`` (freed with the thread); within a thread,
@@ -125,22 +125,6 @@ class DrakeEngine:
         self._work = PerThread(lambda: _Work(plant, self.rest, self.inertias)).get
         # The IK kernels' own contexts per thread: their poses never pass for the checked ones.
         self._kernel_work = PerThread(lambda: _Work(plant, self.rest, self.inertias)).get
-
-    # -- the contract's per-joint vectors ---------------------------------------------------
-    @property
-    def armature(self) -> Array:
-        """Reflected inertia per joint as ``CalcMassMatrix`` adds it [kg m^2] (a copy)."""
-        return self._armature.copy()
-
-    @property
-    def damping(self) -> Array:
-        """Viscous damping per joint [N m s/rad or N s/m] (a copy)."""
-        return self._damping.copy()
-
-    @property
-    def limits(self) -> tuple[Array, Array]:
-        """Lower and upper position limits [rad or m] (copies)."""
-        return self._limits[0].copy(), self._limits[1].copy()
 
     # -- per-thread context -----------------------------------------------------------------
     def update(self, q: ArrayLike) -> _Work:

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..checks import check_joint_vector, check_pose, pose_key
 from ..kernels import cholesky_solve
-from .contract import Stacks, check_dynamics, remove_armature
+from .contract import JointVectors, Stacks, check_dynamics, remove_armature
 from .mujoco_warnings import captured_warnings as captured_warnings
 from .threads import PerThread, run_split
 
@@ -177,7 +177,7 @@ class _Work:
         self.key = key
 
 
-class MujocoEngine:
+class MujocoEngine(JointVectors):
     """MuJoCo model for one tool site, evaluated at joint configurations.
 
     Each thread that calls gets its own ``MjData`` (created on its first call, freed with the
@@ -218,22 +218,6 @@ class MujocoEngine:
         self._work, self._local = threads.get, threads.local
         # The IK kernels' own data per thread: their poses never pass for the checked ones.
         self._kernel_work = PerThread(lambda: _Work(model)).get
-
-    # -- the contract's per-joint vectors ---------------------------------------------------
-    @property
-    def armature(self) -> Array:
-        """Armature per dof as M sees it [kg m^2] (a copy)."""
-        return self._armature.copy()
-
-    @property
-    def damping(self) -> Array:
-        """Viscous damping per dof [N m s/rad or N s/m] (a copy)."""
-        return self._damping.copy()
-
-    @property
-    def limits(self) -> tuple[Array, Array]:
-        """Lower and upper limits, ``-inf``/``inf`` where unlimited [rad or m] (copies)."""
-        return self._limits[0].copy(), self._limits[1].copy()
 
     # -- per-thread data --------------------------------------------------------------------
     def update(self, q: ArrayLike) -> _Work:
