@@ -276,3 +276,18 @@ def test_the_gripper_crosscheck_ok_over_200_poses(gripper: rd.Arm) -> None:
     assert np.all((X >= lo - 1e-9) & (X <= hi + 1e-9))  # the drivers' 0..0.8 kept
     report = rd.crosscheck(gripper, Q)
     assert report.ok, report.summary()
+
+
+def test_the_small_normal_equations_solve_is_numpys_least_squares():
+    from redundancy.engines.coupling import _least_squares
+
+    rng = np.random.default_rng(5)
+    for rows, k in [(3, 1), (3, 2), (6, 3), (9, 6), (12, 7)]:
+        A, b = rng.normal(size=(rows, k)), rng.normal(size=rows)
+        ref = np.linalg.lstsq(A, b, rcond=None)[0]
+        assert np.max(np.abs(_least_squares(A, b) - ref)) <= 1e-12 * np.max(np.abs(ref))
+    # Rank-deficient (two equal columns): the factor refuses, the SVD's minimum-norm answer.
+    A = rng.normal(size=(4, 2))
+    A[:, 1] = A[:, 0]
+    b = rng.normal(size=4)
+    assert np.array_equal(_least_squares(A, b), np.linalg.lstsq(A, b, rcond=None)[0])

@@ -26,6 +26,7 @@ one solve; each thread solves with its own closure data.
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -45,6 +46,10 @@ CLOSURE_TOL = 1e-12
 PATH_STEP = 0.2
 #: Newton iterations per solve, at most.
 NEWTON_ITERATIONS = 30
+#: How closely a loop is closed at the path's intermediate poses [m or rad]: far tighter
+#: than a step's prediction error (PATH_STEP^2 times the curvature), so the path keeps its
+#: branch; only the end pose is closed to `CLOSURE_TOL`.
+PATH_CLOSURE = 1e-9
 #: Poses whose maps are kept.
 CACHE_SIZE = 4096
 
@@ -166,6 +171,7 @@ class CouplingMap:
         # pose's map never depends on what was computed before it.
         self._cache: dict[tuple[float, ...], Coupled] = {}
         self._lock = threading.Lock()
+        self._rest_tangent: Array | None = None  # `_tangent_at_rest`, once
 
     # -- the map at a pose ---------------------------------------------------------------
     def at(self, q: Array, pose: list[float]) -> Coupled:
@@ -186,8 +192,8 @@ class CouplingMap:
         found = self._cache.get(tuple(pose))
         if found is not None:
             return found
-        x = self._close(q)
-        out = Coupled(pose, x, self._closure_G(x))
+        x, H = self._close(q)
+        out = Coupled(pose, x, self._closure_G(x, H))
         with self._lock:
             if len(self._cache) >= CACHE_SIZE:
                 self._cache.pop(next(iter(self._cache)))
@@ -220,13 +226,16 @@ class CouplingMap:
     def _rows(self, x: Array) -> tuple[Array, Array]:
         return self.closure.rows(x)  # type: ignore[union-attr]
 
-    def _newton(self, x: Array) -> tuple[Array, Array]:
-        """X with its dependent joints moved until the constraint holds; and the residual."""
+    def _newton(self, x: Array, stop: float = 0.01 * CLOSURE_TOL) -> tuple[Array, Array, Array]:
+        """X with its dependent joints moved until the constraint holds to ``stop``.
+
+        Returns x, its residual and the rows' Jacobian there (``stop`` [m or rad]).
+        """
         D = self.dependent
         r, H = self._rows(x)
         size = _largest(r)
         for _ in range(NEWTON_ITERATIONS):
-            if size <= 0.01 * CLOSURE_TOL:
+            if size <= stop:
                 break
             step = _least_squares(H[:, D], r)
             x = x.copy()
@@ -237,17 +246,30 @@ class CouplingMap:
                 x[D] += step  # rounding: the last step made it no better
                 break
             r, H, size = r_new, H_new, size_new
-        return x, r
+        return x, r, H
 
-    def _close(self, q: Array) -> Array:
-        """The chain pose at ``q``, closed: Newton solves along a path of short steps from rest."""
+    def _close(self, q: Array) -> tuple[Array, Array]:
+        """The chain pose at ``q``, closed, and its rows' Jacobian H there.
+
+        Newton solves along a path of short steps from rest; each starts from a prediction
+        of the dependent joints (the tangent G at rest for the first step, the line through
+        the last two closed poses after it), so that a solve takes one or two iterations.
+        """
         x = self.rest.copy()
         delta = q - self.q_rest
         steps = max(1, int(np.ceil(float(np.max(np.abs(delta), initial=0.0)) / PATH_STEP)))
-        r = np.zeros(0)
+        r, H = np.zeros(0), np.zeros((0, self.nx))
+        D, last = self.dependent, None
         for k in range(1, steps + 1):
+            before = x[D].copy()
+            if last is None:
+                x[D] += self._tangent_at_rest() @ (delta / steps)
+            else:
+                x[D] += before - last
+            last = before
             x[self.independent] = self.q_rest + delta * (k / steps)
-            x, r = self._newton(x)
+            # On the way, close enough to stay on the branch; at q, to the closure's tolerance.
+            x, r, H = self._newton(x) if k == steps else self._newton(x, PATH_CLOSURE)
             if not np.all(np.isfinite(r)) or np.max(np.abs(r), initial=0.0) > 1e-3:
                 break  # lost on the way: reported below
         worst = int(np.argmax(np.abs(r))) if r.size else 0
@@ -259,23 +281,34 @@ class CouplingMap:
                 f"constraint; closed means {CLOSURE_TOL:g} m or rad): a pose the mechanism "
                 "cannot reach"
             )
-        return x
+        return x, H
 
-    def _closure_G(self, x: Array) -> Array:
-        """G at a closed pose: identity on the independent joints, -H_D^+ H_I on the dependent."""
-        _, H = self._rows(x)
+    def _tangent_at_rest(self) -> Array:
+        """dx_D/dq at rest (G's dependent rows there), computed once."""
+        if self._rest_tangent is None:
+            self._rest_tangent = self._closure_G(self.rest)[self.dependent]
+        return self._rest_tangent
+
+    def _closure_G(self, x: Array, H: Array | None = None) -> Array:
+        """G at a closed pose: identity on the independent joints, -H_D^+ H_I on the dependent.
+
+        ``H``: the rows' Jacobian at ``x``, when the solve that closed it has it.
+        """
+        if H is None:
+            _, H = self._rows(x)
         G = np.zeros((self.nx, self.nq))
         G[self.independent, np.arange(self.nq)] = 1.0
         D = self.dependent
         HD = H[:, D]
-        if np.linalg.matrix_rank(HD) < len(D):
+        solved, _, rank, _ = np.linalg.lstsq(HD, H[:, self.independent], rcond=None)
+        if rank < len(D):
             names = self.closure.row_names  # type: ignore[union-attr]
             raise PoseError(
                 f"the loop closed by equality {names[0]!r} is singular at this pose: its "
                 "dependent joints are not determined by the arm's (a dead point of the "
                 "mechanism)"
             )
-        G[D] = -np.linalg.lstsq(HD, H[:, self.independent], rcond=None)[0]
+        G[D] = -solved
         return G
 
     def _closure_rate(self, c: Coupled, xdot: Array) -> Array:
@@ -356,6 +389,12 @@ def _least_squares(A: Array, b: Array) -> Array:
     condition below about 1e6); by the SVD (`numpy.linalg.lstsq`) otherwise. The solve's
     rounding only changes the path: every solve is judged by the residual it reaches.
     """
+    k = A.shape[1]
+    if k <= _SMALL:  # a few dependent joints: the factor in Python floats (no LAPACK call)
+        x = _cholesky_solve_small((A.T @ A).tolist(), (A.T @ b).tolist(), k)
+        if x is not None:
+            return np.array(x)
+        return np.linalg.lstsq(A, b, rcond=None)[0]
     try:
         L = np.linalg.cholesky(A.T @ A)
     except np.linalg.LinAlgError:
@@ -364,3 +403,35 @@ def _least_squares(A: Array, b: Array) -> Array:
     if not diag.min() > 1e-6 * diag.max():  # also False for NaN
         return np.linalg.lstsq(A, b, rcond=None)[0]
     return np.linalg.solve(L.T, np.linalg.solve(L, A.T @ b))
+
+
+#: Up to this many dependent joints, `_least_squares` factors in Python floats.
+_SMALL = 6
+
+
+def _cholesky_solve_small(N: list[list[float]], c: list[float], k: int) -> list[float] | None:
+    """N x = c for a small symmetric N by its Cholesky factor, in Python floats.
+
+    None where the factor's diagonal falls below 1e-6 of its largest (ill conditioned), or
+    N is not positive definite, or has a NaN: the caller then takes the SVD.
+    """
+    L = [[0.0] * k for _ in range(k)]
+    for i in range(k):
+        for j in range(i + 1):
+            t = N[i][j] - sum(L[i][m] * L[j][m] for m in range(j))
+            if i == j:
+                if not t > 0.0:
+                    return None
+                L[i][i] = math.sqrt(t)
+            else:
+                L[i][j] = t / L[j][j]
+    d = [L[i][i] for i in range(k)]
+    if not min(d) > 1e-6 * max(d):
+        return None
+    y = [0.0] * k
+    for i in range(k):
+        y[i] = (c[i] - sum(L[i][m] * y[m] for m in range(i))) / L[i][i]
+    x = [0.0] * k
+    for i in reversed(range(k)):
+        x[i] = (y[i] - sum(L[m][i] * x[m] for m in range(i + 1, k))) / L[i][i]
+    return x
