@@ -6,7 +6,8 @@ float, its pose index), unpruned sweep included; ``--check DIR`` computes them a
 them with the saved ones character for character, so a closest approach that moved by one ulp is
 a difference. Run ``--save`` on the old code, ``--check`` on the new.
 
-Usage: ``python scripts/ab_audit.py --save /tmp/ab`` then ``python scripts/ab_audit.py --check /tmp/ab``
+Usage: ``python scripts/ab_audit.py --save /tmp/ab``, then on the new code
+``python scripts/ab_audit.py --check /tmp/ab``
 """
 
 from __future__ import annotations
