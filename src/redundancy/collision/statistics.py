@@ -413,6 +413,22 @@ class _Sweep:
         near = ~(boxes > limit)
         lower[near] = np.fmax(boxes[near], own(near))
         far = lower > limit
+        # A second seed: each pair still to measure at the pose of its smallest bound, first
+        # (the bound of the separating axis is far tighter than the spheres' that chose the
+        # first seed). The best distance it finds (a measured one) rules out more of the rest.
+        keep = np.flatnonzero(~far)
+        if len(keep):
+            order = keep[np.lexsort((lower[keep], cols[keep]))]
+            first = order[np.r_[True, cols[order][1:] != cols[order][:-1]]]
+            again = np.zeros(listed.shape, dtype=bool)
+            again[rows[first], cols[first]] = True
+            self._evaluate(Q, D, apart, again)
+            todo &= ~again
+            best = np.minimum(best, D.min(axis=0))
+            ceiling = np.maximum(best, self.floor)
+            limit = np.where(on_list, np.where(self.epa[cols], best[cols], np.inf), ceiling[cols])
+            far = lower > limit
+            far[first] = False
         todo[rows[far], cols[far]] = False
         # Those listed pairs start with their bound in D, kept if the engine finds them
         # within their threshold plus the band (see _evaluate).
