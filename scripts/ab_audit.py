@@ -40,7 +40,8 @@ def load(file: str, tool: str) -> rd.Arm:
 
 def documents(arm: rd.Arm, n: int) -> dict[str, str]:
     """The audit's JSON and the sweeps' per-pair statistics (pruned, unpruned), as text."""
-    out = {"audit": audit(arm, n_poses=n).to_json()}
+    # The model's path is where the package is installed: the same file reads the same.
+    out = {"audit": audit(arm, n_poses=n).to_json().replace(str(arm.source), "<model>")}
     for prune in (True, False):
         stats = collision_statistics(arm, n_poses=n, seed=0, prune=prune, keyframes=False)
         rows = [
