@@ -16,7 +16,7 @@ from ..checks import check_choice, check_count, check_flag, check_poses
 from ..display import Report, Table, plural, table
 from .checker import CollisionChecker, PairDistance, checker
 from .coal_scene import CoalScene
-from .mujoco_scene import MujocoScene
+from .mujoco_scene import Index, MujocoScene
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
 from .shapes import Support, bounding_box, bounding_radius
 
@@ -351,17 +351,28 @@ class _Sweep:
         # The pruning bounds' inputs, read only by a pruned sweep with distances: geom
         # origins and rotations (row-major), one coordinate per plane.
         pruned = self.prune and self.scene is not None and npair > 0
-        X = np.zeros((3, len(Q), len(self.used)))
-        R = np.zeros((9, len(Q), len(self.used)))
+        # Every geom's pose copied whole per pose (a plain copy), the used ones gathered and
+        # laid out once per chunk; the contacts' pair indices counted once per chunk too.
+        ngeom = self.mj.model.ngeom if pruned else 0
+        xpos, xmat = np.empty((len(Q), ngeom, 3)), np.empty((len(Q), ngeom, 9))
+        data = self.mj.data
+        found: list[Index] = []
         for i, q in enumerate(Q):
             idx, _ = self.mj.collide(q)
             if pruned:
-                X[:, i] = self.mj.data.geom_xpos[self.used].T
-                R[:, i] = self.mj.data.geom_xmat[self.used].T
+                xpos[i] = data.geom_xpos
+                xmat[i] = data.geom_xmat
             if len(idx):
                 self.with_contact += 1
-                np.add.at(self.contact_hits, idx, 1)
+                found.append(idx)
                 listed[i, idx] = True
+        if found:
+            np.add.at(self.contact_hits, np.concatenate(found), 1)
+        if pruned:
+            X = np.ascontiguousarray(np.take(xpos, self.used, axis=1).transpose(2, 0, 1))
+            R = np.ascontiguousarray(np.take(xmat, self.used, axis=1).transpose(2, 0, 1))
+        else:
+            X, R = np.zeros((3, len(Q), 0)), np.zeros((9, len(Q), 0))
         self.pose_hits += listed.sum(axis=0)
         if self.scene is not None and npair:
             D = self._measure(Q, X, R, listed) if self.prune else self._measure_all(Q)
@@ -499,7 +510,7 @@ class _Sweep:
                 cut = np.flatnonzero(np.diff(g[order])) + 1
                 for at in np.split(order, cut):
                     if len(at):
-                        h[at] += self.support[int(g[at[0]])](v[:, at])
+                        h[at] += self.support[int(g[at[0]])].upper(v[:, at])
             with np.errstate(invalid="ignore"):
                 return gap[mask] - h - PRUNE_SLACK
 
@@ -530,7 +541,7 @@ class _Sweep:
         cut = np.flatnonzero(np.diff(g2[order])) + 1
         for grp in np.split(order, cut):
             if len(grp):
-                h[grp] += self.support[int(g2[grp[0]])](v2[:, grp])
+                h[grp] += self.support[int(g2[grp[0]])].upper(v2[:, grp])
         return gap - h - PRUNE_SLACK
 
     def _learn(self, learnt: list[NDArray[np.int_]]) -> None:
@@ -545,7 +556,7 @@ class _Sweep:
         a = self.axis[k].T
         for grp in np.split(order, cut):
             if len(grp):
-                h[grp] = self.support[int(g1[grp[0]])](a[:, grp])
+                h[grp] = self.support[int(g1[grp[0]])].upper(a[:, grp])
         self.axis_h1[k] = h
 
     def _evaluate(
