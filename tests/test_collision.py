@@ -1761,3 +1761,67 @@ def test_pruned_sweep_equals_the_exhaustive_one_to_the_bit_on_a_humanoid() -> No
     slow = col.collision_statistics(arm, poses=Q, prune=False, keyframes=False)
     same_statistics(fast, slow)
     assert fast.poses_with_contact > 0
+
+
+def test_float32_support_bounds_the_exact_one_from_above(meshes: rd.Arm) -> None:
+    """`Support.upper` (float32 projections plus their error bound) is never below the exact
+    support function, and within 1e-6 m of it, on every geom and on hulls scaled up ten times
+    (a larger error bound) and down (points near the origin)."""
+    m = meshes.mj_model
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(3, 5000))
+    v /= np.linalg.norm(v, axis=0)
+    hulls = 0
+    for g in range(m.ngeom):
+        sup = col.shapes.Support(m, g)
+        if col.shapes.geom_type_name(m, g) == "plane":
+            continue
+        for scale in (1.0, 10.0, 0.01) if sup.points is not None else (1.0,):
+            if sup.points is not None:
+                pts = (sup.points * scale).astype(np.float32).astype(float)
+                sup.points, sup._points_t = pts, np.ascontiguousarray(pts.T)
+                sup._points_32 = sup._points_t.astype(np.float32)
+                sup._err_32 = 2.0**-21 * float(np.abs(pts).sum(axis=1).max())
+                hulls += 1
+            exact, upper = sup(v), sup.upper(v)
+            assert np.all(upper >= exact), (g, scale)
+            assert np.all(upper - exact <= 1e-6 * max(scale, 1.0)), (g, scale)
+    assert hulls >= 3
+
+
+def test_learnt_axis_bounds_stay_below_coals_distances_on_a_humanoid() -> None:
+    """The bound along the axis a pair learns from coal's normal at one pose, taken at other
+    poses, never exceeds coal's distance there (any axis bounds the distance; a wrong frame or
+    an axis not of unit length would not), is tight (within the slack) where it was learnt,
+    and the sweep that uses it equals the exhaustive one."""
+    from .test_robot import erd_robots
+
+    path = erd_robots() / "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf"
+    arm = rd.load(path, frame="left_hand_palm_link")
+    ch = col.checker(arm)
+    sweep = col.statistics._Sweep(ch, "coal", True)
+    Q = col.random_poses(arm, 40, seed=8)
+    mj, scene = ch.mujoco_scene(), ch.coal_scene()
+    X = np.zeros((3, len(Q), len(sweep.used)))
+    R = np.zeros((9, len(Q), len(sweep.used)))
+    for i, q in enumerate(Q):
+        mj.place(q)
+        X[:, i] = mj.data.geom_xpos[sweep.used].T
+        R[:, i] = mj.data.geom_xmat[sweep.used].T
+    npair = len(ch.pairs)
+    learn_at = np.zeros((len(Q), npair), dtype=bool)
+    learn_at[np.arange(npair) % len(Q), np.arange(npair)] = True  # each pair at one pose
+    D = np.full((len(Q), npair), np.inf)
+    sweep._evaluate(Q, D, np.zeros(D.shape), learn_at, learn=R)
+    assert not np.isnan(sweep.axis_h1).any()
+    rows, cols = np.nonzero(learn_at)
+    there = sweep._witness_bound(X, R, rows, cols)
+    gap = D[rows, cols] - there
+    assert np.all(gap >= 0) and np.median(gap) < 2 * col.statistics.PRUNE_SLACK
+    rows, cols = np.nonzero(np.ones((len(Q), npair), dtype=bool))
+    bound = sweep._witness_bound(X, R, rows, cols)
+    exact = np.array([scene.distance_values(q) for q in Q])
+    assert np.all(bound <= exact[rows, cols])
+    fast = col.collision_statistics(arm, poses=Q, keyframes=False)
+    slow = col.collision_statistics(arm, poses=Q, prune=False, keyframes=False)
+    same_statistics(fast, slow)

@@ -342,6 +342,24 @@ class CoalScene:
         )
         return self._redo_failures(out, which)
 
+    def placed_normals(self, which: Index) -> Array:
+        """Unit normals of the last distances of the pairs in ``which``, shape (len, 3).
+
+        World frame, from each pair's ``geom1`` to its ``geom2`` as coal reports them (for a
+        separated pair the direction between the nearest points, for an overlap the direction
+        of least penetration); NaN where the distance was redone after an EPA failure.
+        """
+        res, swapped, retried = self._results, self.shared.swapped, self._retried
+        out = np.empty((len(which), 3))
+        for n, k in enumerate(which.tolist()):
+            if k in retried:
+                out[n] = np.nan
+                continue
+            out[n] = res[k].normal
+            if swapped[k]:
+                out[n] *= -1.0
+        return out
+
     def placed_within(self, which: Index, limits: Array) -> NDArray[np.bool_]:
         """Whether each pair in ``which`` is nearer than its limit at the pose last placed.
 

@@ -101,21 +101,24 @@ class MujocoScene:
 
     def collide(self, q: Array) -> tuple[Index, Array]:
         """Run MuJoCo's collision pipeline at ``q``; (pair index, distance) per contact."""
-        self.place(q)
+        m, d = self.model, self.data
+        d.qpos[:] = q  # `place`, inline: this runs once per pose of every sweep
+        mujoco.mj_kinematics(m, d)
         # mj_collision: broad phase, the pair filters and narrow phase, as in mj_forward.
-        mujoco.mj_collision(self.model, self.data)
-        n = self.data.ncon
+        mujoco.mj_collision(m, d)
+        n = d.ncon
         if n == 0:
             return np.zeros(0, dtype=int), np.zeros(0)
-        geoms = self.data.contact.geom[:n]
+        contact = d.contact  # one view of the contact list (each access builds one)
+        geoms = contact.geom[:n]
         idx = self.shared.index[geoms[:, 0], geoms[:, 1]]
-        if (idx < 0).any() or (geoms < 0).any():
+        if idx.min() < 0 or geoms.min() < 0:
             bad = geoms[np.flatnonzero((idx < 0) | (geoms < 0).any(axis=1))[0]]
             raise RedundancyError(
                 f"MuJoCo listed a contact between geoms {bad.tolist()}, which is not in the pair "
                 "set built from its filtering rules; please report this model"
             )
-        return idx, self.data.contact.dist[:n].copy()
+        return idx, contact.dist[:n].copy()
 
     def contacts(self, q: Array) -> tuple[Contact, ...]:
         """MuJoCo's contact list at ``q``, normals from each pair's ``geom1`` to ``geom2``."""

@@ -16,7 +16,7 @@ from ..checks import check_choice, check_count, check_flag, check_poses
 from ..display import Report, Table, plural, table
 from .checker import CollisionChecker, PairDistance, checker
 from .coal_scene import CoalScene
-from .mujoco_scene import MujocoScene
+from .mujoco_scene import Index, MujocoScene
 from .pairs import AMBIGUITY_BAND, DISTANCE_ENGINES, Array, DistanceEngine, GeomPair, find_pair
 from .shapes import Support, bounding_box, bounding_radius
 
@@ -338,6 +338,11 @@ class _Sweep:
         self.box_centre = np.array([b[0] for b in boxes]).reshape(-1, 3)
         self.box_half = np.array([b[1] for b in boxes]).reshape(-1, 3)
         self.support = [Support(model, g) for g in used]
+        # Per pair, a separating axis learnt from the engine (coal's normal at the pair's
+        # last seed, in geom1's frame: it turns with geom1) and geom1's support along it;
+        # NaN until the pair is measured (see `_witness_bound`).
+        self.axis = np.full((npair, 3), np.nan)
+        self.axis_h1 = np.full(npair, np.nan)
 
     def run(self, Q: Array) -> None:
         """Sweep one chunk of poses."""
@@ -346,17 +351,28 @@ class _Sweep:
         # The pruning bounds' inputs, read only by a pruned sweep with distances: geom
         # origins and rotations (row-major), one coordinate per plane.
         pruned = self.prune and self.scene is not None and npair > 0
-        X = np.zeros((3, len(Q), len(self.used)))
-        R = np.zeros((9, len(Q), len(self.used)))
+        # Every geom's pose copied whole per pose (a plain copy), the used ones gathered and
+        # laid out once per chunk; the contacts' pair indices counted once per chunk too.
+        ngeom = self.mj.model.ngeom if pruned else 0
+        xpos, xmat = np.empty((len(Q), ngeom, 3)), np.empty((len(Q), ngeom, 9))
+        data = self.mj.data
+        found: list[Index] = []
         for i, q in enumerate(Q):
             idx, _ = self.mj.collide(q)
             if pruned:
-                X[:, i] = self.mj.data.geom_xpos[self.used].T
-                R[:, i] = self.mj.data.geom_xmat[self.used].T
+                xpos[i] = data.geom_xpos
+                xmat[i] = data.geom_xmat
             if len(idx):
                 self.with_contact += 1
-                np.add.at(self.contact_hits, idx, 1)
+                found.append(idx)
                 listed[i, idx] = True
+        if found:
+            np.add.at(self.contact_hits, np.concatenate(found), 1)
+        if pruned:
+            X = np.ascontiguousarray(np.take(xpos, self.used, axis=1).transpose(2, 0, 1))
+            R = np.ascontiguousarray(np.take(xmat, self.used, axis=1).transpose(2, 0, 1))
+        else:
+            X, R = np.zeros((3, len(Q), 0)), np.zeros((9, len(Q), 0))
         self.pose_hits += listed.sum(axis=0)
         if self.scene is not None and npair:
             D = self._measure(Q, X, R, listed) if self.prune else self._measure_all(Q)
@@ -392,7 +408,7 @@ class _Sweep:
         worth = bound[at, cols] <= np.maximum(self.closest, self.floor)
         seeds = np.zeros(listed.shape, dtype=bool)
         seeds[at[worth], cols[worth]] = True
-        self._evaluate(Q, D, apart, seeds)
+        self._evaluate(Q, D, apart, seeds, learn=R)
         # The chunk's smallest distance per pair is at most the seed's: a pair whose bound
         # exceeds that (and its threshold, and zero) at a pose cannot matter there.
         best = np.minimum(self.closest, D.min(axis=0))
@@ -412,7 +428,28 @@ class _Sweep:
         limit = np.where(on_list, np.where(self.epa[cols], best[cols], np.inf), ceiling[cols])
         near = ~(boxes > limit)
         lower[near] = np.fmax(boxes[near], own(near))
+        # A listed pair of hulls left to measure would cost coal's EPA (tens of us): first
+        # the bound along the pair's learnt axis (one support function, the tighter bound
+        # near the pose it was learnt at), which can leave only its side to test.
+        near = ~(lower > limit) & on_list & self.epa[cols] & ~np.isnan(self.axis_h1[cols])
+        lower[near] = np.fmax(lower[near], self._witness_bound(X, R, rows[near], cols[near]))
         far = lower > limit
+        # A second seed: each pair still to measure at the pose of its smallest bound, first
+        # (the bound of the separating axis is far tighter than the spheres' that chose the
+        # first seed). The best distance it finds (a measured one) rules out more of the rest.
+        keep = np.flatnonzero(~far)
+        if len(keep):
+            order = keep[np.lexsort((lower[keep], cols[keep]))]
+            first = order[np.r_[True, cols[order][1:] != cols[order][:-1]]]
+            again = np.zeros(listed.shape, dtype=bool)
+            again[rows[first], cols[first]] = True
+            self._evaluate(Q, D, apart, again)
+            todo &= ~again
+            best = np.minimum(best, D.min(axis=0))
+            ceiling = np.maximum(best, self.floor)
+            limit = np.where(on_list, np.where(self.epa[cols], best[cols], np.inf), ceiling[cols])
+            far = lower > limit
+            far[first] = False
         todo[rows[far], cols[far]] = False
         # Those listed pairs start with their bound in D, kept if the engine finds them
         # within their threshold plus the band (see _evaluate).
@@ -473,11 +510,54 @@ class _Sweep:
                 cut = np.flatnonzero(np.diff(g[order])) + 1
                 for at in np.split(order, cut):
                     if len(at):
-                        h[at] += self.support[int(g[at[0]])](v[:, at])
+                        h[at] += self.support[int(g[at[0]])].upper(v[:, at])
             with np.errstate(invalid="ignore"):
                 return gap[mask] - h - PRUNE_SLACK
 
         return boxes, own
+
+    def _witness_bound(
+        self, X: Array, R: Array, rows: NDArray[np.int_], cols: NDArray[np.int_]
+    ) -> Array:
+        """Lower bounds of pairs ``cols`` at poses ``rows`` along their learnt axes [m].
+
+        The axis a turns with the first geom: u = R1 a in the world, so the first geom's
+        support along it is the constant ``h1(a)``; the bound is ``u . (o2 - o1) - h1(a) -
+        h2(-R2^T u)``, less `PRUNE_SLACK`, as in `_axis_bound` (any unit vector gives one).
+        Near the pose the axis was learnt at, it is close to the distance itself.
+        """
+        g1, g2 = self.c1[cols], self.c2[cols]
+        at1, at2 = rows * X.shape[2] + g1, rows * X.shape[2] + g2
+        flat_x, flat_r = X.reshape(3, -1), R.reshape(9, -1)
+        o1, r1 = np.take(flat_x, at1, axis=1), np.take(flat_r, at1, axis=1)
+        o2, r2 = np.take(flat_x, at2, axis=1), np.take(flat_r, at2, axis=1)
+        a = self.axis[cols].T
+        u = np.array([sum(r1[3 * i + j] * a[j] for j in range(3)) for i in range(3)])  # R1 a
+        u /= np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+        gap = u[0] * (o2[0] - o1[0]) + u[1] * (o2[1] - o1[1]) + u[2] * (o2[2] - o1[2])
+        v2 = -np.array([u[0] * r2[i] + u[1] * r2[3 + i] + u[2] * r2[6 + i] for i in range(3)])
+        h = self.axis_h1[cols].copy()
+        order = np.argsort(g2, kind="stable")
+        cut = np.flatnonzero(np.diff(g2[order])) + 1
+        for grp in np.split(order, cut):
+            if len(grp):
+                h[grp] += self.support[int(g2[grp[0]])].upper(v2[:, grp])
+        return gap - h - PRUNE_SLACK
+
+    def _learn(self, learnt: list[NDArray[np.int_]]) -> None:
+        """Geom1's support along the axes just learnt by pairs ``learnt`` (see `_evaluate`)."""
+        if not learnt:
+            return
+        k = np.concatenate(learnt)
+        g1 = self.c1[k]
+        h = np.full(len(k), np.nan)
+        order = np.argsort(g1, kind="stable")
+        cut = np.flatnonzero(np.diff(g1[order])) + 1
+        a = self.axis[k].T
+        for grp in np.split(order, cut):
+            if len(grp):
+                h[grp] = self.support[int(g1[grp[0]])].upper(a[:, grp])
+        self.axis_h1[k] = h
 
     def _evaluate(
         self,
@@ -486,6 +566,7 @@ class _Sweep:
         apart: Array,
         todo: NDArray[np.bool_],
         side: NDArray[np.bool_] | None = None,
+        learn: Array | None = None,
     ) -> None:
         """Fill ``D`` pose by pose where ``todo`` or ``side`` holds.
 
@@ -505,6 +586,7 @@ class _Sweep:
         edges = np.flatnonzero(np.diff(rows)) + 1
         starts = np.concatenate(([0], edges))
         ends = np.concatenate((edges, [len(rows)]))
+        learnt: list[NDArray[np.int_]] = []
         for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
             i, which = int(rows[a]), cols[a:b]
             scene.place(Q[i])
@@ -517,6 +599,15 @@ class _Sweep:
                     which = np.concatenate((which[~check], pick[~inside]))
             if len(which):
                 D[i, which] = scene.placed_values(which, apart[i, which])
+                if learn is not None and isinstance(scene, CoalScene):
+                    # coal's normals, turned into geom1's frame: a_j = sum_i R1[i, j] n_i.
+                    n = scene.placed_normals(which).T
+                    r1 = learn[:, i, self.c1[which]]
+                    axis = np.array([sum(r1[3 * i + j] * n[i] for i in range(3)) for j in range(3)])
+                    axis /= np.sqrt((axis * axis).sum(axis=0))
+                    self.axis[which] = axis.T
+                    learnt.append(which)
+        self._learn(learnt)
 
     def _fold(self, D: Array, listed: NDArray[np.bool_]) -> None:
         """Fold a chunk's distances (``inf`` where skipped) into the running results."""
