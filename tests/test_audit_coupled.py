@@ -220,3 +220,18 @@ def test_a_huge_damping_on_a_joint_says_how_to_hold_it():
         "overflow; a joint the arm should not move is held by starting the arm below it "
         "(base=BODY, --base BODY)"
     )
+
+
+def test_a_keyframe_where_the_loop_cannot_close_is_a_finding_not_a_failure():
+    from .test_loops import TRIPLE_ROCKER
+
+    keys = '<keyframe><key name="far" qpos="3.0 0 0"/><key name="near" qpos="0.3 0 0"/></keyframe>'
+    arm = rd.load_string(TRIPLE_ROCKER.xml.replace("</mujoco>", keys + "</mujoco>"), frame="tip")
+    with pytest.raises(rd.PoseError, match="equality 'loop'"):
+        arm.chain_pose(arm.keyframe("far"))  # at a crank of 3 rad the loop cannot close
+    r = audit(arm, n_poses=20)
+    (f,) = [f for f in r.findings if f.rule == "keyframe-loop-open"]
+    assert f.element == "far" and "crank 3" in f.message
+    assert [k.name for k in r.sections.keyframes] == ["near"]
+    assert [k.keyframe for k in r.sections.contacts.keyframes] == ["near"]
+    assert r.sections.joints.keyframe == "near"

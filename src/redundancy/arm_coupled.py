@@ -53,6 +53,28 @@ class _Coupled:
             return np.eye(self.nq)
         return self.coupling.at(q, q.tolist()).G.copy()
 
+    def _closes(self, q: Array) -> bool:
+        """Whether the arm's loops close at its pose ``q`` (always, without loops)."""
+        if self.coupling is None or self.coupling.closure is None:
+            return True
+        try:
+            self.chain_pose(q)
+        except PoseError:
+            return False
+        return True
+
+    def _reachable_keyframes(self) -> tuple[str, ...]:
+        """The keyframes at which the arm's loops close (every one, without loops), in order.
+
+        A keyframe that moves held joints is tried on the arm at it (`at_keyframe`).
+        """
+        arm: Any = self
+        return tuple(
+            k
+            for k in arm.keyframe_names
+            if arm.at_keyframe(k)._closes(arm.at_keyframe(k).keyframe(k))
+        )
+
     def _chain_stack(self, Q: Array) -> tuple[Array, Array]:
         """Chain poses X (n, nx) and G (n, nx, nq) of a stack of the arm's poses ``Q``.
 

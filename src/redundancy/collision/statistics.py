@@ -633,7 +633,7 @@ def keyframe_clearance(arm: Arm, engine: DistanceEngine = "coal") -> tuple[Keyfr
     """
     checker(arm)  # the arm checked, its checker built
     out = []
-    for name in arm.keyframe_names:
+    for name in arm._reachable_keyframes():  # a loop open there: no pose to measure
         at = arm.at_keyframe(name)
         ch, q = checker(at), at.keyframe(name)
         out.append(

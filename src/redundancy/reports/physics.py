@@ -55,6 +55,16 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
                 name,
             )
     for key, q in keyframes.items():
+        if not arm._closes(q):
+            yield Raised(
+                "keyframe-loop-open",
+                f"keyframe {key!r} puts the arm's joints where its loop cannot close "
+                f"({_values(arm, q)}): a pose the mechanism cannot reach (left out of the "
+                "keyframe sections)",
+                "key",
+                key,
+            )
+            continue
         x, moved = joints.pose(q)
         for i, name in enumerate(joints.names):
             out = _outside(float(x[i]), joints, i)
@@ -65,6 +75,10 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
                     "key",
                     key,
                 )
+
+
+def _values(arm: Arm, q: np.ndarray) -> str:
+    return ", ".join(f"{n} {v:.6g}" for n, v in zip(arm.joint_names, q, strict=True))
 
 
 class _Joints:

@@ -31,7 +31,8 @@ def reference_keyframe(arm: Arm) -> tuple[str | None, Array]:
         The keyframe's name (``None`` for the model's reference pose qpos0) and its pose.
     """
     keys = arm.keyframes
-    name = "home" if "home" in keys else next(iter(keys), None)
+    reachable = arm._reachable_keyframes()  # a loop that cannot close there: not a reference
+    name = "home" if "home" in reachable else next(iter(reachable), None)
     if name is None:
         return None, arm._of_chain(arm.mj_model.qpos0)
     return name, keys[name]
@@ -353,11 +354,12 @@ def keyframes(arm: Arm, names: tuple[str, ...] | None = None) -> tuple[KeyframeR
     """Singular values and holding torque at each keyframe (all by default).
 
     A keyframe that moves held joints is computed on the arm at it
-    (`at_keyframe`): the robot's real pose under the keyframe's name.
+    (`at_keyframe`): the robot's real pose under the keyframe's name. By default a keyframe
+    where the arm's loops cannot close is left out (`keyframe-loop-open` names it).
     """
     rows = []
     loads = {id(arm): ActuatorLoad(arm)}
-    for name in names if names is not None else arm.keyframe_names:
+    for name in names if names is not None else arm._reachable_keyframes():
         at = arm.at_keyframe(name)
         load = loads.setdefault(id(at), ActuatorLoad(at))
         q = at.keyframe(name)

@@ -78,6 +78,8 @@ _CATALOGUE = (
     # -- keyframes --------------------------------------------------------------------------------
     Rule("keyframe-out-of-range", "error", "keyframe",
          "A keyframe puts a joint outside its range."),
+    Rule("keyframe-loop-open", "error", "keyframe",
+         "A keyframe puts a coupled arm where its loop cannot close."),
     Rule("keyframe-singular", "warning", "keyframe",
          "A keyframe is a singular pose of the tool (sigma_min below 1e-3)."),
     Rule("keyframe-self-contact", "error", "keyframe",
