@@ -673,3 +673,33 @@ def test_report_site_is_a_deprecated_name_of_frame(arm7) -> None:
         DeprecationWarning, match=r"^AuditReport.site is deprecated: use AuditReport.frame$"
     ):
         assert report.site == "ee"
+
+
+#: Joint pos in a default class: a difference Pinocchio's MJCF parser makes (the strict load
+#: bridges it); a lenient load keeps it, and the engines' geoms sit apart.
+LENIENT_MJCF = """<mujoco model="len"><compiler angle="radian"/>
+<default><default class="c"><joint pos="0 0 0.05" axis="0 1 0"/></default></default>
+<worldbody>
+<body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1" range="-2 2"/>
+ <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.04" mass="2"/>
+ <body name="l2" pos="0 0 0.3" childclass="c"><joint name="j2" range="-1.5 1.5"/>
+  <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1.5"/>
+  <body name="l3" pos="0.3 0 0"><joint name="j3" range="-2 2"/>
+   <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.03" mass="1"/>
+   <site name="tool" pos="0.25 0 0"/>
+  </body></body></body>
+</worldbody></mujoco>"""
+
+
+def test_a_lenient_audit_whose_engines_place_the_geoms_apart_skips_the_sweep_with_a_note():
+    from redundancy.reports.audit import audit
+
+    arm = rd.load_string(LENIENT_MJCF, frame="tool", strict=False)
+    with pytest.raises(rd.ModelError, match="place the collision geoms differently"):
+        rd.collision.checker(arm)
+    r = audit(arm, n_poses=20, mode="lenient")
+    assert r.sections.contacts is None
+    (note,) = [n for n in r.notes if n.rule == "collision-engines-differ"]
+    assert note.message.startswith("skipped the self-collision sweep: Pinocchio and MuJoCo place")
+    assert any(f.rule == "engines-models-differ" for f in r.findings)
+    assert r.exit_code == 1

@@ -235,3 +235,22 @@ def test_a_keyframe_where_the_loop_cannot_close_is_a_finding_not_a_failure():
     assert [k.name for k in r.sections.keyframes] == ["near"]
     assert [k.keyframe for k in r.sections.contacts.keyframes] == ["near"]
     assert r.sections.joints.keyframe == "near"
+
+
+def test_compare_of_coupled_files_compares_every_joint_and_the_couplings(tmp_path):
+    same = rd.compare(GRIPPER, GRIPPER, frame_a="right_pad", frame_b="right_pad")
+    assert same.verdict == "same robot" and same.n_poses > 0
+    # The follower link 5 mm longer in B: its joint's anchor differs, a follower included.
+    longer = POLY_MJCF.replace('<body name="l5" pos="0.1 0 0">', '<body name="l5" pos="0.105 0 0">')
+    assert longer != POLY_MJCF
+    a, b = tmp_path / "a.xml", tmp_path / "b.xml"
+    a.write_text(POLY_MJCF)
+    b.write_text(longer)
+    diff = rd.compare(a, b, frame_a="tool", frame_b="tool")
+    assert diff.verdict == "different"
+    assert any("j5" in d.where for d in diff.differences), diff.differences
+    # Another polynomial for j3: the coupling row names it.
+    other = POLY_MJCF.replace('polycoef="0.05 0.8 0.3 0 0"', 'polycoef="0.05 0.8 0.31 0 0"')
+    b.write_text(other)
+    coupling = rd.compare(a, b, frame_a="tool", frame_b="tool")
+    assert [d.where for d in coupling.differences if d.quantity == "coupling"] == ["joint 'j3'"]

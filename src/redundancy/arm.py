@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import ik, linalg, objectives
-from .arm_coupled import _Coupled, coupled_poses
+from .arm_coupled import ChainView, _Coupled, coupled_poses
 from .arm_engines import _Engines
 from .arm_keyframes import _Keyframes
 from .arm_mass import _ToolMass
@@ -521,7 +521,8 @@ def sampling_ranges(
         PoseError: An unlimited slide joint and no ``unlimited_slide`` (no range to draw from).
         ParameterError: Not an Arm, or a half-width not a finite number > 0.
     """
-    arm = check_arm(arm)
+    if not isinstance(arm, ChainView):  # a coupled arm's chain, compared as an open one
+        arm = check_arm(arm)
     unlimited = check_number("unlimited", unlimited, 0.0, low_open=True, unit="rad")
     if unlimited_slide is not None:
         unlimited_slide = check_number(

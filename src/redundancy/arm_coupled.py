@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .checks import check_pose
 from .engines.coupling import CouplingMap
-from .errors import PoseError
+from .errors import PoseError, UnknownNameError
 
 Array = NDArray[np.float64]
 
@@ -142,6 +142,36 @@ class ChainView:
     def pose(self, x: ArrayLike) -> Array:
         """A checked chain pose [rad or m]."""
         return check_pose(x, self.joint_names)
+
+    def joint_index(self, name: str) -> int:
+        """Index of chain joint ``name``."""
+        if name not in self.joint_names:
+            raise UnknownNameError("joint", name, self.joint_names)
+        return self.joint_names.index(name)
+
+    @property
+    def keyframes(self) -> dict[str, Array]:
+        """The keyframes at which the arm's loops close, as chain poses [rad or m]."""
+        arm = self._arm
+        return {k: arm.chain_pose(arm.keyframes[k]) for k in arm._reachable_keyframes()}
+
+    @property
+    def keyframe_names(self) -> tuple[str, ...]:
+        """Names of `keyframes`, in file order."""
+        return tuple(self.keyframes)
+
+    def keyframe(self, name: str) -> Array:
+        """One of `keyframes` [rad or m]."""
+        return self.keyframes[name]
+
+    def _reachable_keyframes(self) -> tuple[str, ...]:
+        return self.keyframe_names
+
+    def _closes(self, x: Array) -> bool:
+        return True  # an open chain: its couplings are not applied in the view
+
+    def __repr__(self) -> str:
+        return f"ChainView({self._arm!r})"
 
 
 #: Draws per pose a coupled arm's sampling may take before it says its followers' ranges

@@ -58,6 +58,14 @@ class UnsupportedFeatureError(ModelError):
         super().__init__(f"unsupported feature: {feature} ({where}): {why}")
 
 
+class GeomPlacementError(ModelError):
+    """Pinocchio's collision geoms sit elsewhere than MuJoCo's: the engines see other bodies.
+
+    The collision checker's self-check at build; a lenient audit (whose engines' models may
+    differ) skips its self-collision sweep on it instead of stopping.
+    """
+
+
 class MissingInertiaError(ModelError):
     """A dynamic quantity of an arm whose model gives some moving links no inertia.
 

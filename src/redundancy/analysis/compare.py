@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arm import Arm
+from ..arm_coupled import ChainView
 from ..errors import ModelError
 from ..model.bridges import effective_gravity
 from ..model.equivalence import fit_rigid, parent_joint
@@ -133,6 +134,10 @@ def compare(
     arm_a = a if isinstance(a, Arm) else load(a, frame=frame_a)
     arm_b = b if isinstance(b, Arm) else load(b, frame=frame_b)
     fmt_a, fmt_b = model_format(arm_a), model_format(arm_b)
+    # Two files of one mechanism: with couplings, every joint it moves, the couplings
+    # themselves compared as functions (`coupling_findings`).
+    if arm_a.coupling is not None or arm_b.coupling is not None:
+        arm_a, arm_b = (ChainView(x) if x.coupling is not None else x for x in (arm_a, arm_b))
     pairs = match_joints(arm_a, arm_b, joint_map)
     return _Comparer(arm_a, arm_b, fmt_a, fmt_b, pairs, tol).run(n_poses, seed)
 

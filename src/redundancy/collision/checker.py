@@ -29,7 +29,7 @@ from ..arm import check_arm
 from ..caching import PerObject
 from ..checks import check_choice
 from ..engines.threads import PerThread
-from ..errors import MissingMeshError, ModelError, PoseError, UnsupportedFeatureError
+from ..errors import GeomPlacementError, MissingMeshError, PoseError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
 from .pairs import (
@@ -140,7 +140,8 @@ class CollisionChecker:
         MissingMeshError: The file names meshes found nowhere (``arm.missing_meshes``).
         UnsupportedFeatureError: Flex objects, height-field or SDF geoms in a pair, a flat
             mesh, or a geom on an unnamed body.
-        ModelError: Pinocchio's geom placements differ from MuJoCo's (self-check at build).
+        GeomPlacementError: Pinocchio's geom placements differ from MuJoCo's (self-check at
+            build; a ModelError).
     """
 
     #: Largest difference allowed between the engines' geom placements in the self-check.
@@ -173,7 +174,7 @@ class CollisionChecker:
         for q in _self_check_poses(arm):
             err = self.placement_error(q)
             if err > self.PLACEMENT_TOL:
-                raise ModelError(
+                raise GeomPlacementError(
                     f"Pinocchio and MuJoCo place the collision geoms differently at q = "
                     f"{np.round(q, 4).tolist()} (largest difference {err:.3g} in a position [m] "
                     "or a rotation-matrix entry); the engines do not see the same bodies"

@@ -40,6 +40,12 @@ def judge(
     data = read_source(arm.source)  # read once: the elements' lines and the URDF's limits
     judged = _Judged(Locations(arm.source, data))
     _judge_meshes(judged, arm)
+    if computed.collision_skipped:
+        judged.note(
+            "collision-engines-differ",
+            f"skipped the self-collision sweep: {computed.collision_skipped} (the model "
+            "equivalence's differences say where)",
+        )
     _judge_inertia(judged, arm, engines)
     _judge_joints(judged, computed.joints, urdf)
     _judge_simulation(judged, computed)

@@ -49,6 +49,8 @@ _CATALOGUE = (
          "A moving link has no inertial data: the sections that need M or gravity are skipped."),
     Rule("meshes-missing", "note", "meshes",
          "The file names meshes found nowhere: the self-collision sweep is skipped."),
+    Rule("collision-engines-differ", "note", "meshes",
+         "The engines place the collision geoms apart (a lenient load): the sweep is skipped."),
     # -- what the file's format cannot express ---------------------------------------------------
     Rule("urdf-no-armature", "note", "format",
          "URDF cannot express armature: the mass matrix has no rotor inertia."),

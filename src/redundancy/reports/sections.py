@@ -35,6 +35,7 @@ from ..collision import (
 )
 from ..collision.statistics import ContactShare
 from ..engines import REFERENCE
+from ..errors import GeomPlacementError
 from ..model import actuators
 from ..model.scales import arm_scales
 from .pose_sections import (
@@ -343,6 +344,8 @@ class Sections:
     gravity: GravityBudget | None  # None: the arm's links lack inertias (arm.missing_inertia)
     contacts: CollisionStatistics | None  # None: meshes found nowhere (arm.missing_meshes)
     touching: TouchingEverywhere | None = None
+    #: Why the self-collision sweep was skipped where it was not for missing meshes ("").
+    collision_skipped: str = ""
 
 
 def compute(
@@ -372,7 +375,10 @@ def compute(
     gravity = None if arm.missing_inertia else gravity_budget(arm, n_poses, seed, say)
     if arm.missing_meshes:  # collision would need them: the audit notes the sweep skipped
         return Sections(joint_section, keys, gravity, None)
-    collisions = contacts(arm, n_poses, seed, distances, say)
+    try:
+        collisions = contacts(arm, n_poses, seed, distances, say)
+    except GeomPlacementError as err:  # a lenient load: the engines' bodies differ
+        return Sections(joint_section, keys, gravity, None, None, str(err))
     touching = touching_everywhere(arm, collisions, seed)
     return Sections(joint_section, keys, gravity, collisions, touching)
 
