@@ -311,3 +311,27 @@ def test_an_unnamed_mjcf_with_includes_and_meshes_beside_it_has_drake(tmp_path):
     assert "drake" in arm.engines, arm.absent_engines
     report = rd.crosscheck(arm, rd.random_poses(arm, 20, seed=2))
     assert report.ok and "drake" in report.engines
+
+
+def test_an_mjcf_with_stl_meshes_has_drake_on_mujocos_compiled_model(tmp_path):
+    # Drake's MJCF parser reads .obj meshes only (drake 1.51) and refuses the file: Drake then
+    # reads MuJoCo's compiled model (no geoms, explicit inertials) and the bridge says why.
+    # A massless body (the handle) has no inertial there: Drake's own check would fail on it.
+    import trimesh
+
+    trimesh.creation.box((0.04, 0.04, 0.04)).export(tmp_path / "cube.stl")
+    (tmp_path / "arm.xml").write_text(
+        '<mujoco><asset><mesh name="cube" file="cube.stl"/></asset><worldbody>'
+        '<body name="handle" pos="0 0 1"/>'
+        '<body name="l1" pos="0 0 0.1"><joint name="j1" axis="0 0 1"/>'
+        '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>'
+        '<body name="l2" pos="0.3 0 0"><joint name="j2" axis="0 1 0"/>'
+        '<geom type="mesh" mesh="cube" mass="0.5"/><site name="tip" pos="0.1 0 0"/>'
+        "</body></body></worldbody></mujoco>"
+    )
+    arm = rd.load(tmp_path / "arm.xml", frame="tip")
+    assert "drake" in arm.engines, arm.absent_engines
+    (whole,) = [b for b in arm.drake_bridges if b.quantity == "whole model"]
+    assert whole.source.endswith("because Drake's MuJoCo parser reads .obj meshes only (cube.stl)")
+    report = rd.crosscheck(arm, rd.random_poses(arm, 30, seed=3))
+    assert report.ok and "drake" in report.engines

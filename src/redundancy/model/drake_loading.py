@@ -39,8 +39,10 @@ ball joint's as Drake's roll-pitch-yaw) and the engine reads the arm's rows and 
 from __future__ import annotations
 
 import importlib.util
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -77,13 +79,19 @@ def resolved_robot(full: mujoco.MjModel) -> str:
     from .resolved import resolved_mjcf
 
     roots = [b for b in range(1, full.nbody) if full.body_parentid[b] == 0]
-    if not roots:
-        return resolved_mjcf(full, 0)
-    whole = ET.fromstring(resolved_mjcf(full, roots[0]))
+    whole = ET.fromstring(resolved_mjcf(full, roots[0] if roots else 0))
     world = whole.find("worldbody")
     for r in roots[1:]:
         for body in ET.fromstring(resolved_mjcf(full, r)).find("worldbody") or ():  # type: ignore[union-attr]
             world.append(body)  # type: ignore[union-attr]
+    # A massless body's explicit zero inertial fails Drake's unit-inertia check (it divides
+    # by the mass); without one, Drake's body has mass 0 too (no geoms are written). A mass
+    # of 0 with a rotational inertia stays: Drake cannot hold it, and says so.
+    for body in whole.iter("body"):
+        for inertial in body.findall("inertial"):
+            zero = (float(v) == 0.0 for v in inertial.get("diaginertia", "0").split())
+            if float(inertial.get("mass", "0")) == 0.0 and all(zero):
+                body.remove(inertial)
     return ET.tostring(whole, encoding="unicode")
 
 
@@ -416,6 +424,24 @@ def build_drake(
     return engine, tuple(bridges), tuple(warnings)
 
 
+#: Drake's MJCF parser's refusal of a mesh file it cannot read (drake 1.51: .obj only).
+_OBJ_ONLY = "currently only supports mesh files in .obj format"
+
+
+def _whole_model(full: mujoco.MjModel, refusal: str) -> Bridge:
+    """The bridge of a Drake that reads MuJoCo's compiled model: which file Drake refused."""
+    mesh = re.search(r'meshfile "([^"]+)"', refusal)
+    named = f" ({Path(mesh.group(1)).name})" if mesh else ""
+    return Bridge(
+        "whole model",
+        "world",
+        f"{full.nbody - 1} bodies",
+        "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
+        f"sites), because Drake's MuJoCo parser reads .obj meshes only{named}",
+        "drake",
+    )
+
+
 def add_drake(
     arm: Any,
     source: DrakeSource | None,
@@ -436,7 +462,17 @@ def add_drake(
         arm.absent_engines["drake"] = "no file for Drake's parser to read"
         return
     try:
-        engine, bridges, warnings = build_drake(source, full, qpos, arm, causes)
+        try:
+            engine, bridges, warnings = build_drake(source, full, qpos, arm, causes)
+        except DrakeAbsent as err:
+            if source.urdf or _OBJ_ONLY not in str(err) or bridged:
+                raise
+            # Its MJCF parser takes .obj meshes only: Drake reads MuJoCo's compiled model (no
+            # geoms, explicit inertials), as Pinocchio does where its parser falls short.
+            engine, bridges, warnings = build_drake(
+                DrakeSource(None, resolved_robot(full)), full, qpos, arm, causes
+            )
+            bridged = (_whole_model(full, str(err)),)
     except ImportError as err:  # importable by name, broken inside
         arm.absent_engines["drake"] = f"pydrake cannot be imported ({err}): {NOT_INSTALLED}"
         return
