@@ -424,20 +424,26 @@ def build_drake(
     return engine, tuple(bridges), tuple(warnings)
 
 
-#: Drake's MJCF parser's refusal of a mesh file it cannot read (drake 1.51: .obj only).
-_OBJ_ONLY = "currently only supports mesh files in .obj format"
+#: Drake's MJCF parser's refusals of a mesh MuJoCo read (drake 1.51): a mesh file not in .obj
+#: format, or one it looks for elsewhere (an included file's relative ``meshdir``).
+_MESH_REFUSAL = re.compile(
+    r'only supports mesh files in \.obj format, but the meshfile "([^"]+)"'
+    r'|The mesh asset "([^"]+)" could not be found'
+)
 
 
 def _whole_model(full: mujoco.MjModel, refusal: str) -> Bridge:
-    """The bridge of a Drake that reads MuJoCo's compiled model: which file Drake refused."""
-    mesh = re.search(r'meshfile "([^"]+)"', refusal)
-    named = f" ({Path(mesh.group(1)).name})" if mesh else ""
+    """The bridge of a Drake that reads MuJoCo's compiled model: which mesh Drake refused."""
+    found = _MESH_REFUSAL.search(refusal)
+    obj = found is not None and found.group(1) is not None
+    mesh = Path((found.group(1) or found.group(2)) if found else "").name
+    why = "reads .obj meshes only" if obj else "does not find a mesh MuJoCo found"
     return Bridge(
         "whole model",
         "world",
         f"{full.nbody - 1} bodies",
         "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
-        f"sites), because Drake's MuJoCo parser reads .obj meshes only{named}",
+        f"sites), because Drake's MuJoCo parser {why} ({mesh})",
         "drake",
     )
 
@@ -465,7 +471,7 @@ def add_drake(
         try:
             engine, bridges, warnings = build_drake(source, full, qpos, arm, causes)
         except DrakeAbsent as err:
-            if source.urdf or _OBJ_ONLY not in str(err) or bridged:
+            if source.urdf or not _MESH_REFUSAL.search(str(err)) or bridged:
                 raise
             # Its MJCF parser takes .obj meshes only: Drake reads MuJoCo's compiled model (no
             # geoms, explicit inertials), as Pinocchio does where its parser falls short.
