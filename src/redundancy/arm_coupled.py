@@ -69,6 +69,8 @@ class _Coupled:
         A keyframe that moves held joints is tried on the arm at it (`at_keyframe`).
         """
         arm: Any = self
+        if self.coupling is None or self.coupling.closure is None:
+            return tuple(arm.keyframe_names)  # nothing to close: no arm loaded again
         return tuple(
             k
             for k in arm.keyframe_names
