@@ -239,9 +239,11 @@ class CollisionChecker:
             q: Joint configuration [rad or m].
             engine: ``"coal"`` (geoms placed by Pinocchio) or ``"mujoco"`` (``mj_geomDistance``).
         """
-        q = self.arm.pose(q)
+        arm = self.arm
+        q = arm.pose(q)
         scene = self.scene(engine)
-        dist, p1, p2 = scene.distances(self._q(q))  # a coupled arm's scene: its chain pose
+        # A coupled arm's scene places its chain pose.
+        dist, p1, p2 = scene.distances(q if arm.coupling is None else arm.chain_pose(q))
         entries = tuple(
             PairDistance(p, float(dist[k]), p1[k].copy(), p2[k].copy())
             for k, p in enumerate(self.pairs)

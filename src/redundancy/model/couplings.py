@@ -117,6 +117,11 @@ def coupling_text(model: mujoco.MjModel, k: int, names: Sequence[str]) -> str:
     return f"{shifted(j1)} = {rhs}"
 
 
+#: Why an actuator is set aside that drives a coupled arm's chain through a fixed tendon (the
+#: audit notes that its torque is not judged).
+TENDON_ON_CHAIN = "pulls a fixed tendon over the arm's coupled joints"
+
+
 def check_couplings(
     full: mujoco.MjModel,
     arm: set[int],
@@ -331,7 +336,7 @@ def _actuator(
         return SetAside("actuator", name, f"drives held joint {jnames[target]!r}")
     if trn == mujoco.mjtTrn.mjTRN_TENDON:
         if _fixed_over(full, target, arm):
-            return SetAside("actuator", name, "pulls a fixed tendon over the arm's coupled joints")
+            return SetAside("actuator", name, TENDON_ON_CHAIN)
         return SetAside("actuator", name, "drives a tendon of held joints")
     # site, slider-crank (sites) or body (adhesion) transmissions
     if trn == mujoco.mjtTrn.mjTRN_BODY:

@@ -14,6 +14,7 @@ import numpy as np
 from ..analysis.crosscheck import DYNAMIC_QUANTITIES
 from ..arm import Arm
 from ..collision import CollisionStatistics
+from ..model.couplings import TENDON_ON_CHAIN
 from . import physics, sections
 from .audit_report import (
     SINGULAR_SIGMA,
@@ -248,7 +249,7 @@ def _unheld(out: _Judged, arm: Arm, k: KeyframeRow) -> None:
 
 def _tendon_actuators(arm: Arm) -> list[str]:
     """Actuators set aside because they pull a tendon over a coupled arm's chain."""
-    return [a.name for a in arm.set_aside if a.what == "actuator" and "tendon" in a.reason]
+    return [a.name for a in arm.set_aside if a.what == "actuator" and a.reason == TENDON_ON_CHAIN]
 
 
 def _judge_gravity(out: _Judged, arm: Arm, g: GravityBudget, j: JointSection, urdf: bool) -> None:
