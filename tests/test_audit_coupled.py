@@ -254,3 +254,13 @@ def test_compare_of_coupled_files_compares_every_joint_and_the_couplings(tmp_pat
     b.write_text(other)
     coupling = rd.compare(a, b, frame_a="tool", frame_b="tool")
     assert [d.where for d in coupling.differences if d.quantity == "coupling"] == ["joint 'j3'"]
+
+
+def test_long_joint_names_stay_whole_in_the_joint_table(reports):
+    lines = reports["2f85"].lines()
+    start = lines.index("joints at the reference pose (qpos0):")
+    block = lines[start : start + 7]
+    for name in ("right_spring_link_joint", "right_follower_joint"):
+        # Two tables, each naming the joint whole on its row.
+        assert sum(line.split()[0] == name for line in block if line.strip()) == 2, block
+    assert max(len(line) for line in lines) <= 100

@@ -31,6 +31,7 @@ from .tables import (
     limit,
     ms,
     one_line,
+    split_table,
     table,
     timestep_text,
 )
@@ -381,7 +382,7 @@ def _joint_lines(r: AuditReport) -> list[str]:
     gains = "; kv, kp: a servo's velocity and position gains" if servos else ""
     return [
         f"joints at the {_reference(j.keyframe)}:",
-        *table(header, rows, "ll" + "r" * (len(header) - 2)),
+        *split_table(header, rows, len(header) - 3),
         key(
             "range [rad or m]; effort: what the actuators can apply; armature [kg m^2]; b: "
             f"damping [N m s/rad]{gains}; M_ii: mass matrix diagonal [kg m^2]; h_max: largest "

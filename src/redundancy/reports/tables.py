@@ -209,3 +209,28 @@ def follower_lines(rows: tuple[FollowerRow, ...]) -> list[str]:
             "joint's own (the arm's rows above include what the followers reflect)"
         ),
     ]
+
+
+def split_table(header: list[str], rows: list[list[str]], cut: int) -> list[str]:
+    """`table` of names, a text column, then numbers; two tables where one would fold the names.
+
+    Args:
+        header: Column titles.
+        rows: Cells, one sequence per row, as many as titles.
+        cut: The first column of the second table, which repeats the name column.
+    """
+    natural = sum(
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)
+    )
+    align = "ll" + "r" * (len(header) - 2)
+    if natural + 2 * (len(header) - 1) <= WIDTH - 2:
+        return table(header, rows, align)
+    second = [0, *range(cut, len(header))]
+    return [
+        *table(header[:cut], [r[:cut] for r in rows], align[:cut]),
+        *table(
+            [header[i] for i in second],
+            [[r[i] for i in second] for r in rows],
+            "l" + "r" * (len(second) - 1),
+        ),
+    ]
