@@ -8,7 +8,7 @@ itself only dispatches: every number comes from an engine of `redundancy.engines
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, ClassVar
 
 import mujoco
@@ -45,7 +45,15 @@ from .errors import (
 
 Array = NDArray[np.float64]
 
-__all__ = ["ENGINES", "Arm", "EngineName", "check_arm", "random_poses", "sampling_ranges"]
+__all__ = [
+    "ENGINES",
+    "Arm",
+    "EngineName",
+    "check_arm",
+    "random_pose_chunks",
+    "random_poses",
+    "sampling_ranges",
+]
 
 
 #: Kinds of ``set_aside`` entries that are joints the file lets move and the arm never does:
@@ -540,6 +548,23 @@ def sampling_ranges(
                 )
             lo[i], hi[i] = -unlimited, unlimited
     return lo, hi
+
+
+def random_pose_chunks(arm: Arm, n: int, seed: int | None, size: int) -> Iterator[Array]:
+    """`random_poses` ``(arm, n, seed)`` in chunks of ``size`` rows (the last one shorter).
+
+    Drawn chunk by chunk from one generator, so memory stays flat in ``n``; a coupled arm's
+    draws at once, where a draw its followers leave is replaced (`random_poses`' order).
+    ``n`` and ``seed`` are checked by the caller.
+    """
+    if arm.coupling is not None:
+        Q = random_poses(arm, n, seed)
+        yield from (Q[start : start + size] for start in range(0, n, size))
+        return
+    lo, hi = sampling_ranges(arm)
+    rng = np.random.default_rng(seed)
+    for start in range(0, n, size):
+        yield rng.uniform(lo, hi, size=(min(size, n - start), arm.nq))
 
 
 def random_poses(arm: Arm, n: int, seed: int | None = 1) -> Array:

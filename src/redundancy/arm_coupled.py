@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -72,9 +73,7 @@ class _Coupled:
         if self.coupling is None or self.coupling.closure is None:
             return tuple(arm.keyframe_names)  # nothing to close: no arm loaded again
         return tuple(
-            k
-            for k in arm.keyframe_names
-            if arm.at_keyframe(k)._closes(arm.at_keyframe(k).keyframe(k))
+            k for k in arm.keyframe_names if (at := arm.at_keyframe(k))._closes(at.keyframe(k))
         )
 
     def _chain_stack(self, Q: Array) -> tuple[Array, Array]:
@@ -151,7 +150,7 @@ class ChainView:
             raise UnknownNameError("joint", name, self.joint_names)
         return self.joint_names.index(name)
 
-    @property
+    @functools.cached_property
     def keyframes(self) -> dict[str, Array]:
         """The keyframes at which the arm's loops close, as chain poses [rad or m]."""
         arm = self._arm
@@ -165,12 +164,6 @@ class ChainView:
     def keyframe(self, name: str) -> Array:
         """One of `keyframes` [rad or m]."""
         return self.keyframes[name]
-
-    def _reachable_keyframes(self) -> tuple[str, ...]:
-        return self.keyframe_names
-
-    def _closes(self, x: Array) -> bool:
-        return True  # an open chain: its couplings are not applied in the view
 
     def __repr__(self) -> str:
         return f"ChainView({self._arm!r})"

@@ -1,9 +1,10 @@
 """The unchecked kernels: maths on arrays the caller has already checked.
 
 The checked entry points (`redundancy.linalg`, `redundancy.Arm`, `redundancy.batch`) validate their
-input once and call these; the engines call `cholesky_solve`, the inverse-kinematics loop
-`rotation_vector`. Nothing here validates: finite float64 arrays of the documented shapes only.
-Each rule lives here once (the rank rule, the one rotation log, the one Cholesky solve).
+input once and call these; the engines call `cholesky_solve` (a loop's Newton step
+`small_cholesky_solve`), the inverse-kinematics loop `rotation_vector`. Nothing here validates:
+finite float64 arrays of the documented shapes only. Each rule lives here once (the rank rule,
+the one rotation log, the Cholesky solves: LAPACK's, and Python floats' for a few unknowns).
 """
 
 from __future__ import annotations
@@ -242,6 +243,40 @@ def cholesky_solve(M: Array, B: Array) -> Array:
     """M^-1 B for symmetric positive definite M (one matrix or a stack), by Cholesky."""
     L = np.linalg.cholesky(M)
     return np.linalg.solve(L.swapaxes(-1, -2), np.linalg.solve(L, B))
+
+
+#: Largest system `small_cholesky_solve` takes: beyond, LAPACK's call costs less than the loops.
+SMALL_SOLVE = 6
+
+
+def small_cholesky_solve(N: list[list[float]], c: list[float]) -> list[float] | None:
+    """N x = c for a small symmetric N (k x k, k <= `SMALL_SOLVE`), by Cholesky in Python floats.
+
+    No LAPACK call: for the few unknowns of a loop's Newton step, a tenth of numpy's cost.
+    None where the factor's diagonal falls below 1e-6 of its largest (N ill conditioned), N is
+    not positive definite, or has a NaN: the caller then takes the SVD.
+    """
+    k = len(c)
+    L = [[0.0] * k for _ in range(k)]
+    for i in range(k):
+        for j in range(i + 1):
+            t = N[i][j] - sum(L[i][m] * L[j][m] for m in range(j))
+            if i == j:
+                if not t > 0.0:
+                    return None
+                L[i][i] = math.sqrt(t)
+            else:
+                L[i][j] = t / L[j][j]
+    d = [L[i][i] for i in range(k)]
+    if not min(d) > 1e-6 * max(d):
+        return None
+    y = [0.0] * k
+    for i in range(k):
+        y[i] = (c[i] - sum(L[i][m] * y[m] for m in range(i))) / L[i][i]
+    x = [0.0] * k
+    for i in reversed(range(k)):
+        x[i] = (y[i] - sum(L[m][i] * x[m] for m in range(i + 1, k))) / L[i][i]
+    return x
 
 
 def rotation_vector(Rt: Array, R: Array) -> tuple[float, float, float]:

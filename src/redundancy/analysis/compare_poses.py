@@ -16,9 +16,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arm import Arm, random_poses, sampling_ranges
+from ..arm import Arm, sampling_ranges
 from ..engines.contract import Stacks
-from ..errors import PoseError
 from ..model.actuators import actuator_damping_polynomial
 from ..model.names import display_names
 
@@ -48,45 +47,13 @@ def shared_poses(a: Arm, b: Arm, ia: list[int], ib: list[int], n: int, seed: int
     hi[ia] = np.minimum(hi_a[ia], hi_b[ib])
     empty = lo > hi
     lo[empty], hi[empty] = lo_a[empty], hi_a[empty]
-    if a.coupling is None and b.coupling is None:
-        qs = [np.random.default_rng(seed).uniform(lo, hi, size=(n, a.nq))]
-    else:  # followers in their ranges and loops closed: random_poses' draws, in both
-        qs = [_coupled_draws(a, b, ia, ib, n, seed, lo, hi)]
-    qs += [a.keyframes[k][None, :] for k in a._reachable_keyframes()]
+    qs = [np.random.default_rng(seed).uniform(lo, hi, size=(n, a.nq))]
+    qs += [q[None, :] for q in a.keyframes.values()]
     for q in b.keyframes.values():
         qa = np.clip(np.zeros(a.nq), a.lower, a.upper)
         qa[ia] = q[ib]
-        if _both_close(a, b, ia, ib, qa):
-            qs.append(qa[None, :])
+        qs.append(qa[None, :])
     return np.concatenate(qs) if qs else np.zeros((0, a.nq))
-
-
-def _both_close(a: Arm, b: Arm, ia: list[int], ib: list[int], qa: Array) -> bool:
-    """Whether both arms' loops close at A's pose ``qa`` (B's joints of it set, the rest 0)."""
-    qb = np.clip(np.zeros(b.nq), b.lower, b.upper)
-    qb[ib] = qa[ia]
-    return a._closes(qa) and b._closes(qb)
-
-
-def _coupled_draws(
-    a: Arm, b: Arm, ia: list[int], ib: list[int], n: int, seed: int, lo: Array, hi: Array
-) -> Array:
-    """``n`` of `random_poses` (A) inside the shared ranges at which B's loops close too.
-
-    Raises:
-        PoseError: Fewer than ``n`` such poses in 200 draws per pose wanted.
-    """
-    out: list[Array] = []
-    for k in range(200):
-        for q in random_poses(a, n, seed + k * 7919):
-            if len(out) < n and np.all((q >= lo) & (q <= hi)) and _both_close(a, b, ia, ib, q):
-                out.append(q)
-        if len(out) == n:
-            return np.array(out).reshape(n, a.nq)
-    raise PoseError(
-        f"no {n} poses of the first arm close the second's loops within both files' ranges "
-        f"(found {len(out)}): the two files' mechanisms differ"
-    )
 
 
 def mujoco_stacks(

@@ -26,10 +26,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..arm import check_arm
+from ..arm_coupled import ChainView
 from ..caching import PerObject
 from ..checks import check_choice
 from ..engines.threads import PerThread
-from ..errors import GeomPlacementError, MissingMeshError, PoseError, UnsupportedFeatureError
+from ..errors import GeomPlacementError, MissingMeshError, UnsupportedFeatureError
 from .coal_scene import CoalPairs, CoalScene
 from .mujoco_scene import Contact, MujocoPairs, MujocoScene
 from .pairs import (
@@ -164,7 +165,7 @@ class CollisionChecker:
         self.pairs: tuple[GeomPair, ...] = tuple(collision_pairs(m) if pairs is None else pairs)
         self._mujoco_pairs = MujocoPairs(m, self.pairs)
         # A coupled arm's scenes hold its chain model (every joint it moves, followers too).
-        pin_chain = arm.pinocchio.inner if arm.coupling is not None else arm.pinocchio  # type: ignore[attr-defined]
+        pin_chain = arm.pinocchio if arm.coupling is None else ChainView(arm).pinocchio
         self._coal_pairs = CoalPairs(m, pin_chain.model, pin_chain.perm, self.pairs)
         #: Pinocchio's engine of the scenes' model (the chain's, for a coupled arm).
         self.scene_pinocchio = pin_chain
@@ -287,13 +288,8 @@ def _self_check_poses(arm: Arm) -> list[Array]:
     """The reference pose and `_probe_pose` (a coupled arm's probe where its loops close)."""
     if arm.coupling is None:
         return [arm.mj_model.qpos0.copy(), _probe_pose(arm)]
-    poses = [arm.coupling.q_rest.copy()]
-    try:
-        arm.chain_pose(_probe_pose(arm))
-        poses.append(_probe_pose(arm))
-    except PoseError:  # the probe is not a pose the mechanism reaches: the rest alone
-        pass
-    return poses
+    probe = _probe_pose(arm)
+    return [arm.coupling.q_rest.copy(), *([probe] if arm._closes(probe) else [])]
 
 
 def _probe_pose(arm: Arm) -> Array:

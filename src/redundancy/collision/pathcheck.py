@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arm import check_arm
+from ..arm_coupled import ChainView
 from ..caching import PerObject
 from ..checks import check_choice, check_count, check_in_range, check_number, check_poses
 from ..errors import PoseError, UnsupportedFeatureError
@@ -283,8 +284,7 @@ class PathChecker:
             ParameterError: ``tol`` not a number above the engines' accuracy, or
                 ``max_evaluations`` not a positive integer.
         """
-        Q, tol, max_evaluations = self._validated(waypoints, tol, engine, max_evaluations)
-        X = self.checker.scene_poses(Q)  # a linear coupling's chain moves on straight lines too
+        Q, X, tol, max_evaluations = self._validated(waypoints, tol, engine, max_evaluations)
         eps = AMBIGUITY_BAND
         nseg = len(Q) - 1
         thr = self.thresholds
@@ -330,8 +330,13 @@ class PathChecker:
 
     def _validated(
         self, waypoints: ArrayLike, tol: float, engine: DistanceEngine, max_evaluations: int
-    ) -> tuple[Array, float, int]:
-        """The waypoints, ``tol`` and ``max_evaluations`` of `check`, checked."""
+    ) -> tuple[Array, Array, float, int]:
+        """The waypoints, ``tol`` and ``max_evaluations`` of `check`, checked.
+
+        Returns the waypoints, what the scenes place for them (a linear coupling's chain
+        poses, whose joints move on straight segments too; else the waypoints), ``tol`` and
+        ``max_evaluations``.
+        """
         check_choice("distance engine", engine, DISTANCE_ENGINES)
         # tol must exceed the engines' accuracy, or the safe steps could shrink to nothing.
         tol = check_number("tol", tol, AMBIGUITY_BAND, low_open=True, unit="m")
@@ -344,8 +349,12 @@ class PathChecker:
         # the reach of the links beyond it): a path outside the ranges is not covered.
         check_in_range(Q, arm.joint_names, arm.lower, arm.upper, "waypoint")
         if arm.coupling is not None:
-            _check_coupled_path(arm, Q)
-        return Q, tol, max_evaluations
+            _check_linear(arm)
+        X = self.checker.scene_poses(Q)
+        if arm.coupling is not None:  # the followers' ranges too
+            chain = ChainView(arm)
+            check_in_range(X, chain.joint_names, chain.lower, chain.upper, "waypoint")
+        return Q, X, tol, max_evaluations
 
 
 class _Clearance:
@@ -372,17 +381,14 @@ class _Clearance:
         return c
 
 
-def _check_coupled_path(arm: Arm, Q: Array) -> None:
+def _check_linear(arm: Arm) -> None:
     """A coupled arm's path is checked where its chain moves on the straight segments.
 
     Raises:
         UnsupportedFeatureError: A nonlinear coupling or a loop: the chain's joints then
             follow curves between the waypoints, which the motion bounds do not cover.
-        OutOfRangeError: A waypoint that puts a follower outside its range.
     """
-    coupling = arm.coupling
-    assert coupling is not None
-    if not coupling.linear:
+    if not arm.coupling.linear:  # type: ignore[union-attr]
         raise UnsupportedFeatureError(
             "a path of nonlinear couplings",
             f"followers {', '.join(repr(n) for n in arm.followers)}",
@@ -390,8 +396,6 @@ def _check_coupled_path(arm: Arm, Q: Array) -> None:
             "on curves, which the path checker's motion bounds do not cover; check the poses "
             "along the path (collision.distances or collision_statistics(poses=...))",
         )
-    lo, hi = arm.mujoco.inner.limits  # type: ignore[attr-defined]
-    check_in_range(arm._chain_stack(Q)[0], arm.chain_joint_names, lo, hi, "waypoint")
 
 
 def _walk_on(

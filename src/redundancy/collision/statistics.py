@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arm import random_poses, sampling_ranges
+from ..arm import random_pose_chunks
 from ..checks import check_choice, check_count, check_flag, check_poses
 from .checker import CollisionChecker, checker
 from .coal_scene import CoalScene
@@ -129,18 +129,11 @@ def _pose_chunks(
     Returns:
         The chunks, the number of poses and the seed (as checked).
     """
-    if poses is None and arm.coupling is not None:  # draws replaced where followers leave
-        return (*_pose_chunks(arm, n_poses, seed, random_poses(arm, n_poses, seed))[:2], seed)
     if poses is None:
         n = check_count("n_poses", n_poses, 0)
         if seed is not None:
             seed = check_count("seed", seed, 0)
-        lo, hi = sampling_ranges(arm)
-        rng = np.random.default_rng(seed)
-        # Drawn chunk by chunk from one generator: the same numbers as random_poses(arm, n).
-        chunks: Iterable[Array] = (
-            rng.uniform(lo, hi, size=(min(CHUNK, n - i), arm.nq)) for i in range(0, n, CHUNK)
-        )
+        chunks: Iterable[Array] = random_pose_chunks(arm, n, seed, CHUNK)
     else:
         Q = check_poses(poses, arm.joint_names)
         n = len(Q)

@@ -26,7 +26,6 @@ one solve; each thread solves with its own closure data.
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -36,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PoseError
+from ..kernels import SMALL_SOLVE, small_cholesky_solve
 
 Array = NDArray[np.float64]
 
@@ -384,54 +384,13 @@ def _largest(r: Array) -> float:
 def _least_squares(A: Array, b: Array) -> Array:
     """The x minimising |A x - b|: a Newton step on the constraint's dependent joints.
 
-    By the normal equations' Cholesky factor (a few small solves, a fraction of an SVD's
-    cost) where A is well conditioned (the factor's diagonal within 1e-6 of its largest: A's
-    condition below about 1e6); by the SVD (`numpy.linalg.lstsq`) otherwise. The solve's
-    rounding only changes the path: every solve is judged by the residual it reaches.
+    A few dependent joints (up to `kernels.SMALL_SOLVE`): the normal equations' Cholesky
+    factor in Python floats, where A is well conditioned (a fraction of an SVD's cost); else,
+    or for more joints, the SVD (`numpy.linalg.lstsq`). The solve's rounding only changes the
+    path: every solve is judged by the residual it reaches.
     """
-    k = A.shape[1]
-    if k <= _SMALL:  # a few dependent joints: the factor in Python floats (no LAPACK call)
-        x = _cholesky_solve_small((A.T @ A).tolist(), (A.T @ b).tolist(), k)
+    if A.shape[1] <= SMALL_SOLVE:
+        x = small_cholesky_solve((A.T @ A).tolist(), (A.T @ b).tolist())
         if x is not None:
             return np.array(x)
-        return np.linalg.lstsq(A, b, rcond=None)[0]
-    try:
-        L = np.linalg.cholesky(A.T @ A)
-    except np.linalg.LinAlgError:
-        return np.linalg.lstsq(A, b, rcond=None)[0]
-    diag = np.abs(np.diagonal(L))
-    if not diag.min() > 1e-6 * diag.max():  # also False for NaN
-        return np.linalg.lstsq(A, b, rcond=None)[0]
-    return np.linalg.solve(L.T, np.linalg.solve(L, A.T @ b))
-
-
-#: Up to this many dependent joints, `_least_squares` factors in Python floats.
-_SMALL = 6
-
-
-def _cholesky_solve_small(N: list[list[float]], c: list[float], k: int) -> list[float] | None:
-    """N x = c for a small symmetric N by its Cholesky factor, in Python floats.
-
-    None where the factor's diagonal falls below 1e-6 of its largest (ill conditioned), or
-    N is not positive definite, or has a NaN: the caller then takes the SVD.
-    """
-    L = [[0.0] * k for _ in range(k)]
-    for i in range(k):
-        for j in range(i + 1):
-            t = N[i][j] - sum(L[i][m] * L[j][m] for m in range(j))
-            if i == j:
-                if not t > 0.0:
-                    return None
-                L[i][i] = math.sqrt(t)
-            else:
-                L[i][j] = t / L[j][j]
-    d = [L[i][i] for i in range(k)]
-    if not min(d) > 1e-6 * max(d):
-        return None
-    y = [0.0] * k
-    for i in range(k):
-        y[i] = (c[i] - sum(L[i][m] * y[m] for m in range(i))) / L[i][i]
-    x = [0.0] * k
-    for i in reversed(range(k)):
-        x[i] = (y[i] - sum(L[m][i] * x[m] for m in range(i + 1, k))) / L[i][i]
-    return x
+    return np.linalg.lstsq(A, b, rcond=None)[0]

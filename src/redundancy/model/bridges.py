@@ -397,3 +397,22 @@ def _bridge_inertia(
             )
         )
     return bridges
+
+
+def whole_model(root: str, bodies: int, because: str, engine: str = "pinocchio") -> Bridge:
+    """The bridge of an engine that reads MuJoCo's compiled model instead of the file.
+
+    Args:
+        root: The root the model hangs from (a body's name, or ``"world"``).
+        bodies: How many bodies it has.
+        because: Why the engine cannot read the file itself.
+        engine: ``"pinocchio"`` or ``"drake"``.
+    """
+    return Bridge(
+        "whole model",
+        root,
+        f"{bodies} bodies",
+        "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
+        f"sites), because {because}",
+        engine,
+    )

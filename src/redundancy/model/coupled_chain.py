@@ -33,7 +33,7 @@ import numpy as np
 from ..engines.coupling import CouplingMap, Polynomial
 from ..engines.mujoco_closure import MujocoClosure
 from ..errors import ModelError, UnsupportedFeatureError
-from .couplings import coupling_text, joints_between, mocap_handle
+from .couplings import coupling_text, equality_bodies, joints_between, mocap_handle
 from .names import display_names
 from .selection import Array, joint_kind
 
@@ -63,14 +63,6 @@ class CoupledSystem:
     rest: Array | None = None
 
 
-def _bodies(model: mujoco.MjModel, k: int) -> tuple[int, int]:
-    """The two bodies of a connect or weld (site-defined ones: the sites' bodies)."""
-    a, b = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
-    if model.eq_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
-        return int(model.site_bodyid[a]), int(model.site_bodyid[b])
-    return a, max(b, 0)
-
-
 def _name(model: mujoco.MjModel, k: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, k) or f"equality {k}"
 
@@ -92,7 +84,7 @@ def _reach(model: mujoco.MjModel, chain: set[int]) -> tuple[set[int], list[int],
                     joints |= pair
                     grew = True
             elif kind in (int(_EQ.mjEQ_CONNECT), int(_EQ.mjEQ_WELD)) and k not in loops:
-                path = set(joints_between(model, *_bodies(model, k)))
+                path = set(joints_between(model, *equality_bodies(model, k)))
                 if path & joints:
                     loops.add(k)
                     joints |= path
@@ -207,7 +199,7 @@ def coupled_system(
     names = display_names(model, mujoco.mjtObj.mjOBJ_JOINT)
     for j in sorted(joints):
         if joint_kind(model, j) not in ("hinge", "slide"):
-            k = next(k for k in loops if j in joints_between(model, *_bodies(model, k)))
+            k = next(k for k in loops if j in joints_between(model, *equality_bodies(model, k)))
             raise UnsupportedFeatureError(
                 "loop through a ball or free joint",
                 f"equality {_name(model, k)!r} (joint {names[j]!r})",
@@ -292,7 +284,7 @@ def _with_loops(
     by = ", ".join(repr(names[i]) for i in independent)
     for j in dependent:
         if names[j] not in texts:
-            own = [k for k in loops if j in joints_between(model, *_bodies(model, k))]
+            own = [k for k in loops if j in joints_between(model, *equality_bodies(model, k))]
             shown = ", ".join(repr(_name(model, k)) for k in own or loops)
             texts[names[j]] = f"closes the loop of equality {shown}; moved by {by}"
     moving = tuple(j for j in joints if j not in held)

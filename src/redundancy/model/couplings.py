@@ -261,6 +261,14 @@ def _equality(
     return SetAside("equality constraint", name, "acts on held bodies only")
 
 
+def equality_bodies(model: mujoco.MjModel, k: int) -> tuple[int, int]:
+    """The two bodies of a connect or weld (site-defined ones: the sites' bodies; 0 the world)."""
+    a, b = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
+    if model.eq_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
+        return int(model.site_bodyid[a]), int(model.site_bodyid[b])
+    return a, max(b, 0)
+
+
 def mocap_handle(model: mujoco.MjModel, k: int) -> int | None:
     """The mocap body a connect or weld ``k`` ties to, or None (not one, or not a mocap).
 
@@ -269,10 +277,7 @@ def mocap_handle(model: mujoco.MjModel, k: int) -> int | None:
     """
     if int(model.eq_type[k]) not in (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)):
         return None
-    a, b = int(model.eq_obj1id[k]), int(model.eq_obj2id[k])
-    if model.eq_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
-        a, b = (int(model.site_bodyid[s]) if s >= 0 else 0 for s in (a, b))
-    for body in (a, b):
+    for body in equality_bodies(model, k):
         if body > 0 and model.body_mocapid[body] >= 0:
             return body
     return None

@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 
 from ..engines.coupled import CoupledEngine
 from ..engines.mujoco import JOINT_TYPES, effective_gravity, object_names, rest_data
-from .bridges import Bridge
+from .bridges import Bridge, whole_model
 from .drake_parse import DrakeAbsent, DrakeSource, parse
 from .names import display_names
 from .selection import joint_kind
@@ -438,14 +438,7 @@ def _whole_model(full: mujoco.MjModel, refusal: str) -> Bridge:
     obj = found is not None and found.group(1) is not None
     mesh = Path((found.group(1) or found.group(2)) if found else "").name
     why = "reads .obj meshes only" if obj else "does not find a mesh MuJoCo found"
-    return Bridge(
-        "whole model",
-        "world",
-        f"{full.nbody - 1} bodies",
-        "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
-        f"sites), because Drake's MuJoCo parser {why} ({mesh})",
-        "drake",
-    )
+    return whole_model("world", full.nbody - 1, f"Drake's MuJoCo parser {why} ({mesh})", "drake")
 
 
 def add_drake(

@@ -21,7 +21,7 @@ from ..arm import Arm
 from ..engines.mujoco import captured_warnings
 from ..errors import ModelError, UnknownNameError
 from .assembly import LoadState, build_arm
-from .bridges import Bridge
+from .bridges import Bridge, whole_model
 from .content import feed_assets, mujoco_assets, record
 from .drake_loading import DrakeSource, resolved_robot
 from .names import display_names
@@ -217,12 +217,10 @@ def _read_resolved(
             f"Pinocchio could not read the model: {'; '.join(causes)}; nor MuJoCo's compiled "
             f"model of it written out as plain MJCF ({err.__cause__ or err})"
         ) from err
-    note = Bridge(
-        "whole model",
+    note = whole_model(
         display_names(full, mujoco.mjtObj.mjOBJ_BODY)[tree_root],
-        f"{int(np.sum(full.body_rootid == tree_root))} bodies",
-        "compiled model written out as plain MJCF (placements, joints, explicit inertials, "
-        "sites), because of " + "; ".join(causes),
+        int(np.sum(full.body_rootid == tree_root)),
+        "of " + "; ".join(causes),
     )
     return pm, (note,)
 

@@ -10,13 +10,14 @@ centre of mass against its geometry (`inertias`). Each yields `Raised` rule hits
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import NamedTuple
 
 import numpy as np
 
 from ..arm import Arm
-from ..errors import ModelError, PoseError
+from ..arm_coupled import ChainView
+from ..errors import ModelError
 from ..model.contact_rules import moved_bodies
 from ..model.xmlfile import decode_xml, parse_xml
 
@@ -40,10 +41,11 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
         arm: The arm.
         keyframes: Keyframe name -> its pose of the arm's joints [rad or m], in file order.
     """
-    joints = _Joints(arm)
+    # A coupled arm's ranges are every joint it moves: its chain's (followers too).
+    joints: Arm | ChainView = arm if arm.coupling is None else ChainView(arm)
     qpos0 = np.asarray(arm.mj_model.qpos0, dtype=float)
     qpos0 = qpos0 if arm.coupling is not None else arm._of_chain(qpos0)
-    for i, name in enumerate(joints.names):
+    for i, name in enumerate(joints.joint_names):
         out = _outside(float(qpos0[i]), joints, i)
         if out:
             yield Raised(
@@ -65,13 +67,14 @@ def joint_ranges(arm: Arm, keyframes: dict[str, np.ndarray]) -> Iterator[Raised]
                 key,
             )
             continue
-        x, moved = joints.pose(q)
-        for i, name in enumerate(joints.names):
+        x = q if arm.coupling is None else arm.chain_pose(q)
+        for i, name in enumerate(joints.joint_names):
             out = _outside(float(x[i]), joints, i)
             if out:
+                how = " (a follower: its coupling)" if name in arm.followers else ""
                 yield Raised(
                     "keyframe-out-of-range",
-                    f"keyframe {key!r} puts joint {name!r} at {x[i]:.6g}{moved(name)}, {out}",
+                    f"keyframe {key!r} puts joint {name!r} at {x[i]:.6g}{how}, {out}",
                     "key",
                     key,
                 )
@@ -81,35 +84,10 @@ def _values(arm: Arm, q: np.ndarray) -> str:
     return ", ".join(f"{n} {v:.6g}" for n, v in zip(arm.joint_names, q, strict=True))
 
 
-class _Joints:
-    """The joints whose ranges are judged: the arm's, and a coupled arm's followers too."""
-
-    def __init__(self, arm: Arm) -> None:
-        self.arm = arm
-        if arm.coupling is None:
-            self.names, self.types = arm.joint_names, arm.joint_types
-            self.lower, self.upper = arm.lower, arm.upper
-        else:
-            self.names, self.types = arm.chain_joint_names, tuple(arm._chain_types)
-            self.lower, self.upper = arm.mujoco.inner.limits  # type: ignore[attr-defined]
-
-    def pose(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[str], str]]:
-        """Every judged joint's value at the arm's pose ``q``, and how a follower got it."""
-        arm = self.arm
-        if arm.coupling is None:
-            return q, lambda name: ""
-        try:
-            x = arm.chain_pose(q)
-        except PoseError:  # a loop that cannot close there: its independent joints alone
-            x = np.full(len(self.names), np.nan)
-            x[arm.coupling.independent] = q
-        return x, lambda name: " (a follower: its coupling)" if name in arm.followers else ""
-
-
-def _outside(value: float, joints: _Joints, i: int) -> str:
+def _outside(value: float, joints: Arm | ChainView, i: int) -> str:
     """How ``value`` lies outside joint ``i``'s range, or ``""`` when inside (or unlimited)."""
     lo, hi = float(joints.lower[i]), float(joints.upper[i])
-    unit = "rad" if joints.types[i] == "hinge" else "m"
+    unit = "rad" if joints.joint_types[i] == "hinge" else "m"
     if value < lo - RANGE_SLACK:
         return f"below its range [{lo:.6g}, {hi:.6g}] {unit} by {lo - value:.3g} {unit}"
     if value > hi + RANGE_SLACK:

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from .. import linalg
 from ..arm import Arm
+from ..arm_coupled import ChainView
 from ..engines import REFERENCE
 from ..engines.mujoco import MujocoEngine
 from ..model import actuators
@@ -204,21 +205,20 @@ def followers(arm: Arm, q: Array) -> tuple[FollowerRow, ...]:
     """The followers of a coupled arm at its pose ``q`` (none for an arm without couplings)."""
     if arm.coupling is None:
         return ()
-    inner = arm.mujoco.inner  # type: ignore[attr-defined]
-    x, (lo, hi) = arm.chain_pose(q), inner.limits
-    types = arm._chain_types
+    chain, x = ChainView.at(arm, q)
+    armature, damping = chain.armature(), chain.damping()
     return tuple(
         FollowerRow(
             name,
-            types[i],
-            float(lo[i]),
-            float(hi[i]),
+            chain.joint_types[i],
+            float(chain.lower[i]),
+            float(chain.upper[i]),
             float(x[i]),
-            float(inner.armature[i]),
-            float(inner.damping[i]),
+            float(armature[i]),
+            float(damping[i]),
             arm.followers[name],
         )
-        for i, name in enumerate(arm.chain_joint_names)
+        for i, name in enumerate(chain.joint_names)
         if name in arm.followers
     )
 

@@ -24,7 +24,7 @@ from .. import kernels, linalg
 from ..analysis import batch
 from ..analysis.agreement import PairError, largest, merge_pairs, pair_errors
 from ..analysis.crosscheck import TOLERANCES, Agreement, merge_worst, quantity_errors, worst
-from ..arm import Arm, random_poses, sampling_ranges
+from ..arm import Arm, random_pose_chunks
 from ..collision import (
     CollisionStatistics,
     DistanceEngine,
@@ -70,15 +70,7 @@ def pose_chunks(arm: Arm, n: int, seed: int | None, size: int | None = None) -> 
     Concatenated, the chunks equal [`redundancy.random_poses`][redundancy.random_poses]
     ``(arm, n, seed)``.
     """
-    size = size or CHUNK
-    if arm.coupling is not None:  # draws are replaced where followers leave their ranges
-        Q = random_poses(arm, n, seed)
-        yield from (Q[start : start + size] for start in range(0, n, size))
-        return
-    lo, hi = sampling_ranges(arm)
-    rng = np.random.default_rng(seed)
-    for start in range(0, n, size):
-        yield rng.uniform(lo, hi, size=(min(size, n - start), arm.nq))
+    return random_pose_chunks(arm, n, seed, size or CHUNK)
 
 
 # -- gravity against the actuators ----------------------------------------------------------------
